@@ -1,0 +1,547 @@
+"""The batched BlueSky-equivalent traffic simulator.
+
+One :class:`Simulator` holds ``n_envs`` independent airspaces with room for ``max_aircraft``
+aircraft each. Every state array is shaped ``(n_envs, max_aircraft)`` and an ``active`` mask says
+which slots hold an aircraft. Creating and deleting aircraft writes into preallocated slots, and
+one :meth:`Simulator.step` advances every airspace by ``dt`` seconds with whole-array numpy
+operations, in BlueSky 1.1.1's update order [dynamics.md 2].
+
+Inactive slots are still computed (it is cheaper than masking) but their values are meaningless;
+readers must use the ``active`` mask.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bluesky_gym.core import atmosphere as isa
+from bluesky_gym.core import geo
+from bluesky_gym.core import performance as pf
+from bluesky_gym.core.units import FPM, FT, G0, NM, R_EARTH
+from bluesky_gym.core.wind import WindField
+
+Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+BANK_DEFAULT = np.float64(0.4363323129985824)  # rad, 25 deg: BlueSky's default bank angle
+# ``turnphi`` after a waypoint activation: deg2rad(rad2deg(bankdef)), which may differ by one ulp.
+BANK_LNAV = np.deg2rad(np.rad2deg(BANK_DEFAULT))
+VS_DEFAULT = 1500 * FPM  # m/s (7.62): used when |selvs| <= 0.1 [dynamics.md 2.3]
+VS_SELECT_EPS = 0.1  # m/s
+VS_RAMP = 300 * FPM  # m/s per s: vertical acceleration, threshold NOT scaled by dt (quirk 9.6)
+WIND_MIN_ALT = 50.0 * FT  # m: wind only acts above this altitude [dynamics.md 1.7]
+TAS_EPS = 0.01  # m/s, BlueSky's traf.eps: floor of TAS in the turn-rate formula
+PERFORMANCE_INTERVAL = 1.0  # s, BlueSky's performance_dt timer
+NO_VALUE = -999.0  # BlueSky's marker for "not set"
+
+# (name, dtype, value of an empty slot)
+_STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
+    ("active", np.bool_, False),
+    ("lat", np.float64, 0.0),  # deg
+    ("lon", np.float64, 0.0),  # deg
+    ("alt", np.float64, 0.0),  # m
+    ("hdg", np.float64, 0.0),  # deg true
+    ("trk", np.float64, 0.0),  # deg true
+    ("tas", np.float64, 0.0),  # m/s
+    ("cas", np.float64, 0.0),  # m/s
+    ("mach", np.float64, 0.0),  # -
+    ("gs", np.float64, 0.0),  # m/s
+    ("gsnorth", np.float64, 0.0),  # m/s
+    ("gseast", np.float64, 0.0),  # m/s
+    ("vs", np.float64, 0.0),  # m/s
+    ("ax", np.float64, 0.0),  # m/s^2, longitudinal acceleration of the last step
+    ("windnorth", np.float64, 0.0),  # m/s, wind at the aircraft
+    ("windeast", np.float64, 0.0),  # m/s
+    ("distflown", np.float64, 0.0),  # m
+    # Selected (MCP) values.
+    ("selspd", np.float64, 0.0),  # m/s CAS, or Mach when 0.1 < v < 2
+    ("selalt", np.float64, 0.0),  # m
+    ("selvs", np.float64, 0.0),  # m/s
+    ("swlnav", np.bool_, False),
+    ("swvnav", np.bool_, False),
+    ("swvnavspd", np.bool_, False),
+    # Autopilot outputs, before the performance limits.
+    ("ap_trk", np.float64, 0.0),  # deg
+    ("ap_tas", np.float64, 0.0),  # m/s
+    ("ap_vs", np.float64, NO_VALUE),  # m/s
+    ("ap_alt", np.float64, 0.0),  # m
+    ("turnphi", np.float64, 0.0),  # rad; 0 means "use the default bank"
+    # Performance model.
+    ("phase", np.int64, 0),
+    ("vmin", np.float64, 67.0),  # m/s CAS
+    ("vmax", np.float64, 163.0),  # m/s CAS
+    ("axmax", np.float64, 2.37),  # m/s^2
+    # Active waypoint (LNAV) [dynamics.md 2.6].
+    ("iactwp", np.int64, -1),
+    ("nwp", np.int64, 0),
+    ("actwp_lat", np.float64, 0.0),  # deg
+    ("actwp_lon", np.float64, 0.0),  # deg
+    ("curlegdir", np.float64, NO_VALUE),  # deg
+    ("turndist", np.float64, 1.0),  # m
+    ("next_qdr", np.float64, NO_VALUE),  # deg
+    ("swlastwp", np.bool_, False),
+    ("route_has_dest", np.bool_, False),
+)
+
+
+class Simulator:
+    """Many independent BlueSky airspaces stepped together.
+
+    Args:
+        n_envs: Number of independent airspaces (environments).
+        max_aircraft: Aircraft slots per airspace.
+        dt: Simulation time step [s].
+        max_waypoints: Route capacity per aircraft.
+        perf: Performance data (every aircraft is of this type).
+    """
+
+    def __init__(
+        self,
+        n_envs: int,
+        max_aircraft: int,
+        dt: float = 1.0,
+        max_waypoints: int = 4,
+        perf: pf.AircraftPerformance = pf.A320,
+    ) -> None:
+        if n_envs < 1 or max_aircraft < 1:
+            raise ValueError(f"n_envs and max_aircraft must be >= 1, got {n_envs} and {max_aircraft}")
+        if not dt > 0:
+            raise ValueError(f"dt must be > 0 s, got {dt}")
+        self.n_envs = int(n_envs)
+        self.max_aircraft = int(max_aircraft)
+        self.max_waypoints = int(max_waypoints)
+        self.dt = float(dt)
+        self.perf = perf
+        self.simt = 0.0
+        self._since_perf = PERFORMANCE_INTERVAL  # the first step always runs the performance update
+        shape = (self.n_envs, self.max_aircraft)
+        self._defaults: dict[str, tuple[type, float]] = {}
+        for name, dtype, value in _STATE_FIELDS:
+            setattr(self, name, np.full(shape, value, dtype=dtype))
+            self._defaults[name] = (dtype, value)
+        self.route_lat = np.zeros((*shape, self.max_waypoints))  # deg
+        self.route_lon = np.zeros((*shape, self.max_waypoints))  # deg
+        self.wind = WindField(self.n_envs)
+
+    # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
+    active: NDArray[np.bool_]
+    lat: Array
+    lon: Array
+    alt: Array
+    hdg: Array
+    trk: Array
+    tas: Array
+    cas: Array
+    mach: Array
+    gs: Array
+    gsnorth: Array
+    gseast: Array
+    vs: Array
+    ax: Array
+    windnorth: Array
+    windeast: Array
+    distflown: Array
+    selspd: Array
+    selalt: Array
+    selvs: Array
+    swlnav: NDArray[np.bool_]
+    swvnav: NDArray[np.bool_]
+    swvnavspd: NDArray[np.bool_]
+    ap_trk: Array
+    ap_tas: Array
+    ap_vs: Array
+    ap_alt: Array
+    turnphi: Array
+    phase: IntArray
+    vmin: Array
+    vmax: Array
+    axmax: Array
+    iactwp: IntArray
+    nwp: IntArray
+    actwp_lat: Array
+    actwp_lon: Array
+    curlegdir: Array
+    turndist: Array
+    next_qdr: Array
+    swlastwp: NDArray[np.bool_]
+    route_has_dest: NDArray[np.bool_]
+
+    # ------------------------------------------------------------------------------------------
+    # Airspace management
+    # ------------------------------------------------------------------------------------------
+    def reset_envs(self, envs: ArrayLike | None = None) -> None:
+        """Remove all aircraft and wind from the given airspaces (all when ``envs`` is None)."""
+        idx = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)
+        for name, (_dtype, value) in self._defaults.items():
+            getattr(self, name)[idx] = value
+        self.route_lat[idx] = 0.0
+        self.route_lon[idx] = 0.0
+        self.wind.clear(None if envs is None else idx)
+
+    def create(
+        self,
+        env: ArrayLike,
+        slot: ArrayLike,
+        lat: ArrayLike = 52.0,
+        lon: ArrayLike = 4.0,
+        hdg: ArrayLike = 0.0,
+        alt: ArrayLike = 0.0,
+        spd: ArrayLike = 0.0,
+    ) -> None:
+        """Create aircraft, as BlueSky's ``traf.cre`` [dynamics.md 2.4].
+
+        Args:
+            env: Airspace index of each new aircraft.
+            slot: Slot index of each new aircraft (must be free).
+            lat: Latitude [deg].
+            lon: Longitude [deg]; wrapped once to [-180, 180].
+            hdg: Heading [deg], stored as given.
+            alt: Altitude [m].
+            spd: CAS [m/s], or Mach when 0.1 < spd < 2.
+        """
+        env, slot = self._index(env, slot)
+        if np.any(self.active[env, slot]):
+            raise ValueError("create: an aircraft already exists in one of the requested slots")
+        n = env.shape[0]
+        lat = np.broadcast_to(np.asarray(lat, dtype=np.float64), (n,)).copy()
+        lon = np.broadcast_to(np.asarray(lon, dtype=np.float64), (n,)).copy()
+        hdg = np.broadcast_to(np.asarray(hdg, dtype=np.float64), (n,)).copy()
+        alt = np.broadcast_to(np.asarray(alt, dtype=np.float64), (n,)).copy()
+        spd = np.broadcast_to(np.asarray(spd, dtype=np.float64), (n,)).copy()
+        lon[lon > 180.0] -= 360.0
+        lon[lon < -180.0] += 360.0
+        for name, (_dtype, value) in self._defaults.items():
+            getattr(self, name)[env, slot] = value
+        self.route_lat[env, slot] = 0.0
+        self.route_lon[env, slot] = 0.0
+        self.active[env, slot] = True
+        self.lat[env, slot] = lat
+        self.lon[env, slot] = lon
+        self.alt[env, slot] = alt
+        self.hdg[env, slot] = hdg
+        self.trk[env, slot] = hdg
+        tas, cas, mach = isa.vcasormach(spd, alt)
+        self.tas[env, slot] = tas
+        self.cas[env, slot] = cas
+        self.mach[env, slot] = mach
+        self.gs[env, slot] = tas
+        hdgrad = np.radians(hdg)
+        gsnorth = tas * np.cos(hdgrad)
+        gseast = tas * np.sin(hdgrad)
+        windy = self.wind.has_wind[env]
+        if np.any(windy):
+            e, s = env[windy], slot[windy]
+            applywind = alt[windy] > WIND_MIN_ALT
+            wn, we = self.wind.at(e, lat[windy], lon[windy])
+            self.windnorth[e, s] = wn
+            self.windeast[e, s] = we
+            gsn = gsnorth[windy] + wn * applywind
+            gse = gseast[windy] + we * applywind
+            gsnorth[windy] = gsn
+            gseast[windy] = gse
+            self.trk[e, s] = np.logical_not(applywind) * hdg[windy] + applywind * np.degrees(np.arctan2(gse, gsn))
+            self.gs[e, s] = np.sqrt(gsn**2 + gse**2)
+        self.gsnorth[env, slot] = gsnorth
+        self.gseast[env, slot] = gseast
+        self.selspd[env, slot] = cas
+        self.selalt[env, slot] = alt
+        self.ap_tas[env, slot] = tas
+        self.ap_alt[env, slot] = alt
+        self.ap_trk[env, slot] = self.trk[env, slot]
+
+    def delete(self, env: ArrayLike, slot: ArrayLike) -> None:
+        """Delete aircraft (free their slots)."""
+        env, slot = self._index(env, slot)
+        self.active[env, slot] = False
+
+    # ------------------------------------------------------------------------------------------
+    # Commands [dynamics.md 2.5]; each acts as if stacked before the next step.
+    # ------------------------------------------------------------------------------------------
+    def cmd_heading(self, env: ArrayLike, slot: ArrayLike, hdg: ArrayLike) -> None:
+        """``HDG acid hdg`` [deg]: select a track (wind-corrected above 50 ft); LNAV off."""
+        env, slot = self._index(env, slot)
+        hdg = np.broadcast_to(np.asarray(hdg, dtype=np.float64), env.shape)
+        trk = hdg.copy()
+        windy = self.wind.has_wind[env]
+        if np.any(windy):
+            e, s = env[windy], slot[windy]
+            above = self.alt[e, s] > WIND_MIN_ALT
+            e, s, h = e[above], s[above], hdg[windy][above]
+            tasnorth = self.tas[e, s] * np.cos(np.radians(h))
+            taseast = self.tas[e, s] * np.sin(np.radians(h))
+            vn, ve = self.wind.at(e, self.lat[e, s], self.lon[e, s])
+            sel = np.flatnonzero(windy)[above]
+            trk[sel] = np.degrees(np.arctan2(taseast + ve, tasnorth + vn)) % 360.0
+        self.ap_trk[env, slot] = trk
+        self.swlnav[env, slot] = False
+
+    def cmd_speed(self, env: ArrayLike, slot: ArrayLike, casmach: ArrayLike) -> None:
+        """``SPD acid`` with the speed already in SI: CAS [m/s] or Mach; VNAV speed off."""
+        env, slot = self._index(env, slot)
+        self.selspd[env, slot] = casmach
+        self.swvnavspd[env, slot] = False
+
+    def cmd_altitude(self, env: ArrayLike, slot: ArrayLike, alt: ArrayLike, vs: ArrayLike | None = None) -> None:
+        """``ALT acid alt [vs]`` in SI (BlueSky's ``ap.selaltcmd``)."""
+        env, slot = self._index(env, slot)
+        alt = np.broadcast_to(np.asarray(alt, dtype=np.float64), env.shape)
+        self.selalt[env, slot] = alt
+        self.swvnav[env, slot] = False
+        vs_arr = None if vs is None else np.broadcast_to(np.asarray(vs, dtype=np.float64), env.shape)
+        given = np.zeros(env.shape, bool) if vs_arr is None else vs_arr != 0
+        if vs_arr is not None and np.any(given):
+            self.selvs[env[given], slot[given]] = vs_arr[given]
+        keep = ~given
+        if np.any(keep):
+            e, s = env[keep], slot[keep]
+            delalt = alt[keep] - self.alt[e, s]
+            opposite = (self.selvs[e, s] * delalt < 0.0) & (np.abs(self.selvs[e, s]) > 0.01)
+            self.selvs[e[opposite], s[opposite]] = 0.0
+
+    def cmd_vertical_speed(self, env: ArrayLike, slot: ArrayLike, vs: ArrayLike) -> None:
+        """``VS acid vs`` in m/s: a rate only; nothing moves without a different ``selalt``."""
+        env, slot = self._index(env, slot)
+        self.selvs[env, slot] = vs
+        self.swvnav[env, slot] = False
+
+    def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
+        """``ADDWPT acid lat lon``: append a fly-by waypoint (before the destination) and go
+        direct to the active waypoint, LNAV on [dynamics.md 2.6]."""
+        env, slot = self._index(env, slot)
+        self._check_route_room(env, slot)
+        nwp = self.nwp[env, slot]
+        idx = np.where(self.route_has_dest[env, slot], nwp - 1, nwp)
+        # Insert at idx: move a destination (if any) one place up.
+        has_dest = self.route_has_dest[env, slot]
+        if np.any(has_dest):
+            e, s, i = env[has_dest], slot[has_dest], idx[has_dest]
+            self.route_lat[e, s, i + 1] = self.route_lat[e, s, i]
+            self.route_lon[e, s, i + 1] = self.route_lon[e, s, i]
+            # BlueSky keeps the active index, so an active destination becomes the new waypoint.
+        self.route_lat[env, slot, idx] = lat
+        self.route_lon[env, slot, idx] = lon
+        self._after_route_insert(env, slot, grew=np.ones(env.shape, bool))
+
+    def set_destination(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
+        """``DEST acid lat lon``: set (or overwrite) the route's destination [dynamics.md 2.7].
+
+        VNAV is left out of this core (see README), so a destination that is the route's only
+        waypoint is flown with LNAV only.
+        """
+        env, slot = self._index(env, slot)
+        has_dest = self.route_has_dest[env, slot]
+        self._check_route_room(env[~has_dest], slot[~has_dest])
+        idx = np.where(has_dest, self.nwp[env, slot] - 1, self.nwp[env, slot])
+        self.route_lat[env, slot, idx] = lat
+        self.route_lon[env, slot, idx] = lon
+        self.route_has_dest[env, slot] = True
+        self._after_route_insert(env, slot, grew=~has_dest)
+
+    def _check_route_room(self, env: IntArray, slot: IntArray) -> None:
+        if np.any(self.nwp[env, slot] >= self.max_waypoints):
+            raise ValueError(f"route full: at most {self.max_waypoints} waypoints per aircraft (max_waypoints)")
+
+    def _after_route_insert(self, env: IntArray, slot: IntArray, grew: NDArray[np.bool_]) -> None:
+        self.nwp[env[grew], slot[grew]] += 1
+        # BlueSky: next_qdr is computed from the (old) active waypoint before it is set.
+        self.next_qdr[env, slot] = self._next_leg_qdr(env, slot, self.iactwp[env, slot])
+        self.swlastwp[env, slot] = self.iactwp[env, slot] == self.nwp[env, slot] - 1
+        self.iactwp[env, slot] = np.maximum(self.iactwp[env, slot], 0)
+        self._direct(env, slot)
+
+    def _next_leg_qdr(self, env: IntArray, slot: IntArray, iact: IntArray) -> Array:
+        """Bearing of the leg after waypoint ``iact`` (``route.getnextqdr``), -999 if none."""
+        nxt = (iact > -1) & (iact < self.nwp[env, slot] - 1)
+        i0 = np.clip(iact, 0, self.max_waypoints - 1)
+        i1 = np.clip(iact + 1, 0, self.max_waypoints - 1)
+        qdr, _ = geo.qdrdist(
+            self.route_lat[env, slot, i0], self.route_lon[env, slot, i0], self.route_lat[env, slot, i1], self.route_lon[env, slot, i1]
+        )
+        return np.where(nxt, qdr, NO_VALUE)
+
+    def _turn_distance(self, tas: Array, qdr: Array, next_qdr: Array) -> Array:
+        """Fly-by turn anticipation distance [m] (``actwp.calcturn`` with default turn data)."""
+        local_next = np.where(next_qdr < -900.0, qdr, next_qdr)
+        turnbank = np.rad2deg(BANK_DEFAULT)
+        turnrad = tas**2 / (G0 * np.tan(np.deg2rad(turnbank)))
+        return np.abs(turnrad * np.tan(np.radians(0.5 * np.abs(geo.degto180(qdr % 360.0 - local_next % 360.0)))))
+
+    def _direct(self, env: IntArray, slot: IntArray) -> None:
+        """``DIRECT`` to the active waypoint: activate it from the current position; LNAV on."""
+        i = self.iactwp[env, slot]
+        wlat = self.route_lat[env, slot, i]
+        wlon = self.route_lon[env, slot, i]
+        self.actwp_lat[env, slot] = wlat
+        self.actwp_lon[env, slot] = wlon
+        qdr, _ = geo.qdrdist(self.lat[env, slot], self.lon[env, slot], wlat, wlon)
+        self.curlegdir[env, slot] = qdr
+        self.turndist[env, slot] = self._turn_distance(self.tas[env, slot], qdr, self.next_qdr[env, slot])
+        self.turnphi[env, slot] = BANK_LNAV
+        self.swlnav[env, slot] = True
+
+    def creconfs(self, env: ArrayLike, target: ArrayLike, slot: ArrayLike, dpsi: ArrayLike, dcpa: ArrayLike, tlosh: ArrayLike, dh: ArrayLike | None = None, tlosv: ArrayLike | None = None, spd: ArrayLike | None = None) -> None:
+        """Create intruders in conflict with targets (BlueSky ``traf.creconfs``).
+
+        See :func:`bluesky_gym.core.conflicts.create_conflicts` for the arguments.
+        """
+        from bluesky_gym.core.conflicts import create_conflicts
+
+        create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
+
+    # ------------------------------------------------------------------------------------------
+    # Stepping [dynamics.md 2.1-2.2]
+    # ------------------------------------------------------------------------------------------
+    def step(self) -> None:
+        """Advance every airspace by ``dt`` seconds."""
+        dt = self.dt
+        with np.errstate(all="ignore"):
+            self._since_perf += dt
+            if self._since_perf >= PERFORMANCE_INTERVAL - 1e-9:
+                self._since_perf = 0.0
+                self._update_performance()
+            self.simt += dt
+            self._update_autopilot()
+            trk_t, tas_t, alt_t, vs_t = self.ap_trk, self.ap_tas, self.ap_alt, np.abs(self.ap_vs)
+            any_wind = self.wind.any
+            if any_wind:
+                wn, we = self.wind.at_all(self.lat, self.lon)
+                vw = np.sqrt(wn * wn + we * we)
+                winddir = np.arctan2(we, wn)
+                drift = np.radians(trk_t) - winddir
+                steer = np.arcsin(np.minimum(1.0, np.maximum(-1.0, vw * np.sin(drift) / np.maximum(0.001, self.tas))))
+                hdg_t = (trk_t + np.degrees(steer)) % 360.0
+            else:
+                hdg_t = trk_t % 360.0
+            tas_t, vs_t, alt_t = pf.apply_limits(
+                tas_t, vs_t, alt_t, self.ax, self.tas, self.phase, self.vmin, self.vmax, self.axmax, self.perf
+            )
+            self._update_airspeed(tas_t, hdg_t, alt_t, vs_t)
+            self._update_groundspeed(any_wind)
+            self._update_position(alt_t)
+
+    def _update_performance(self) -> None:
+        """OpenAP update from the start-of-step state [dynamics.md 1.3-1.4]."""
+        self.phase = pf.flight_phase(self.tas, self.vs, self.alt)
+        self.vmin, self.vmax = pf.speed_envelope(self.phase, self.perf)
+        self.axmax = pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, self.perf)
+
+    def _update_autopilot(self) -> None:
+        """Autopilot targets [dynamics.md 2.3]; LNAV waypoint logic [2.6]."""
+        if np.any(self.swlnav):
+            self._update_lnav()
+        self.ap_vs = np.where(np.abs(self.selvs) > VS_SELECT_EPS, self.selvs, VS_DEFAULT)
+        self.ap_alt = self.selalt.copy()
+        self.ap_tas = isa.vcasormach2tas(self.selspd, self.alt)
+
+    def _update_lnav(self) -> None:
+        qdr, distnm = geo.qdrdist(self.lat, self.lon, self.actwp_lat, self.actwp_lon)
+        dist = distnm * NM
+        # actwp.reached [dynamics.md 2.6]; all waypoints here are fly-by.
+        close2wp = dist / (np.maximum(0.0001, np.abs(self.gs))) < 4.0
+        tooclose2turn = close2wp * (np.abs(geo.degto180(self.trk % 360.0 - qdr % 360.0)) > 90.0)
+        awayorpassed = np.logical_or(tooclose2turn, np.abs(geo.degto180(qdr - self.curlegdir)) > 90.0)
+        reached = self.swlnav & self.active & np.logical_or(awayorpassed, dist < self.turndist)
+        if np.any(reached):
+            env, slot = np.nonzero(reached)
+            last = self.swlastwp[env, slot]
+            if np.any(last):
+                e, s = env[last], slot[last]
+                self.swlnav[e, s] = False
+                self.swvnav[e, s] = False
+                self.swvnavspd[e, s] = False
+            env, slot = env[~last], slot[~last]
+            if env.size:
+                nwp = self.nwp[env, slot]
+                lnavon = self.iactwp[env, slot] < nwp - 1
+                iact = np.where(lnavon, self.iactwp[env, slot] + 1, self.iactwp[env, slot])
+                self.iactwp[env, slot] = iact
+                self.swlastwp[env, slot] = iact == nwp - 1
+                self.next_qdr[env, slot] = self._next_leg_qdr(env, slot, iact)
+                off = ~lnavon & self.swlnav[env, slot]
+                self.swlnav[env[off], slot[off]] = False
+                self.swvnav[env, slot] &= self.swlnav[env, slot]
+                wlat = self.route_lat[env, slot, iact]
+                wlon = self.route_lon[env, slot, iact]
+                self.actwp_lat[env, slot] = wlat
+                self.actwp_lon[env, slot] = wlon
+                q, _ = geo.qdrdist(self.lat[env, slot], self.lon[env, slot], wlat, wlon)
+                qdr[env, slot] = q
+                self.curlegdir[env, slot] = q
+                self.turndist[env, slot] = self._turn_distance(self.tas[env, slot], q, self.next_qdr[env, slot])
+                self.turnphi[env, slot] = BANK_LNAV
+        self.ap_trk = np.where(self.swlnav, qdr % 360.0, self.ap_trk)
+
+    def _update_airspeed(self, tas_t: Array, hdg_t: Array, alt_t: Array, vs_t: Array) -> None:
+        """Speed ramp, heading turn and vertical-speed ramp [dynamics.md 2.2 steps 6-8]."""
+        dt = self.dt
+        delta_spd = tas_t - self.tas
+        need_ax = np.abs(delta_spd) > np.abs(dt * self.axmax)
+        self.ax = need_ax * np.sign(delta_spd) * self.axmax
+        self.tas = np.where(need_ax, self.tas + self.ax * dt, tas_t)
+        p, rho, t = isa.vatmos(self.alt)
+        self.cas = isa.tas2cas_from_atmos(self.tas, p, rho)
+        self.mach = self.tas / np.sqrt(isa.GAMMA * isa.R_AIR * t)
+
+        bank = np.where(self.turnphi > TAS_EPS * TAS_EPS, self.turnphi, BANK_DEFAULT)
+        turnrate = np.degrees(G0 * np.tan(bank) / np.maximum(self.tas, TAS_EPS))
+        delhdg = (hdg_t - self.hdg + 180) % 360 - 180
+        swhdgsel = np.abs(delhdg) > np.abs(dt * turnrate)
+        self.hdg = np.where(swhdgsel, self.hdg + dt * turnrate * np.sign(delhdg), hdg_t) % 360.0
+
+        delta_alt = alt_t - self.alt
+        self._swaltsel = np.abs(delta_alt) > 1.05 * np.maximum(np.abs(dt * vs_t), np.abs(dt * self.vs))
+        target_vs = self._swaltsel * np.sign(delta_alt) * np.abs(vs_t)
+        delta_vs = target_vs - self.vs
+        need_az = np.abs(delta_vs) > VS_RAMP
+        az = need_az * np.sign(delta_vs) * VS_RAMP
+        vs = np.where(need_az, self.vs + az * dt, target_vs)
+        self.vs = np.where(np.isfinite(vs), vs, 0)
+
+    def _update_groundspeed(self, any_wind: bool) -> None:
+        """Ground velocity from TAS, heading and wind [dynamics.md 1.7]."""
+        hdgrad = np.radians(self.hdg)
+        if not any_wind:
+            self.gsnorth = self.tas * np.cos(hdgrad)
+            self.gseast = self.tas * np.sin(hdgrad)
+            self.gs = self.tas
+            self.trk = self.hdg
+            self.windnorth[:] = 0.0
+            self.windeast[:] = 0.0
+            return
+        wn, we = self.wind.at_all(self.lat, self.lon)
+        self.windnorth = wn
+        self.windeast = we
+        applywind = self.wind.has_wind[:, None] & (self.alt > WIND_MIN_ALT)
+        self.gsnorth = self.tas * np.cos(hdgrad) + wn * applywind
+        self.gseast = self.tas * np.sin(hdgrad) + we * applywind
+        gs_wind = np.sqrt(self.gsnorth**2 + self.gseast**2)
+        trk_wind = np.degrees(np.arctan2(self.gseast, self.gsnorth)) % 360.0
+        self.gs = np.where(applywind, gs_wind, self.tas)
+        self.trk = np.where(applywind, trk_wind, self.hdg)
+
+    def _update_position(self, alt_t: Array) -> None:
+        """Semi-implicit Euler position update on the sphere [dynamics.md 2.2 step 10]."""
+        dt = self.dt
+        self.alt = np.where(self._swaltsel, np.round(self.alt + self.vs * dt, 6), alt_t)
+        self.lat = self.lat + np.degrees(dt * self.gsnorth / R_EARTH)
+        coslat = np.cos(np.deg2rad(self.lat))
+        self.lon = self.lon + np.degrees(dt * self.gseast / coslat / R_EARTH)
+        self.distflown = self.distflown + self.gs * dt
+
+    # ------------------------------------------------------------------------------------------
+    def _index(self, env: ArrayLike, slot: ArrayLike) -> tuple[IntArray, IntArray]:
+        env_a = np.atleast_1d(np.asarray(env, dtype=np.int64))
+        slot_a = np.atleast_1d(np.asarray(slot, dtype=np.int64))
+        env_a, slot_a = np.broadcast_arrays(env_a, slot_a)
+        if env_a.size and (env_a.min() < 0 or env_a.max() >= self.n_envs):
+            raise IndexError(f"environment index out of range [0, {self.n_envs})")
+        if slot_a.size and (slot_a.min() < 0 or slot_a.max() >= self.max_aircraft):
+            raise IndexError(f"aircraft slot out of range [0, {self.max_aircraft})")
+        return env_a.ravel(), slot_a.ravel()
+
+    def state_fields(self) -> Sequence[str]:
+        """Names of the per-aircraft state arrays."""
+        return [name for name, _, _ in _STATE_FIELDS]

@@ -1,0 +1,164 @@
+"""The BlueSky 1.1.1 reference scenarios (see tests/data/reference/README.md), replayed on the core."""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bluesky_gym.core import Simulator
+from bluesky_gym.core.units import FPM, FT, KTS
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "reference"
+
+Event = Callable[[Simulator, int], None]  # (sim, env) -> None
+
+
+@dataclass
+class Scenario:
+    name: str
+    dt: float
+    duration: float
+    aircraft: list[str]
+    setup: Callable[[Simulator, int], None]
+    events: dict[float, list[Event]] = field(default_factory=dict)
+
+    @property
+    def steps(self) -> int:
+        return int(round(self.duration / self.dt))
+
+
+def _cre(slot, lat, lon, hdg, alt, spd):
+    return lambda sim, env: sim.create(env, slot, lat, lon, hdg, alt, spd)
+
+
+def _hdg(slot, hdg):
+    return lambda sim, env: sim.cmd_heading(env, slot, hdg)
+
+
+def _spd_kts(slot, kts):
+    return lambda sim, env: sim.cmd_speed(env, slot, kts * KTS)
+
+
+def _write(slot, **kw):
+    def f(sim, env):
+        for k, v in kw.items():
+            getattr(sim, k)[env, slot] = v
+
+    return f
+
+
+def _seq(*fs):
+    def f(sim, env):
+        for g in fs:
+            g(sim, env)
+
+    return f
+
+
+def _creconfs(sim, env):
+    sim.create(env, 0, 52.0, 4.0, 45.0, 200 * 100 * FT, 250 * KTS)
+    sim.creconfs(env, 0, 1, 90.0, 1.0, 120.0)
+    sim.creconfs(env, 0, 2, 200.0, 0.0, 150.0, spd=200 * KTS)
+    sim.creconfs(env, 0, 3, 300.0, 2.0, 100.0, dh=500.0, tlosv=90.0)
+
+
+def _wind_s12(sim, env):
+    sim.create(env, 0, 52.0, 4.0, 0.0, 100 * 100 * FT, 250 * KTS)
+    sim.wind.add_points(env, [52.0], [4.0], [-10.0], [15.0])
+
+
+SCENARIOS: dict[str, Scenario] = {
+    s.name: s
+    for s in [
+        Scenario("s1_straight_fl350", 1, 120, ["AC1"], _cre(0, 52.0, 4.0, 45.0, 350 * 100 * FT, 250 * KTS)),
+        Scenario(
+            "s2_hdg_turns_fl200", 1, 200, ["AC1"], _cre(0, 52.0, 4.0, 0.0, 200 * 100 * FT, 250 * KTS),
+            {0: [_hdg(0, 90)], 100: [_hdg(0, 300)]},
+        ),
+        Scenario(
+            "s3_spd_change_fl100", 1, 240, ["AC1"], _cre(0, 52.0, 4.0, 90.0, 100 * 100 * FT, 150 * KTS),
+            {0: [_spd_kts(0, 200)], 120: [_spd_kts(0, 160)]},
+        ),
+        Scenario(
+            "s4_descent_selvs_gym", 1, 300, ["KL001"], _cre(0, 52.0, 4.0, 0.0, 3000.0, 150.0),
+            {0: [_write(0, swvnav=False, selalt=0.0, selvs=-12.5)]},
+        ),
+        Scenario(
+            "s5_climb_selvs_gym", 1, 720, ["KL001"], _cre(0, 52.0, 4.0, 0.0, 3000.0, 150.0),
+            {0: [_write(0, swvnav=False, selalt=1e6, selvs=12.5)], 400: [_write(0, selvs=0.0)]},
+        ),
+        Scenario(
+            "s6_alt_vs_stack", 1, 600, ["AC1"], _cre(0, 52.0, 4.0, 270.0, 100 * 100 * FT, 250 * KTS),
+            {
+                0: [lambda sim, env: sim.cmd_vertical_speed(env, 0, 2500 * FPM), lambda sim, env: sim.cmd_altitude(env, 0, 200 * 100 * FT)],
+                300: [lambda sim, env: sim.cmd_altitude(env, 0, 120 * 100 * FT)],
+            },
+        ),
+        Scenario(
+            "s7_route_lnav", 1, 900, ["AC1"], _cre(0, 52.0, 4.0, 0.0, 100 * 100 * FT, 250 * KTS),
+            {0: [lambda sim, env, p=p: sim.add_waypoint(env, 0, *p) for p in [(52.3, 4.0), (52.3, 4.5), (52.0, 4.5)]]},
+        ),
+        Scenario("s9_creconfs", 1, 300, ["KL001", "INT1", "INT2", "INT3"], _creconfs),
+        Scenario(
+            "s10_gym_horizontal_alt0_dt5", 5, 300, ["KL001"], _cre(0, 52.0, 4.0, 0.0, 0.0, 150.0),
+            {0: [_hdg(0, 60)], 100: [_hdg(0, 330)]},
+        ),
+        Scenario(
+            "s11_descent_dt5", 5, 400, ["KL001"], _cre(0, 52.0, 4.0, 0.0, 3000.0, 150.0),
+            {0: [_write(0, swvnav=False, selalt=1500.0, selvs=-12.5)]},
+        ),
+        Scenario("s12_wind_constant_gymwrapper", 1, 300, ["AC1"], _wind_s12, {0: [_hdg(0, 90)], 150: [_hdg(0, 200)]}),
+    ]
+}
+
+# Recorded column -> simulator attribute.
+COLUMNS = {
+    "lat": "lat", "lon": "lon", "alt": "alt", "tas": "tas", "cas": "cas", "mach": "mach", "gs": "gs",
+    "hdg": "hdg", "trk": "trk", "vs": "vs", "gsnorth": "gsnorth", "gseast": "gseast", "ax": "ax",
+    "selspd": "selspd", "selalt": "selalt", "selvs": "selvs", "ap_trk": "ap_trk", "ap_tas": "ap_tas",
+    "ap_vs": "ap_vs", "ap_alt": "ap_alt", "phase": "phase", "axmax": "axmax", "vmin_cas": "vmin",
+    "vmax_cas": "vmax", "swlnav": "swlnav", "swvnav": "swvnav", "windnorth": "windnorth", "windeast": "windeast",
+}
+
+
+def load_reference(name: str) -> dict[str, dict[str, np.ndarray]]:
+    """Recorded trajectories: {acid: {column: array over time}} (time in column 't')."""
+    out: dict[str, dict[str, list[float]]] = {}
+    with open(DATA / f"{name}.csv", newline="") as fh:
+        for row in csv.DictReader(fh):
+            rec = out.setdefault(row["acid"], {})
+            for k, v in row.items():
+                if k != "acid":
+                    rec.setdefault(k, []).append(float(v))
+    return {a: {k: np.asarray(v) for k, v in cols.items()} for a, cols in out.items()}
+
+
+def run(scenario: Scenario, sim: Simulator, env: int) -> dict[str, np.ndarray]:
+    """Replay one scenario in airspace ``env`` of ``sim`` (all airspaces step together).
+
+    Returns {column: array (steps+1, n_aircraft)}.
+    """
+    rows = {c: [] for c in COLUMNS}
+    n = len(scenario.aircraft)
+
+    def record():
+        for c, attr in COLUMNS.items():
+            rows[c].append(np.asarray(getattr(sim, attr)[env, :n], dtype=np.float64).copy())
+
+    record()
+    for k in range(scenario.steps):
+        for ev in scenario.events.get(k * scenario.dt, []):
+            ev(sim, env)
+        sim.step()
+        record()
+    return {c: np.stack(v) for c, v in rows.items()}
+
+
+def run_alone(scenario: Scenario) -> dict[str, np.ndarray]:
+    sim = Simulator(1, 4, dt=scenario.dt)
+    scenario.setup(sim, 0)
+    return run(scenario, sim, 0)
