@@ -1,1 +1,17 @@
-"""BlueSky-Gym."""
+"""BlueSky-Gym: reinforcement-learning environments for air traffic applications.
+
+``import bluesky_gym`` registers every environment id with Gymnasium; ``register_envs()`` does the
+same and may be called again (it is idempotent), so the paper's code runs unchanged::
+
+    import gymnasium as gym
+    import bluesky_gym
+    bluesky_gym.register_envs()
+    env = gym.make("DescentEnv-v0")
+"""
+
+from bluesky_gym.registration import ENVIRONMENTS, available_envs, register_envs
+
+__version__ = "1.0.0"
+__all__ = ["ENVIRONMENTS", "available_envs", "register_envs", "__version__"]
+
+register_envs()

@@ -1,0 +1,1 @@
+"""Gymnasium environments (thin shells around :mod:`bluesky_gym.tasks`)."""

@@ -1,0 +1,268 @@
+"""Gymnasium shells around a batched task: a single environment and a native vector environment.
+
+The single environment *is* the batched task with one episode; there is no second copy of the
+physics or of the MDP. Both shells only convert between numpy batches and Gymnasium's API.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from bluesky_gym.tasks.base import BoxSpec, StepResult, Task
+
+RENDER_MODES = ["rgb_array", "human"]
+RENDER_FPS = 30
+
+
+def _box(spec: BoxSpec) -> spaces.Box:
+    return spaces.Box(low=spec.low, high=spec.high, shape=spec.shape, dtype=np.float64)
+
+
+def observation_space(task: Task) -> spaces.Dict:
+    """The single-episode observation space of a task."""
+    return spaces.Dict({k: _box(v) for k, v in task.observation_spec.items()})
+
+
+def _split_kwargs(task_class: type[Task], kwargs: dict[str, Any]) -> Any:
+    return task_class.make_config(kwargs)
+
+
+def _check_render_mode(render_mode: str | None) -> None:
+    if render_mode is not None and render_mode not in RENDER_MODES:
+        raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
+
+
+class BlueSkyEnv(gym.Env):
+    """Base of the single-episode environments (subclasses set ``task_class``).
+
+    Args:
+        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+        backend: ``"native"`` or ``"bluesky"``.
+        **options: Scenario options of the task (see its config dataclass).
+    """
+
+    task_class: ClassVar[type[Task]]
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}
+
+    def __init__(self, render_mode: str | None = None, backend: str = "native", **options: Any) -> None:
+        _check_render_mode(render_mode)
+        self.render_mode = render_mode
+        self.backend = backend
+        self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend)
+        self.observation_space = observation_space(self.task)
+        self.action_space = _box(self.task.action_spec)
+        self._renderer: Any = None
+        self._needs_reset = True
+        self._last_reward = 0.0
+        self._last_info: dict[str, Any] = {}
+
+    @property
+    def config(self) -> Any:
+        """The task configuration (frozen dataclass)."""
+        return self.task.config
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start a new episode; ``seed`` seeds the episode generator (``self.np_random``)."""
+        super().reset(seed=seed)
+        if options:
+            raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make)")
+        self.task.seed(np.array([0]), [self.np_random])
+        self.task.reset()
+        self._needs_reset = False
+        self._last_reward = 0.0
+        obs = {k: v[0].copy() for k, v in self.task.observe().items()}
+        info = {k: _scalar(v[0]) for k, v in self.task.episode_info().items()}
+        self._last_info = info
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """Advance one decision step. Out-of-range actions are clipped to the action space."""
+        if self._needs_reset:
+            raise RuntimeError(
+                "step() called before reset() or after the episode ended (terminated or truncated); call reset() first"
+            )
+        a = np.asarray(action, dtype=np.float64) if not isinstance(action, np.ndarray) else action
+        if a.shape != self.action_space.shape:
+            if a.size == int(np.prod(self.action_space.shape)) and a.ndim <= 1:
+                a = a.reshape(self.action_space.shape)
+            else:
+                raise ValueError(f"action has shape {a.shape}, expected {self.action_space.shape} for {self.task.env_id}")
+        res = self.task.step(a[None])
+        obs = {k: v[0].copy() for k, v in res.observation.items()}
+        terminated, truncated = bool(res.terminated[0]), bool(res.truncated[0])
+        info = {k: _scalar(v[0]) for k, v in res.info.items()}
+        self._needs_reset = terminated or truncated
+        self._last_reward = float(res.reward[0])
+        self._last_info = info
+        if self.render_mode == "human":
+            self.render()
+        return obs, float(res.reward[0]), terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:
+        """Draw the current state: an RGB frame (``rgb_array``) or the window (``human``)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human' to gym.make")
+            return None
+        if self._renderer is None:
+            from bluesky_gym.render import make_renderer
+
+            self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"])
+        return self._renderer.render(0, reward=self._last_reward, info=self._last_info)
+
+    def close(self) -> None:
+        """Release this environment's window (and its BlueSky backend, if any)."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        close = getattr(self.task.sim, "close", None)
+        if close is not None:
+            close()
+
+
+def _scalar(v: Any) -> Any:
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+class BlueSkyVectorEnv(VectorEnv):
+    """Native batched environment: ``num_envs`` episodes stepped with array operations.
+
+    Autoreset is ``SAME_STEP``: when an episode ends, the returned observation is the first of
+    the next episode and the final observation and info are in ``info["final_obs"]`` and
+    ``info["final_info"]`` (with masks ``info["_final_obs"]``, ``info["_final_info"]``).
+    Episode ``i`` after ``reset(seed=s)`` is identical to a single environment reset with seed
+    ``s + i``.
+
+    Args:
+        num_envs: Number of episodes simulated together.
+        render_mode: ``None``, ``"rgb_array"`` (frame of ``render_env``, or a grid of the first
+            ``render_grid`` episodes) or ``"human"``.
+        render_env: Episode drawn by :meth:`render`.
+        render_grid: If > 1, draw a grid of the first ``render_grid`` episodes instead.
+        backend: ``"native"`` only (BlueSky has one simulator per process).
+        **options: Scenario options of the task.
+    """
+
+    task_class: ClassVar[type[Task]]
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": RENDER_MODES,
+        "render_fps": RENDER_FPS,
+        "autoreset_mode": AutoresetMode.SAME_STEP,
+    }
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        render_mode: str | None = None,
+        render_env: int = 0,
+        render_grid: int = 1,
+        backend: str = "native",
+        **options: Any,
+    ) -> None:
+        _check_render_mode(render_mode)
+        self.num_envs = int(num_envs)
+        self.render_mode = render_mode
+        self.render_env = int(render_env)
+        self.render_grid = int(render_grid)
+        self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend)
+        if not 0 <= self.render_env < self.num_envs:
+            raise ValueError(f"render_env must be in [0, {self.num_envs}), got {render_env}")
+        self.single_observation_space = observation_space(self.task)
+        self.single_action_space = _box(self.task.action_spec)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._renderer: Any = None
+        self._reset_once = False
+        self._last_reward = np.zeros(self.num_envs)
+        self._last_info: dict[str, Any] = {}
+
+    @property
+    def config(self) -> Any:
+        """The task configuration (frozen dataclass)."""
+        return self.task.config
+
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Reset every episode. ``seed`` int s seeds episode i with s + i; a list seeds each."""
+        if options:
+            raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make_vec)")
+        if seed is None:
+            seeds: list[int | None] = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"got {len(seeds)} seeds for {self.num_envs} environments")
+        gens = [seeding.np_random(s)[0] for s in seeds]
+        self.task.seed(self.task.all_envs, gens)
+        self.task.reset()
+        self._reset_once = True
+        self._last_reward = np.zeros(self.num_envs)
+        info = self.task.episode_info()
+        self._last_info = info
+        return self.task.observe(), info
+
+    def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every episode; ended episodes are reset in the same call (SAME_STEP)."""
+        if not self._reset_once:
+            raise RuntimeError("step() called before reset(); call reset() first")
+        res: StepResult = self.task.step(actions)
+        done = res.terminated | res.truncated
+        info: dict[str, Any] = dict(res.info)
+        for k in res.info:
+            if k.startswith("kpi_"):
+                info[f"_{k}"] = done.copy()
+        obs = res.observation
+        if np.any(done):
+            ended = np.flatnonzero(done)
+            final_obs = {k: v.copy() for k, v in obs.items()}
+            final_info = {k: v.copy() for k, v in res.info.items()}
+            self.task.reset(ended)
+            new_obs = self.task.observe()
+            obs = {k: np.where(_expand(done, v.ndim), new_obs[k], v) for k, v in obs.items()}
+            info["final_obs"] = final_obs
+            info["_final_obs"] = done.copy()
+            info["final_info"] = final_info
+            info["_final_info"] = done.copy()
+        self._last_reward = res.reward
+        self._last_info = res.info
+        if self.render_mode == "human":
+            self.render()
+        return obs, res.reward, res.terminated, res.truncated, info
+
+    def render(self) -> np.ndarray | None:
+        """A frame of episode ``render_env`` (or a grid of the first ``render_grid`` episodes)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode")
+            return None
+        if self._renderer is None:
+            from bluesky_gym.render import make_renderer
+
+            self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"])
+        if self.render_grid > 1:
+            return self._renderer.render_grid(min(self.render_grid, self.num_envs), rewards=self._last_reward, info=self._last_info)
+        return self._renderer.render(self.render_env, reward=float(self._last_reward[self.render_env]), info=_pick(self._last_info, self.render_env))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Release the window."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def _expand(mask: np.ndarray, ndim: int) -> np.ndarray:
+    return mask.reshape(mask.shape + (1,) * (ndim - 1))
+
+
+def _pick(info: dict[str, Any], i: int) -> dict[str, Any]:
+    return {k: _scalar(v[i]) for k, v in info.items() if isinstance(v, np.ndarray) and v.ndim == 1}

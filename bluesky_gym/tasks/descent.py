@@ -1,0 +1,132 @@
+"""DescentEnv-v0: reach and hold a target altitude, then descend before the runway."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bluesky_gym.core import geo
+from bluesky_gym.core.units import NM2KM
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+
+ALT_MEAN = 1500.0  # m
+ALT_STD = 3000.0  # m
+VZ_MEAN = 0.0  # m/s
+VZ_STD = 5.0  # m/s
+RWY_DIS_MEAN = 100.0  # km
+RWY_DIS_STD = 200.0  # km
+ACTION_2_MS = 12.5  # m/s of vertical speed per unit action
+ALT_DIF_REWARD_SCALE = -5 / 3000  # per m off the target altitude
+CRASH_PENALTY = -100.0
+RWY_ALT_DIF_REWARD_SCALE = -50 / 3000  # per m above the runway at its threshold
+AC_SPD = 150.0  # m/s CAS
+DEFAULT_RWY_DIS = 200.0  # km from the start point to the runway
+RWY_LAT, RWY_LON = 52.0, 4.0  # deg: the start point the runway distance is measured from
+CLIMB_TARGET = 1e6  # m: selected altitude for a climb (clipped by the ceiling)
+
+
+@dataclass(frozen=True)
+class DescentConfig(TaskConfig):
+    """Scenario options of the descent task (defaults: the paper's).
+
+    Attributes:
+        alt_min: Lowest initial altitude [m] (integer draw in [alt_min, alt_max)).
+        alt_max: Upper bound of the initial altitude draw [m].
+        target_alt_dif: Target altitude offset bound [m] (integer draw in [-dif, dif)).
+        runway_distance_km: Distance from the start to the runway [km].
+    """
+
+    alt_min: int = 2000
+    alt_max: int = 4000
+    target_alt_dif: int = 500
+    runway_distance_km: float = DEFAULT_RWY_DIS
+
+    def validate(self) -> None:
+        check_int("alt_min", self.alt_min, 1)
+        check_int("alt_max", self.alt_max, self.alt_min + 1, 11000)
+        check_int("target_alt_dif", self.target_alt_dif, 1, self.alt_min - 1)
+        check_range("runway_distance_km", self.runway_distance_km, 0.0, 2000.0, strict_low=True)
+
+
+class DescentTask(Task):
+    """Batched descent task; see :class:`bluesky_gym.envs.descent_env.DescentEnv` for the MDP."""
+
+    env_id: ClassVar[str] = "DescentEnv-v0"
+    dt: ClassVar[float] = 1.0
+    action_frequency: ClassVar[int] = 30
+    max_episode_steps: ClassVar[int] = 300
+    config_class: ClassVar[type[TaskConfig]] = DescentConfig
+    info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "final_altitude")
+    config: DescentConfig
+
+    def max_aircraft(self) -> int:
+        return 1
+
+    def build_observation_spec(self) -> dict[str, BoxSpec]:
+        return {k: BoxSpec((1,)) for k in ("altitude", "vz", "target_altitude", "runway_distance")}
+
+    def build_action_spec(self) -> BoxSpec:
+        return BoxSpec((1,), -1.0, 1.0)
+
+    # --- generator ------------------------------------------------------------------------------
+    def allocate(self) -> None:
+        self.target_alt = np.zeros(self.n_envs)  # (n_envs,) m
+        self.final_altitude = np.zeros(self.n_envs)  # (n_envs,) m, 0 until the episode ends
+
+    def generate(self, envs: NDArray[np.int64]) -> None:
+        c = self.config
+        alt_init = np.empty(envs.size)
+        for k, e in enumerate(envs):
+            rng = self.rngs[e]
+            alt_init[k] = rng.integers(c.alt_min, c.alt_max)
+            self.target_alt[e] = alt_init[k] + rng.integers(-c.target_alt_dif, c.target_alt_dif)
+        self.final_altitude[envs] = 0.0
+        self.sim.create(envs, 0, RWY_LAT, RWY_LON, 0.0, alt_init, AC_SPD)
+        self.sim.swvnav[envs, 0] = False
+
+    # --- dynamics interface ---------------------------------------------------------------------
+    def apply_action(self, action: Array) -> None:
+        v = action[:, 0] * ACTION_2_MS
+        self.sim.selalt[:, 0] = np.where(v >= 0, CLIMB_TARGET, 0.0)
+        self.sim.selvs[:, 0] = v
+
+    def runway_distance(self) -> Array:
+        """(n_envs,) km left to the runway along the 200 km leg."""
+        d = geo.kwikdist(RWY_LAT, RWY_LON, self.sim.lat[:, 0], self.sim.lon[:, 0])
+        return self.config.runway_distance_km - d * NM2KM
+
+    # --- observation ----------------------------------------------------------------------------
+    def observe(self) -> dict[str, Array]:
+        alt = self.sim.alt[:, 0]
+        return {
+            "altitude": ((alt - ALT_MEAN) / ALT_STD)[:, None],
+            "vz": ((self.sim.vs[:, 0] - VZ_MEAN) / VZ_STD)[:, None],
+            "target_altitude": ((self.target_alt - ALT_MEAN) / ALT_STD)[:, None],
+            "runway_distance": ((self.runway_distance() - RWY_DIS_MEAN) / RWY_DIS_STD)[:, None],
+        }
+
+    # --- reward ---------------------------------------------------------------------------------
+    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+        alt = self.sim.alt[:, 0]
+        rd = self.runway_distance()
+        flying = (rd > 0) & (alt > 0)
+        crashed = ~flying & (alt <= 0)
+        at_runway = ~flying & ~crashed & (rd <= 0)
+        altitude = np.where(flying, np.abs(self.target_alt - alt) * ALT_DIF_REWARD_SCALE, 0.0)
+        crash = np.where(crashed, CRASH_PENALTY, 0.0)
+        runway = np.where(at_runway, alt * RWY_ALT_DIF_REWARD_SCALE, 0.0)
+        self.final_altitude = np.where(crashed, -100.0, np.where(at_runway, alt, self.final_altitude))
+        reward = np.where(flying, altitude, np.where(crashed, crash, runway))
+        return reward, crashed | at_runway, {"altitude": altitude, "crash": crash, "runway": runway}
+
+    def episode_info(self) -> dict[str, Array]:
+        return {"total_reward": self.stats.total_reward.copy(), "final_altitude": self.final_altitude.copy()}
+
+    def goal_reached(self) -> BoolArray:
+        return self.runway_distance() <= 0
+
+    def extra_track_km(self) -> Array:
+        return self.sim.distflown[:, 0] / 1000.0 - self.config.runway_distance_km
