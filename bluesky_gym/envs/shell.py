@@ -45,17 +45,18 @@ class BlueSkyEnv(gym.Env):
     Args:
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         backend: ``"native"`` or ``"bluesky"``.
+        max_episode_steps: Truncation limit in decision steps (default: the reference's).
         **options: Scenario options of the task (see its config dataclass).
     """
 
     task_class: ClassVar[type[Task]]
     metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}
 
-    def __init__(self, render_mode: str | None = None, backend: str = "native", **options: Any) -> None:
+    def __init__(self, render_mode: str | None = None, backend: str = "native", max_episode_steps: int | None = None, **options: Any) -> None:
         _check_render_mode(render_mode)
         self.render_mode = render_mode
         self.backend = backend
-        self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend)
+        self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=max_episode_steps)
         self.observation_space = observation_space(self.task)
         self.action_space = _box(self.task.action_spec)
         self._renderer: Any = None
@@ -150,6 +151,7 @@ class BlueSkyVectorEnv(VectorEnv):
         render_env: Episode drawn by :meth:`render`.
         render_grid: If > 1, draw a grid of the first ``render_grid`` episodes instead.
         backend: ``"native"`` only (BlueSky has one simulator per process).
+        max_episode_steps: Truncation limit in decision steps (default: the reference's).
         **options: Scenario options of the task.
     """
 
@@ -167,6 +169,7 @@ class BlueSkyVectorEnv(VectorEnv):
         render_env: int = 0,
         render_grid: int = 1,
         backend: str = "native",
+        max_episode_steps: int | None = None,
         **options: Any,
     ) -> None:
         _check_render_mode(render_mode)
@@ -174,7 +177,7 @@ class BlueSkyVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self.render_env = int(render_env)
         self.render_grid = int(render_grid)
-        self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend)
+        self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=max_episode_steps)
         if not 0 <= self.render_env < self.num_envs:
             raise ValueError(f"render_env must be in [0, {self.num_envs}), got {render_env}")
         self.single_observation_space = observation_space(self.task)

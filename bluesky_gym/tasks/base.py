@@ -144,6 +144,8 @@ class Task(abc.ABC):
         config: The task's configuration (a frozen dataclass); defaults are the paper's.
         backend: ``"native"`` (the batched core) or ``"bluesky"`` (the real simulator, one
             airspace per process), or a ready physics object with the :class:`Simulator` interface.
+        max_episode_steps: Truncate episodes after this many decision steps (default: the
+            reference's limit).
     """
 
     #: Gymnasium id of the single-agent environment.
@@ -158,10 +160,16 @@ class Task(abc.ABC):
     #: Whether the task has a goal (for the success / time-to-goal KPIs).
     has_goal: ClassVar[bool] = True
 
-    def __init__(self, n_envs: int = 1, config: TaskConfig | None = None, backend: str | Simulator = "native") -> None:
+    def __init__(
+        self, n_envs: int = 1, config: TaskConfig | None = None, backend: str | Simulator = "native", max_episode_steps: int | None = None
+    ) -> None:
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"n_envs must be a positive integer, got {n_envs!r}")
         self.n_envs = int(n_envs)
+        if max_episode_steps is not None:
+            check_int("max_episode_steps", max_episode_steps, 1)
+        #: Decision steps after which an episode is truncated (the reference's limit by default).
+        self.time_limit = int(max_episode_steps) if max_episode_steps is not None else self.max_episode_steps
         self.config = config if config is not None else self.config_class()
         if not isinstance(self.config, self.config_class):
             raise TypeError(f"config must be a {self.config_class.__name__}, got {type(self.config).__name__}")
@@ -278,7 +286,7 @@ class Task(abc.ABC):
             self.stats.drift_n += 1
         reached = self.goal_reached() & np.isnan(self.stats.time_to_goal)
         self.stats.time_to_goal[reached] = self.stats.steps[reached] * self.dt * self.action_frequency
-        truncated = ~terminated & (self.stats.steps >= self.max_episode_steps)
+        truncated = ~terminated & (self.stats.steps >= self.time_limit)
         info = self.episode_info()
         info.update({f"reward_{k}": v for k, v in components.items()})
         done = terminated | truncated

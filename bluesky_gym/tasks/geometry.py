@@ -1,0 +1,123 @@
+"""Scenario geometry of the paper's environments (bluesky-gym 0.2.0 ``envs/common/functions``).
+
+Re-implemented from their description in the environment specification, vectorised where the
+tasks need it, with every random draw taken from a generator passed in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+Array = NDArray[np.float64]
+
+EARTH_RADIUS_KM = 6371.0
+
+
+def wrap180(angle: ArrayLike) -> Array:
+    """Single wrap into [-180, 180]: x > 180 -> x - 360; x < -180 -> x + 360 (once only)."""
+    a = np.asarray(angle, dtype=np.float64)
+    return np.where(a > 180, -(360 - a), np.where(a < -180, 360 + a, a))
+
+
+def point_at_distance(lat: ArrayLike, lon: ArrayLike, d_km: ArrayLike, bearing: ArrayLike, radius_km: float = EARTH_RADIUS_KM) -> tuple[Array, Array]:
+    """Great-circle destination [deg] at ``d_km`` along initial ``bearing`` [deg] (spherical)."""
+    lat1 = np.radians(lat)
+    lon1 = np.radians(lon)
+    a = np.radians(bearing)
+    dr = np.asarray(d_km, dtype=np.float64) / radius_km
+    lat2 = np.arcsin(np.sin(lat1) * np.cos(dr) + np.cos(lat1) * np.sin(dr) * np.cos(a))
+    lon2 = lon1 + np.arctan2(np.sin(a) * np.sin(dr) * np.cos(lat1), np.cos(dr) - np.sin(lat1) * np.sin(lat2))
+    return np.degrees(lat2), np.degrees(lon2)
+
+
+def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: ArrayLike) -> Array:
+    """Great-circle initial bearing [deg, 0..360) from point 1 to point 2 (``get_hdg``)."""
+    p1, p2 = np.radians(lat1), np.radians(lat2)
+    dl = np.radians(np.asarray(lon2, dtype=np.float64) - lon1)
+    x = np.sin(dl) * np.cos(p2)
+    y = np.cos(p1) * np.sin(p2) - np.sin(p1) * np.cos(p2) * np.cos(dl)
+    return (np.degrees(np.arctan2(x, y)) + 360) % 360
+
+
+def random_point_on_circle(rng: np.random.Generator, radius: float) -> Array:
+    """A uniformly random point (x, y) on a circle of ``radius`` around the origin."""
+    alpha = 2 * np.pi * rng.uniform(0.0, 1.0)
+    return np.array([radius * np.cos(alpha), radius * np.sin(alpha)])
+
+
+def sort_points_clockwise(vertices: ArrayLike) -> Array:
+    """Sort (north, east) points by atan2(east, north) ascending: clockwise by compass bearing."""
+    v = np.asarray(vertices, dtype=np.float64)
+    return v[np.argsort(np.arctan2(v[:, 1], v[:, 0]), kind="stable")]
+
+
+def polygon_area(vertices: ArrayLike) -> float:
+    """Absolute shoelace area of a polygon (same unit squared as the vertices)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    area = 0.0
+    n = len(v)
+    for i in range(n):  # summed in vertex order, as the reference does
+        x1, y1 = v[i]
+        x2, y2 = v[(i + 1) % n]
+        area += x1 * y2 - y1 * x2
+    return float(np.abs(area) / 2.0)
+
+
+def random_convex_polygon(rng: np.random.Generator, radius: float, min_area: float) -> Array:
+    """Points drawn on a circle until their sorted polygon has at least ``min_area``.
+
+    Starts with three points, adds one at a time (the reference's polygon generator).
+    """
+    pts = [random_point_on_circle(rng, radius) for _ in range(3)]
+    poly = sort_points_clockwise(pts)
+    while polygon_area(poly) < min_area:
+        pts.append(random_point_on_circle(rng, radius))
+        poly = sort_points_clockwise(pts)
+    return poly
+
+
+def nm_to_latlon(center: ArrayLike, points: ArrayLike) -> Array:
+    """(north NM, east NM) offsets around ``center`` (lat, lon) to (lat, lon) [deg]."""
+    c = np.asarray(center, dtype=np.float64)
+    p = np.asarray(points, dtype=np.float64)
+    lat = c[0] + (p[..., 0] / 60)
+    lon = c[1] + (p[..., 1] / (60 * np.cos(np.radians(c[0]))))
+    return np.stack([lat, lon], axis=-1)
+
+
+def latlon_to_nm(center: ArrayLike, points: ArrayLike) -> Array:
+    """(lat, lon) [deg] to (north NM, east NM) offsets around ``center``."""
+    c = np.asarray(center, dtype=np.float64)
+    p = np.asarray(points, dtype=np.float64)
+    x = (p[..., 0] - c[0]) * 60
+    y = (p[..., 1] - c[1]) * 60 * np.cos(np.radians(c[0]))
+    return np.stack([x, y], axis=-1)
+
+
+def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly_lon: ArrayLike, n_vertices: ArrayLike) -> NDArray[np.bool_]:
+    """Even-odd point-in-polygon test on (lat, lon), batched (BlueSky's 2-D ``checkInside``).
+
+    Args:
+        lat: Points, shape (..., P).
+        lon: Points, shape (..., P).
+        poly_lat: Polygon vertices, shape (..., K, V) (padded beyond ``n_vertices``).
+        poly_lon: Same shape as ``poly_lat``.
+        n_vertices: Vertex count of each polygon, shape (..., K); 0 means no polygon.
+
+    Returns:
+        Inside flags, shape (..., P, K).
+    """
+    y = np.asarray(lat, dtype=np.float64)[..., :, None, None]  # (..., P, 1, 1)
+    x = np.asarray(lon, dtype=np.float64)[..., :, None, None]
+    py = np.asarray(poly_lat, dtype=np.float64)[..., None, :, :]  # (..., 1, K, V)
+    px = np.asarray(poly_lon, dtype=np.float64)[..., None, :, :]
+    nv = np.asarray(n_vertices)[..., None, :, None]  # (..., 1, K, 1)
+    v = np.arange(py.shape[-1])
+    nxt = np.where(v + 1 < nv, v + 1, 0)  # closing edge back to vertex 0
+    qy = np.take_along_axis(np.broadcast_to(py, np.broadcast_shapes(py.shape, nxt.shape)), np.broadcast_to(nxt, np.broadcast_shapes(py.shape, nxt.shape)), axis=-1)
+    qx = np.take_along_axis(np.broadcast_to(px, np.broadcast_shapes(px.shape, nxt.shape)), np.broadcast_to(nxt, np.broadcast_shapes(px.shape, nxt.shape)), axis=-1)
+    valid = v < nv
+    with np.errstate(divide="ignore", invalid="ignore"):
+        crosses = ((py > y) != (qy > y)) & (x < (qx - px) * (y - py) / (qy - py) + px)
+    return (np.sum(crosses & valid, axis=-1) % 2) == 1

@@ -1,0 +1,63 @@
+"""The specification's observation and action spaces, per id: key -> (shape, low, high)."""
+
+import numpy as np
+
+INF = np.inf
+_F = (-INF, INF)
+
+
+def _k(shape, *keys, bounds=_F):
+    return {k: (shape, *bounds) for k in keys}
+
+
+OBSERVATION = {
+    "DescentEnv-v0": _k((1,), "altitude", "vz", "target_altitude", "runway_distance"),
+    "VerticalCREnv-v0": {
+        **_k((1,), "altitude", "vz", "target_altitude", "runway_distance"),
+        **_k((5,), "intruder_distance", "cos_difference_pos", "sin_difference_pos", "altitude_difference",
+             "x_difference_speed", "y_difference_speed", "z_difference_speed"),
+    },
+    "HorizontalCREnv-v0": {
+        **_k((5,), "intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed"),
+        **_k((1,), "waypoint_distance", "cos_drift", "sin_drift"),
+    },
+    "PlanWaypointEnv-v0": {
+        **_k((5,), "waypoint_distance", "cos_difference", "sin_difference"),
+        **_k((5,), "waypoint_reached", bounds=(0.0, 1.0)),
+    },
+    "SectorCREnv-v0": {
+        **_k((1,), "cos(drift)", "sin(drift)", "airspeed", bounds=(-1.0, 1.0)),
+        **_k((4,), "x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances"),
+    },
+    "StaticObstacleEnv-v0": {
+        **_k((1,), "destination_waypoint_distance", "destination_waypoint_cos_drift", "destination_waypoint_sin_drift"),
+        **_k((10,), "restricted_area_radius", bounds=(0.0, 1.0)),
+        **_k((10,), "restricted_area_distance", "cos_difference_restricted_area_pos", "sin_difference_restricted_area_pos"),
+    },
+    "MergeEnv-v0": {
+        **_k((1,), "cos(drift)", "sin(drift)", bounds=(-1.0, 1.0)),
+        **_k((1,), "airspeed", "waypoint_dist"),
+        **_k((1,), "faf_reached", bounds=(0.0, 1.0)),
+        **_k((5,), "x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances"),
+    },
+}
+
+ACTION_SHAPE = {
+    "DescentEnv-v0": (1,), "VerticalCREnv-v0": (1,), "HorizontalCREnv-v0": (1,), "PlanWaypointEnv-v0": (1,),
+    "SectorCREnv-v0": (2,), "StaticObstacleEnv-v0": (2,), "MergeEnv-v0": (2,),
+}
+
+MAX_EPISODE_STEPS = {
+    "DescentEnv-v0": 300, "VerticalCREnv-v0": 300, "PlanWaypointEnv-v0": 300, "HorizontalCREnv-v0": 300,
+    "SectorCREnv-v0": 200, "StaticObstacleEnv-v0": 100, "MergeEnv-v0": 50,
+}
+
+REFERENCE_INFO_KEYS = {
+    "DescentEnv-v0": {"total_reward", "final_altitude"},
+    "VerticalCREnv-v0": {"total_reward", "total_intrusions", "final_altitude"},
+    "HorizontalCREnv-v0": {"total_reward", "total_intrusions", "average_drift"},
+    "PlanWaypointEnv-v0": {"total_reward", "waypoints_completed"},
+    "SectorCREnv-v0": {"total_reward", "total_intrusions", "average_drift"},
+    "StaticObstacleEnv-v0": {"total_reward", "waypoint_reached", "crashed", "average_drift"},
+    "MergeEnv-v0": {"total_reward", "faf_reach", "average_drift", "total_intrusions"},
+}

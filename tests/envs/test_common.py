@@ -1,0 +1,161 @@
+"""Contract tests run on every registered environment id."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import bluesky_gym
+from bluesky_gym.registration import available_envs
+
+from .expected_spaces import ACTION_SHAPE, MAX_EPISODE_STEPS, OBSERVATION, REFERENCE_INFO_KEYS
+
+IDS = available_envs()
+
+
+def _rollout(env, seed: int, n: int, action_seed: int = 0):
+    rng = np.random.default_rng(action_seed)
+    obs, info = env.reset(seed=seed)
+    out = [(obs, None, None, None, info)]
+    for _ in range(n):
+        a = rng.uniform(-1, 1, env.action_space.shape)
+        obs, r, te, tr, info = env.step(a)
+        out.append((obs, r, te, tr, info))
+        if te or tr:
+            obs, info = env.reset()
+            out.append((obs, None, None, None, info))
+    return out
+
+
+def _equal(a, b) -> bool:
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    if isinstance(a, (np.ndarray, float, np.floating)):
+        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+    return a == b
+
+
+def test_all_seven_registered() -> None:
+    bluesky_gym.register_envs()
+    bluesky_gym.register_envs()  # idempotent
+    for env_id in OBSERVATION:
+        assert env_id in gym.registry
+        assert gym.registry[env_id].max_episode_steps == MAX_EPISODE_STEPS[env_id]
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_check_env(env_id: str) -> None:
+    env = gym.make(env_id)
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_spaces_match_specification(env_id: str) -> None:
+    env = gym.make(env_id)
+    space = env.observation_space
+    assert isinstance(space, gym.spaces.Dict)
+    assert set(space.spaces) == set(OBSERVATION[env_id]), "observation keys differ from the specification"
+    for key, (shape, low, high) in OBSERVATION[env_id].items():
+        box = space[key]
+        assert box.shape == shape, key
+        assert box.dtype == np.float64, key
+        assert np.all(box.low == low) and np.all(box.high == high), key
+    assert env.action_space.shape == ACTION_SHAPE[env_id]
+    assert np.all(env.action_space.low == -1) and np.all(env.action_space.high == 1)
+    assert env.action_space.dtype == np.float64
+    obs, info = env.reset(seed=3)
+    assert REFERENCE_INFO_KEYS[env_id] <= set(info)
+    for key, value in obs.items():
+        assert value.dtype == np.float64 and value.shape == OBSERVATION[env_id][key][0]
+    obs, r, te, tr, info = env.step(env.action_space.sample())
+    assert type(te) is bool and type(tr) is bool and isinstance(r, float)
+    assert REFERENCE_INFO_KEYS[env_id] <= set(info)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_same_seed_same_episode_other_seed_differs(env_id: str) -> None:
+    a = _rollout(gym.make(env_id), seed=11, n=40)
+    b = _rollout(gym.make(env_id), seed=11, n=40)
+    c = _rollout(gym.make(env_id), seed=12, n=40)
+    assert len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
+    assert not _equal(a[0][0], c[0][0]), "another seed gave the same initial observation"
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_vector_episode_equals_single_env(env_id: str) -> None:
+    """Episode i of the native batched env equals a single env seeded seed + i, across resets."""
+    n, steps, seed = 3, 60, 5
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
+    rng = np.random.default_rng(1)
+    actions = rng.uniform(-1, 1, (steps, n, *venv.single_action_space.shape))
+    obs, _ = venv.reset(seed=seed)
+    vec_obs, vec_rew, vec_done = [obs], [], []
+    for t in range(steps):
+        obs, r, te, tr, info = venv.step(actions[t])
+        vec_rew.append(r)
+        vec_done.append(te | tr)
+        final = {k: np.where(np.reshape(te | tr, (-1,) + (1,) * (v.ndim - 1)), info["final_obs"][k], v) if "final_obs" in info else v for k, v in obs.items()}
+        vec_obs.append(final)
+    for i in range(n):
+        env = gym.make(env_id)
+        o, _ = env.reset(seed=seed + i)
+        assert _equal(o, {k: v[i] for k, v in vec_obs[0].items()})
+        for t in range(steps):
+            o, r, te, tr, _ = env.step(actions[t, i])
+            assert r == vec_rew[t][i], f"episode {i} step {t}: reward {r} != {vec_rew[t][i]}"
+            assert _equal(o, {k: v[i] for k, v in vec_obs[t + 1].items()}), f"episode {i} step {t}: observation differs"
+            assert (te or tr) == vec_done[t][i]
+            if te or tr:
+                o, _ = env.reset()
+    venv.close()
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_bad_input_is_rejected_clearly(env_id: str) -> None:
+    env = gym.make(env_id).unwrapped
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(env.action_space.sample())
+    env.reset(seed=0)
+    shape = env.action_space.shape
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        env.step(np.full(shape, np.nan))
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        env.step(np.full(shape, np.inf))
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros((shape[0] + 1,)))
+    with pytest.raises(TypeError, match="unknown option"):
+        gym.make(env_id, not_an_option=3)
+    with pytest.raises(ValueError, match="backend"):
+        gym.make(env_id, backend="xplane")
+    with pytest.raises(ValueError, match="render_mode"):
+        gym.make(env_id, render_mode="ascii")
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_out_of_range_actions_are_clipped(env_id: str) -> None:
+    a, b = gym.make(env_id).unwrapped, gym.make(env_id).unwrapped
+    a.reset(seed=4)
+    b.reset(seed=4)
+    shape = a.action_space.shape
+    ra = a.step(np.full(shape, 7.0))
+    rb = b.step(np.full(shape, 1.0))
+    assert _equal(ra[0], rb[0]) and ra[1] == rb[1]
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_step_after_episode_end_raises(env_id: str) -> None:
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=0)
+    for _ in range(env.task.max_episode_steps):
+        _, _, te, tr, info = env.step(env.action_space.sample())
+        if te or tr:
+            break
+    assert te or tr, "episode did not end within max_episode_steps"
+    assert any(k.startswith("kpi_") for k in info), "KPIs missing at the end of the episode"
+    with pytest.raises(RuntimeError, match="ended"):
+        env.step(env.action_space.sample())
