@@ -87,6 +87,30 @@ _STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
 )
 
 
+FLOAT_FIELDS = tuple(name for name, dtype, _ in _STATE_FIELDS if dtype is np.float64)
+FIELD_INDEX = {name: i for i, name in enumerate(FLOAT_FIELDS)}
+
+
+class _Field:
+    """A state array stored as one row of a contiguous block.
+
+    Reading gives a writable (n_envs, max_aircraft) view; assigning copies into the block, so the
+    arrays never move and the compiled kernel can work on the block in place.
+    """
+
+    def __init__(self, block: str, index: int) -> None:
+        self.block = block
+        self.index = index
+
+    def __get__(self, obj: Simulator | None, owner: type) -> Array:
+        if obj is None:
+            return self  # type: ignore[return-value]
+        return getattr(obj, self.block)[self.index]
+
+    def __set__(self, obj: Simulator, value: ArrayLike) -> None:
+        getattr(obj, self.block)[self.index][...] = value
+
+
 class Simulator:
     """Many independent BlueSky airspaces stepped together.
 
@@ -96,6 +120,9 @@ class Simulator:
         dt: Simulation time step [s].
         max_waypoints: Route capacity per aircraft.
         perf: Performance data (every aircraft is of this type).
+        kernel: ``"numpy"`` (the reference implementation), ``"fused"`` (the same arithmetic
+            compiled into one loop with numba, bit-identical and much faster; needs the ``fast``
+            extra) or ``"auto"`` (fused when numba is installed).
     """
 
     def __init__(
@@ -105,7 +132,18 @@ class Simulator:
         dt: float = 1.0,
         max_waypoints: int = 4,
         perf: pf.AircraftPerformance = pf.A320,
+        kernel: str = "auto",
     ) -> None:
+        from bluesky_gym.core import fused
+
+        if kernel not in ("auto", "numpy", "fused"):
+            raise ValueError(f"kernel must be 'auto', 'numpy' or 'fused', got {kernel!r}")
+        if kernel == "fused" and not fused.AVAILABLE:
+            raise ImportError('the fused kernel needs numba: pip install "bluesky-gym[fast]"')
+        #: The step implementation in use: "numpy" or "fused".
+        self.kernel = "fused" if kernel == "fused" or (kernel == "auto" and fused.AVAILABLE) else "numpy"
+        self._perf_args = fused.perf_tuple(perf)
+        self._limit_args = (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate)
         if n_envs < 1 or max_aircraft < 1:
             raise ValueError(f"n_envs and max_aircraft must be >= 1, got {n_envs} and {max_aircraft}")
         if not dt > 0:
@@ -119,12 +157,21 @@ class Simulator:
         self._since_perf = PERFORMANCE_INTERVAL  # the first step always runs the performance update
         shape = (self.n_envs, self.max_aircraft)
         self._defaults: dict[str, tuple[type, float]] = {}
+        # All float64 state lives in one block (fields, n_envs, max_aircraft) that never moves.
+        self._float_block = np.empty((len(FLOAT_FIELDS), *shape))
         for name, dtype, value in _STATE_FIELDS:
-            setattr(self, name, np.full(shape, value, dtype=dtype))
+            if dtype is np.float64:
+                self._float_block[FIELD_INDEX[name]] = value
+            else:
+                setattr(self, name, np.full(shape, value, dtype=dtype))
             self._defaults[name] = (dtype, value)
         self.route_lat = np.zeros((*shape, self.max_waypoints))  # deg
         self.route_lon = np.zeros((*shape, self.max_waypoints))  # deg
         self.wind = WindField(self.n_envs)
+        self._empty = np.zeros(0)
+        # Memo table of the fused kernel: (n_envs * max_aircraft, columns), NaN = nothing cached.
+        self._memo = np.full((self.n_envs * self.max_aircraft, fused.MEMO_COLUMNS), np.nan)
+        self._empty_bool = np.zeros(0, dtype=np.bool_)
 
     # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
     active: NDArray[np.bool_]
@@ -397,10 +444,11 @@ class Simulator:
     def step(self) -> None:
         """Advance every airspace by ``dt`` seconds."""
         dt = self.dt
+        if self.kernel == "fused":
+            self._step_fused()
+            return
         with np.errstate(all="ignore"):
-            self._since_perf += dt
-            if self._since_perf >= PERFORMANCE_INTERVAL - 1e-9:
-                self._since_perf = 0.0
+            if self._performance_due():
                 self._update_performance()
             self.simt += dt
             self._update_autopilot()
@@ -422,9 +470,38 @@ class Simulator:
             self._update_groundspeed(any_wind)
             self._update_position(alt_t)
 
+    def _performance_due(self) -> bool:
+        """BlueSky's 1 s performance timer: every step for dt >= 1 s."""
+        self._since_perf += self.dt
+        if self._since_perf >= PERFORMANCE_INTERVAL - 1e-9:
+            self._since_perf = 0.0
+            return True
+        return False
+
+    def _step_fused(self) -> None:
+        """The same step through the compiled kernel (see :mod:`bluesky_gym.core.fused`)."""
+        from bluesky_gym.core.fused import step_kernel
+
+        do_perf = self._performance_due()
+        self.simt += self.dt
+        with np.errstate(all="ignore"):
+            if np.any(self.swlnav):
+                self._update_lnav()
+            any_wind = self.wind.any
+            if any_wind:
+                wn, we = (np.ascontiguousarray(w) for w in self.wind.at_all(self.lat, self.lon))
+                haswind = np.repeat(self.wind.has_wind, self.max_aircraft)
+            else:
+                wn = we = self._empty
+                haswind = self._empty_bool
+            step_kernel(
+                self._float_block.reshape(len(FLOAT_FIELDS), -1), self.phase.reshape(-1), wn.reshape(-1), we.reshape(-1),
+                haswind, any_wind, do_perf, self.dt, self._perf_args, self._limit_args, self._memo,
+            )
+
     def _update_performance(self) -> None:
         """OpenAP update from the start-of-step state [dynamics.md 1.3-1.4]."""
-        self.phase = pf.flight_phase(self.tas, self.vs, self.alt)
+        self.phase[...] = pf.flight_phase(self.tas, self.vs, self.alt)
         self.vmin, self.vmax = pf.speed_envelope(self.phase, self.perf)
         self.axmax = pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, self.perf)
 
@@ -545,3 +622,8 @@ class Simulator:
     def state_fields(self) -> Sequence[str]:
         """Names of the per-aircraft state arrays."""
         return [name for name, _, _ in _STATE_FIELDS]
+
+
+for _name, _i in FIELD_INDEX.items():
+    setattr(Simulator, _name, _Field("_float_block", _i))
+del _name, _i
