@@ -187,6 +187,8 @@ class Task(abc.ABC):
         self.observation_spec = self.build_observation_spec()
         self.action_spec = self.build_action_spec()
         self.substep_hooks: list[Callable[[Task, int], None]] = []
+        #: Called as ``hook(task, envs)`` after new episodes were generated (e.g. to add wind).
+        self.reset_hooks: list[Callable[[Task, NDArray[np.int64]], None]] = []
         self.allocate()
 
     # --- what a task defines --------------------------------------------------------------------
@@ -243,6 +245,14 @@ class Task(abc.ABC):
         """(n_envs,) whether the episode's goal has been reached."""
         return np.zeros(self.n_envs, bool)
 
+    def truncate(self) -> BoolArray:
+        """(n_envs,) task-specific truncation after a step, OR-ed with the time limit (default: none).
+
+        Called once per step, after :meth:`evaluate`; a terminated episode is never reported as
+        truncated.
+        """
+        return np.zeros(self.n_envs, bool)
+
     # --- the episode loop ------------------------------------------------------------------------
     def seed(self, envs: NDArray[np.int64], generators: list[np.random.Generator]) -> None:
         """Give episodes ``envs`` their own random generators."""
@@ -257,6 +267,8 @@ class Task(abc.ABC):
         self.sim.reset_envs(envs)
         self.stats.clear(envs, self.sim.max_aircraft)
         self.generate(envs)
+        for hook in self.reset_hooks:
+            hook(self, envs)
         self._track_separation(envs, count_steps=False)
 
     def clip_action(self, action: Any) -> Array:
@@ -286,7 +298,7 @@ class Task(abc.ABC):
             self.stats.drift_n += 1
         reached = self.goal_reached() & np.isnan(self.stats.time_to_goal)
         self.stats.time_to_goal[reached] = self.stats.steps[reached] * self.dt * self.action_frequency
-        truncated = ~terminated & (self.stats.steps >= self.time_limit)
+        truncated = ~terminated & ((self.stats.steps >= self.time_limit) | self.truncate())
         info = self.episode_info()
         info.update({f"reward_{k}": v for k, v in components.items()})
         done = terminated | truncated
