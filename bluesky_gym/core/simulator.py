@@ -169,6 +169,9 @@ class Simulator:
         self.route_lon = np.zeros((*shape, self.max_waypoints))  # deg
         self.wind = WindField(self.n_envs)
         self._empty = np.zeros(0)
+        self._float_flat = self._float_block.reshape(len(FLOAT_FIELDS), -1)  # a view: (fields, aircraft)
+        self._phase_flat = self.phase.reshape(-1)  # a view
+        self._kernel = fused.step_kernel if self.kernel == "fused" else None
         # Memo table of the fused kernel: (n_envs * max_aircraft, columns), NaN = nothing cached.
         self._memo = np.full((self.n_envs * self.max_aircraft, fused.MEMO_COLUMNS), np.nan)
         self._empty_bool = np.zeros(0, dtype=np.bool_)
@@ -480,24 +483,21 @@ class Simulator:
 
     def _step_fused(self) -> None:
         """The same step through the compiled kernel (see :mod:`bluesky_gym.core.fused`)."""
-        from bluesky_gym.core.fused import step_kernel
-
         do_perf = self._performance_due()
         self.simt += self.dt
-        with np.errstate(all="ignore"):
-            if np.any(self.swlnav):
+        if self.swlnav.any():
+            with np.errstate(all="ignore"):
                 self._update_lnav()
-            any_wind = self.wind.any
-            if any_wind:
-                wn, we = (np.ascontiguousarray(w) for w in self.wind.at_all(self.lat, self.lon))
-                haswind = np.repeat(self.wind.has_wind, self.max_aircraft)
-            else:
-                wn = we = self._empty
-                haswind = self._empty_bool
-            step_kernel(
-                self._float_block.reshape(len(FLOAT_FIELDS), -1), self.phase.reshape(-1), wn.reshape(-1), we.reshape(-1),
-                haswind, any_wind, do_perf, self.dt, self._perf_args, self._limit_args, self._memo,
-            )
+        any_wind = self.wind.any
+        if any_wind:
+            wn, we = (np.ascontiguousarray(w).reshape(-1) for w in self.wind.at_all(self.lat, self.lon))
+            haswind = np.repeat(self.wind.has_wind, self.max_aircraft)
+        else:
+            wn = we = self._empty
+            haswind = self._empty_bool
+        self._kernel(
+            self._float_flat, self._phase_flat, wn, we, haswind, any_wind, do_perf, self.dt, self._perf_args, self._limit_args, self._memo
+        )
 
     def _update_performance(self) -> None:
         """OpenAP update from the start-of-step state [dynamics.md 1.3-1.4]."""

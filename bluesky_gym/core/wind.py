@@ -37,7 +37,7 @@ class WindField:
     @property
     def any(self) -> bool:
         """Whether any airspace has wind."""
-        return bool(self.count.any())
+        return bool(self.count.any())  # a reduction over n_envs integers
 
     def clear(self, envs: ArrayLike | slice | None = None) -> None:
         """Remove the wind of the given airspaces (all when None)."""
