@@ -147,8 +147,27 @@ def _maximum(a, b):
 @_jit
 def _performance(tas, vs, alt, perf):
     """OpenAP phase, speed envelope and axmax [dynamics.md 1.3-1.4]."""
-    (mass, wing_area, n_eng, eng_thr, bpr, cd0_clean, k_clean, cd0_to, k_to, cd0_gear, cd0_ld, k_ld,
-     vmin_er, vmax_er, vmin_ap, vmax_ap, vmax_gd, ax_gd, ax_floor) = perf
+    (
+        mass,
+        wing_area,
+        n_eng,
+        eng_thr,
+        bpr,
+        cd0_clean,
+        k_clean,
+        cd0_to,
+        k_to,
+        cd0_gear,
+        cd0_ld,
+        k_ld,
+        vmin_er,
+        vmax_er,
+        vmin_ap,
+        vmax_ap,
+        vmax_gd,
+        ax_gd,
+        ax_floor,
+    ) = perf
     roc = vs / 0.00508
     a = alt / 0.3048
     ph = 0
@@ -191,8 +210,11 @@ def _performance(tas, vs, alt, perf):
         a_ = -0.4327 * (pp * pp) + 1.3855 * pp + 0.0472
         z_ = 0.9106 * math.pow(pp, 3.0) - 1.7736 * (pp * pp) + 1.8697 * pp
         x_ = 0.1377 * math.pow(pp, 3.0) - 0.4374 * (pp * pp) + 1.3003 * pp
-        ratio = (a_ - 0.377 * (1 + bpr) / math.sqrt((1 + 0.82 * bpr) * (0.0606 * bpr + 0.6337)) * z_ * mach_to
-                 + (0.23 + 0.19 * math.sqrt(bpr)) * x_ * (mach_to * mach_to))
+        ratio = (
+            a_
+            - 0.377 * (1 + bpr) / math.sqrt((1 + 0.82 * bpr) * (0.0606 * bpr + 0.6337)) * z_ * mach_to
+            + (0.23 + 0.19 * math.sqrt(bpr)) * x_ * (mach_to * mach_to)
+        )
     else:  # in-flight thrust ratio
         roc_fpm = abs(vs / FPM)
         v = 10.0 if tas < 10 else tas
@@ -312,8 +334,12 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         if not _same(alt_t, mm[M_HT]):
             mm[M_HT] = alt_t
             mm[M_P_T], mm[M_RHO_T], mm[M_T_T] = _atmos(alt_t)
-        if not (_same(aptas, mm[M_LIM_TAS]) and _same(alt_t, mm[M_LIM_HT]) and _same(F[_I_VMIN, i], mm[M_LIM_VMIN])
-                and _same(F[_I_VMAX, i], mm[M_LIM_VMAX])):
+        if not (
+            _same(aptas, mm[M_LIM_TAS])
+            and _same(alt_t, mm[M_LIM_HT])
+            and _same(F[_I_VMIN, i], mm[M_LIM_VMIN])
+            and _same(F[_I_VMAX, i], mm[M_LIM_VMAX])
+        ):
             p_t, rho_t = mm[M_P_T], mm[M_RHO_T]
             intent_cas = _tas2cas(aptas, p_t, rho_t)
             allow_cas = F[_I_VMIN, i] if intent_cas < F[_I_VMIN, i] else intent_cas
@@ -416,8 +442,23 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 def perf_tuple(perf: pf.AircraftPerformance) -> tuple[float, ...]:
     """The performance constants in the kernel's argument order."""
     return (
-        perf.mass, perf.wing_area, float(perf.engine_count), perf.engine_max_thrust, perf.bypass_ratio,
-        perf.cd0_clean, perf.k_clean, perf.cd0_takeoff, perf.k_takeoff, perf.cd0_gear, perf.cd0_landing, perf.k_landing,
-        perf.vmin_enroute, perf.vmax_enroute, perf.vmin_approach, perf.vmax_approach, perf.vmax_ground,
-        perf.axmax_ground, perf.axmax_floor,
+        perf.mass,
+        perf.wing_area,
+        float(perf.engine_count),
+        perf.engine_max_thrust,
+        perf.bypass_ratio,
+        perf.cd0_clean,
+        perf.k_clean,
+        perf.cd0_takeoff,
+        perf.k_takeoff,
+        perf.cd0_gear,
+        perf.cd0_landing,
+        perf.k_landing,
+        perf.vmin_enroute,
+        perf.vmax_enroute,
+        perf.vmin_approach,
+        perf.vmax_approach,
+        perf.vmax_ground,
+        perf.axmax_ground,
+        perf.axmax_floor,
     )

@@ -101,9 +101,7 @@ def max_thrust_ratio(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array
     z_ = 0.9106 * pp**3 - 1.7736 * pp**2 + 1.8697 * pp
     x_ = 0.1377 * pp**3 - 0.4374 * pp**2 + 1.3003 * pp
     ratio_to = (
-        a_
-        - 0.377 * (1 + bpr) / np.sqrt((1 + 0.82 * bpr) * (0.0606 * bpr + 0.6337)) * z_ * mach_to
-        + (0.23 + 0.19 * np.sqrt(bpr)) * x_ * mach_to**2
+        a_ - 0.377 * (1 + bpr) / np.sqrt((1 + 0.82 * bpr) * (0.0606 * bpr + 0.6337)) * z_ * mach_to + (0.23 + 0.19 * np.sqrt(bpr)) * x_ * mach_to**2
     )
     # In-flight ratio.
     roc = np.abs(np.asarray(vs / FPM))

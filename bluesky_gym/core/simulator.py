@@ -358,8 +358,10 @@ class Simulator:
         self.swvnav[env, slot] = False
 
     def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
-        """``ADDWPT acid lat lon``: append a fly-by waypoint (before the destination) and go
-        direct to the active waypoint, LNAV on [dynamics.md 2.6]."""
+        """``ADDWPT acid lat lon``: append a fly-by waypoint (before the destination).
+
+        The aircraft then goes direct to its active waypoint with LNAV on [dynamics.md 2.6].
+        """
         env, slot = self._index(env, slot)
         self._check_route_room(env, slot)
         nwp = self.nwp[env, slot]
@@ -432,7 +434,18 @@ class Simulator:
         self.turnphi[env, slot] = BANK_LNAV
         self.swlnav[env, slot] = True
 
-    def creconfs(self, env: ArrayLike, target: ArrayLike, slot: ArrayLike, dpsi: ArrayLike, dcpa: ArrayLike, tlosh: ArrayLike, dh: ArrayLike | None = None, tlosv: ArrayLike | None = None, spd: ArrayLike | None = None) -> None:
+    def creconfs(
+        self,
+        env: ArrayLike,
+        target: ArrayLike,
+        slot: ArrayLike,
+        dpsi: ArrayLike,
+        dcpa: ArrayLike,
+        tlosh: ArrayLike,
+        dh: ArrayLike | None = None,
+        tlosv: ArrayLike | None = None,
+        spd: ArrayLike | None = None,
+    ) -> None:
         """Create intruders in conflict with targets (BlueSky ``traf.creconfs``).
 
         See :func:`bluesky_gym.core.conflicts.create_conflicts` for the arguments.
@@ -466,9 +479,7 @@ class Simulator:
                 hdg_t = (trk_t + np.degrees(steer)) % 360.0
             else:
                 hdg_t = trk_t % 360.0
-            tas_t, vs_t, alt_t = pf.apply_limits(
-                tas_t, vs_t, alt_t, self.ax, self.tas, self.phase, self.vmin, self.vmax, self.axmax, self.perf
-            )
+            tas_t, vs_t, alt_t = pf.apply_limits(tas_t, vs_t, alt_t, self.ax, self.tas, self.phase, self.vmin, self.vmax, self.axmax, self.perf)
             self._update_airspeed(tas_t, hdg_t, alt_t, vs_t)
             self._update_groundspeed(any_wind)
             self._update_position(alt_t)
@@ -495,9 +506,7 @@ class Simulator:
         else:
             wn = we = self._empty
             haswind = self._empty_bool
-        self._kernel(
-            self._float_flat, self._phase_flat, wn, we, haswind, any_wind, do_perf, self.dt, self._perf_args, self._limit_args, self._memo
-        )
+        self._kernel(self._float_flat, self._phase_flat, wn, we, haswind, any_wind, do_perf, self.dt, self._perf_args, self._limit_args, self._memo)
 
     def _update_performance(self) -> None:
         """OpenAP update from the start-of-step state [dynamics.md 1.3-1.4]."""

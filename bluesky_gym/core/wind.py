@@ -81,7 +81,9 @@ class WindField:
 
     def at_all(self, lat: Array, lon: Array) -> tuple[Array, Array]:
         """Wind at positions shaped (n_envs, aircraft)."""
-        return self._evaluate(self.count[:, None], self.lat[:, None, :], self.lon[:, None, :], self.vnorth[:, None, :], self.veast[:, None, :], lat, lon)
+        return self._evaluate(
+            self.count[:, None], self.lat[:, None, :], self.lon[:, None, :], self.vnorth[:, None, :], self.veast[:, None, :], lat, lon
+        )
 
     @staticmethod
     def _evaluate(count, plat, plon, pvn, pve, lat, lon) -> tuple[Array, Array]:

@@ -88,9 +88,7 @@ class BlueSkyEnv(gym.Env):
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         """Advance one decision step. Out-of-range actions are clipped to the action space."""
         if self._needs_reset:
-            raise RuntimeError(
-                "step() called before reset() or after the episode ended (terminated or truncated); call reset() first"
-            )
+            raise RuntimeError("step() called before reset() or after the episode ended (terminated or truncated); call reset() first")
         a = np.asarray(action, dtype=np.float64) if not isinstance(action, np.ndarray) else action
         if a.shape != self.action_space.shape:
             if a.size == int(np.prod(self.action_space.shape)) and a.ndim <= 1:
@@ -194,7 +192,9 @@ class BlueSkyVectorEnv(VectorEnv):
         """The task configuration (frozen dataclass)."""
         return self.task.config
 
-    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Reset every episode. ``seed`` int s seeds episode i with s + i; a list seeds each."""
         if options:
             raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make_vec)")

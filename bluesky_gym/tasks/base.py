@@ -27,8 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core import Simulator
-from bluesky_gym.core import geo
+from bluesky_gym.core import Simulator, geo
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -192,7 +191,7 @@ class Task(abc.ABC):
         self.allocate()
 
     # --- what a task defines --------------------------------------------------------------------
-    def allocate(self) -> None:
+    def allocate(self) -> None:  # noqa: B027 - optional hook
         """Allocate the task's own per-episode arrays (called once by ``__init__``)."""
 
     @abc.abstractmethod
@@ -232,8 +231,10 @@ class Task(abc.ABC):
         return {"total_reward": self.stats.total_reward.copy()}
 
     def ownship_separation(self) -> tuple[Array, BoolArray]:
-        """(n_envs, max_aircraft) ownship-to-aircraft distance [NM] and LoS flags; override if the
-        task has traffic. Slot 0 is the ownship."""
+        """Ownship-to-aircraft distances [NM] and LoS flags, (n_envs, max_aircraft) each.
+
+        Slot 0 is the ownship. Tasks with traffic override this (default: no traffic).
+        """
         n = self.sim.max_aircraft
         return np.full((self.n_envs, n), np.inf), np.zeros((self.n_envs, n), bool)
 
@@ -360,7 +361,7 @@ class Task(abc.ABC):
 
     # --- helpers for subclasses -----------------------------------------------------------------
     def kwik_from_ownship(self, lat: Array, lon: Array) -> tuple[Array, Array]:
-        """kwik (qdr deg in (-180, 180], dist NM) from each ownship (slot 0) to points (n_envs, k)."""
+        """Kwik (qdr deg in (-180, 180], dist NM) from each ownship (slot 0) to points (n_envs, k)."""
         return geo.kwikqdrdist(self.sim.lat[:, :1], self.sim.lon[:, :1], lat, lon)
 
     @classmethod

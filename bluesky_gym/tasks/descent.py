@@ -8,9 +8,9 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core import geo
 from bluesky_gym.core.units import NM2KM
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.geometry import ref_kwikdist
 
 ALT_MEAN = 1500.0  # m
 ALT_STD = 3000.0  # m
@@ -45,6 +45,7 @@ class DescentConfig(TaskConfig):
     runway_distance_km: float = DEFAULT_RWY_DIS
 
     def validate(self) -> None:
+        """Check every option."""
         check_int("alt_min", self.alt_min, 1)
         check_int("alt_max", self.alt_max, self.alt_min + 1, 11000)
         check_int("target_alt_dif", self.target_alt_dif, 1, self.alt_min - 1)
@@ -63,20 +64,25 @@ class DescentTask(Task):
     config: DescentConfig
 
     def max_aircraft(self) -> int:
+        """One aircraft: the ownship."""
         return 1
 
     def build_observation_spec(self) -> dict[str, BoxSpec]:
+        """Four scalar entries."""
         return {k: BoxSpec((1,)) for k in ("altitude", "vz", "target_altitude", "runway_distance")}
 
     def build_action_spec(self) -> BoxSpec:
+        """One normalised vertical-speed command."""
         return BoxSpec((1,), -1.0, 1.0)
 
     # --- generator ------------------------------------------------------------------------------
     def allocate(self) -> None:
+        """Target and final altitude per episode."""
         self.target_alt = np.zeros(self.n_envs)  # (n_envs,) m
         self.final_altitude = np.zeros(self.n_envs)  # (n_envs,) m, 0 until the episode ends
 
     def generate(self, envs: NDArray[np.int64]) -> None:
+        """Initial and target altitude (integer draws), then the ownship."""
         c = self.config
         alt_init = np.empty(envs.size)
         for k, e in enumerate(envs):
@@ -89,17 +95,19 @@ class DescentTask(Task):
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
+        """Direct ``selalt``/``selvs`` writes, as the reference."""
         v = action[:, 0] * ACTION_2_MS
         self.sim.selalt[:, 0] = np.where(v >= 0, CLIMB_TARGET, 0.0)
         self.sim.selvs[:, 0] = v
 
     def runway_distance(self) -> Array:
         """(n_envs,) km left to the runway along the 200 km leg."""
-        d = geo.kwikdist(RWY_LAT, RWY_LON, self.sim.lat[:, 0], self.sim.lon[:, 0])
+        d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[:, 0], self.sim.lon[:, 0])
         return self.config.runway_distance_km - d * NM2KM
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self) -> dict[str, Array]:
+        """Normalised altitude, vertical speed, target and runway distance."""
         alt = self.sim.alt[:, 0]
         return {
             "altitude": ((alt - ALT_MEAN) / ALT_STD)[:, None],
@@ -110,6 +118,7 @@ class DescentTask(Task):
 
     # --- reward ---------------------------------------------------------------------------------
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Altitude tracking, crash or runway term, in the reference order."""
         alt = self.sim.alt[:, 0]
         rd = self.runway_distance()
         flying = (rd > 0) & (alt > 0)
@@ -123,10 +132,13 @@ class DescentTask(Task):
         return reward, crashed | at_runway, {"altitude": altitude, "crash": crash, "runway": runway}
 
     def episode_info(self) -> dict[str, Array]:
+        """``total_reward`` and ``final_altitude``."""
         return {"total_reward": self.stats.total_reward.copy(), "final_altitude": self.final_altitude.copy()}
 
     def goal_reached(self) -> BoolArray:
+        """The runway has been reached."""
         return self.runway_distance() <= 0
 
     def extra_track_km(self) -> Array:
+        """Distance flown beyond the runway leg [km]."""
         return self.sim.distflown[:, 0] / 1000.0 - self.config.runway_distance_km

@@ -115,9 +115,50 @@ def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly
     nv = np.asarray(n_vertices)[..., None, :, None]  # (..., 1, K, 1)
     v = np.arange(py.shape[-1])
     nxt = np.where(v + 1 < nv, v + 1, 0)  # closing edge back to vertex 0
-    qy = np.take_along_axis(np.broadcast_to(py, np.broadcast_shapes(py.shape, nxt.shape)), np.broadcast_to(nxt, np.broadcast_shapes(py.shape, nxt.shape)), axis=-1)
-    qx = np.take_along_axis(np.broadcast_to(px, np.broadcast_shapes(px.shape, nxt.shape)), np.broadcast_to(nxt, np.broadcast_shapes(px.shape, nxt.shape)), axis=-1)
+    qy = np.take_along_axis(
+        np.broadcast_to(py, np.broadcast_shapes(py.shape, nxt.shape)), np.broadcast_to(nxt, np.broadcast_shapes(py.shape, nxt.shape)), axis=-1
+    )
+    qx = np.take_along_axis(
+        np.broadcast_to(px, np.broadcast_shapes(px.shape, nxt.shape)), np.broadcast_to(nxt, np.broadcast_shapes(px.shape, nxt.shape)), axis=-1
+    )
     valid = v < nv
     with np.errstate(divide="ignore", invalid="ignore"):
         crosses = ((py > y) != (qy > y)) & (x < (qx - px) * (y - py) / (qy - py) + px)
     return (np.sum(crosses & valid, axis=-1) % 2) == 1
+
+
+# --- kwik geometry as the reference environments compute it ------------------------------------
+# The reference environment modules import ``bluesky.simulation`` (through their screen dummy)
+# before ``bs.init`` reads the ``prefer_compiled`` setting, so ``bs.tools.geo`` resolves to
+# BlueSky's *Python* geo functions in every reference run, not the compiled ones that
+# ``bluesky_gym.core.geo`` mirrors. They differ in operation order (degrees are subtracted before
+# the conversion to radians, the longitude difference is wrapped, distances are divided by
+# 1852 m, bearings are taken mod 360), i.e. in the last bits. Observations and rewards use these
+# forms so that a state gives the reference's numbers exactly.
+KWIK_EARTH_RADIUS_M = 6371000.0
+KWIK_NM_M = 1852.0
+
+
+def _kwik_py(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> tuple[Array, Array, Array]:
+    lata, lona = np.asarray(lata, dtype=np.float64), np.asarray(lona, dtype=np.float64)
+    latb, lonb = np.asarray(latb, dtype=np.float64), np.asarray(lonb, dtype=np.float64)
+    dlat = np.radians(latb - lata)
+    dlon = np.radians(((lonb - lona) + 180) % 360 - 180)
+    cavelat = np.cos(np.radians(lata + latb) * 0.5)
+    return dlat, dlon, cavelat
+
+
+def ref_kwikdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
+    """Flat-earth distance [NM] a -> b, as BlueSky's Python ``geo.kwikdist`` (see above)."""
+    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
+    dangle = np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)
+    return KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
+
+
+def ref_kwikqdrdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> tuple[Array, Array]:
+    """Flat-earth bearing [deg, 0..360) and distance [NM] a -> b, as BlueSky's Python ``geo.kwikqdrdist``."""
+    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
+    dangle = np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)
+    dist = KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
+    qdr = np.degrees(np.arctan2(dlon * cavelat, dlat)) % 360.0
+    return qdr, dist

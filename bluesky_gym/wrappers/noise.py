@@ -1,5 +1,6 @@
-"""Noisy observations: i.i.d. Gaussian noise on every observation entry (reference
-``NoisyObservationWrapper``), drawn from a generator the wrapper owns.
+"""Noisy observations: i.i.d. Gaussian noise on every observation entry.
+
+As the reference ``NoisyObservationWrapper``, but drawn from a generator the wrapper owns.
 
 The noise generator is seeded from the seed given to ``reset`` on its own stream, so adding the
 wrapper does not change the scenarios an environment generates, and the same seed gives the same
@@ -60,8 +61,10 @@ class NoisyObservationWrapper(gym.ObservationWrapper):
 
 
 class VectorNoisyObservationWrapper(VectorWrapper):
-    """Add N(0, noise_level) noise to every observation of a batched environment (including
-    ``info["final_obs"]``)."""
+    """Add N(0, noise_level) noise to every observation of a batched environment.
+
+    ``info["final_obs"]`` of ended episodes is perturbed too.
+    """
 
     def __init__(self, env: VectorEnv, noise_level: float = 0.1) -> None:
         super().__init__(env)

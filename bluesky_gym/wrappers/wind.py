@@ -84,7 +84,16 @@ class WindFieldWrapper(gym.Wrapper):
         augment_obs: Add ``wind_u`` and ``wind_v`` to the observation.
     """
 
-    def __init__(self, env: gym.Env, lat: ArrayLike, lon: ArrayLike, vnorth: ArrayLike, veast: ArrayLike, alt: ArrayLike | None = None, augment_obs: bool = False) -> None:
+    def __init__(
+        self,
+        env: gym.Env,
+        lat: ArrayLike,
+        lon: ArrayLike,
+        vnorth: ArrayLike,
+        veast: ArrayLike,
+        alt: ArrayLike | None = None,
+        augment_obs: bool = False,
+    ) -> None:
         super().__init__(env)
         self._wind = _Wind(lat, lon, vnorth, veast, alt)
         self._task = _task_of(env)
@@ -110,11 +119,22 @@ class WindFieldWrapper(gym.Wrapper):
 
 
 class VectorWindFieldWrapper(VectorWrapper):
-    """Add wind to every episode of a natively batched environment (same arguments as
-    :class:`WindFieldWrapper`). With autoreset, the returned first observation of a new
-    episode and ``info["final_obs"]`` both carry the wind entries."""
+    """Add wind to every episode of a natively batched environment.
 
-    def __init__(self, env: VectorEnv, lat: ArrayLike, lon: ArrayLike, vnorth: ArrayLike, veast: ArrayLike, alt: ArrayLike | None = None, augment_obs: bool = False) -> None:
+    Same arguments as :class:`WindFieldWrapper`. With autoreset, the returned first observation
+    of a new episode and ``info["final_obs"]`` both carry the wind entries.
+    """
+
+    def __init__(
+        self,
+        env: VectorEnv,
+        lat: ArrayLike,
+        lon: ArrayLike,
+        vnorth: ArrayLike,
+        veast: ArrayLike,
+        alt: ArrayLike | None = None,
+        augment_obs: bool = False,
+    ) -> None:
         super().__init__(env)
         self._wind = _Wind(lat, lon, vnorth, veast, alt)
         self._task = _task_of(env)

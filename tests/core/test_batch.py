@@ -17,8 +17,13 @@ def _random_traffic(sim: Simulator, envs: np.ndarray, rng: np.random.Generator) 
     n = sim.max_aircraft
     for slot in range(n):
         sim.create(
-            envs, slot, rng.uniform(-60, 60, envs.size), rng.uniform(-179, 179, envs.size), rng.uniform(0, 360, envs.size),
-            rng.choice([0.0, 300.0, 3000.0, 9000.0, 12000.0], envs.size), rng.choice([80.0, 130.0, 160.0, 0.78], envs.size),
+            envs,
+            slot,
+            rng.uniform(-60, 60, envs.size),
+            rng.uniform(-179, 179, envs.size),
+            rng.uniform(0, 360, envs.size),
+            rng.choice([0.0, 300.0, 3000.0, 9000.0, 12000.0], envs.size),
+            rng.choice([80.0, 130.0, 160.0, 0.78], envs.size),
         )
     sim.cmd_heading(envs, 0, rng.uniform(-400, 400, envs.size))
     sim.cmd_speed(envs, 1, rng.uniform(60, 200, envs.size))
@@ -30,7 +35,9 @@ def _random_traffic(sim: Simulator, envs: np.ndarray, rng: np.random.Generator) 
         sim.wind.add_points(e, rng.uniform(40, 60, 3), rng.uniform(0, 8, 3), rng.normal(0, 15, 3), rng.normal(0, 15, 3))
 
 
-@pytest.mark.parametrize("name", ["s2_hdg_turns_fl200", "s7_route_lnav", "s9_creconfs", "s10_gym_horizontal_alt0_dt5", "s12_wind_constant_gymwrapper"])
+@pytest.mark.parametrize(
+    "name", ["s2_hdg_turns_fl200", "s7_route_lnav", "s9_creconfs", "s10_gym_horizontal_alt0_dt5", "s12_wind_constant_gymwrapper"]
+)
 def test_scenario_in_large_batch_is_bit_identical(name: str) -> None:
     scenario = SCENARIOS[name]
     sim = Simulator(N_OTHERS + 1, 4, dt=scenario.dt)

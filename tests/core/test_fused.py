@@ -13,8 +13,34 @@ from .test_batch import _random_traffic
 pytestmark = pytest.mark.skipif(not fused.AVAILABLE, reason="numba not installed")
 
 FIELDS = [
-    "lat", "lon", "alt", "hdg", "trk", "tas", "cas", "mach", "gs", "gsnorth", "gseast", "vs", "ax", "windnorth", "windeast",
-    "distflown", "selspd", "selalt", "selvs", "ap_trk", "ap_tas", "ap_vs", "ap_alt", "phase", "vmin", "vmax", "axmax", "swlnav",
+    "lat",
+    "lon",
+    "alt",
+    "hdg",
+    "trk",
+    "tas",
+    "cas",
+    "mach",
+    "gs",
+    "gsnorth",
+    "gseast",
+    "vs",
+    "ax",
+    "windnorth",
+    "windeast",
+    "distflown",
+    "selspd",
+    "selalt",
+    "selvs",
+    "ap_trk",
+    "ap_tas",
+    "ap_vs",
+    "ap_alt",
+    "phase",
+    "vmin",
+    "vmax",
+    "axmax",
+    "swlnav",
 ]
 
 

@@ -23,14 +23,34 @@ from .reference_scenarios import DATA, SCENARIOS, load_reference, run, run_alone
 
 DEG_M = math.pi / 180.0 * R_EARTH  # metres per degree of latitude
 TOL = {
-    "lat": 1e-6 / DEG_M, "lon": 1e-6 / (DEG_M * 0.5),  # 1e-6 m (cos 60 deg bounds every scenario)
-    "alt": 1e-6, "selalt": 1e-6, "ap_alt": 1e-6,
-    "tas": 1e-9, "cas": 1e-9, "gs": 1e-9, "vs": 1e-9, "gsnorth": 1e-9, "gseast": 1e-9,
-    "selspd": 1e-9, "selvs": 1e-9, "ap_tas": 1e-9, "ap_vs": 1e-9, "vmin_cas": 1e-9, "vmax_cas": 1e-9,
-    "windnorth": 1e-9, "windeast": 1e-9,
-    "hdg": 1e-9, "trk": 1e-9, "ap_trk": 1e-9,
-    "mach": 1e-11, "ax": 1e-9, "axmax": 1e-9,
-    "phase": 0, "swlnav": 0, "swvnav": 0,
+    "lat": 1e-6 / DEG_M,
+    "lon": 1e-6 / (DEG_M * 0.5),  # 1e-6 m (cos 60 deg bounds every scenario)
+    "alt": 1e-6,
+    "selalt": 1e-6,
+    "ap_alt": 1e-6,
+    "tas": 1e-9,
+    "cas": 1e-9,
+    "gs": 1e-9,
+    "vs": 1e-9,
+    "gsnorth": 1e-9,
+    "gseast": 1e-9,
+    "selspd": 1e-9,
+    "selvs": 1e-9,
+    "ap_tas": 1e-9,
+    "ap_vs": 1e-9,
+    "vmin_cas": 1e-9,
+    "vmax_cas": 1e-9,
+    "windnorth": 1e-9,
+    "windeast": 1e-9,
+    "hdg": 1e-9,
+    "trk": 1e-9,
+    "ap_trk": 1e-9,
+    "mach": 1e-11,
+    "ax": 1e-9,
+    "axmax": 1e-9,
+    "phase": 0,
+    "swlnav": 0,
+    "swvnav": 0,
 }
 
 

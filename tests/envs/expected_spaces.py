@@ -14,8 +14,16 @@ OBSERVATION = {
     "DescentEnv-v0": _k((1,), "altitude", "vz", "target_altitude", "runway_distance"),
     "VerticalCREnv-v0": {
         **_k((1,), "altitude", "vz", "target_altitude", "runway_distance"),
-        **_k((5,), "intruder_distance", "cos_difference_pos", "sin_difference_pos", "altitude_difference",
-             "x_difference_speed", "y_difference_speed", "z_difference_speed"),
+        **_k(
+            (5,),
+            "intruder_distance",
+            "cos_difference_pos",
+            "sin_difference_pos",
+            "altitude_difference",
+            "x_difference_speed",
+            "y_difference_speed",
+            "z_difference_speed",
+        ),
     },
     "HorizontalCREnv-v0": {
         **_k((5,), "intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed"),
@@ -43,13 +51,23 @@ OBSERVATION = {
 }
 
 ACTION_SHAPE = {
-    "DescentEnv-v0": (1,), "VerticalCREnv-v0": (1,), "HorizontalCREnv-v0": (1,), "PlanWaypointEnv-v0": (1,),
-    "SectorCREnv-v0": (2,), "StaticObstacleEnv-v0": (2,), "MergeEnv-v0": (2,),
+    "DescentEnv-v0": (1,),
+    "VerticalCREnv-v0": (1,),
+    "HorizontalCREnv-v0": (1,),
+    "PlanWaypointEnv-v0": (1,),
+    "SectorCREnv-v0": (2,),
+    "StaticObstacleEnv-v0": (2,),
+    "MergeEnv-v0": (2,),
 }
 
 MAX_EPISODE_STEPS = {
-    "DescentEnv-v0": 300, "VerticalCREnv-v0": 300, "PlanWaypointEnv-v0": 300, "HorizontalCREnv-v0": 300,
-    "SectorCREnv-v0": 200, "StaticObstacleEnv-v0": 100, "MergeEnv-v0": 50,
+    "DescentEnv-v0": 300,
+    "VerticalCREnv-v0": 300,
+    "PlanWaypointEnv-v0": 300,
+    "HorizontalCREnv-v0": 300,
+    "SectorCREnv-v0": 200,
+    "StaticObstacleEnv-v0": 100,
+    "MergeEnv-v0": 50,
 }
 
 REFERENCE_INFO_KEYS = {

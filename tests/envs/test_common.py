@@ -30,6 +30,8 @@ def _rollout(env, seed: int, n: int, action_seed: int = 0):
 
 
 def _equal(a, b) -> bool:
+    if isinstance(a, (tuple, list)):
+        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
     if isinstance(a, dict):
         return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
     if isinstance(a, (np.ndarray, float, np.floating)):
@@ -99,7 +101,10 @@ def test_vector_episode_equals_single_env(env_id: str) -> None:
         obs, r, te, tr, info = venv.step(actions[t])
         vec_rew.append(r)
         vec_done.append(te | tr)
-        final = {k: np.where(np.reshape(te | tr, (-1,) + (1,) * (v.ndim - 1)), info["final_obs"][k], v) if "final_obs" in info else v for k, v in obs.items()}
+        final = {
+            k: np.where(np.reshape(te | tr, (-1,) + (1,) * (v.ndim - 1)), info["final_obs"][k], v) if "final_obs" in info else v
+            for k, v in obs.items()
+        }
         vec_obs.append(final)
     for i in range(n):
         env = gym.make(env_id)

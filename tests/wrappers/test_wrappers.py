@@ -70,7 +70,11 @@ def test_wind_rejects_bad_definitions() -> None:
 def test_vector_wind_matches_single() -> None:
     venv = VectorWindFieldWrapper(
         gym.make_vec("DescentEnv-v0", num_envs=2, vectorization_mode="vector_entry_point"),
-        lat=[52.0], lon=[4.0], vnorth=[-10.0], veast=[15.0], augment_obs=True,
+        lat=[52.0],
+        lon=[4.0],
+        vnorth=[-10.0],
+        veast=[15.0],
+        augment_obs=True,
     )
     single = _wind_env(augment_obs=True)
     obs_v, _ = venv.reset(seed=5)

@@ -1,0 +1,92 @@
+"""HorizontalCREnv-v0."""
+
+from __future__ import annotations
+
+from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
+from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
+
+
+class HorizontalCREnv(BlueSkyEnv):
+    """Horizontal conflict resolution: reach a waypoint while avoiding crossing traffic.
+
+    ## Description
+    An A320 starts at 52°N 4°E heading north and must reach a waypoint due north of it, 100 to
+    150 km away. Five intruders, created with BlueSky's `creconfs`, fly straight towards
+    conflicts with it, each set up to come within 5 NM after a random time. Every 50 s
+    (10 sub-steps of 5 s) the agent changes the heading by up to ±45°.
+
+    As in the reference, no altitude is given when the aircraft are created, so they are at
+    0 m, in OpenAP's ground phase: they decelerate from 150 to **89 m/s** and fly at that speed
+    (BlueSky physics, kept), which keeps the conflict geometry but stretches it in time. Wind
+    never acts below 50 ft, so wind wrappers have no effect on this environment.
+
+    ## Observation Space
+    A `Dict` of `Box(-inf, inf, shape, float64)`. The intruder entries have shape (5,), one
+    value per intruder **in creation order** (no sorting, as the reference); the waypoint
+    entries have shape (1,):
+
+    | Key | Value |
+    |---|---|
+    | `intruder_distance` | kwik-distance ownship → intruder [km] / 150 |
+    | `cos_difference_pos`, `sin_difference_pos` | cos / sin of wrap180(hdg_own − qdr_own→int); positive: intruder to the left |
+    | `x_difference_speed` | −cos(hdg_own − hdg_int)·gs_int / 150 |
+    | `y_difference_speed` | (gs_own − sin(hdg_own − hdg_int)·gs_int) / 150 |
+    | `waypoint_distance` | kwik-distance to the waypoint [km] / 150 |
+    | `cos_drift`, `sin_drift` | cos / sin of drift = wrap180(hdg_own − qdr_own→waypoint) |
+
+    ## Action Space
+    `Box(-1, 1, (1,), float64)`: heading command (BlueSky `HDG`) to h + 45·a degrees, where h is
+    the ownship heading **at the last observation**. The target may fall outside [0, 360) and is
+    used as such. At 89 m/s the turn rate is about 2.9°/s, so a 45° change completes within the
+    step. Actions outside [-1, 1] are clipped; NaN, infinite values or a wrong shape raise
+    `ValueError`.
+
+    ## Rewards
+    Evaluated after the 10 sub-steps, on the state of the returned observation; the reward is
+    the sum of:
+    * +1 the first time the waypoint is within 5 km (kwik distance) (component `reach`);
+    * −0.1·|drift| with the drift in radians (`drift`);
+    * −1 for every intruder within 5 NM (kwik distance, horizontal only) (`intrusion`).
+
+    As in the reference, the waypoint's reach flag is updated after the observation is built
+    (a one-step lag visible only in the rendered waypoint colour, since reaching the waypoint
+    ends the episode).
+
+    ## Starting State
+    Ownship: 52°N 4°E, heading 0°, altitude 0 m, CAS 150 m/s. Then, for each of the five
+    intruders, in this order: track offset dpsi integer in [45, 315) deg, dcpa integer in [0, 5)
+    NM, tlosh integer in [100, 1000) s; each is created by `creconfs` at the ownship's altitude
+    and ground speed. Finally the waypoint distance, an integer in [100, 150) km, placed due north
+    on the great circle. The initial drift is 0.
+
+    ## Episode End
+    Termination when the waypoint is reached. Truncation after 300 steps (15000 s).
+
+    ## Info
+    `total_reward`, `total_intrusions` (intruder-steps within 5 NM), `average_drift` (mean
+    |drift| in radians over the steps so far; **0.0 at reset**, where the reference reports the
+    NaN mean of an empty array), `reward_<component>` every step, and at the end of an episode
+    the KPIs `kpi_*` (losses of separation within 5 NM, minimum separation, mean drift, success =
+    waypoint reached, time to goal, extra track = distance flown − (initial distance to the
+    waypoint − the 5 km capture radius), ...).
+
+    ## Arguments
+    `gym.make("HorizontalCREnv-v0", render_mode=None, backend="native", num_intruders=5,
+    dpsi_min=45, dpsi_max=315, dcpa_min=0, dcpa_max=5, tlosh_min=100, tlosh_max=1000,
+    waypoint_distance_min=100, waypoint_distance_max=150)`. Integer draws are uniform over
+    [min, max). The observation's 150 km distance normalisation does not change with the options.
+
+    ## Version History
+    * v0: the paper's MDP (bluesky-gym 0.2.0). Fixed software defects: seeded generator,
+      `terminated` is a bool, `average_drift` is a number at reset, rgb_array frames, correct
+      north-up pictures. The reference's deletion of (every other) aircraft on termination is
+      not reproduced: every reset starts a clean scenario, so it has no effect.
+    """
+
+    task_class = HorizontalCRTask
+
+
+class HorizontalCRVectorEnv(BlueSkyVectorEnv):
+    """Natively batched :class:`HorizontalCREnv`."""
+
+    task_class = HorizontalCRTask

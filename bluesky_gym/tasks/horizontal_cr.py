@@ -1,0 +1,242 @@
+"""HorizontalCREnv-v0: reach a waypoint due north, avoiding intruders by heading (spec section 3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bluesky_gym.core.units import NM2KM
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, wrap180
+from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist, ref_kwikqdrdist
+from bluesky_gym.tasks.vertical_cr import intruder_relative_state
+
+DISTANCE_MARGIN = 5.0  # km: waypoint capture radius
+REACH_REWARD = 1.0
+DRIFT_PENALTY = -0.1  # per rad of |drift|, per step
+INTRUSION_PENALTY = -1.0  # per intruder within INTRUSION_DISTANCE, per step
+INTRUSION_DISTANCE = 5.0  # NM, horizontal only
+D_HEADING = 45.0  # deg of heading change per unit action
+AC_SPD = 150.0  # m/s CAS at creation (the ground phase then limits it to 89 m/s)
+DISTANCE_SCALE = 150.0  # km: intruder and waypoint distances are divided by 150 (WAYPOINT_DISTANCE_MAX)
+SPEED_SCALE = AC_SPD  # m/s: x/y_difference_speed are divided by 150
+START_LAT, START_LON = 52.0, 4.0  # deg: BlueSky's default creation position
+START_HDG = 0.0  # deg: BlueSky's default creation heading (north)
+START_ALT = 0.0  # m: no altitude is given to ``cre``, so the ownship is in the ground phase
+WAYPOINT_BEARING = 0.0  # deg: the waypoint is due north of the start
+
+
+@dataclass(frozen=True)
+class HorizontalCRConfig(TaskConfig):
+    """Scenario options of the horizontal conflict-resolution task (defaults: the paper's).
+
+    Integer draws are uniform over ``[min, max)``, as the reference's ``randint``.
+
+    Attributes:
+        num_intruders: Number of intruders (observation vectors have this length).
+        dpsi_min: Lowest intruder track offset from the ownship track [deg].
+        dpsi_max: Upper bound of the track offset draw [deg].
+        dcpa_min: Lowest predicted distance at the closest point of approach [NM].
+        dcpa_max: Upper bound of the dcpa draw [NM].
+        tlosh_min: Lowest time to horizontal loss of separation [s].
+        tlosh_max: Upper bound of the tlosh draw [s].
+        waypoint_distance_min: Lowest distance of the waypoint from the start [km].
+        waypoint_distance_max: Upper bound of the waypoint distance draw [km]. The observation's
+            distance normalisation stays 150 km whatever this value.
+
+    """
+
+    num_intruders: int = 5
+    dpsi_min: int = 45
+    dpsi_max: int = 315
+    dcpa_min: int = 0
+    dcpa_max: int = 5
+    tlosh_min: int = 100
+    tlosh_max: int = 1000
+    waypoint_distance_min: int = 100
+    waypoint_distance_max: int = 150
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid option."""
+        check_int("num_intruders", self.num_intruders, 1, 50)
+        check_int("dpsi_min", self.dpsi_min, 0, 359)
+        check_int("dpsi_max", self.dpsi_max, self.dpsi_min + 1, 360)
+        check_int("dcpa_min", self.dcpa_min, 0)
+        check_int("dcpa_max", self.dcpa_max, self.dcpa_min + 1)
+        check_int("tlosh_min", self.tlosh_min, 1)
+        check_int("tlosh_max", self.tlosh_max, self.tlosh_min + 1)
+        # The waypoint must start outside its capture radius, or the episode would end at once.
+        check_int("waypoint_distance_min", self.waypoint_distance_min, int(DISTANCE_MARGIN) + 1, 5000)
+        check_int("waypoint_distance_max", self.waypoint_distance_max, self.waypoint_distance_min + 1, 5000)
+
+
+class HorizontalCRTask(Task):
+    """Batched horizontal CR task; see :class:`bluesky_gym.envs.horizontal_cr_env.HorizontalCREnv`."""
+
+    env_id: ClassVar[str] = "HorizontalCREnv-v0"
+    dt: ClassVar[float] = 5.0
+    action_frequency: ClassVar[int] = 10
+    max_episode_steps: ClassVar[int] = 300
+    config_class: ClassVar[type[TaskConfig]] = HorizontalCRConfig
+    info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "total_intrusions", "average_drift")
+    config: HorizontalCRConfig
+
+    def max_aircraft(self) -> int:
+        """Aircraft slots: the ownship plus ``num_intruders`` intruders."""
+        return 1 + self.config.num_intruders
+
+    def build_observation_spec(self) -> dict[str, BoxSpec]:
+        """Observation keys, shapes and bounds, in the reference's key order."""
+        n = self.config.num_intruders
+        spec = {
+            k: BoxSpec((n,))
+            for k in ("intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed")
+        }
+        spec.update({k: BoxSpec((1,)) for k in ("waypoint_distance", "cos_drift", "sin_drift")})
+        return spec
+
+    def build_action_spec(self) -> BoxSpec:
+        """Heading change, one value in [-1, 1]."""
+        return BoxSpec((1,), -1.0, 1.0)
+
+    # --- generator ------------------------------------------------------------------------------
+    def allocate(self) -> None:
+        """Allocate the per-episode arrays."""
+        n = self.n_envs
+        self.wpt_lat = np.zeros(n)  # deg
+        self.wpt_lon = np.zeros(n)  # deg
+        self.wpt_reach = np.zeros(n, bool)  # set by evaluate(), after the observation (one-step lag)
+        self.start_wpt_dist_km = np.zeros(n)  # kwik distance start -> waypoint [km]
+        self.ac_hdg = np.zeros(n)  # deg: ownship heading stored at the last observation
+        self.total_intrusions = np.zeros(n, np.int64)
+        self.drift_rad_sum = np.zeros(n)  # sum of |drift| [rad] over the steps (average_drift)
+        self.drift_rad_n = np.zeros(n, np.int64)
+        # The scenario draws of the current episodes.
+        shape = (n, self.config.num_intruders)
+        self.conflict_dpsi = np.zeros(shape)  # deg
+        self.conflict_dcpa = np.zeros(shape)  # NM
+        self.conflict_tlosh = np.zeros(shape)  # s
+        self.wpt_distance_drawn = np.zeros(n)  # km
+
+    def generate(self, envs: NDArray[np.int64]) -> None:
+        """Create the scenarios of the episodes ``envs``, drawing from their generators only."""
+        c = self.config
+        n = c.num_intruders
+        self.sim.create(envs, 0, START_LAT, START_LON, START_HDG, START_ALT, AC_SPD)
+        dpsi = np.empty((envs.size, n))
+        dcpa = np.empty((envs.size, n))
+        tlosh = np.empty((envs.size, n))
+        wpt_dist = np.empty(envs.size)
+        for k, e in enumerate(envs):
+            rng = self.rngs[e]
+            for i in range(n):
+                dpsi[k, i] = rng.integers(c.dpsi_min, c.dpsi_max)
+                dcpa[k, i] = rng.integers(c.dcpa_min, c.dcpa_max)
+                tlosh[k, i] = rng.integers(c.tlosh_min, c.tlosh_max)
+            wpt_dist[k] = rng.integers(c.waypoint_distance_min, c.waypoint_distance_max)
+        self.conflict_dpsi[envs], self.conflict_dcpa[envs], self.conflict_tlosh[envs] = dpsi, dcpa, tlosh
+        self.wpt_distance_drawn[envs] = wpt_dist
+        # No dH: intruders at the ownship's altitude (0, ground phase) with its ground speed.
+        self.sim.creconfs(np.repeat(envs, n), 0, np.tile(np.arange(1, n + 1), envs.size), dpsi.ravel(), dcpa.ravel(), tlosh.ravel())
+        lat, lon = point_at_distance(self.sim.lat[envs, 0], self.sim.lon[envs, 0], wpt_dist, WAYPOINT_BEARING)
+        self.wpt_lat[envs] = lat
+        self.wpt_lon[envs] = lon
+        self.wpt_reach[envs] = False
+        self.start_wpt_dist_km[envs] = ref_kwikdist(self.sim.lat[envs, 0], self.sim.lon[envs, 0], lat, lon) * NM2KM
+        self.ac_hdg[envs] = self.sim.hdg[envs, 0]
+        self.total_intrusions[envs] = 0
+        self.drift_rad_sum[envs] = 0.0
+        self.drift_rad_n[envs] = 0
+
+    # --- dynamics interface ---------------------------------------------------------------------
+    def apply_action(self, action: Array) -> None:
+        """Command the heading: HDG = heading at the last observation + 45 a."""
+        # HDG target = heading stored at the last observation + a * 45 deg; values outside
+        # [0, 360) are passed on unchanged, as the reference's stack command does.
+        self.sim.cmd_heading(self.all_envs, 0, self.ac_hdg + action[:, 0] * D_HEADING)
+
+    def waypoint_geometry(self) -> tuple[Array, Array]:
+        """(n_envs,) kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg]."""
+        s = self.sim
+        qdr, dist = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], self.wpt_lat, self.wpt_lon)
+        return dist * NM2KM, wrap180(s.hdg[:, 0] - qdr)
+
+    # --- observation ----------------------------------------------------------------------------
+    def observe(self) -> dict[str, Array]:
+        """Observation of every episode: key -> (n_envs, *shape), float64."""
+        s = self.sim
+        self.ac_hdg = s.hdg[:, 0].copy()
+        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
+        wpt_dist_km, drift = self.waypoint_geometry()
+        return {
+            # Intruders in creation order (slots 1..n), no sorting (spec section 3).
+            "intruder_distance": rel["dist_km"] / DISTANCE_SCALE,
+            "cos_difference_pos": rel["cos_bearing"],
+            "sin_difference_pos": rel["sin_bearing"],
+            "x_difference_speed": rel["x_dif"] / SPEED_SCALE,
+            "y_difference_speed": rel["y_dif"] / SPEED_SCALE,
+            "waypoint_distance": (wpt_dist_km / DISTANCE_SCALE)[:, None],
+            "cos_drift": np.cos(np.deg2rad(drift))[:, None],
+            "sin_drift": np.sin(np.deg2rad(drift))[:, None],
+        }
+
+    # --- reward ---------------------------------------------------------------------------------
+    def intrusions(self) -> BoolArray:
+        """(n_envs, num_intruders) intruders within 5 NM of the ownship (horizontal only)."""
+        s = self.sim
+        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
+        return (dist < INTRUSION_DISTANCE) & s.active[:, 1:]
+
+    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Reward, termination and reward components after a step."""
+        # Evaluated on the state of the observation just built; the reach flag therefore only
+        # shows from the next observation on (spec sections 3-4, one-step lag).
+        wpt_dist_km, drift = self.waypoint_geometry()
+        newly = (wpt_dist_km < DISTANCE_MARGIN) & ~self.wpt_reach
+        self.wpt_reach |= newly
+        reach = np.where(newly, REACH_REWARD, 0.0)
+        abs_drift = np.abs(np.deg2rad(drift))
+        self.drift_rad_sum += abs_drift
+        self.drift_rad_n += 1
+        drift_reward = abs_drift * DRIFT_PENALTY
+        count = self.intrusions().sum(axis=1)
+        self.total_intrusions += count
+        intrusion = count * INTRUSION_PENALTY
+        reward = reach + drift_reward + intrusion
+        return reward, self.wpt_reach.copy(), {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+
+    def episode_info(self) -> dict[str, Array]:
+        """Info keys of the reference, (n_envs,) each."""
+        # The reference's mean of an empty array is NaN at reset; v0 reports 0.0 until a sample exists.
+        n = self.drift_rad_n
+        average_drift = np.where(n > 0, self.drift_rad_sum / np.maximum(n, 1), 0.0)
+        return {
+            "total_reward": self.stats.total_reward.copy(),
+            "total_intrusions": self.total_intrusions.copy(),
+            "average_drift": average_drift,
+        }
+
+    # --- KPIs -----------------------------------------------------------------------------------
+    def ownship_separation(self) -> tuple[Array, BoolArray]:
+        """Kwik distance [NM] from the ownship to every other aircraft and the intrusion flags."""
+        s = self.sim
+        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
+        other = s.active.copy()
+        other[:, 0] = False
+        dist = np.where(other, dist, np.inf)
+        return dist, other & (dist < INTRUSION_DISTANCE)
+
+    def drift_deg(self) -> Array | None:
+        """(n_envs,) |drift| to the waypoint [deg]."""
+        return np.abs(self.waypoint_geometry()[1])
+
+    def goal_reached(self) -> BoolArray:
+        """(n_envs,) whether the waypoint has been reached."""
+        return self.wpt_reach.copy()
+
+    def extra_track_km(self) -> Array:
+        """(n_envs,) distance flown minus the shortest path to the capture circle [km]."""
+        # Shortest path to the goal: the start's distance to the waypoint minus the capture radius.
+        return self.sim.distflown[:, 0] / 1000.0 - (self.start_wpt_dist_km - DISTANCE_MARGIN)

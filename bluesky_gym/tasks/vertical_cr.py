@@ -1,0 +1,254 @@
+"""VerticalCREnv-v0: the descent task with level intruders to avoid vertically (spec section 2)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bluesky_gym.core import atmosphere as isa
+from bluesky_gym.core.units import FT, NM2KM
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, TaskConfig, check_int, check_range, wrap180
+from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentTask
+from bluesky_gym.tasks.geometry import ref_kwikdist, ref_kwikqdrdist
+
+INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
+INTRUSION_DISTANCE = 5.0  # NM, horizontal radius of the intrusion cylinder
+VERTICAL_MARGIN = 1000 * FT  # m (304.8), half height of the intrusion cylinder
+INTRUDER_DISTANCE_SCALE = DEFAULT_RWY_DIS  # km: intruder_distance is divided by 200 km
+SPEED_SCALE = AC_SPD  # m/s: x/y_difference_speed are divided by 150
+TLOSV = 1e11  # s: vertical time to loss of separation given to creconfs (intruder vs ~ 0)
+KM = 1000.0  # m per km
+
+
+def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array) -> dict[str, Array]:
+    """Ownship-relative geometry of the intruders (slots 1..) shared by the CR tasks.
+
+    All inputs are (n_envs, max_aircraft) simulator arrays with the ownship in slot 0. The
+    expressions and their operation order are the reference's (spec sections 2 and 3).
+
+    Returns:
+        ``dist_km`` kwik distance [km]; ``cos_bearing``/``sin_bearing`` of
+        wrap180(hdg_own - qdr_own->int); ``x_dif``/``y_dif`` [m/s], the intruder velocity seen in
+        the reference's ownship frame (not yet normalised). Each (n_envs, max_aircraft - 1).
+
+    """
+    qdr, dist = ref_kwikqdrdist(sim_lat[:, :1], sim_lon[:, :1], sim_lat[:, 1:], sim_lon[:, 1:])
+    own_hdg = hdg[:, :1]
+    bearing = wrap180(own_hdg - qdr)
+    heading_difference = own_hdg - hdg[:, 1:]
+    x_dif = -np.cos(np.deg2rad(heading_difference)) * gs[:, 1:]
+    y_dif = gs[:, :1] - np.sin(np.deg2rad(heading_difference)) * gs[:, 1:]
+    return {
+        "dist_km": dist * NM2KM,
+        "cos_bearing": np.cos(np.deg2rad(bearing)),
+        "sin_bearing": np.sin(np.deg2rad(bearing)),
+        "x_dif": x_dif,
+        "y_dif": y_dif,
+    }
+
+
+@dataclass(frozen=True)
+class VerticalCRConfig(DescentConfig):
+    """Scenario options of the vertical conflict-resolution task (defaults: the paper's).
+
+    The descent options (``alt_min``, ``alt_max``, ``target_alt_dif``, ``runway_distance_km``)
+    are inherited. Integer draws are uniform over ``[min, max)``, as the reference's ``randint``.
+
+    Attributes:
+        num_intruders: Number of intruders (observation vectors have this length).
+        dpsi_min: Lowest intruder track offset from the ownship track [deg].
+        dpsi_max: Upper bound of the track offset draw [deg].
+        dcpa_min: Lowest predicted distance at the closest point of approach [NM].
+        dcpa_max: Upper bound of the dcpa draw [NM].
+        tlosh_min: Lowest time to horizontal loss of separation [s].
+        tlosh_runway_fraction: The tlosh draw's upper bound is the time the ownship needs, at its
+            initial ground speed, to fly this fraction of the runway distance.
+        late_dh_floor: An intruder met after the average top of descent is at least this high
+            above the ground [m].
+        late_dh_above_target: ... and below the target altitude plus this margin [m].
+        early_dh_band: An intruder met before the average top of descent is within this band
+            around the target altitude [m].
+
+    """
+
+    num_intruders: int = 5
+    dpsi_min: int = 45
+    dpsi_max: int = 315
+    dcpa_min: int = 0
+    dcpa_max: int = 5
+    tlosh_min: int = 100
+    tlosh_runway_fraction: float = 0.9
+    late_dh_floor: int = 500
+    late_dh_above_target: int = 100
+    early_dh_band: int = 500
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid option."""
+        super().validate()
+        check_int("num_intruders", self.num_intruders, 1, 50)
+        check_int("dpsi_min", self.dpsi_min, 0, 359)
+        check_int("dpsi_max", self.dpsi_max, self.dpsi_min + 1, 360)
+        check_int("dcpa_min", self.dcpa_min, 0)
+        check_int("dcpa_max", self.dcpa_max, self.dcpa_min + 1)
+        check_int("tlosh_min", self.tlosh_min, 1)
+        check_range("tlosh_runway_fraction", self.tlosh_runway_fraction, 0.0, 1.0, strict_low=True)
+        check_int("late_dh_floor", self.late_dh_floor, 0)
+        check_int("late_dh_above_target", self.late_dh_above_target, 0)
+        check_int("early_dh_band", self.early_dh_band, 1)
+        lowest_target = self.alt_min - self.target_alt_dif
+        if lowest_target + self.late_dh_above_target <= self.late_dh_floor:
+            raise ValueError(
+                f"late_dh_floor must be below the lowest target altitude plus late_dh_above_target "
+                f"({lowest_target} + {self.late_dh_above_target} m), got {self.late_dh_floor}"
+            )
+        if lowest_target - self.early_dh_band < 0:
+            raise ValueError(
+                f"early_dh_band must be <= the lowest target altitude ({lowest_target} m) so that intruders "
+                f"stay above the ground, got {self.early_dh_band}"
+            )
+        # The tlosh draw needs a non-empty range for the fastest ownship (highest start).
+        gs_max = float(isa.vcas2tas(AC_SPD, float(self.alt_max - 1)))
+        tlosh_max = int((self.runway_distance_km * self.tlosh_runway_fraction) * KM / gs_max)
+        if tlosh_max <= self.tlosh_min:
+            raise ValueError(
+                f"tlosh_min must be below the tlosh upper bound ({tlosh_max} s for the fastest ownship, from "
+                f"runway_distance_km * tlosh_runway_fraction), got {self.tlosh_min}"
+            )
+
+
+class VerticalCRTask(DescentTask):
+    """Batched vertical CR task; see :class:`bluesky_gym.envs.vertical_cr_env.VerticalCREnv`.
+
+    It extends the descent task (same ownship, action, altitude reward and termination) with
+    intruders that hold their level.
+    """
+
+    env_id: ClassVar[str] = "VerticalCREnv-v0"
+    config_class: ClassVar[type[TaskConfig]] = VerticalCRConfig
+    info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "total_intrusions", "final_altitude")
+    config: VerticalCRConfig
+
+    def max_aircraft(self) -> int:
+        """Aircraft slots: the ownship plus ``num_intruders`` intruders."""
+        return 1 + self.config.num_intruders
+
+    def build_observation_spec(self) -> dict[str, BoxSpec]:
+        """Descent entries followed by the intruder entries (reference key order)."""
+        spec = super().build_observation_spec()
+        n = self.config.num_intruders
+        for k in (
+            "intruder_distance",
+            "cos_difference_pos",
+            "sin_difference_pos",
+            "altitude_difference",
+            "x_difference_speed",
+            "y_difference_speed",
+            "z_difference_speed",
+        ):
+            spec[k] = BoxSpec((n,))
+        return spec
+
+    # --- generator ------------------------------------------------------------------------------
+    def allocate(self) -> None:
+        """Allocate the per-episode arrays (the descent ones and the intrusion counter)."""
+        super().allocate()
+        self.total_intrusions = np.zeros(self.n_envs, np.int64)
+        # The scenario draws of the current episodes, (n_envs, num_intruders) each.
+        shape = (self.n_envs, self.config.num_intruders)
+        self.conflict_dpsi = np.zeros(shape)  # deg
+        self.conflict_dcpa = np.zeros(shape)  # NM
+        self.conflict_tlosh = np.zeros(shape)  # s
+        self.conflict_dh = np.zeros(shape)  # m
+
+    def generate(self, envs: NDArray[np.int64]) -> None:
+        """Create the ownship as in the descent task, then the intruders, drawing from the episode generators only."""
+        super().generate(envs)  # ownship and target altitude (the first two draws of each episode)
+        c = self.config
+        n = c.num_intruders
+        dpsi = np.empty((envs.size, n))
+        dcpa = np.empty((envs.size, n))
+        tlosh = np.empty((envs.size, n))
+        dh = np.empty((envs.size, n))
+        for k, e in enumerate(envs):
+            rng = self.rngs[e]
+            altitude = float(self.sim.alt[e, 0])
+            target = float(self.target_alt[e])
+            spd = float(self.sim.gs[e, 0])
+            tlosh_max = int((c.runway_distance_km * c.tlosh_runway_fraction) * KM / spd)
+            # The reference's "average top of descent": flight time to the runway - 2 * target / 12.5 m/s.
+            average_tod = (c.runway_distance_km * KM / spd) - 2 * target / ACTION_2_MS
+            for i in range(n):
+                dpsi[k, i] = rng.integers(c.dpsi_min, c.dpsi_max)
+                dcpa[k, i] = rng.integers(c.dcpa_min, c.dcpa_max)
+                tlosh[k, i] = rng.integers(c.tlosh_min, tlosh_max)
+                if tlosh[k, i] > average_tod:
+                    # Met late: between the floor above ground and just above the target.
+                    dh[k, i] = rng.integers(int(-altitude + c.late_dh_floor), int((target - altitude) + c.late_dh_above_target))
+                else:
+                    # Met early: around the target altitude.
+                    dh[k, i] = rng.integers(int((target - altitude) - c.early_dh_band), int((target - altitude) + c.early_dh_band))
+        self.conflict_dpsi[envs], self.conflict_dcpa[envs], self.conflict_tlosh[envs], self.conflict_dh[envs] = dpsi, dcpa, tlosh, dh
+        env = np.repeat(envs, n)
+        slot = np.tile(np.arange(1, n + 1), envs.size)
+        # creconfs adds dH in metres (its docstring says ft; spec section 0), then the reference
+        # forces the intruder to that altitude and selects it, so the intruder holds level.
+        self.sim.creconfs(env, 0, slot, dpsi.ravel(), dcpa.ravel(), tlosh.ravel(), dh.ravel(), TLOSV)
+        alt = self.sim.alt[env, 0] + dh.ravel()
+        self.sim.alt[env, slot] = alt
+        self.sim.cmd_altitude(env, slot, alt, 0.0)
+        self.total_intrusions[envs] = 0
+
+    # --- observation ----------------------------------------------------------------------------
+    def observe(self) -> dict[str, Array]:
+        """Observation of every episode: key -> (n_envs, *shape), float64."""
+        obs = super().observe()
+        s = self.sim
+        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
+        # Intruders in creation order (slots 1..n), no sorting (spec section 2).
+        obs["intruder_distance"] = rel["dist_km"] / INTRUDER_DISTANCE_SCALE
+        obs["cos_difference_pos"] = rel["cos_bearing"]
+        obs["sin_difference_pos"] = rel["sin_bearing"]
+        obs["altitude_difference"] = (s.alt[:, 1:] - s.alt[:, :1]) / ALT_STD
+        obs["x_difference_speed"] = rel["x_dif"] / SPEED_SCALE
+        obs["y_difference_speed"] = rel["y_dif"] / SPEED_SCALE
+        obs["z_difference_speed"] = s.vs[:, 1:] - s.vs[:, :1]  # m/s, not normalised (reference quirk)
+        return obs
+
+    # --- reward ---------------------------------------------------------------------------------
+    def intrusions(self) -> BoolArray:
+        """(n_envs, num_intruders) intruders within 5 NM and 1000 ft of the ownship."""
+        s = self.sim
+        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
+        vert = s.alt[:, :1] - s.alt[:, 1:]
+        return (dist < INTRUSION_DISTANCE) & (np.abs(vert) < VERTICAL_MARGIN) & s.active[:, 1:]
+
+    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Descent reward and termination plus the intrusion penalty."""
+        descent_reward, terminated, components = super().evaluate()
+        count = self.intrusions().sum(axis=1)
+        intrusion = count * INTRUSION_PENALTY
+        self.total_intrusions += count
+        components["intrusion"] = intrusion
+        return descent_reward + intrusion, terminated, components
+
+    def episode_info(self) -> dict[str, Array]:
+        """Info keys of the reference, (n_envs,) each."""
+        return {
+            "total_reward": self.stats.total_reward.copy(),
+            "total_intrusions": self.total_intrusions.copy(),
+            "final_altitude": self.final_altitude.copy(),
+        }
+
+    # --- KPIs -----------------------------------------------------------------------------------
+    def ownship_separation(self) -> tuple[Array, BoolArray]:
+        """Kwik distance [NM] from the ownship to every other aircraft and the 5 NM / 1000 ft intrusion flags."""
+        s = self.sim
+        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
+        other = s.active.copy()
+        other[:, 0] = False
+        dist = np.where(other, dist, np.inf)
+        los = other & (dist < INTRUSION_DISTANCE) & (np.abs(s.alt[:, :1] - s.alt) < VERTICAL_MARGIN)
+        return dist, los
