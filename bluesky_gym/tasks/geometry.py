@@ -32,11 +32,16 @@ def point_at_distance(lat: ArrayLike, lon: ArrayLike, d_km: ArrayLike, bearing: 
 
 
 def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: ArrayLike) -> Array:
-    """Great-circle initial bearing [deg, 0..360) from point 1 to point 2 (``get_hdg``)."""
-    p1, p2 = np.radians(lat1), np.radians(lat2)
-    dl = np.radians(np.asarray(lon2, dtype=np.float64) - lon1)
-    x = np.sin(dl) * np.cos(p2)
-    y = np.cos(p1) * np.sin(p2) - np.sin(p1) * np.cos(p2) * np.cos(dl)
+    """Great-circle initial bearing [deg, 0..360) from point 1 to point 2 (the reference ``get_hdg``).
+
+    The coordinates are converted to radians before the longitude difference is taken, in the
+    reference's operation order.
+    """
+    p1, l1 = np.radians(lat1), np.radians(lon1)
+    p2, l2 = np.radians(lat2), np.radians(lon2)
+    delta_lon = l2 - l1
+    x = np.sin(delta_lon) * np.cos(p2)
+    y = np.cos(p1) * np.sin(p2) - np.sin(p1) * np.cos(p2) * np.cos(delta_lon)
     return (np.degrees(np.arctan2(x, y)) + 360) % 360
 
 
@@ -162,3 +167,15 @@ def ref_kwikqdrdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: Arr
     dist = KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
     qdr = np.degrees(np.arctan2(dlon * cavelat, dlat)) % 360.0
     return qdr, dist
+
+
+def ref_kwikdist_matrix(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
+    """Flat-earth distance [NM] a -> b as BlueSky's Python ``geo.kwikdist_matrix`` (broadcasting).
+
+    The formula of :func:`ref_kwikdist` with the products grouped as
+    dlat^2 + (dlon^2)(cavelat^2), which can differ in the last bit. The reference sorts the
+    intruders and fills ``distances`` with it, and ``x_r``/``y_r`` with ``kwikqdrdist``.
+    """
+    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
+    dangle = np.sqrt(np.multiply(dlat, dlat) + np.multiply(np.multiply(dlon, dlon), np.multiply(cavelat, cavelat)))
+    return KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M

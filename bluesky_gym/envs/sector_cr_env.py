@@ -1,0 +1,92 @@
+"""SectorCREnv-v0."""
+
+from __future__ import annotations
+
+from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
+from bluesky_gym.tasks.sector_cr import SectorCRTask
+
+
+class SectorCREnv(BlueSkyEnv):
+    """Horizontal conflict resolution: cross a sector towards an exit point through random traffic.
+
+    ## Description
+    Every episode draws a convex sector (airspace polygon) around 51.9904°N 4.3761°E: points are
+    drawn uniformly on the circle of area 3750 NM² (radius 34.55 NM) until their polygon, sorted
+    clockwise by bearing, has an area of at least 2400 NM². The sector is filled with
+    `num_ac = max(ceil(density · area), 5)` A320s (agent included), usually 12–19, each flying
+    straight at CAS 150 m/s from a random point inside the sector towards its own point on the
+    sector boundary. The agent (aircraft 0) commands heading and speed changes every 5 s; it should
+    keep flying towards its exit point while staying 5 NM away from the other aircraft. The
+    other aircraft have no routes and never react: they fly straight on, also after leaving the
+    sector. All aircraft are at 350 m: the reference's `ALTITUDE = 350` (commented "FL") is passed
+    to BlueSky in metres, so TAS ≈ 152.4 m/s (kept in v0; the vertical dimension plays no role).
+
+    ## Observation Space
+    A `Dict` of float64 `Box`es. `cos(drift)`, `sin(drift)` and `airspeed` are `Box(-1, 1, (1,))`;
+    the others are `Box(-inf, inf, (4,))` over the 4 intruders closest to the agent, sorted by
+    ascending flat distance. Positions are projected flat around the sector centre
+    (north = Δlat·60 NM, east = Δlon·60·cos(51.99°) NM, × 1852 m). The `airspeed` bound and
+    values are the reference's: changing either would change what a trained policy sees.
+
+    | Key | Value |
+    |---|---|
+    | `cos(drift)`, `sin(drift)` | drift = wrap180(heading − kwik bearing to the agent's exit point) |
+    | `airspeed` | (TAS [m/s] − 150) / 6; **leaves the declared [−1, 1]** beyond 144–156 m/s TAS (kept, see below) |
+    | `x_r`, `y_r` | intruder minus agent position, north / east [m] / 13000 |
+    | `vx_r`, `vy_r` | intruder minus agent TAS vector (from headings), north / 32, east / 66 [m/s] |
+    | `cos(track)`, `sin(track)` | of atan2(Δv_east, Δv_north), the relative-velocity direction |
+    | `distances` | (flat distance [m] − 50000) / 15000 |
+
+    ## Action Space
+    `Box(-1, 1, (2,), float64)`:
+    * heading: HDG wrap180(heading + 22.5·a0) [deg];
+    * speed: SPD (CAS [m/s] + (20/3)·a1) · 1.94384 kt. The reference calls the 20/3 step "kts"
+      but adds it to the CAS in m/s, so the CAS target moves by up to ±6.67 m/s per step (kept in
+      v0); BlueSky limits the CAS to 67–163 m/s.
+    At ~1.72°/s a single 5 s step turns at most ~8.6°. Actions outside [-1, 1] are clipped; NaN,
+    infinite values or a wrong shape raise `ValueError`.
+
+    ## Rewards
+    Every step, after the observation:
+    * drift: −0.1 · |drift| [rad] (component `drift`);
+    * intrusion: −1 per other aircraft within 5 NM kwik distance, horizontal only (`intrusion`).
+    There is no reward for reaching the exit point and no terminal reward.
+
+    ## Starting State
+    Sector and traffic as in the description. Density [aircraft/NM²] ~ N(0.005, 0.001) in the
+    default `ac_density_mode="normal"` (a draw above mean + 5 σ is clipped to it, which happens with
+    probability 2.9e-7 and bounds the aircraft count), or ~ U(0.003, 0.007) in `"uniform"` mode.
+    Exit points: `num_ac` uniform positions along the perimeter, sorted along it from vertex 0;
+    the agent gets the first. Start points: uniform in the sector (rejection sampling in its
+    bounding box). Headings: great-circle initial bearing to the own exit point.
+
+    ## Episode End
+    `terminated` is always False. The episode is truncated when the agent is no longer inside the
+    sector (the reference truncates rather than terminates so that the agent does not learn to
+    leave quickly), and after 200 steps (1000 s).
+
+    ## Info
+    `total_reward`, `total_intrusions` (intruder-steps within 5 NM), `average_drift` (mean |drift|
+    [rad] over the steps; 0.0 at reset, where the reference gives NaN), `reward_<component>` every
+    step, and at the end of an episode the KPIs `kpi_*` (losses of separation, minimum separation,
+    mean drift, track distance; the task has no goal, so there is no success KPI).
+
+    ## Arguments
+    `gym.make("SectorCREnv-v0", render_mode=None, backend="native", ac_density_mode="normal",
+    ac_density_range=(0.003, 0.007), ac_density_mu=0.005, ac_density_sigma=0.001,
+    poly_area_range=(2400, 3750))`. Densities are in aircraft/NM²; `poly_area_range` is the minimum
+    polygon area and the area of the circle the vertices lie on [NM²] (minimum ≤ 0.9 × maximum).
+
+    ## Version History
+    * v0: the paper's MDP (bluesky-gym 0.2.0, after its 2025-01 fixes of the drift computation,
+      the intruder altitude and the CAS-based speed action). Fixed software defects: seeded
+      generator, `average_drift` is 0.0 at reset, rgb_array frames, many environments per process.
+    """
+
+    task_class = SectorCRTask
+
+
+class SectorCRVectorEnv(BlueSkyVectorEnv):
+    """Natively batched :class:`SectorCREnv`."""
+
+    task_class = SectorCRTask

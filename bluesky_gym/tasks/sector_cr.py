@@ -1,0 +1,406 @@
+"""SectorCREnv-v0: cross a random convex sector towards an exit point among traffic (spec section 5)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_range, wrap180
+from bluesky_gym.tasks.geometry import (
+    initial_bearing,
+    latlon_to_nm,
+    nm_to_latlon,
+    points_in_polygons,
+    polygon_area,
+    random_convex_polygon,
+    ref_kwikdist,
+    ref_kwikqdrdist,
+)
+
+# Scenario (reference values).
+AC_DENSITY_RANGE = (0.003, 0.007)  # aircraft per NM^2 ("uniform" mode)
+AC_DENSITY_MU = 0.005  # aircraft per NM^2 ("normal" mode mean)
+AC_DENSITY_SIGMA = 0.001  # aircraft per NM^2 ("normal" mode standard deviation)
+POLY_AREA_RANGE = (2400, 3750)  # NM^2: minimum polygon area, area of the circumscribed circle
+CENTER = (51.990426702297746, 4.376124857109851)  # deg: sector centre (TU Delft Aerospace faculty)
+ALTITUDE = 350.0  # m: the reference's "FL350" is passed to ``cre`` as metres (spec section 5)
+AC_SPD = 150.0  # m/s CAS at creation
+DENSITY_MODES = ("normal", "uniform")
+
+# MDP (reference values).
+INTRUSION_DISTANCE = 5.0  # NM, horizontal only
+NUM_AC_STATE = 4  # intruders in the observation (the closest ones)
+MIN_AIRCRAFT = NUM_AC_STATE + 1  # at least this many aircraft (agent included) per episode
+DRIFT_PENALTY = -0.1  # per rad of |drift|, per step
+INTRUSION_PENALTY = -1.0  # per intruder within INTRUSION_DISTANCE, per step
+D_HEADING = 22.5  # deg of heading change per unit action
+D_VELOCITY = 20 / 3  # per unit action; the reference calls it kts but adds it to CAS in m/s
+AIRSPEED_MEAN = 150.0  # m/s: airspeed observation is (TAS - 150) / 6
+AIRSPEED_STD = 6.0  # m/s
+POSITION_SCALE = 13000.0  # m: x_r, y_r
+VX_SCALE = 32.0  # m/s: vx_r (north)
+VY_SCALE = 66.0  # m/s: vy_r (east)
+DISTANCE_MEAN = 50000.0  # m: distances observation is (d - 50000) / 15000
+DISTANCE_STD = 15000.0  # m
+M_PER_KM = 1000.0
+
+# Normal-mode densities are clipped at mu + DENSITY_CLIP_SIGMAS * sigma (a draw above it has
+# probability 2.9e-7), so that the aircraft slots can be sized for the worst case.
+DENSITY_CLIP_SIGMAS = 5.0
+MAX_AIRCRAFT_LIMIT = 500  # largest worst-case traffic count a configuration may ask for
+MAX_AREA_RATIO = 0.9  # min area / circle area: above this the polygon generator needs many points
+INITIAL_VERTEX_CAPACITY = 16  # polygon vertex slots, grown when a polygon needs more
+CANDIDATES_PER_AIRCRAFT = 2  # rejection-sampling candidates drawn per missing aircraft and round
+
+
+def _pair(name: str, value: Any) -> tuple[float, float]:
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != 2:
+        raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
+    for v in value:
+        check_range(name, v, -np.inf)
+    return float(value[0]), float(value[1])
+
+
+@dataclass(frozen=True)
+class SectorCRConfig(TaskConfig):
+    """Scenario options of the sector conflict-resolution task (defaults: the paper's).
+
+    Attributes:
+        ac_density_mode: ``"normal"`` (density ~ N(mu, sigma), clipped at mu + 5 sigma) or
+            ``"uniform"`` (density ~ U(range)); the reference constructor argument.
+        ac_density_range: (low, high) of the uniform density draw [aircraft / NM^2].
+        ac_density_mu: Mean of the normal density draw [aircraft / NM^2].
+        ac_density_sigma: Standard deviation of the normal density draw [aircraft / NM^2].
+        poly_area_range: (minimum polygon area, area of the circle the vertices lie on) [NM^2].
+
+    """
+
+    ac_density_mode: str = "normal"
+    ac_density_range: tuple[float, float] = AC_DENSITY_RANGE
+    ac_density_mu: float = AC_DENSITY_MU
+    ac_density_sigma: float = AC_DENSITY_SIGMA
+    poly_area_range: tuple[float, float] = POLY_AREA_RANGE
+
+    def __post_init__(self) -> None:
+        # Lists given through gym.make keyword arguments are stored as tuples (hashable config).
+        for name in ("ac_density_range", "poly_area_range"):
+            value = getattr(self, name)
+            if isinstance(value, list):
+                object.__setattr__(self, name, tuple(value))
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid option."""
+        if not isinstance(self.ac_density_mode, str) or self.ac_density_mode not in DENSITY_MODES:
+            raise ValueError(f"ac_density_mode must be one of {DENSITY_MODES}, got {self.ac_density_mode!r}")
+        low, high = _pair("ac_density_range", self.ac_density_range)
+        if not 0 < low <= high:
+            raise ValueError(f"ac_density_range must satisfy 0 < low <= high, got {self.ac_density_range}")
+        check_range("ac_density_mu", self.ac_density_mu, 0.0, strict_low=True)
+        check_range("ac_density_sigma", self.ac_density_sigma, 0.0)
+        area_min, area_max = _pair("poly_area_range", self.poly_area_range)
+        if not 0 < area_min < area_max:
+            raise ValueError(f"poly_area_range must satisfy 0 < min < max, got {self.poly_area_range}")
+        if area_min > MAX_AREA_RATIO * area_max:
+            raise ValueError(
+                f"poly_area_range: the minimum area must be at most {MAX_AREA_RATIO} x the maximum (the polygon is "
+                f"inscribed in a circle of the maximum area), got {self.poly_area_range}"
+            )
+        worst = worst_case_aircraft(self)
+        if worst > MAX_AIRCRAFT_LIMIT:
+            raise ValueError(
+                f"the densities and poly_area_range allow up to {worst} aircraft per episode; at most "
+                f"{MAX_AIRCRAFT_LIMIT} are supported"
+            )
+
+    def density_cap(self) -> float:
+        """Largest density a draw can give [aircraft / NM^2]."""
+        if self.ac_density_mode == "normal":
+            return float(self.ac_density_mu + DENSITY_CLIP_SIGMAS * self.ac_density_sigma)
+        return float(self.ac_density_range[1])
+
+
+def worst_case_aircraft(config: SectorCRConfig) -> int:
+    """Most aircraft (agent included) an episode of ``config`` can hold.
+
+    The polygon is inscribed in a circle of area ``poly_area_range[1]``, so its area stays below
+    that value and ``ceil(density * area) <= ceil(density_cap * max area)``.
+    """
+    return max(math.ceil(config.density_cap() * float(config.poly_area_range[1])), MIN_AIRCRAFT)
+
+
+def relative_velocity(hdg: Array, tas: Array) -> tuple[Array, Array]:
+    """(vx_r, vy_r) [m/s]: each intruder's TAS vector minus the ownship's (slot 0), north / east.
+
+    Shapes (n_envs, max_aircraft - 1); the reference uses heading and TAS (not track and GS).
+    """
+    vx = np.cos(np.deg2rad(hdg)) * tas
+    vy = np.sin(np.deg2rad(hdg)) * tas
+    return vx[:, 1:] - vx[:, :1], vy[:, 1:] - vy[:, :1]
+
+
+class SectorCRTask(Task):
+    """Batched sector CR task; see :class:`bluesky_gym.envs.sector_cr_env.SectorCREnv` for the MDP."""
+
+    env_id: ClassVar[str] = "SectorCREnv-v0"
+    dt: ClassVar[float] = 1.0
+    action_frequency: ClassVar[int] = 5
+    max_episode_steps: ClassVar[int] = 200
+    config_class: ClassVar[type[TaskConfig]] = SectorCRConfig
+    info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "total_intrusions", "average_drift")
+    has_goal: ClassVar[bool] = False
+    config: SectorCRConfig
+
+    def max_aircraft(self) -> int:
+        """Slots for the worst case of the configured density and area ranges."""
+        return worst_case_aircraft(self.config)
+
+    def max_waypoints(self) -> int:
+        """No routes are flown (the waypoints are only drift references)."""
+        return 1
+
+    def build_observation_spec(self) -> dict[str, BoxSpec]:
+        """Declare the reference's keys; cos/sin(drift) and airspeed are bounded by [-1, 1]."""
+        spec = {k: BoxSpec((1,), -1.0, 1.0) for k in ("cos(drift)", "sin(drift)", "airspeed")}
+        spec.update({k: BoxSpec((NUM_AC_STATE,)) for k in ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")})
+        return spec
+
+    def build_action_spec(self) -> BoxSpec:
+        """Heading change and speed change, each in [-1, 1]."""
+        return BoxSpec((2,), -1.0, 1.0)
+
+    # --- generator ------------------------------------------------------------------------------
+    def allocate(self) -> None:
+        """Per-episode scenario arrays."""
+        n, m = self.n_envs, self.sim.max_aircraft
+        self._alloc_vertices(INITIAL_VERTEX_CAPACITY)
+        self.n_vertices = np.zeros(n, np.int64)
+        self.poly_area = np.zeros(n)  # NM^2
+        self.density = np.zeros(n)  # aircraft / NM^2, as drawn (before the normal-mode clip)
+        self.num_ac = np.zeros(n, np.int64)  # aircraft in the episode, agent included
+        self.wpt_nm = np.zeros((n, m, 2))  # (north, east) NM from CENTER, one per aircraft
+        self.wpt_lat = np.zeros((n, m))  # deg
+        self.wpt_lon = np.zeros((n, m))
+        self.drift = np.zeros(n)  # deg, agent drift at the last observation
+        self.total_intrusions = np.zeros(n, np.int64)
+        self.drift_rad_sum = np.zeros(n)  # sum of |drift| [rad] (average_drift)
+        self.drift_rad_n = np.zeros(n, np.int64)
+
+    def _alloc_vertices(self, capacity: int) -> None:
+        old = getattr(self, "poly_nm", None)
+        self.poly_nm = np.zeros((self.n_envs, capacity, 2))  # (north, east) NM from CENTER
+        self.poly_lat = np.zeros((self.n_envs, capacity))  # deg
+        self.poly_lon = np.zeros((self.n_envs, capacity))
+        if old is not None:
+            k = old.shape[1]
+            self.poly_nm[:, :k] = old
+            self.poly_lat[:, :k], self.poly_lon[:, :k] = self._latlon(old)
+
+    @staticmethod
+    def _latlon(points_nm: Array) -> tuple[Array, Array]:
+        ll = nm_to_latlon(CENTER, points_nm)
+        return ll[..., 0], ll[..., 1]
+
+    def generate(self, envs: NDArray[np.int64]) -> None:
+        """Polygon, traffic count, perimeter waypoints and start points of each reset episode."""
+        c = self.config
+        radius = np.sqrt(c.poly_area_range[1] / np.pi)  # NM: circle of the maximum area
+        density_cap = c.density_cap()
+        cre_env, cre_slot, cre_lat, cre_lon, cre_hdg = [], [], [], [], []
+        for e in envs:
+            rng = self.rngs[e]
+            # 1. Convex polygon: points on the circle, sorted by compass bearing, added until the
+            #    shoelace area reaches the minimum.
+            poly = random_convex_polygon(rng, radius, c.poly_area_range[0])
+            area = polygon_area(poly)
+            nv = len(poly)
+            if nv > self.poly_nm.shape[1]:
+                self._alloc_vertices(max(nv, 2 * self.poly_nm.shape[1]))
+            self.poly_nm[e] = 0.0
+            self.poly_nm[e, :nv] = poly
+            lat_v, lon_v = self._latlon(poly)
+            self.poly_lat[e] = lat_v[0]  # padding repeats vertex 0 (ignored: n_vertices)
+            self.poly_lon[e] = lon_v[0]
+            self.poly_lat[e, :nv] = lat_v
+            self.poly_lon[e, :nv] = lon_v
+            self.n_vertices[e] = nv
+            self.poly_area[e] = area
+            # 2. Traffic count, agent included.
+            if c.ac_density_mode == "normal":
+                density = rng.normal(c.ac_density_mu, c.ac_density_sigma)
+            else:
+                density = rng.uniform(*c.ac_density_range)
+            self.density[e] = density
+            num_ac = int(max(np.ceil(min(density, density_cap) * area), MIN_AIRCRAFT))
+            self.num_ac[e] = num_ac
+            # 3. One waypoint per aircraft, uniform along the perimeter, sorted by perimeter position.
+            wpts = self._perimeter_points(poly, np.sort(rng.uniform(0, self._perimeter(poly)[-1], num_ac)))
+            self.wpt_nm[e] = 0.0
+            self.wpt_nm[e, :num_ac] = wpts
+            wlat, wlon = self._latlon(wpts)
+            self.wpt_lat[e] = 0.0
+            self.wpt_lon[e] = 0.0
+            self.wpt_lat[e, :num_ac] = wlat
+            self.wpt_lon[e, :num_ac] = wlon
+            # 4. Start points: uniform in the bounding box, kept when inside the sector.
+            lat0, lon0 = self._sample_inside(rng, e, poly, num_ac)
+            cre_env.append(np.full(num_ac, e))
+            cre_slot.append(np.arange(num_ac))
+            cre_lat.append(lat0)
+            cre_lon.append(lon0)
+            cre_hdg.append(initial_bearing(lat0, lon0, wlat, wlon))
+        # Everyone flies straight at its waypoint's initial bearing, CAS 150 m/s, at 350 m (the
+        # reference's ALTITUDE 350 "FL" used as metres). No routes: they never turn.
+        self.sim.create(np.concatenate(cre_env), np.concatenate(cre_slot), np.concatenate(cre_lat), np.concatenate(cre_lon),
+                        np.concatenate(cre_hdg), ALTITUDE, AC_SPD)
+        self.drift[envs] = 0.0
+        self.total_intrusions[envs] = 0
+        self.drift_rad_sum[envs] = 0.0
+        self.drift_rad_n[envs] = 0
+
+    @staticmethod
+    def _perimeter(poly: Array) -> Array:
+        """Cumulative perimeter [NM] at the end of each edge (edge k: vertex k -> k+1, closing)."""
+        edges = np.roll(poly, -1, axis=0) - poly
+        return np.cumsum(np.sqrt(np.sum(edges**2, axis=1)))
+
+    @classmethod
+    def _perimeter_points(cls, poly: Array, d: Array) -> Array:
+        """Points at perimeter positions ``d`` [NM], walking the edges from vertex 0."""
+        cum = cls._perimeter(poly)
+        k = np.searchsorted(cum, d, side="left")  # first edge whose end lies at or beyond d
+        start = np.where(k > 0, cum[np.maximum(k - 1, 0)], 0.0)  # perimeter at the edge's first vertex
+        p1 = poly[k]
+        p2 = np.roll(poly, -1, axis=0)[k]
+        edge_len = np.sqrt(np.sum((p2 - p1) ** 2, axis=1))
+        frac = (d - start) / edge_len
+        return p1 + frac[:, None] * (p2 - p1)
+
+    def _sample_inside(self, rng: np.random.Generator, e: int, poly: Array, num_ac: int) -> tuple[Array, Array]:
+        """``num_ac`` start points uniform in the sector (rejection sampling in the bounding box)."""
+        low, high = poly.min(axis=0), poly.max(axis=0)
+        nv = np.array([self.n_vertices[e]])
+        lat_acc: list[Array] = []
+        lon_acc: list[Array] = []
+        missing = num_ac
+        while missing > 0:
+            cand = rng.uniform(low, high, size=(CANDIDATES_PER_AIRCRAFT * missing + 4, 2))  # rows: (north, east)
+            clat, clon = self._latlon(cand)
+            inside = points_in_polygons(clat, clon, self.poly_lat[e][None], self.poly_lon[e][None], nv)[:, 0]
+            take = np.flatnonzero(inside)[:missing]
+            lat_acc.append(clat[take])
+            lon_acc.append(clon[take])
+            missing -= take.size
+        return np.concatenate(lat_acc), np.concatenate(lon_acc)
+
+    # --- dynamics interface ---------------------------------------------------------------------
+    def apply_action(self, action: Array) -> None:
+        """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt (spec section 5)."""
+        s = self.sim
+        heading_new = wrap180(s.hdg[:, 0] + action[:, 0] * D_HEADING)
+        # The reference adds the 20/3 "kts" step to CAS in m/s, converts the sum to knots and
+        # stacks SPD, which BlueSky converts back with 1 kt = 0.514444 m/s.
+        speed_kts = (s.cas[:, 0] + action[:, 1] * D_VELOCITY) * MPS2KT
+        s.cmd_heading(self.all_envs, 0, heading_new)
+        s.cmd_speed(self.all_envs, 0, speed_kts * KTS)
+
+    # --- observation ----------------------------------------------------------------------------
+    def waypoint_drift(self) -> Array:
+        """(n_envs,) agent drift wrap180(hdg - kwik qdr to its waypoint) [deg]."""
+        s = self.sim
+        # BlueSky's Python kwik form (bearing mod 360), which the reference runs use.
+        qdr, _ = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], self.wpt_lat[:, 0], self.wpt_lon[:, 0])
+        return wrap180(s.hdg[:, 0] - qdr)
+
+    def flat_positions_m(self) -> Array:
+        """(n_envs, max_aircraft, 2) (north, east) positions [m] in the flat projection around CENTER."""
+        s = self.sim
+        return latlon_to_nm(CENTER, np.stack([s.lat, s.lon], axis=-1)) * NM2KM * M_PER_KM
+
+    def observe(self) -> dict[str, Array]:
+        """Agent drift and airspeed, and the 4 closest intruders by flat distance."""
+        s = self.sim
+        drift = self.waypoint_drift()
+        self.drift = drift
+        loc = self.flat_positions_m()
+        rel = loc[:, 1:] - loc[:, :1]  # (n, m-1, 2) intruder minus agent, m
+        dist = np.sqrt(np.sum(rel**2, axis=-1))
+        vx_r, vy_r = relative_velocity(s.hdg, s.tas)
+        track = np.arctan2(vy_r, vx_r)
+        # Intruders sorted ascending by flat distance; empty slots last.
+        order = np.argsort(np.where(s.active[:, 1:], dist, np.inf), axis=1, kind="stable")[:, :NUM_AC_STATE]
+
+        def closest(a: Array) -> Array:
+            return np.take_along_axis(a, order, axis=1)
+
+        return {
+            "cos(drift)": np.cos(np.deg2rad(drift))[:, None],
+            "sin(drift)": np.sin(np.deg2rad(drift))[:, None],
+            # Kept as in the reference although it leaves the declared [-1, 1] bound.
+            "airspeed": ((s.tas[:, :1] - AIRSPEED_MEAN) / AIRSPEED_STD),
+            "x_r": closest(rel[..., 0]) / POSITION_SCALE,
+            "y_r": closest(rel[..., 1]) / POSITION_SCALE,
+            "vx_r": closest(vx_r) / VX_SCALE,
+            "vy_r": closest(vy_r) / VY_SCALE,
+            "cos(track)": np.cos(closest(track)),
+            "sin(track)": np.sin(closest(track)),
+            "distances": (closest(dist) - DISTANCE_MEAN) / DISTANCE_STD,
+        }
+
+    # --- reward ---------------------------------------------------------------------------------
+    def intrusions(self) -> BoolArray:
+        """(n_envs, max_aircraft - 1) intruders within 5 NM (kwik distance) of the agent."""
+        s = self.sim
+        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
+        return (dist < INTRUSION_DISTANCE) & s.active[:, 1:]
+
+    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Drift and intrusion penalties; never terminates (leaving the sector truncates)."""
+        abs_drift = np.abs(np.deg2rad(self.drift))
+        self.drift_rad_sum += abs_drift
+        self.drift_rad_n += 1
+        drift_reward = abs_drift * DRIFT_PENALTY
+        count = self.intrusions().sum(axis=1)
+        self.total_intrusions += count
+        intrusion = count * INTRUSION_PENALTY + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
+        reward = drift_reward + intrusion
+        return reward, np.zeros(self.n_envs, bool), {"drift": drift_reward, "intrusion": intrusion}
+
+    def agent_inside(self) -> BoolArray:
+        """(n_envs,) whether the agent is inside its sector (2-D even-odd test on lat/lon)."""
+        s = self.sim
+        inside = points_in_polygons(s.lat[:, :1], s.lon[:, :1], self.poly_lat[:, None], self.poly_lon[:, None], self.n_vertices[:, None])
+        return inside[:, 0, 0]
+
+    def truncate(self) -> BoolArray:
+        """Truncate when the agent has left the sector (the reference's ``truncated``)."""
+        return ~self.agent_inside()
+
+    def episode_info(self) -> dict[str, Array]:
+        """Info keys of the reference, (n_envs,) each."""
+        # The reference's mean of an empty array is NaN at reset; v0 reports 0.0 until a sample exists.
+        n = self.drift_rad_n
+        return {
+            "total_reward": self.stats.total_reward.copy(),
+            "total_intrusions": self.total_intrusions.copy(),
+            "average_drift": np.where(n > 0, self.drift_rad_sum / np.maximum(n, 1), 0.0),
+        }
+
+    # --- KPIs -----------------------------------------------------------------------------------
+    def ownship_separation(self) -> tuple[Array, BoolArray]:
+        """Kwik distance [NM] from the agent to every other aircraft and the intrusion flags."""
+        s = self.sim
+        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
+        other = s.active.copy()
+        other[:, 0] = False
+        dist = np.where(other, dist, np.inf)
+        return dist, other & (dist < INTRUSION_DISTANCE)
+
+    def drift_deg(self) -> Array | None:
+        """(n_envs,) |drift| to the agent's waypoint at the last observation [deg]."""
+        return np.abs(self.drift)
