@@ -126,3 +126,51 @@ def kwikpos(latd1: ArrayLike, lond1: ArrayLike, qdr: ArrayLike, dist: ArrayLike)
 def degto180(angle: ArrayLike) -> Array:
     """Wrap an angle [deg] to [-180, 180) (BlueSky ``misc.degto180``)."""
     return (angle + 180.0) % 360 - 180.0
+
+
+# --- BlueSky's Python geo module (``bluesky.tools.geo._geo``) -------------------------------------
+# BlueSky uses these instead of the compiled ones when ``bluesky.tools.geo`` is imported before
+# the ``prefer_compiled`` setting is read, which is the case in the reference gym environments.
+
+
+def rwgs84_python(latd: ArrayLike) -> Array:
+    """WGS-84 geocentric radius [m] (Python form, its own operation order)."""
+    lat = np.radians(latd)
+    coslat = np.cos(lat)
+    sinlat = np.sin(lat)
+    an = WGS84_A * WGS84_A * coslat
+    bn = WGS84_B * WGS84_B * sinlat
+    ad = WGS84_A * coslat
+    bd = WGS84_B * sinlat
+    return np.sqrt((an * an + bn * bn) / (ad * ad + bd * bd))
+
+
+def qdrdist_python(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> tuple[Array, Array]:
+    """Bearing [deg, (-180, 180]] and distance [NM] as BlueSky's Python ``qdrdist``.
+
+    Spherical law of cosines for the distance (the compiled form uses haversine), WGS-84 radius
+    at the mean latitude, or a latitude-weighted mix across the equator.
+    """
+    latd1 = np.asarray(latd1, dtype=np.float64)
+    latd2 = np.asarray(latd2, dtype=np.float64)
+    res1 = rwgs84_python(0.5 * (latd1 + latd2))
+    if np.all(latd1 * latd2 >= 0.0):
+        r = res1
+    else:
+        r1 = rwgs84_python(latd1)
+        r2 = rwgs84_python(latd2)
+        res2 = 0.5 * (np.abs(latd1) * (r1 + WGS84_A) + np.abs(latd2) * (r2 + WGS84_A)) / np.maximum(0.000001, np.abs(latd1) + np.abs(latd2))
+        sw = latd1 * latd2 >= 0.0
+        r = sw * res1 + (1 - sw) * res2
+    lat1 = np.radians(latd1)
+    lon1 = np.radians(lond1)
+    lat2 = np.radians(latd2)
+    lon2 = np.radians(lond2)
+    d = r * np.arccos(np.cos(lat1) * np.cos(lat2) * np.cos(lon2 - lon1) + np.sin(lat1) * np.sin(lat2))
+    coslat1 = np.cos(lat1)
+    coslat2 = np.cos(lat2)
+    qdr = np.degrees(np.arctan2(np.sin(lon2 - lon1) * coslat2, coslat1 * np.sin(lat2) - np.sin(lat1) * coslat2 * np.cos(lon2 - lon1)))
+    return qdr, d / NM_M
+
+
+NM_M = 1852.0  # m per NM, as the Python geo module divides

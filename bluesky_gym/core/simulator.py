@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core import atmosphere as isa
-from bluesky_gym.core import geo
+from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
 from bluesky_gym.core.units import FPM, FT, G0, NM, R_EARTH
 from bluesky_gym.core.wind import WindField
@@ -120,6 +120,9 @@ class Simulator:
         dt: Simulation time step [s].
         max_waypoints: Route capacity per aircraft.
         perf: Performance data (every aircraft is of this type).
+        geo: ``"compiled"`` (BlueSky's compiled geo functions, as a plain BlueSky run uses them)
+            or ``"python"`` (BlueSky's Python geo module, which the reference gym environments end up
+            with). Only LNAV uses them; they differ in the last bits.
         kernel: ``"numpy"`` (the reference implementation), ``"fused"`` (the same arithmetic
             compiled into one loop with numba, bit-identical and much faster; needs the ``fast``
             extra) or ``"auto"`` (fused when numba is installed).
@@ -133,8 +136,14 @@ class Simulator:
         max_waypoints: int = 4,
         perf: pf.AircraftPerformance = pf.A320,
         kernel: str = "auto",
+        geo: str = "compiled",
     ) -> None:
         from bluesky_gym.core import fused
+
+        if geo not in ("compiled", "python"):
+            raise ValueError(f"geo must be 'compiled' or 'python', got {geo!r}")
+        self.geo = geo
+        self._qdrdist = _geo.qdrdist if geo == "compiled" else _geo.qdrdist_python
 
         if kernel not in ("auto", "numpy", "fused"):
             raise ValueError(f"kernel must be 'auto', 'numpy' or 'fused', got {kernel!r}")
@@ -409,7 +418,7 @@ class Simulator:
         nxt = (iact > -1) & (iact < self.nwp[env, slot] - 1)
         i0 = np.clip(iact, 0, self.max_waypoints - 1)
         i1 = np.clip(iact + 1, 0, self.max_waypoints - 1)
-        qdr, _ = geo.qdrdist(
+        qdr, _ = self._qdrdist(
             self.route_lat[env, slot, i0], self.route_lon[env, slot, i0], self.route_lat[env, slot, i1], self.route_lon[env, slot, i1]
         )
         return np.where(nxt, qdr, NO_VALUE)
@@ -419,7 +428,7 @@ class Simulator:
         local_next = np.where(next_qdr < -900.0, qdr, next_qdr)
         turnbank = np.rad2deg(BANK_DEFAULT)
         turnrad = tas**2 / (G0 * np.tan(np.deg2rad(turnbank)))
-        return np.abs(turnrad * np.tan(np.radians(0.5 * np.abs(geo.degto180(qdr % 360.0 - local_next % 360.0)))))
+        return np.abs(turnrad * np.tan(np.radians(0.5 * np.abs(_geo.degto180(qdr % 360.0 - local_next % 360.0)))))
 
     def _direct(self, env: IntArray, slot: IntArray) -> None:
         """``DIRECT`` to the active waypoint: activate it from the current position; LNAV on."""
@@ -428,7 +437,7 @@ class Simulator:
         wlon = self.route_lon[env, slot, i]
         self.actwp_lat[env, slot] = wlat
         self.actwp_lon[env, slot] = wlon
-        qdr, _ = geo.qdrdist(self.lat[env, slot], self.lon[env, slot], wlat, wlon)
+        qdr, _ = self._qdrdist(self.lat[env, slot], self.lon[env, slot], wlat, wlon)
         self.curlegdir[env, slot] = qdr
         self.turndist[env, slot] = self._turn_distance(self.tas[env, slot], qdr, self.next_qdr[env, slot])
         self.turnphi[env, slot] = BANK_LNAV
@@ -523,12 +532,12 @@ class Simulator:
         self.ap_tas = isa.vcasormach2tas(self.selspd, self.alt)
 
     def _update_lnav(self) -> None:
-        qdr, distnm = geo.qdrdist(self.lat, self.lon, self.actwp_lat, self.actwp_lon)
+        qdr, distnm = self._qdrdist(self.lat, self.lon, self.actwp_lat, self.actwp_lon)
         dist = distnm * NM
         # actwp.reached [dynamics.md 2.6]; all waypoints here are fly-by.
         close2wp = dist / (np.maximum(0.0001, np.abs(self.gs))) < 4.0
-        tooclose2turn = close2wp * (np.abs(geo.degto180(self.trk % 360.0 - qdr % 360.0)) > 90.0)
-        awayorpassed = np.logical_or(tooclose2turn, np.abs(geo.degto180(qdr - self.curlegdir)) > 90.0)
+        tooclose2turn = close2wp * (np.abs(_geo.degto180(self.trk % 360.0 - qdr % 360.0)) > 90.0)
+        awayorpassed = np.logical_or(tooclose2turn, np.abs(_geo.degto180(qdr - self.curlegdir)) > 90.0)
         reached = self.swlnav & self.active & np.logical_or(awayorpassed, dist < self.turndist)
         if np.any(reached):
             env, slot = np.nonzero(reached)
@@ -553,7 +562,7 @@ class Simulator:
                 wlon = self.route_lon[env, slot, iact]
                 self.actwp_lat[env, slot] = wlat
                 self.actwp_lon[env, slot] = wlon
-                q, _ = geo.qdrdist(self.lat[env, slot], self.lon[env, slot], wlat, wlon)
+                q, _ = self._qdrdist(self.lat[env, slot], self.lon[env, slot], wlat, wlon)
                 qdr[env, slot] = q
                 self.curlegdir[env, slot] = q
                 self.turndist[env, slot] = self._turn_distance(self.tas[env, slot], q, self.next_qdr[env, slot])

@@ -146,3 +146,30 @@ def test_replay_in_shared_simulator_matches_alone() -> None:
     alone = run_alone(sc)
     for col in out:
         np.testing.assert_array_equal(out[col], alone[col])
+
+
+def test_lnav_with_python_geo_forms_stays_within_tolerance() -> None:
+    """BlueSky's Python geo module (used by the reference gym envs) flies s7 within the contract."""
+    sc = SCENARIOS["s7_route_lnav"]
+    sim = Simulator(1, 4, dt=sc.dt, geo="python")
+    sc.setup(sim, 0)
+    out = run(sc, sim, 0)
+    ref = load_reference("s7_route_lnav")["AC1"]
+    for col in ("lat", "lon", "hdg", "trk", "tas"):
+        np.testing.assert_allclose(out[col][:, 0], ref[col], rtol=0, atol=TOL[col])
+    assert out["swlnav"][-1, 0] == 0 and out["swlnav"][1, 0] == 1
+
+
+def test_invalid_simulator_options_are_rejected() -> None:
+    with pytest.raises(ValueError, match="geo"):
+        Simulator(1, 1, geo="cython")
+    with pytest.raises(ValueError, match="kernel"):
+        Simulator(1, 1, kernel="cuda")
+    with pytest.raises(ValueError, match="dt"):
+        Simulator(1, 1, dt=0.0)
+    sim = Simulator(2, 2)
+    with pytest.raises(IndexError, match="environment"):
+        sim.create(2, 0)
+    sim.create(0, 0)
+    with pytest.raises(ValueError, match="already exists"):
+        sim.create(0, 0)
