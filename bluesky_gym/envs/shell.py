@@ -213,6 +213,8 @@ class BlueSkyVectorEnv(VectorEnv):
         self._last_reward = np.zeros(self.num_envs)
         info = self.task.episode_info()
         self._last_info = info
+        if self.render_mode == "human":
+            self.render()
         return self.task.observe(), info
 
     def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:

@@ -1,0 +1,50 @@
+"""Pictures of the environments: ``render_mode="rgb_array"`` frames, a ``"human"`` window, videos.
+
+Horizontal environments are drawn as a north-up map (north up, east right, with a scale bar);
+vertical ones (Descent, VerticalCR) as a side view of altitude against distance to the runway.
+Aircraft point along their heading and leave short trails; protected zones turn red during a loss
+of separation; a text panel shows time, step, reward, intrusions and key numbers.
+
+pygame (and, for videos, imageio/pillow) come with the ``render`` extra:
+``pip install bluesky-gym[render]``. Nothing here imports pygame until a renderer is created.
+
+Example::
+
+    env = gym.make("DescentEnv-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()  # (H, W, 3) uint8
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from bluesky_gym.render.backend import INSTALL_HINT, import_pygame
+from bluesky_gym.render.video import VideoWriter, write_video
+
+if TYPE_CHECKING:
+    from bluesky_gym.render.renderer import Renderer
+
+__all__ = ["INSTALL_HINT", "VideoWriter", "import_pygame", "make_renderer", "write_video"]
+
+
+def make_renderer(task: Any, render_mode: str, fps: float = 30.0) -> Renderer:
+    """The renderer of a batched task.
+
+    Args:
+        task: The batched task (a :class:`bluesky_gym.tasks.base.Task`); it is only read.
+        render_mode: ``"rgb_array"`` or ``"human"``.
+        fps: Frame-rate limit of the window in ``"human"`` mode.
+
+    Returns:
+        An object with ``render(env_index, reward=..., info=...)``, ``render_grid(n, rewards=...,
+        info=...)`` and ``close()``.
+
+    Raises:
+        ImportError: If pygame is not installed.
+        ValueError: For an unknown render mode.
+    """
+    import_pygame()
+    from bluesky_gym.render.renderer import Renderer
+
+    return Renderer(task, render_mode, fps)

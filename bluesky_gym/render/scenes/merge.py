@@ -1,0 +1,70 @@
+"""MergeEnv-v0: north-up map of the arrival stream, the FAF, the runway and the ownship."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from bluesky_gym.core import geo
+from bluesky_gym.render import palette as pal
+from bluesky_gym.render.scene import Fix, Line, MapScene, Runway
+from bluesky_gym.render.scenes.common import LEGEND_TRAFFIC, OWNSHIP_CALLSIGN, drift_line, fit_extent, map_traffic, ownship_lines
+from bluesky_gym.tasks.geometry import point_at_distance
+from bluesky_gym.tasks.merge import DISTANCE_MARGIN, FAF_LAT, FAF_LON, GOAL_MARGIN, INTRUSION_DISTANCE, RWY_LAT, RWY_LON
+
+LEGEND = [*LEGEND_TRAFFIC, (pal.GOAL, "FAF (10 NM) / runway (20 NM)"), (pal.ROUTE, "arrival sector and approach")]
+RUNWAY_HDG = 180.0  # deg: arrivals come from the FAF due north and land southbound
+
+
+def _callsign(slot: int) -> str:
+    return OWNSHIP_CALLSIGN if slot == 0 else f"INT{slot - 1}"
+
+
+def merge_scene(task: Any, i: int) -> MapScene:
+    """The arrival picture around the final approach fix.
+
+    FAF with its 10 NM capture ring, the runway with its 20 NM goal ring, the arrival sector (the
+    spawn radials from the FAF) and the traffic with 4 NM protected zones.
+    """
+    sim = task.sim
+    lat_pts = [RWY_LAT, FAF_LAT]
+    lon_pts = [RWY_LON, FAF_LON]
+    if sim.active[i, 0]:
+        lat_pts.append(float(task.start_lat[i]))
+        lon_pts.append(float(task.start_lon[i]))
+    clat, clon, half = fit_extent(lat_pts, lon_pts, margin_nm=22.0, min_half_nm=60.0, max_half_nm=160.0)
+    bearing = float(task.config.spawn_bearing_deg)
+    reach = max(float(task.config.intruder_distance_km[1]), float(task.config.spawn_distance_km[1]))
+    lines = [Line([FAF_LAT, RWY_LAT], [FAF_LON, RWY_LON], pal.ROUTE)]
+    for b in (-bearing, bearing):
+        lat, lon = point_at_distance(FAF_LAT, FAF_LON, reach, b)
+        lines.append(Line([FAF_LAT, float(lat)], [FAF_LON, float(lon)], pal.ROUTE))
+    faf_done = int(task.wpt_reach[i]) != 0
+    fixes = [
+        Fix(FAF_LAT, FAF_LON, "FAF", done=faf_done, capture_nm=DISTANCE_MARGIN, kind="faf"),
+        Fix(RWY_LAT, RWY_LON, "", done=False, capture_nm=GOAL_MARGIN, kind="ring"),
+    ]
+    tlat, tlon = task.target()
+    qdr, dist = geo.kwikqdrdist(sim.lat[i, 0], sim.lon[i, 0], tlat[i], tlon[i])
+    drift = (float(sim.hdg[i, 0]) - float(qdr) + 180.0) % 360.0 - 180.0
+    panel = [
+        *ownship_lines(task, i),
+        ("target", "runway" if faf_done else "FAF"),
+        ("to target", f"{float(dist):.1f} NM"),
+        drift_line(drift),
+    ]
+    dist_all, _ = task.ownship_separation()
+    panel.append(("traffic < 20 NM", str(int(np.count_nonzero(dist_all[i] < 20.0)))))
+    return MapScene(
+        clat,
+        clon,
+        half,
+        aircraft=map_traffic(task, i, ring_nm=INTRUSION_DISTANCE, callsign=_callsign),
+        fixes=fixes,
+        runways=[Runway(RWY_LAT, RWY_LON, RUNWAY_HDG, 3.3, "RWY")],
+        lines=lines,
+        label_range_nm=30.0,
+        panel=panel,
+        legend=LEGEND,
+    )
