@@ -1,0 +1,250 @@
+"""``bluesky-gym bench``: throughput of the simulation core and of the environments.
+
+Examples::
+
+    bluesky-gym bench core                                  # native core; BlueSky if importable here
+    bluesky-gym bench core --bluesky-python /path/to/python  # BlueSky measured in that interpreter
+    bluesky-gym bench envs --ids DescentEnv-v0 --reference-python /path/to/python
+    bluesky-gym bench all --bluesky-python P --reference-python P --json results.json
+    bluesky-gym bench profile                               # where the core's step time goes
+
+The interpreters can also be given by the environment variables ``BLUESKY_PYTHON`` and
+``BLUESKY_GYM_REFERENCE_PYTHON``.
+
+Speed targets are printed next to the figures; they are reported, never enforced. The exit code
+is 1 when a measurement failed (the table still shows the others).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+#: Environment variables giving the default of ``--bluesky-python`` and ``--reference-python``.
+BLUESKY_PYTHON_VAR = "BLUESKY_PYTHON"
+REFERENCE_PYTHON_VAR = "BLUESKY_GYM_REFERENCE_PYTHON"
+
+
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
+    return value
+
+
+def _add_repeat(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--repeat",
+        type=_positive_int,
+        default=1,
+        metavar="N",
+        help="measure everything N times; report per-cell medians and the medians of same-run ratios",
+    )
+
+
+def _add_common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", metavar="PATH", type=Path, help="also save the results (with versions and settings) as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+
+
+def _add_bluesky(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--bluesky-python",
+        metavar="PATH",
+        default=os.environ.get(BLUESKY_PYTHON_VAR) or None,
+        help=f"Python interpreter with bluesky-simulator 1.1.1 installed (default: ${BLUESKY_PYTHON_VAR}, else this one if BlueSky is "
+        "importable here)",
+    )
+    p.add_argument("--no-bluesky", action="store_true", help="do not measure BlueSky")
+
+
+def _add_core(p: argparse.ArgumentParser, seconds_flag: str = "--seconds") -> None:
+    from bluesky_gym.benchmarks.core_bench import AIRCRAFT_COUNTS, BATCH_SIZES, DEFAULT_SECONDS
+
+    p.add_argument("--envs", nargs="+", type=_positive_int, default=list(BATCH_SIZES), metavar="N", help="batch sizes (airspaces)")
+    p.add_argument("--aircraft", nargs="+", type=_positive_int, default=list(AIRCRAFT_COUNTS), metavar="N", help="aircraft per airspace")
+    p.add_argument("--kernel", action="append", metavar="NAME", help="core step kernel to measure (repeatable; default: every available one)")
+    p.add_argument(
+        seconds_flag, dest="core_seconds", type=_positive_float, default=DEFAULT_SECONDS, metavar="S", help="time budget per core cell [s]"
+    )
+
+
+def _add_envs(p: argparse.ArgumentParser, seconds_flag: str = "--seconds") -> None:
+    from bluesky_gym.benchmarks.env_bench import BATCH_SIZES, DEFAULT_SECONDS
+
+    p.add_argument("--ids", nargs="+", metavar="ID", help="environment ids (default: every available one)")
+    p.add_argument("--batch", nargs="+", type=_positive_int, default=list(BATCH_SIZES), metavar="N", help="vector environment sizes")
+    p.add_argument(
+        "--reference-python",
+        metavar="PATH",
+        default=os.environ.get(REFERENCE_PYTHON_VAR) or None,
+        help=f"Python interpreter with the reference bluesky-gym==0.2.0 installed (default: ${REFERENCE_PYTHON_VAR}; measured when given)",
+    )
+    p.add_argument(
+        seconds_flag, dest="env_seconds", type=_positive_float, default=DEFAULT_SECONDS, metavar="S", help="time budget per environment cell [s]"
+    )
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register ``bench`` and its ``core``, ``envs``, ``all`` and ``profile`` subcommands."""
+    bench = subparsers.add_parser(
+        "bench",
+        help="measure simulation and environment throughput",
+        description="Throughput of the native core and of the environments, compared with BlueSky and the reference bluesky-gym 0.2.0.",
+    )
+    sub = bench.add_subparsers(dest="bench_command", metavar="WHAT")
+    sub.required = True
+
+    core = sub.add_parser("core", help="aircraft-sub-steps per second of the core (and of BlueSky)")
+    _add_core(core)
+    _add_bluesky(core)
+    _add_repeat(core)
+    _add_common(core)
+    core.set_defaults(func=run_core_command)
+
+    envs = sub.add_parser("envs", help="environment steps per second (single, batched, BlueSky backend, reference)")
+    _add_envs(envs)
+    _add_bluesky(envs)
+    _add_repeat(envs)
+    _add_common(envs)
+    envs.set_defaults(func=run_envs_command)
+
+    both = sub.add_parser("all", help="core and envs")
+    _add_core(both, "--core-seconds")
+    _add_envs(both, "--env-seconds")
+    _add_bluesky(both)
+    _add_repeat(both)
+    _add_common(both)
+    both.set_defaults(func=run_all_command)
+
+    prof = sub.add_parser("profile", help="cProfile of the core step: where the time goes")
+    prof.add_argument("--envs", type=_positive_int, default=4096, metavar="N", help="airspaces")
+    prof.add_argument("--aircraft", type=_positive_int, default=20, metavar="N", help="aircraft per airspace")
+    prof.add_argument("--kernel", action="append", metavar="NAME", help="kernel to profile (repeatable; default: every available one)")
+    prof.add_argument("--steps", type=_positive_int, default=30, help="profiled steps")
+    prof.add_argument("--top", type=_positive_int, default=15, help="functions listed")
+    _add_common(prof)
+    prof.set_defaults(func=run_profile_command)
+
+
+def _progress(args: argparse.Namespace) -> Any:
+    """Return a callable printing a status line with the seconds elapsed since the start (None if quiet)."""
+    if args.quiet:
+        return None
+    start = time.perf_counter()
+    return lambda msg: print(f"[bench {time.perf_counter() - start:6.1f} s] {msg}", file=sys.stderr, flush=True)
+
+
+def _bluesky_python(args: argparse.Namespace) -> str | None:
+    from bluesky_gym.benchmarks.external import bluesky_python
+
+    return bluesky_python(args.bluesky_python, args.no_bluesky)
+
+
+def _check_kernels(kernels: list[str] | None) -> None:
+    from bluesky_gym.benchmarks.core_bench import available_kernels
+
+    if kernels:
+        unknown = sorted(set(kernels) - set(available_kernels()))
+        if unknown:
+            raise SystemExit(f"bluesky-gym bench: kernel(s) {unknown} not available here; available: {available_kernels()}")
+
+
+def _core(args: argparse.Namespace) -> dict[str, Any]:
+    from bluesky_gym.benchmarks.core_bench import run_core
+
+    _check_kernels(args.kernel)
+    return run_core(args.envs, args.aircraft, args.kernel, args.core_seconds, _bluesky_python(args), _progress(args), args.repeat)
+
+
+def _envs(args: argparse.Namespace) -> dict[str, Any]:
+    from bluesky_gym.benchmarks.env_bench import run_envs
+    from bluesky_gym.registration import available_envs
+
+    if args.ids:
+        unknown = [i for i in args.ids if i not in available_envs()]
+        if unknown:
+            raise SystemExit(f"bluesky-gym bench: unknown or unavailable id(s) {unknown}; available: {', '.join(available_envs())}")
+    return run_envs(args.ids, args.batch, args.env_seconds, _bluesky_python(args), args.reference_python, _progress(args), args.repeat)
+
+
+def _failed_core(core: dict[str, Any]) -> bool:
+    return bool(core.get("bluesky") and "error" in core["bluesky"])
+
+
+def _failed_envs(envs: dict[str, Any]) -> bool:
+    for row in envs["rows"]:
+        cells = [row["single"], *row["batched"].values(), row["bluesky"], row["reference"]]
+        if any(c is not None and "error" in c for c in cells):
+            return True
+    return False
+
+
+def _finish(args: argparse.Namespace, results: dict[str, Any], failed: bool) -> int:
+    from bluesky_gym.benchmarks.report import metadata
+
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps({"meta": metadata(), **results}, indent=2) + "\n", encoding="utf-8")
+        print(f"\nresults saved to {args.json}")
+    return 1 if failed else 0
+
+
+def run_core_command(args: argparse.Namespace) -> int:
+    """``bench core``."""
+    from bluesky_gym.benchmarks.report import format_core
+
+    core = _core(args)
+    print(format_core(core))
+    return _finish(args, {"core": core}, _failed_core(core))
+
+
+def run_envs_command(args: argparse.Namespace) -> int:
+    """``bench envs``."""
+    from bluesky_gym.benchmarks.report import format_envs
+
+    envs = _envs(args)
+    print(format_envs(envs))
+    return _finish(args, {"envs": envs}, _failed_envs(envs))
+
+
+def run_all_command(args: argparse.Namespace) -> int:
+    """``bench all``: the core table, then the environment table."""
+    from bluesky_gym.benchmarks.report import format_core, format_envs
+
+    core = _core(args)
+    print(format_core(core), flush=True)
+    envs = _envs(args)
+    print()
+    print(format_envs(envs))
+    return _finish(args, {"core": core, "envs": envs}, _failed_core(core) or _failed_envs(envs))
+
+
+def run_profile_command(args: argparse.Namespace) -> int:
+    """``bench profile``."""
+    from bluesky_gym.benchmarks.core_bench import available_kernels
+    from bluesky_gym.benchmarks.profiling import profile_core
+    from bluesky_gym.benchmarks.report import format_profile
+
+    _check_kernels(args.kernel)
+    profiles = []
+    say = _progress(args)
+    for kernel in args.kernel or available_kernels():
+        if say is not None:
+            say(f"profile: {kernel} kernel, {args.envs} x {args.aircraft}")
+        prof = profile_core(args.envs, args.aircraft, kernel, args.steps, args.top)
+        profiles.append(prof)
+        print(format_profile(prof), end="\n\n", flush=True)
+    return _finish(args, {"profile": profiles}, False)
