@@ -82,6 +82,12 @@ def _jit(fn):
     return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)
 
 
+def _jit_inline(fn):
+    if numba is None:  # pragma: no cover
+        return fn
+    return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)
+
+
 @_jit
 def _mod(a, b):
     """numpy/Python float remainder (result has the sign of ``b``)."""
@@ -265,6 +271,161 @@ M_HDG, M_COS, M_SIN = range(30, 33)
 MEMO_COLUMNS = 33
 
 
+@_jit_inline
+def _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):
+    """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
+    hmax, vsmax, mmo, v_rotate = limits
+    mm = memo[i]
+    # Performance update from the start-of-step state [dynamics.md 2.1].
+    if do_perf:
+        if not (_same(F[_I_TAS, i], mm[M_PERF_TAS]) and _same(F[_I_VS, i], mm[M_PERF_VS]) and _same(F[_I_ALT, i], mm[M_PERF_ALT])):
+            ph, vmn, vmx, axm = _performance(F[_I_TAS, i], F[_I_VS, i], F[_I_ALT, i], perf)
+            mm[M_PERF_TAS], mm[M_PERF_VS], mm[M_PERF_ALT] = F[_I_TAS, i], F[_I_VS, i], F[_I_ALT, i]
+            mm[M_PHASE], mm[M_VMIN], mm[M_VMAX], mm[M_AXMAX] = ph, vmn, vmx, axm
+        phase[i] = int(mm[M_PHASE])
+        F[_I_VMIN, i] = mm[M_VMIN]
+        F[_I_VMAX, i] = mm[M_VMAX]
+        F[_I_AXMAX, i] = mm[M_AXMAX]
+    h = F[_I_ALT, i]
+    if not _same(h, mm[M_H]):
+        mm[M_H] = h
+        mm[M_P_H], mm[M_RHO_H], mm[M_T_H] = _atmos(h)
+    p_h, rho_h, t_h = mm[M_P_H], mm[M_RHO_H], mm[M_T_H]
+    # Autopilot [dynamics.md 2.3].
+    sv = F[_I_SELVS, i]
+    apvs = sv if abs(sv) > 0.1 else _VS_DEFAULT
+    F[_I_AP_VS, i] = apvs
+    apalt = F[_I_SELALT, i]
+    F[_I_AP_ALT, i] = apalt
+    spd = F[_I_SELSPD, i]
+    if not (_same(spd, mm[M_SPD]) and _same(h, mm[M_SPD_H])):
+        if spd > 0.1 and spd < 2.0:
+            mm[M_APTAS] = spd * math.sqrt(_GAMMA_R * t_h)
+        else:
+            mm[M_APTAS] = _cas2tas(spd, p_h, rho_h)
+        mm[M_SPD], mm[M_SPD_H] = spd, h
+    aptas = mm[M_APTAS]
+    F[_I_AP_TAS, i] = aptas
+    trk_t = F[_I_AP_TRK, i]
+    vs_t = abs(apvs)
+    if any_wind:
+        vwn, vwe = wn[i], we[i]
+        vw = math.sqrt(vwn * vwn + vwe * vwe)
+        winddir = math.atan2(vwe, vwn)
+        drift = trk_t * _RAD - winddir
+        s = vw * math.sin(drift) / _maximum(0.001, F[_I_TAS, i])
+        s = min(1.0, max(-1.0, s)) if s == s else s
+        steer = math.asin(s)
+        hdg_t = _mod(trk_t + steer * _DEG, 360.0)
+    else:
+        hdg_t = _mod(trk_t, 360.0)
+    # Performance limits at the target altitude [dynamics.md 1.5].
+    alt_t = hmax if apalt > hmax else apalt
+    if not _same(alt_t, mm[M_HT]):
+        mm[M_HT] = alt_t
+        mm[M_P_T], mm[M_RHO_T], mm[M_T_T] = _atmos(alt_t)
+    if not (
+        _same(aptas, mm[M_LIM_TAS]) and _same(alt_t, mm[M_LIM_HT]) and _same(F[_I_VMIN, i], mm[M_LIM_VMIN]) and _same(F[_I_VMAX, i], mm[M_LIM_VMAX])
+    ):
+        p_t, rho_t = mm[M_P_T], mm[M_RHO_T]
+        intent_cas = _tas2cas(aptas, p_t, rho_t)
+        allow_cas = F[_I_VMIN, i] if intent_cas < F[_I_VMIN, i] else intent_cas
+        if intent_cas > F[_I_VMAX, i]:
+            allow_cas = F[_I_VMAX, i]
+        lim = _cas2tas(allow_cas, p_t, rho_t)
+        sound_t = math.sqrt(_GAMMA_R * mm[M_T_T])
+        if lim / sound_t > mmo:
+            lim = mmo * sound_t
+        mm[M_LIM_OUT] = lim
+        mm[M_LIM_TAS], mm[M_LIM_HT], mm[M_LIM_VMIN], mm[M_LIM_VMAX] = aptas, alt_t, F[_I_VMIN, i], F[_I_VMAX, i]
+    tas_t = mm[M_LIM_OUT]
+    if vs_t > 0 and vs_t > vsmax:
+        vs_t = (1 - F[_I_AX, i] / F[_I_AXMAX, i]) * vsmax
+    if phase[i] == 1 and F[_I_TAS, i] < v_rotate:
+        vs_t = 0.0
+    # Speed [dynamics.md 2.2 step 6].
+    delta_spd = tas_t - F[_I_TAS, i]
+    if abs(delta_spd) > abs(dt * F[_I_AXMAX, i]):
+        a_x = 1.0 * _sign(delta_spd) * F[_I_AXMAX, i]
+        v_new = F[_I_TAS, i] + a_x * dt
+    else:
+        a_x = 0.0 * _sign(delta_spd) * F[_I_AXMAX, i]
+        v_new = tas_t
+    F[_I_AX, i] = a_x
+    F[_I_TAS, i] = v_new
+    if not (_same(v_new, mm[M_CAS_V]) and _same(h, mm[M_CAS_H])):
+        mm[M_CAS] = _tas2cas(v_new, p_h, rho_h)
+        mm[M_MACH] = v_new / math.sqrt(_GAMMA_R * t_h)
+        mm[M_CAS_V], mm[M_CAS_H] = v_new, h
+    F[_I_CAS, i] = mm[M_CAS]
+    F[_I_MACH, i] = mm[M_MACH]
+    # Heading [step 7].
+    bank = F[_I_TURNPHI, i] if F[_I_TURNPHI, i] > 0.01 * 0.01 else _BANK_DEFAULT
+    if not (_same(v_new, mm[M_TR_V]) and _same(bank, mm[M_TR_BANK])):
+        mm[M_TURNRATE] = (G0 * math.tan(bank) / _maximum(v_new, 0.01)) * _DEG
+        mm[M_TR_V], mm[M_TR_BANK] = v_new, bank
+    turnrate = mm[M_TURNRATE]
+    delhdg = _mod(hdg_t - F[_I_HDG, i] + 180, 360) - 180
+    if abs(delhdg) > abs(dt * turnrate):
+        new_hdg = _mod(F[_I_HDG, i] + dt * turnrate * _sign(delhdg), 360.0)
+    else:
+        new_hdg = _mod(hdg_t, 360.0)
+    F[_I_HDG, i] = new_hdg
+    # Vertical [step 8].
+    vs_old = F[_I_VS, i]
+    delta_alt = alt_t - h
+    swaltsel = abs(delta_alt) > 1.05 * _maximum(abs(dt * vs_t), abs(dt * vs_old))
+    target_vs = (1.0 if swaltsel else 0.0) * _sign(delta_alt) * abs(vs_t)
+    delta_vs = target_vs - vs_old
+    if abs(delta_vs) > _VS_RAMP:
+        vs_new = vs_old + 1.0 * _sign(delta_vs) * _VS_RAMP * dt
+    else:
+        vs_new = target_vs
+    if not math.isfinite(vs_new):
+        vs_new = 0.0
+    F[_I_VS, i] = vs_new
+    # Ground speed [step 9, dynamics.md 1.7].
+    if not _same(new_hdg, mm[M_HDG]):
+        hr = new_hdg * _RAD
+        mm[M_COS], mm[M_SIN] = math.cos(hr), math.sin(hr)
+        mm[M_HDG] = new_hdg
+    gn = v_new * mm[M_COS]
+    ge = v_new * mm[M_SIN]
+    if any_wind:
+        vwn, vwe = wn[i], we[i]
+        F[_I_WINDNORTH, i] = vwn
+        F[_I_WINDEAST, i] = vwe
+        apply = haswind[i] and h > _WIND_MIN_ALT
+        fa = 1.0 if apply else 0.0
+        gn = gn + vwn * fa
+        ge = ge + vwe * fa
+        if apply:
+            g = math.sqrt(gn * gn + ge * ge)
+            tr = _mod(math.atan2(ge, gn) * _DEG, 360.0)
+        else:
+            g = v_new
+            tr = new_hdg
+    else:
+        F[_I_WINDNORTH, i] = 0.0
+        F[_I_WINDEAST, i] = 0.0
+        g = v_new
+        tr = new_hdg
+    F[_I_GSNORTH, i] = gn
+    F[_I_GSEAST, i] = ge
+    F[_I_GS, i] = g
+    F[_I_TRK, i] = tr
+    # Position [step 10].
+    if swaltsel:
+        F[_I_ALT, i] = np.rint((h + vs_new * dt) * 1e6) / 1e6
+    else:
+        F[_I_ALT, i] = alt_t
+    la = F[_I_LAT, i] + (dt * gn / R_EARTH) * _DEG
+    F[_I_LAT, i] = la
+    coslat = math.cos(la * _RAD)
+    F[_I_LON, i] = F[_I_LON, i] + (dt * ge / coslat / R_EARTH) * _DEG
+    F[_I_DISTFLOWN, i] = F[_I_DISTFLOWN, i] + g * dt
+
+
 @_jit
 def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):
     """Advance every aircraft by one step; mirrors ``Simulator.step`` operation by operation.
@@ -282,161 +443,22 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         limits: (hmax, vsmax, mmo, v_rotate).
         memo: (aircraft, MEMO_COLUMNS) memo table.
     """
-    hmax, vsmax, mmo, v_rotate = limits
-    n = F.shape[1]
-    for i in range(n):
-        mm = memo[i]
-        # Performance update from the start-of-step state [dynamics.md 2.1].
-        if do_perf:
-            if not (_same(F[_I_TAS, i], mm[M_PERF_TAS]) and _same(F[_I_VS, i], mm[M_PERF_VS]) and _same(F[_I_ALT, i], mm[M_PERF_ALT])):
-                ph, vmn, vmx, axm = _performance(F[_I_TAS, i], F[_I_VS, i], F[_I_ALT, i], perf)
-                mm[M_PERF_TAS], mm[M_PERF_VS], mm[M_PERF_ALT] = F[_I_TAS, i], F[_I_VS, i], F[_I_ALT, i]
-                mm[M_PHASE], mm[M_VMIN], mm[M_VMAX], mm[M_AXMAX] = ph, vmn, vmx, axm
-            phase[i] = int(mm[M_PHASE])
-            F[_I_VMIN, i] = mm[M_VMIN]
-            F[_I_VMAX, i] = mm[M_VMAX]
-            F[_I_AXMAX, i] = mm[M_AXMAX]
-        h = F[_I_ALT, i]
-        if not _same(h, mm[M_H]):
-            mm[M_H] = h
-            mm[M_P_H], mm[M_RHO_H], mm[M_T_H] = _atmos(h)
-        p_h, rho_h, t_h = mm[M_P_H], mm[M_RHO_H], mm[M_T_H]
-        # Autopilot [dynamics.md 2.3].
-        sv = F[_I_SELVS, i]
-        apvs = sv if abs(sv) > 0.1 else _VS_DEFAULT
-        F[_I_AP_VS, i] = apvs
-        apalt = F[_I_SELALT, i]
-        F[_I_AP_ALT, i] = apalt
-        spd = F[_I_SELSPD, i]
-        if not (_same(spd, mm[M_SPD]) and _same(h, mm[M_SPD_H])):
-            if spd > 0.1 and spd < 2.0:
-                mm[M_APTAS] = spd * math.sqrt(_GAMMA_R * t_h)
-            else:
-                mm[M_APTAS] = _cas2tas(spd, p_h, rho_h)
-            mm[M_SPD], mm[M_SPD_H] = spd, h
-        aptas = mm[M_APTAS]
-        F[_I_AP_TAS, i] = aptas
-        trk_t = F[_I_AP_TRK, i]
-        vs_t = abs(apvs)
-        if any_wind:
-            vwn, vwe = wn[i], we[i]
-            vw = math.sqrt(vwn * vwn + vwe * vwe)
-            winddir = math.atan2(vwe, vwn)
-            drift = trk_t * _RAD - winddir
-            s = vw * math.sin(drift) / _maximum(0.001, F[_I_TAS, i])
-            s = min(1.0, max(-1.0, s)) if s == s else s
-            steer = math.asin(s)
-            hdg_t = _mod(trk_t + steer * _DEG, 360.0)
-        else:
-            hdg_t = _mod(trk_t, 360.0)
-        # Performance limits at the target altitude [dynamics.md 1.5].
-        alt_t = hmax if apalt > hmax else apalt
-        if not _same(alt_t, mm[M_HT]):
-            mm[M_HT] = alt_t
-            mm[M_P_T], mm[M_RHO_T], mm[M_T_T] = _atmos(alt_t)
-        if not (
-            _same(aptas, mm[M_LIM_TAS])
-            and _same(alt_t, mm[M_LIM_HT])
-            and _same(F[_I_VMIN, i], mm[M_LIM_VMIN])
-            and _same(F[_I_VMAX, i], mm[M_LIM_VMAX])
-        ):
-            p_t, rho_t = mm[M_P_T], mm[M_RHO_T]
-            intent_cas = _tas2cas(aptas, p_t, rho_t)
-            allow_cas = F[_I_VMIN, i] if intent_cas < F[_I_VMIN, i] else intent_cas
-            if intent_cas > F[_I_VMAX, i]:
-                allow_cas = F[_I_VMAX, i]
-            lim = _cas2tas(allow_cas, p_t, rho_t)
-            sound_t = math.sqrt(_GAMMA_R * mm[M_T_T])
-            if lim / sound_t > mmo:
-                lim = mmo * sound_t
-            mm[M_LIM_OUT] = lim
-            mm[M_LIM_TAS], mm[M_LIM_HT], mm[M_LIM_VMIN], mm[M_LIM_VMAX] = aptas, alt_t, F[_I_VMIN, i], F[_I_VMAX, i]
-        tas_t = mm[M_LIM_OUT]
-        if vs_t > 0 and vs_t > vsmax:
-            vs_t = (1 - F[_I_AX, i] / F[_I_AXMAX, i]) * vsmax
-        if phase[i] == 1 and F[_I_TAS, i] < v_rotate:
-            vs_t = 0.0
-        # Speed [dynamics.md 2.2 step 6].
-        delta_spd = tas_t - F[_I_TAS, i]
-        if abs(delta_spd) > abs(dt * F[_I_AXMAX, i]):
-            a_x = 1.0 * _sign(delta_spd) * F[_I_AXMAX, i]
-            v_new = F[_I_TAS, i] + a_x * dt
-        else:
-            a_x = 0.0 * _sign(delta_spd) * F[_I_AXMAX, i]
-            v_new = tas_t
-        F[_I_AX, i] = a_x
-        F[_I_TAS, i] = v_new
-        if not (_same(v_new, mm[M_CAS_V]) and _same(h, mm[M_CAS_H])):
-            mm[M_CAS] = _tas2cas(v_new, p_h, rho_h)
-            mm[M_MACH] = v_new / math.sqrt(_GAMMA_R * t_h)
-            mm[M_CAS_V], mm[M_CAS_H] = v_new, h
-        F[_I_CAS, i] = mm[M_CAS]
-        F[_I_MACH, i] = mm[M_MACH]
-        # Heading [step 7].
-        bank = F[_I_TURNPHI, i] if F[_I_TURNPHI, i] > 0.01 * 0.01 else _BANK_DEFAULT
-        if not (_same(v_new, mm[M_TR_V]) and _same(bank, mm[M_TR_BANK])):
-            mm[M_TURNRATE] = (G0 * math.tan(bank) / _maximum(v_new, 0.01)) * _DEG
-            mm[M_TR_V], mm[M_TR_BANK] = v_new, bank
-        turnrate = mm[M_TURNRATE]
-        delhdg = _mod(hdg_t - F[_I_HDG, i] + 180, 360) - 180
-        if abs(delhdg) > abs(dt * turnrate):
-            new_hdg = _mod(F[_I_HDG, i] + dt * turnrate * _sign(delhdg), 360.0)
-        else:
-            new_hdg = _mod(hdg_t, 360.0)
-        F[_I_HDG, i] = new_hdg
-        # Vertical [step 8].
-        vs_old = F[_I_VS, i]
-        delta_alt = alt_t - h
-        swaltsel = abs(delta_alt) > 1.05 * _maximum(abs(dt * vs_t), abs(dt * vs_old))
-        target_vs = (1.0 if swaltsel else 0.0) * _sign(delta_alt) * abs(vs_t)
-        delta_vs = target_vs - vs_old
-        if abs(delta_vs) > _VS_RAMP:
-            vs_new = vs_old + 1.0 * _sign(delta_vs) * _VS_RAMP * dt
-        else:
-            vs_new = target_vs
-        if not math.isfinite(vs_new):
-            vs_new = 0.0
-        F[_I_VS, i] = vs_new
-        # Ground speed [step 9, dynamics.md 1.7].
-        if not _same(new_hdg, mm[M_HDG]):
-            hr = new_hdg * _RAD
-            mm[M_COS], mm[M_SIN] = math.cos(hr), math.sin(hr)
-            mm[M_HDG] = new_hdg
-        gn = v_new * mm[M_COS]
-        ge = v_new * mm[M_SIN]
-        if any_wind:
-            vwn, vwe = wn[i], we[i]
-            F[_I_WINDNORTH, i] = vwn
-            F[_I_WINDEAST, i] = vwe
-            apply = haswind[i] and h > _WIND_MIN_ALT
-            fa = 1.0 if apply else 0.0
-            gn = gn + vwn * fa
-            ge = ge + vwe * fa
-            if apply:
-                g = math.sqrt(gn * gn + ge * ge)
-                tr = _mod(math.atan2(ge, gn) * _DEG, 360.0)
-            else:
-                g = v_new
-                tr = new_hdg
-        else:
-            F[_I_WINDNORTH, i] = 0.0
-            F[_I_WINDEAST, i] = 0.0
-            g = v_new
-            tr = new_hdg
-        F[_I_GSNORTH, i] = gn
-        F[_I_GSEAST, i] = ge
-        F[_I_GS, i] = g
-        F[_I_TRK, i] = tr
-        # Position [step 10].
-        if swaltsel:
-            F[_I_ALT, i] = np.rint((h + vs_new * dt) * 1e6) / 1e6
-        else:
-            F[_I_ALT, i] = alt_t
-        la = F[_I_LAT, i] + (dt * gn / R_EARTH) * _DEG
-        F[_I_LAT, i] = la
-        coslat = math.cos(la * _RAD)
-        F[_I_LON, i] = F[_I_LON, i] + (dt * ge / coslat / R_EARTH) * _DEG
-        F[_I_DISTFLOWN, i] = F[_I_DISTFLOWN, i] + g * dt
+    for i in range(F.shape[1]):
+        _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo)
+
+
+@_jit
+def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo):
+    """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
+
+    Valid only when aircraft do not interact within these steps: no LNAV waypoint logic (it
+    runs in numpy between steps) and a wind that does not depend on position (uniform). Each
+    aircraft then stays in cache for all its steps. Same arguments as :func:`step_kernel`,
+    with ``perf_due[k]`` telling whether the performance model updates in step ``k``.
+    """
+    for i in range(F.shape[1]):
+        for k in range(perf_due.shape[0]):
+            _step_one(F, i, phase, wn, we, haswind, any_wind, perf_due[k], dt, perf, limits, memo)
 
 
 def perf_tuple(perf: pf.AircraftPerformance) -> tuple[float, ...]:

@@ -167,7 +167,13 @@ class Simulator:
         shape = (self.n_envs, self.max_aircraft)
         self._defaults: dict[str, tuple[type, float]] = {}
         # All float64 state lives in one block (fields, n_envs, max_aircraft) that never moves.
-        self._float_block = np.empty((len(FLOAT_FIELDS), *shape))
+        n_slots = self.n_envs * self.max_aircraft
+        # Rows are padded so that they do not start at the same offset modulo 4 KiB, which would
+        # make the compiled kernel's per-field streams collide in the CPU caches.
+        pad = next(p for p in (24, 40, 56) if ((n_slots + p) * 8) % 4096 not in (0, 64, 4032))
+        self._float_raw = np.empty((len(FLOAT_FIELDS), n_slots + pad))
+        self._float_flat = self._float_raw[:, :n_slots]  # (fields, aircraft) view, padded rows
+        self._float_block = self._float_flat.reshape(len(FLOAT_FIELDS), *shape)  # a view as well
         for name, dtype, value in _STATE_FIELDS:
             if dtype is np.float64:
                 self._float_block[FIELD_INDEX[name]] = value
@@ -178,7 +184,6 @@ class Simulator:
         self.route_lon = np.zeros((*shape, self.max_waypoints))  # deg
         self.wind = WindField(self.n_envs)
         self._empty = np.zeros(0)
-        self._float_flat = self._float_block.reshape(len(FLOAT_FIELDS), -1)  # a view: (fields, aircraft)
         self._phase_flat = self.phase.reshape(-1)  # a view
         self._kernel = fused.step_kernel if self.kernel == "fused" else None
         # Memo table of the fused kernel: (n_envs * max_aircraft, columns), NaN = nothing cached.
@@ -492,6 +497,34 @@ class Simulator:
             self._update_airspeed(tas_t, hdg_t, alt_t, vs_t)
             self._update_groundspeed(any_wind)
             self._update_position(alt_t)
+
+    def run(self, n_steps: int) -> None:
+        """Advance every airspace by ``n_steps`` steps (same result as calling :meth:`step` n times).
+
+        With the fused kernel, and while no aircraft flies LNAV and any wind is uniform, the
+        aircraft do not influence each other between steps, so each one is advanced through all
+        ``n_steps`` at once while it sits in the CPU cache.
+        """
+        if n_steps < 0:
+            raise ValueError(f"n_steps must be >= 0, got {n_steps}")
+        wind = self.wind
+        independent = self.kernel == "fused" and n_steps > 1 and not self.swlnav.any() and not (wind.count > 1).any()
+        if not independent:
+            for _ in range(n_steps):
+                self.step()
+            return
+        from bluesky_gym.core.fused import run_kernel
+
+        perf_due = np.array([self._performance_due() for _ in range(n_steps)])
+        self.simt += n_steps * self.dt
+        any_wind = wind.any
+        if any_wind:  # uniform: the same wind wherever the aircraft goes
+            wn, we = (np.ascontiguousarray(w).reshape(-1) for w in wind.at_all(self.lat, self.lon))
+            haswind = np.repeat(wind.has_wind, self.max_aircraft)
+        else:
+            wn = we = self._empty
+            haswind = self._empty_bool
+        run_kernel(self._float_flat, self._phase_flat, wn, we, haswind, any_wind, perf_due, self.dt, self._perf_args, self._limit_args, self._memo)
 
     def _performance_due(self) -> bool:
         """BlueSky's 1 s performance timer: every step for dt >= 1 s."""

@@ -316,10 +316,14 @@ class Task(abc.ABC):
         Returns:
             Reward, termination, reward components and the observation.
         """
-        for k in range(self.action_frequency):
-            self.sim.step()
-            for hook in self.substep_hooks:
-                hook(self, k)
+        run = getattr(self.sim, "run", None)
+        if run is not None and not self.substep_hooks:
+            run(self.action_frequency)
+        else:
+            for k in range(self.action_frequency):
+                self.sim.step()
+                for hook in self.substep_hooks:
+                    hook(self, k)
         obs = self.observe()
         reward, terminated, components = self.evaluate()
         return reward, terminated, components, obs
