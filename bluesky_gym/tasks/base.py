@@ -27,7 +27,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core import Simulator, geo
+from bluesky_gym.core import Simulator
+from bluesky_gym.tasks.geometry import ref_kwikqdrdist
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -365,8 +366,8 @@ class Task(abc.ABC):
 
     # --- helpers for subclasses -----------------------------------------------------------------
     def kwik_from_ownship(self, lat: Array, lon: Array) -> tuple[Array, Array]:
-        """Kwik (qdr deg in (-180, 180], dist NM) from each ownship (slot 0) to points (n_envs, k)."""
-        return geo.kwikqdrdist(self.sim.lat[:, :1], self.sim.lon[:, :1], lat, lon)
+        """Reference kwik (qdr deg in [0, 360), dist NM) from each ownship (slot 0) to points (n_envs, k)."""
+        return ref_kwikqdrdist(self.sim.lat[:, :1], self.sim.lon[:, :1], lat, lon)
 
     @classmethod
     def make_config(cls, options: Mapping[str, Any] | None = None) -> TaskConfig:

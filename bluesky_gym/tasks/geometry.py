@@ -100,6 +100,42 @@ def latlon_to_nm(center: ArrayLike, points: ArrayLike) -> Array:
     return np.stack([x, y], axis=-1)
 
 
+class PolygonSet:
+    """Polygons in (lat, lon) prepared for repeated even-odd point-in-polygon tests.
+
+    BlueSky's 2-D ``checkInside`` (a matplotlib path test without altitude limits), batched.
+
+    Args:
+        poly_lat: Vertices, shape (..., K, V), padded beyond ``n_vertices``.
+        poly_lon: Same shape as ``poly_lat``.
+        n_vertices: Vertex count of each polygon, shape (..., K); 0 means no polygon.
+    """
+
+    def __init__(self, poly_lat: ArrayLike, poly_lon: ArrayLike, n_vertices: ArrayLike) -> None:
+        py = np.asarray(poly_lat, dtype=np.float64)
+        px = np.asarray(poly_lon, dtype=np.float64)
+        nv = np.asarray(n_vertices)[..., :, None]  # (..., K, 1)
+        v = np.arange(py.shape[-1])
+        last = v + 1 >= nv  # the closing edge goes back to vertex 0
+        # Edge v runs from vertex v to vertex v + 1 (or 0).
+        qy = np.where(last, py[..., :1], np.concatenate([py[..., 1:], py[..., :1]], axis=-1))
+        qx = np.where(last, px[..., :1], np.concatenate([px[..., 1:], px[..., :1]], axis=-1))
+        self._py, self._px = py[..., None, :, :], px[..., None, :, :]  # (..., 1, K, V)
+        self._qy, self._qx = qy[..., None, :, :], qx[..., None, :, :]
+        self._valid = (v < nv)[..., None, :, :]
+        self._dx = self._qx - self._px
+        self._dy = self._qy - self._py
+
+    def contains(self, lat: ArrayLike, lon: ArrayLike) -> NDArray[np.bool_]:
+        """Inside flags, shape (..., P, K), of points (..., P)."""
+        y = np.asarray(lat, dtype=np.float64)[..., :, None, None]  # (..., P, 1, 1)
+        x = np.asarray(lon, dtype=np.float64)[..., :, None, None]
+        py, px, qy = self._py, self._px, self._qy
+        with np.errstate(divide="ignore", invalid="ignore"):
+            crosses = ((py > y) != (qy > y)) & (x < self._dx * (y - py) / self._dy + px)
+        return (np.count_nonzero(crosses & self._valid, axis=-1) % 2) == 1
+
+
 def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly_lon: ArrayLike, n_vertices: ArrayLike) -> NDArray[np.bool_]:
     """Even-odd point-in-polygon test on (lat, lon), batched (BlueSky's 2-D ``checkInside``).
 
@@ -113,23 +149,7 @@ def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly
     Returns:
         Inside flags, shape (..., P, K).
     """
-    y = np.asarray(lat, dtype=np.float64)[..., :, None, None]  # (..., P, 1, 1)
-    x = np.asarray(lon, dtype=np.float64)[..., :, None, None]
-    py = np.asarray(poly_lat, dtype=np.float64)[..., None, :, :]  # (..., 1, K, V)
-    px = np.asarray(poly_lon, dtype=np.float64)[..., None, :, :]
-    nv = np.asarray(n_vertices)[..., None, :, None]  # (..., 1, K, 1)
-    v = np.arange(py.shape[-1])
-    nxt = np.where(v + 1 < nv, v + 1, 0)  # closing edge back to vertex 0
-    qy = np.take_along_axis(
-        np.broadcast_to(py, np.broadcast_shapes(py.shape, nxt.shape)), np.broadcast_to(nxt, np.broadcast_shapes(py.shape, nxt.shape)), axis=-1
-    )
-    qx = np.take_along_axis(
-        np.broadcast_to(px, np.broadcast_shapes(px.shape, nxt.shape)), np.broadcast_to(nxt, np.broadcast_shapes(px.shape, nxt.shape)), axis=-1
-    )
-    valid = v < nv
-    with np.errstate(divide="ignore", invalid="ignore"):
-        crosses = ((py > y) != (qy > y)) & (x < (qx - px) * (y - py) / (qy - py) + px)
-    return (np.sum(crosses & valid, axis=-1) % 2) == 1
+    return PolygonSet(poly_lat, poly_lon, n_vertices).contains(lat, lon)
 
 
 # --- kwik geometry as the reference environments compute it ------------------------------------

@@ -11,7 +11,16 @@ from numpy.typing import NDArray
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
-from bluesky_gym.tasks.geometry import nm_to_latlon, point_at_distance, points_in_polygons, polygon_area, random_convex_polygon, wrap180
+from bluesky_gym.tasks.geometry import (
+    PolygonSet,
+    nm_to_latlon,
+    point_at_distance,
+    points_in_polygons,
+    polygon_area,
+    random_convex_polygon,
+    ref_kwikqdrdist,
+    wrap180,
+)
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 AC_HDG = 0.0  # deg: creation heading, replaced by the bearing to the waypoint
@@ -162,7 +171,7 @@ class StaticObstacleTask(Task):
                 c.waypoint_distance_min, c.waypoint_distance_max,
             )
         # The aircraft starts pointing at the waypoint: hdg and the autopilot track (spec 6).
-        qdr, dist = geo.kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
+        qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
         self.sim.hdg[envs, 0] = qdr
         self.sim.ap_trk[envs, 0] = qdr
         self.start_wpt_km[envs] = dist * NM2KM
@@ -199,13 +208,13 @@ class StaticObstacleTask(Task):
 
     def waypoint_geometry(self) -> tuple[Array, Array]:
         """(n_envs,) live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg]."""
-        qdr, dist = geo.kwikqdrdist(self.sim.lat[:, 0], self.sim.lon[:, 0], self.wpt_lat, self.wpt_lon)
+        qdr, dist = ref_kwikqdrdist(self.sim.lat[:, 0], self.sim.lon[:, 0], self.wpt_lat, self.wpt_lon)
         return dist * NM2KM, wrap180(self.sim.hdg[:, 0] - qdr)
 
     def inside_obstacles(self) -> NDArray[np.bool_]:
         """(n_envs, num_obstacles) whether each obstacle polygon contains the aircraft now."""
-        inside = points_in_polygons(self.sim.lat[:, :1], self.sim.lon[:, :1], self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
-        return inside[:, 0, :]
+        obstacles = PolygonSet(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
+        return obstacles.contains(self.sim.lat[:, :1], self.sim.lon[:, :1])[:, 0, :]
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self) -> dict[str, Array]:

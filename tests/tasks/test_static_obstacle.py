@@ -18,11 +18,11 @@ R_KM = 6371.0
 
 
 def kwik(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
-    """Flat-earth bearing [deg] and distance [km], written out independently (spec conventions)."""
+    """Flat-earth bearing [deg, mod 360] and distance [km], written out independently (spec conventions)."""
     dlat = math.radians(lat2) - math.radians(lat1)
     dlon = math.radians(lon2) - math.radians(lon1)
     c = math.cos(0.5 * (math.radians(lat1) + math.radians(lat2)))
-    return math.degrees(math.atan2(dlon * c, dlat)), R_KM * math.hypot(dlat, dlon * c)
+    return math.degrees(math.atan2(dlon * c, dlat)) % 360.0, R_KM * math.hypot(dlat, dlon * c)
 
 
 def great_circle(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
