@@ -63,6 +63,11 @@ _I_AX = FIELD_INDEX["ax"]
 _I_WINDNORTH = FIELD_INDEX["windnorth"]
 _I_WINDEAST = FIELD_INDEX["windeast"]
 _I_DISTFLOWN = FIELD_INDEX["distflown"]
+_I_ACTWP_LAT = FIELD_INDEX["actwp_lat"]
+_I_ACTWP_LON = FIELD_INDEX["actwp_lon"]
+_I_CURLEGDIR = FIELD_INDEX["curlegdir"]
+_I_TURNDIST = FIELD_INDEX["turndist"]
+_I_NEXT_QDR = FIELD_INDEX["next_qdr"]
 _I_SELSPD = FIELD_INDEX["selspd"]
 _I_SELALT = FIELD_INDEX["selalt"]
 _I_SELVS = FIELD_INDEX["selvs"]
@@ -271,6 +276,158 @@ M_HDG, M_COS, M_SIN = range(30, 33)
 MEMO_COLUMNS = 33
 
 
+# --- LNAV [dynamics.md 2.6], per aircraft -----------------------------------------------------
+_A2 = 6378137.0 * 6378137.0
+_B2 = 6356752.314245 * 6356752.314245
+_A4 = _A2 * _A2
+_B4 = _B2 * _B2
+_WGS84_A = 6378137.0
+_WGS84_B = 6356752.314245
+_DEG2RAD = 0.017453292519943295
+_RAD2DEG = 57.29577951308232
+_M2NM = 0.0005399568034557236
+_NM = 1852.0
+# g0 * tan(bank) of a waypoint turn: deg2rad(rad2deg(bankdef)) as BlueSky's calcturn evaluates it.
+_G_TAN_LNAV = G0 * float(np.tan(np.deg2rad(np.rad2deg(np.float64(_BANK_DEFAULT)))))
+_BANK_LNAV = float(np.deg2rad(np.rad2deg(np.float64(_BANK_DEFAULT))))
+
+
+@_jit
+def _rwgs84_sc(sinlat, coslat):
+    s2 = sinlat * sinlat
+    c2 = coslat * coslat
+    return math.sqrt((_A4 * c2 + _B4 * s2) / (_A2 * c2 + _B2 * s2))
+
+
+@_jit
+def _qdrdist_compiled(latd1, lond1, latd2, lond2):
+    """Scalar copy of :func:`bluesky_gym.core.geo.qdrdist` (deg, NM)."""
+    lat1 = _DEG2RAD * latd1
+    lon1 = _DEG2RAD * lond1
+    lat2 = _DEG2RAD * latd2
+    lon2 = _DEG2RAD * lond2
+    sinlat1, coslat1 = math.sin(lat1), math.cos(lat1)
+    sinlat2, coslat2 = math.sin(lat2), math.cos(lat2)
+    dlon = lon2 - lon1
+    qdr = _RAD2DEG * math.atan2(math.sin(dlon) * coslat2, sinlat2 * coslat1 - sinlat1 * coslat2 * math.cos(dlon))
+    sindlat2 = math.sin(0.5 * (lat2 - lat1))
+    sindlon2 = math.sin(0.5 * dlon)
+    if lat1 * lat2 >= 0.0:
+        mid = 0.5 * (lat1 + lat2)
+        r = _rwgs84_sc(math.sin(mid), math.cos(mid))
+    else:
+        r = (
+            0.5
+            * (abs(lat1) * (_rwgs84_sc(sinlat1, coslat1) + _WGS84_A) + abs(lat2) * (_rwgs84_sc(sinlat2, coslat2) + _WGS84_A))
+            / (abs(lat1) + abs(lat2))
+        )
+    root = sindlat2 * sindlat2 + coslat1 * coslat2 * sindlon2 * sindlon2
+    dist = 2.0 * r * math.atan2(math.sqrt(root), math.sqrt(1.0 - root))
+    return qdr, _M2NM * dist
+
+
+@_jit
+def _rwgs84_python(latd):
+    lat = latd * _RAD
+    coslat = math.cos(lat)
+    sinlat = math.sin(lat)
+    an = _WGS84_A * _WGS84_A * coslat
+    bn = _WGS84_B * _WGS84_B * sinlat
+    ad = _WGS84_A * coslat
+    bd = _WGS84_B * sinlat
+    return math.sqrt((an * an + bn * bn) / (ad * ad + bd * bd))
+
+
+@_jit
+def _qdrdist_python(latd1, lond1, latd2, lond2):
+    """Scalar copy of :func:`bluesky_gym.core.geo.qdrdist_python` (deg, NM)."""
+    res1 = _rwgs84_python(0.5 * (latd1 + latd2))
+    if latd1 * latd2 >= 0.0:
+        r = res1
+    else:
+        r1 = _rwgs84_python(latd1)
+        r2 = _rwgs84_python(latd2)
+        res2 = 0.5 * (abs(latd1) * (r1 + _WGS84_A) + abs(latd2) * (r2 + _WGS84_A)) / _maximum(0.000001, abs(latd1) + abs(latd2))
+        r = 0.0 * res1 + 1.0 * res2
+    lat1 = latd1 * _RAD
+    lon1 = lond1 * _RAD
+    lat2 = latd2 * _RAD
+    lon2 = lond2 * _RAD
+    d = r * math.acos(math.cos(lat1) * math.cos(lat2) * math.cos(lon2 - lon1) + math.sin(lat1) * math.sin(lat2))
+    coslat1 = math.cos(lat1)
+    coslat2 = math.cos(lat2)
+    qdr = math.atan2(math.sin(lon2 - lon1) * coslat2, coslat1 * math.sin(lat2) - math.sin(lat1) * coslat2 * math.cos(lon2 - lon1)) * _DEG
+    return qdr, d / _NM
+
+
+@_jit
+def _qdrdist(python_geo, latd1, lond1, latd2, lond2):
+    if python_geo:
+        return _qdrdist_python(latd1, lond1, latd2, lond2)
+    return _qdrdist_compiled(latd1, lond1, latd2, lond2)
+
+
+@_jit
+def _degto180(x):
+    return _mod(x + 180.0, 360) - 180.0
+
+
+@_jit
+def _turn_distance(tas, qdr, next_qdr):
+    local_next = qdr if next_qdr < -900.0 else next_qdr
+    turnrad = tas * tas / _G_TAN_LNAV
+    return abs(turnrad * math.tan(0.5 * abs(_degto180(_mod(qdr, 360.0) - _mod(local_next, 360.0))) * _RAD))
+
+
+@_jit_inline
+def _lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):
+    """LNAV of aircraft ``i`` (mirrors ``Simulator._update_lnav``)."""
+    if not swlnav[i]:
+        return
+    qdr, distnm = _qdrdist(python_geo, F[_I_LAT, i], F[_I_LON, i], F[_I_ACTWP_LAT, i], F[_I_ACTWP_LON, i])
+    dist = distnm * _NM
+    close2wp = dist / _maximum(0.0001, abs(F[_I_GS, i])) < 4.0
+    tooclose2turn = close2wp and abs(_degto180(_mod(F[_I_TRK, i], 360.0) - _mod(qdr, 360.0))) > 90.0
+    awayorpassed = tooclose2turn or abs(_degto180(qdr - F[_I_CURLEGDIR, i])) > 90.0
+    if active[i] and (awayorpassed or dist < F[_I_TURNDIST, i]):
+        if swlastwp[i]:
+            swlnav[i] = False
+            swvnav[i] = False
+            swvnavspd[i] = False
+        else:
+            n = nwp[i]
+            iact = iactwp[i]
+            lnavon = iact < n - 1
+            if lnavon:
+                iact += 1
+            iactwp[i] = iact
+            swlastwp[i] = iact == n - 1
+            if iact > -1 and iact < n - 1:
+                nq, _ = _qdrdist(python_geo, route_lat[i, iact], route_lon[i, iact], route_lat[i, iact + 1], route_lon[i, iact + 1])
+            else:
+                nq = -999.0
+            F[_I_NEXT_QDR, i] = nq
+            if not lnavon:
+                swlnav[i] = False
+            swvnav[i] = swvnav[i] and swlnav[i]
+            wlat, wlon = route_lat[i, iact], route_lon[i, iact]
+            F[_I_ACTWP_LAT, i] = wlat
+            F[_I_ACTWP_LON, i] = wlon
+            qdr, _ = _qdrdist(python_geo, F[_I_LAT, i], F[_I_LON, i], wlat, wlon)
+            F[_I_CURLEGDIR, i] = qdr
+            F[_I_TURNDIST, i] = _turn_distance(F[_I_TAS, i], qdr, nq)
+            F[_I_TURNPHI, i] = _BANK_LNAV
+    if swlnav[i]:
+        F[_I_AP_TRK, i] = _mod(qdr, 360.0)
+
+
+@_jit
+def lnav_kernel(F, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):
+    """LNAV of every aircraft (flattened arrays; ``route_*`` shaped (aircraft, waypoints))."""
+    for i in range(F.shape[1]):
+        _lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo)
+
+
 @_jit_inline
 def _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
@@ -448,16 +605,20 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
 
 @_jit
-def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo):
+def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, lnav):
     """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
 
-    Valid only when aircraft do not interact within these steps: no LNAV waypoint logic (it
-    runs in numpy between steps) and a wind that does not depend on position (uniform). Each
-    aircraft then stays in cache for all its steps. Same arguments as :func:`step_kernel`,
-    with ``perf_due[k]`` telling whether the performance model updates in step ``k``.
+    Valid when aircraft do not interact within these steps, which holds for the physics and
+    LNAV as long as the wind does not depend on position (none or uniform). Each aircraft then
+    stays in cache for all its steps. Same arguments as :func:`step_kernel`, with
+    ``perf_due[k]`` telling whether the performance model updates in step ``k`` and ``lnav``
+    the LNAV arrays ``(swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat,
+    route_lon, python_geo)``, or None when no aircraft flies LNAV.
     """
     for i in range(F.shape[1]):
         for k in range(perf_due.shape[0]):
+            if lnav is not None:
+                _lnav_one(F, i, lnav[0], lnav[1], lnav[2], lnav[3], lnav[4], lnav[5], lnav[6], lnav[7], lnav[8], lnav[9])
             _step_one(F, i, phase, wn, we, haswind, any_wind, perf_due[k], dt, perf, limits, memo)
 
 

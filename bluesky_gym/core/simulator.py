@@ -524,7 +524,36 @@ class Simulator:
         else:
             wn = we = self._empty
             haswind = self._empty_bool
-        run_kernel(self._float_flat, self._phase_flat, wn, we, haswind, any_wind, perf_due, self.dt, self._perf_args, self._limit_args, self._memo)
+        run_kernel(
+            self._float_flat,
+            self._phase_flat,
+            wn,
+            we,
+            haswind,
+            any_wind,
+            perf_due,
+            self.dt,
+            self._perf_args,
+            self._limit_args,
+            self._memo,
+            self._lnav_args() if self.swlnav.any() else None,
+        )
+
+    def _lnav_args(self) -> tuple:
+        """The LNAV arrays as the compiled kernels take them (flattened views)."""
+        m = self.n_envs * self.max_aircraft
+        return (
+            self.swlnav.reshape(-1),
+            self.swvnav.reshape(-1),
+            self.swvnavspd.reshape(-1),
+            self.swlastwp.reshape(-1),
+            self.active.reshape(-1),
+            self.iactwp.reshape(-1),
+            self.nwp.reshape(-1),
+            self.route_lat.reshape(m, -1),
+            self.route_lon.reshape(m, -1),
+            self.geo == "python",
+        )
 
     def _performance_due(self) -> bool:
         """BlueSky's 1 s performance timer: every step for dt >= 1 s."""
@@ -539,8 +568,9 @@ class Simulator:
         do_perf = self._performance_due()
         self.simt += self.dt
         if self.swlnav.any():
-            with np.errstate(all="ignore"):
-                self._update_lnav()
+            from bluesky_gym.core.fused import lnav_kernel
+
+            lnav_kernel(self._float_flat, *self._lnav_args())
         any_wind = self.wind.any
         if any_wind:
             wn, we = (np.ascontiguousarray(w).reshape(-1) for w in self.wind.at_all(self.lat, self.lon))

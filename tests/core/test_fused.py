@@ -87,12 +87,12 @@ def test_random_traffic_bitwise(dt: float) -> None:
             np.testing.assert_array_equal(_bits(getattr(sims["numpy"], f)), _bits(getattr(sims["fused"], f)), err_msg=f"step {k}: {f}")
 
 
-@pytest.mark.parametrize("wind", [False, True])
-def test_run_many_steps_equals_stepping(wind: bool) -> None:
-    """Simulator.run(n) (aircraft-major loop) is bit-identical to n calls of step()."""
+@pytest.mark.parametrize(("wind", "geo"), [(False, "compiled"), (True, "compiled"), (False, "python")])
+def test_run_many_steps_equals_stepping(wind: bool, geo: str) -> None:
+    """Simulator.run(n) (aircraft-major loop, LNAV included) is bit-identical to n numpy steps."""
     sims = []
-    for _ in range(2):
-        sim = Simulator(50, 3, dt=1.0, kernel="fused")
+    for kernel in ("fused", "numpy"):
+        sim = Simulator(50, 3, dt=1.0, kernel=kernel, geo=geo)
         rng = np.random.default_rng(4)
         e = np.repeat(np.arange(50), 3)
         s = np.tile(np.arange(3), 50)
@@ -103,11 +103,15 @@ def test_run_many_steps_equals_stepping(wind: bool) -> None:
         if wind:
             for env in range(0, 50, 3):
                 sim.wind.add_points(env, [50.0], [5.0], [rng.normal(0, 10)], [rng.normal(0, 10)])
+        routed = np.arange(0, 50, 2)  # LNAV: three fly-by waypoints, then straight on
+        for dlat, dlon in [(0.15, 0.1), (0.3, -0.05), (0.2, -0.3)]:
+            sim.add_waypoint(routed, 2, sim.lat[routed, 2] + dlat, sim.lon[routed, 2] + dlon)
         sims.append(sim)
-    for _ in range(4):
+    for _ in range(30):  # 900 s: long enough to fly every route to its end
         sims[0].run(30)
         for _ in range(30):
             sims[1].step()
-    for f in FIELDS:
+    for f in FIELDS + ["iactwp", "swlastwp", "turndist", "curlegdir", "next_qdr"]:
         np.testing.assert_array_equal(_bits(getattr(sims[0], f)), _bits(getattr(sims[1], f)), err_msg=f)
     assert sims[0].simt == sims[1].simt
+    assert (sims[1].iactwp[::2, 2] == 2).all() and not sims[1].swlnav.any()  # every route was flown to its end
