@@ -18,9 +18,7 @@ from __future__ import annotations
 
 import argparse
 import ast
-import json
 import sys
-import zipfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -85,21 +83,13 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _algo_from_zip(path: Path) -> str:
-    """The algorithm of a Stable-Baselines3 model file, from its stored policy class and settings."""
-    try:
-        with zipfile.ZipFile(path) as z:
-            data = json.loads(z.read("data"))
-        module = data.get("policy_class", {}).get("__module__", "")  # e.g. stable_baselines3.sac.policies
-    except (KeyError, ValueError, AttributeError, zipfile.BadZipFile) as exc:
-        raise ValueError(f"{path} is not a Stable-Baselines3 model file ({exc})") from exc
-    parts = module.split(".")
-    if len(parts) > 1 and parts[1] in SB3_ALGORITHMS:
-        return parts[1]
-    # Dict-observation policies live in a shared module: tell the algorithm by its settings.
-    for key, name in (("clip_range", "ppo"), ("gae_lambda", "a2c"), ("target_entropy", "sac"), ("policy_delay", "td3")):
-        if key in data:
-            return name
-    raise ValueError(f"cannot tell the algorithm of {path}; pass --algo (one of {', '.join(sorted(SB3_ALGORITHMS))})")
+    """The algorithm of a Stable-Baselines3 model file, from its stored settings."""
+    from bluesky_gym.training.evaluation import algorithm_of_zip
+
+    name = algorithm_of_zip(path)
+    if name is None:
+        raise ValueError(f"cannot tell the algorithm of {path}; pass --algo (one of {', '.join(sorted(SB3_ALGORITHMS))})")
+    return name.lower()
 
 
 def make_actor(policy: str, env_id: str, action_space: Any, seed: int, algo: str | None = None, deterministic: bool = True) -> Actor:

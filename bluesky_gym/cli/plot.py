@@ -1,0 +1,82 @@
+"""``bluesky-gym plot``: learning curves and the cross-environment aggregate of training runs.
+
+Examples::
+
+    bluesky-gym plot runs                                   # every run below runs/
+    bluesky-gym plot runs/DescentEnv-v0/PPO runs/DescentEnv-v0/SAC --out figures
+
+Each RUN_DIR is a run directory or any directory above runs (a sweep). Written to ``--out``:
+
+* ``learning_curves.png``: episode return against environment steps per environment, one line
+  per algorithm (mean over seeds, 95% bootstrap band over seeds), like the paper's figure;
+* ``kpis_<ID>.png``: return and every KPI of the environment against steps;
+* ``aggregate.png`` and ``aggregate.json``: interquartile mean (IQM) of normalised scores
+  ``(score - random) / (classical - random)`` per algorithm across environments and seeds, with
+  95% stratified bootstrap confidence intervals: of the final held-out return, and of the
+  training return over the fraction of training done.
+
+The reference scores come from a ``references/`` directory of a sweep or demo above the runs;
+otherwise they are computed (``--reference-episodes`` held-out episodes of ``random`` and
+``classical``) and cached in ``<out>/references``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from bluesky_gym.cli.train import non_negative_int
+from bluesky_gym.training import MissingDependencyError
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the ``plot`` subcommand."""
+    p = subparsers.add_parser(
+        "plot",
+        help="learning curves and aggregate scores of runs (PNG)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("run_dirs", nargs="+", type=Path, metavar="RUN_DIR", help="run or sweep directories")
+    p.add_argument("--out", type=Path, default=Path("plots"), metavar="DIR", help="output directory (default: plots)")
+    p.add_argument(
+        "--reference-episodes",
+        type=non_negative_int,
+        metavar="N",
+        help="held-out episodes for missing reference scores (default: the runs' eval episodes; 0: no aggregate)",
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the ``plot`` subcommand."""
+    from bluesky_gym.training.evaluation import reference_returns, reference_scores
+    from bluesky_gym.training.io import read_json
+    from bluesky_gym.training.plotting import aggregate, find_references, find_runs, load_run, plot_aggregate, plot_learning_curves
+
+    try:
+        dirs = find_runs(args.run_dirs)
+        if not dirs:
+            raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, args.run_dirs))}")
+        runs = [load_run(d) for d in dirs]
+        written = plot_learning_curves(runs, args.out)
+        env_ids = sorted({r.env_id for r in runs})
+        refs = find_references(dirs, env_ids)
+        episodes = args.reference_episodes
+        if episodes is None:
+            episodes = max(int(read_json(d / "config.json").get("eval_episodes", 0)) for d in dirs) or 50
+        if episodes > 0:
+            for env_id in env_ids:
+                if env_id not in refs:
+                    print(f"computing reference scores of {env_id} on {episodes} held-out episodes", file=sys.stderr)
+                    refs[env_id] = reference_returns(reference_scores(env_id, episodes, args.out / "references"))
+            written += plot_aggregate(aggregate(runs, refs), args.out)
+    except (MissingDependencyError, FileNotFoundError, ValueError, KeyError) as exc:
+        print(f"bluesky-gym plot: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{len(runs)} runs ({', '.join(env_ids)})")
+    for p in written:
+        print(f"wrote {p}")
+    return 0

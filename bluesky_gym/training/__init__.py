@@ -1,0 +1,79 @@
+"""The benchmark: train, evaluate, compare and plot Stable-Baselines3 agents on BlueSky-Gym.
+
+Stable-Baselines3 and PyTorch are optional (the ``train`` extra). Modules of this package that
+need them import them lazily through :func:`require_sb3`, so ``import bluesky_gym.training`` and
+the reference policies, evaluation and plotting of stored runs work without them.
+
+Modules:
+    seeds: the training / evaluation seed split.
+    sb3_vec_env: :class:`~bluesky_gym.training.sb3_vec_env.SB3VecEnv`, SB3's VecEnv over the
+        native batched environment.
+    hyperparams: the paper's hyperparameters and config files.
+    policies: the reference policies (``random`` and a classical controller per environment).
+    evaluation: deterministic evaluation on held-out scenarios and KPI tables.
+    runner: one resumable training run in a run directory.
+    sweep: the grid of runs, sequential or on Ray.
+    plotting: learning curves and the aggregate across environments.
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+from typing import Any
+
+TRAIN_EXTRA_HINT = 'pip install "bluesky-gym[train]"'
+DISTRIBUTED_EXTRA_HINT = 'pip install "bluesky-gym[distributed]"'
+
+ALGORITHMS = ("PPO", "SAC", "TD3", "DDPG")
+OFF_POLICY = ("SAC", "TD3", "DDPG")
+
+
+class MissingDependencyError(ImportError):
+    """An optional dependency is not installed; the message says which extra provides it."""
+
+
+def require_sb3() -> ModuleType:
+    """Import Stable-Baselines3, or raise :class:`MissingDependencyError` naming the extra."""
+    try:
+        import stable_baselines3
+    except ImportError as exc:
+        raise MissingDependencyError(f"training needs Stable-Baselines3 and PyTorch, which are not installed: {TRAIN_EXTRA_HINT}") from exc
+    return stable_baselines3
+
+
+def require_ray() -> ModuleType:
+    """Import Ray, or raise :class:`MissingDependencyError` naming the extra."""
+    try:
+        import ray
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"distributed sweeps need Ray, which is not installed: {DISTRIBUTED_EXTRA_HINT} (or run the sweep with --local)"
+        ) from exc
+    return ray
+
+
+def make_vector_env(env_id: str, num_envs: int, **kwargs: Any) -> Any:
+    """Make the native batched environment of ``env_id`` (``gym.make_vec``, vector entry point).
+
+    Args:
+        env_id: Environment id.
+        num_envs: Number of episodes simulated together.
+        **kwargs: Scenario options, ``max_episode_steps``, ``render_mode``.
+
+    """
+    import gymnasium as gym
+
+    import bluesky_gym
+
+    bluesky_gym.register_envs()
+    if env_id not in gym.registry:
+        raise ValueError(f"unknown environment {env_id!r}; available: {', '.join(bluesky_gym.available_envs())}")
+    return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
+
+
+def algorithm_class(name: str) -> Any:
+    """Return the Stable-Baselines3 class of an algorithm name (``PPO``, ``SAC``, ``TD3``, ``DDPG``)."""
+    key = name.upper()
+    if key not in ALGORITHMS:
+        raise ValueError(f"unknown algorithm {name!r}; choose one of {', '.join(ALGORITHMS)}")
+    return getattr(require_sb3(), key)

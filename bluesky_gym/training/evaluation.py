@@ -1,0 +1,381 @@
+"""Deterministic evaluation on held-out scenarios, KPI tables and reference scores.
+
+An evaluation of ``N`` episodes runs the scenarios of the evaluation seeds
+``2**31 .. 2**31 + N - 1`` (:func:`bluesky_gym.training.seeds.eval_seeds`), never used in
+training, as one batch of environments (in chunks of ``batch`` episodes): every environment of
+the batch plays exactly one episode and its first episode's final info is recorded. The same
+``N`` gives every policy the same scenarios, so results are directly comparable.
+
+The KPI table reports, per policy, the mean and a 95% confidence half-width of: return, success
+rate, losses of separation (new ownship LoS events per episode), minimum separation [NM], mean
+absolute drift [deg], time to goal [s] (over successful episodes) and episode length [steps].
+KPIs an environment does not have (no traffic, no goal) are left empty.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bluesky_gym.training import algorithm_class, make_vector_env
+from bluesky_gym.training.io import atomic_write_csv, atomic_write_json, read_json
+from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_policy
+from bluesky_gym.training.seeds import EVAL_SEED_BASE, eval_seeds
+
+#: (column, episode-record key, label) of the KPI table.
+KPI_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("return", "return", "return"),
+    ("success", "kpi_success", "success"),
+    ("los", "kpi_los_count", "LoS/ep"),
+    ("min_sep_nm", "kpi_min_separation_nm", "min sep [NM]"),
+    ("drift_deg", "kpi_mean_abs_drift_deg", "drift [deg]"),
+    ("time_to_goal_s", "kpi_time_to_goal_s", "time to goal [s]"),
+    ("length", "length", "length"),
+)
+DEFAULT_BATCH = 64
+
+
+@dataclass
+class EvalResult:
+    """Episodes of one policy on the held-out scenarios, and their summary."""
+
+    env_id: str
+    policy: str
+    episodes: list[dict[str, Any]]
+    wall_time_s: float
+    summary: dict[str, dict[str, float]] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.summary = summarise(self.episodes)
+
+    @property
+    def mean_return(self) -> float:
+        """Mean episode return."""
+        return self.summary["return"]["mean"]
+
+    def to_json(self) -> dict[str, Any]:
+        """Return the summary as a JSON-ready dict (episodes are written separately as CSV)."""
+        return {
+            "env_id": self.env_id,
+            "policy": self.policy,
+            "episodes": len(self.episodes),
+            "eval_seed_base": EVAL_SEED_BASE,
+            "wall_time_s": self.wall_time_s,
+            "summary": self.summary,
+        }
+
+
+def evaluate(
+    env_id: str,
+    policy: Policy,
+    episodes: int,
+    *,
+    seed_offset: int = 0,
+    batch: int = DEFAULT_BATCH,
+    env_options: dict[str, Any] | None = None,
+    max_episode_steps: int | None = None,
+) -> EvalResult:
+    """Play one episode per held-out scenario and record return, length and final info.
+
+    Args:
+        env_id: Environment id.
+        policy: The batched policy (reference policy or :class:`SB3Policy`).
+        episodes: Number of held-out scenarios (evaluation seeds ``2**31 + offset + j``).
+        seed_offset: First evaluation seed index.
+        batch: Episodes simulated together.
+        env_options: Scenario options of the environment.
+        max_episode_steps: Override of the time limit.
+
+    Returns:
+        The per-episode records (seed, return, length, reward components, final info incl. KPIs).
+
+    """
+    seeds = eval_seeds(episodes, seed_offset)
+    t0 = time.perf_counter()
+    records: list[dict[str, Any]] = []
+    kwargs: dict[str, Any] = dict(env_options or {})
+    if max_episode_steps is not None:
+        kwargs["max_episode_steps"] = max_episode_steps
+    for start in range(0, len(seeds), max(1, batch)):
+        chunk = seeds[start : start + max(1, batch)]
+        venv = make_vector_env(env_id, len(chunk), **kwargs)
+        try:
+            records.extend(_play_once(venv, policy, chunk))
+        finally:
+            venv.close()
+    return EvalResult(env_id, policy.name, records, time.perf_counter() - t0)
+
+
+def _play_once(venv: Any, policy: Policy, seeds: list[int]) -> list[dict[str, Any]]:
+    n = len(seeds)
+    obs, _ = venv.reset(seed=seeds)
+    policy.reset(None)
+    ret = np.zeros(n)
+    length = np.zeros(n, dtype=np.int64)
+    components: dict[str, np.ndarray] = {}
+    done = np.zeros(n, dtype=bool)
+    final: list[dict[str, Any]] = [{} for _ in range(n)]
+    while not done.all():
+        action = policy.act(obs)
+        obs, reward, terminated, truncated, info = venv.step(action)
+        live = ~done
+        ret += np.where(live, reward, 0.0)
+        length += live
+        for k, v in info.items():
+            if k.startswith("reward_") and isinstance(v, np.ndarray):
+                components.setdefault(k, np.zeros(n))
+                components[k] += np.where(live, v, 0.0)
+        ended = (np.asarray(terminated) | np.asarray(truncated)) & live
+        if ended.any():
+            fin = info.get("final_info", info)
+            for i in np.flatnonzero(ended):
+                final[i] = {k: _item(v[i]) for k, v in fin.items() if isinstance(v, np.ndarray) and v.ndim == 1 and v.shape[0] == n}
+                final[i]["terminated"] = bool(terminated[i])
+            done |= ended
+        policy.reset(np.asarray(terminated) | np.asarray(truncated))
+    out = []
+    for i in range(n):
+        rec: dict[str, Any] = {"seed": seeds[i], "return": float(ret[i]), "length": int(length[i])}
+        rec.update({k: float(v[i]) for k, v in sorted(components.items())})
+        rec.update({k: v for k, v in final[i].items() if not k.startswith("reward_")})
+        out.append(rec)
+    return out
+
+
+def _item(v: Any) -> Any:
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def summarise(episodes: Sequence[dict[str, Any]]) -> dict[str, dict[str, float]]:
+    """Mean, standard deviation, 95% half-width and count of every KPI column.
+
+    Non-finite values (no goal reached, no intruder) are left out of a column's statistics.
+    """
+    out: dict[str, dict[str, float]] = {}
+    # Episodes without traffic have an infinite minimum separation; their LoS count is not a KPI.
+    traffic = np.array([np.isfinite(float(e.get("kpi_min_separation_nm", np.nan))) for e in episodes], dtype=bool)
+    for col, key, _ in KPI_COLUMNS:
+        vals = np.array([float(e.get(key, np.nan)) for e in episodes], dtype=np.float64)
+        if col == "los":
+            vals = vals[traffic]
+        vals = vals[np.isfinite(vals)]
+        n = int(vals.size)
+        mean = float(vals.mean()) if n else math.nan
+        std = float(vals.std(ddof=1)) if n > 1 else (0.0 if n == 1 else math.nan)
+        out[col] = {"mean": mean, "std": std, "ci95": 1.96 * std / math.sqrt(n) if n else math.nan, "n": n}
+    return out
+
+
+def normalised_score(score: float, random_score: float, classical_score: float) -> float:
+    """``(score - random) / (classical - random)``: 0 = random, 1 = classical controller.
+
+    Returns NaN when the two references are (nearly) equal, where the scale is meaningless.
+    """
+    span = classical_score - random_score
+    if not np.isfinite(span) or abs(span) < 1e-9 * max(1.0, abs(random_score), abs(classical_score)):
+        return math.nan
+    return (score - random_score) / span
+
+
+def format_table(results: Sequence[EvalResult], references: dict[str, float] | None = None) -> str:
+    """Format a plain-text KPI table, one row per policy.
+
+    Args:
+        results: Evaluations of the same environment.
+        references: Mean returns of ``random`` and ``classical``; adds a normalised-score column.
+
+    """
+    cols = [(c, label) for c, _, label in KPI_COLUMNS if any(r.summary[c]["n"] for r in results)]
+    header = ["policy", *[label for _, label in cols]]
+    if references:
+        header.append("normalised")
+    rows = []
+    for r in results:
+        row = [r.policy]
+        for c, _ in cols:
+            s = r.summary[c]
+            row.append("-" if not s["n"] else f"{_fmt(s['mean'])} ± {_fmt(s['ci95'])}")
+        if references:
+            row.append(_fmt(normalised_score(r.mean_return, references["random"], references["classical"])))
+        rows.append(row)
+    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows, strict=True)]
+    lines = ["  ".join(str(x).ljust(w) for x, w in zip(header, widths, strict=True))]
+    lines.append("  ".join("-" * w for w in widths))
+    lines.extend("  ".join(str(x).ljust(w) for x, w in zip(row, widths, strict=True)) for row in rows)
+    n = {len(r.episodes) for r in results}
+    episodes = "/".join(map(str, sorted(n)))
+    lines.append(f"({episodes} held-out episodes per policy, seeds from {EVAL_SEED_BASE}; ± is a 95% confidence half-width)")
+    return "\n".join(lines)
+
+
+def _fmt(x: float) -> str:
+    if x is None or not np.isfinite(x):
+        return "-"
+    if x != 0 and (abs(x) >= 1e4 or abs(x) < 1e-2):
+        return f"{x:.3g}"
+    return f"{x:.3f}" if abs(x) < 10 else f"{x:.1f}"
+
+
+def save_result(result: EvalResult, directory: str | Path, stem: str | None = None) -> tuple[Path, Path]:
+    """Write ``<stem>.json`` (summary) and ``<stem>_episodes.csv`` atomically; returns both paths."""
+    d = Path(directory)
+    stem = stem or f"eval_{result.policy}"
+    keys: list[str] = []
+    for e in result.episodes:
+        keys.extend(k for k in e if k not in keys)
+    json_path, csv_path = d / f"{stem}.json", d / f"{stem}_episodes.csv"
+    atomic_write_csv(csv_path, keys, [[e.get(k, math.nan) for k in keys] for e in result.episodes])
+    atomic_write_json(json_path, result.to_json())
+    return json_path, csv_path
+
+
+def load_result(directory: str | Path, stem: str) -> EvalResult:
+    """Read an evaluation written by :func:`save_result`."""
+    from bluesky_gym.training.io import read_csv_rows
+
+    d = Path(directory)
+    meta = read_json(d / f"{stem}.json")
+    header, rows = read_csv_rows(d / f"{stem}_episodes.csv")
+    episodes = [{k: _parse_cell(v) for k, v in zip(header, row, strict=True)} for row in rows]
+    return EvalResult(meta["env_id"], meta["policy"], episodes, float(meta.get("wall_time_s", math.nan)))
+
+
+def _parse_cell(v: str) -> Any:
+    if v == "":
+        return math.nan
+    try:
+        return int(v)
+    except ValueError:
+        pass
+    try:
+        return float(v)
+    except ValueError:
+        return v
+
+
+# --- trained models ------------------------------------------------------------------------------
+def find_model(path: str | Path) -> tuple[Path, str | None]:
+    """Find the model file of ``path``, and its algorithm if a run directory says so.
+
+    ``path`` may be a model ``.zip``, or a run directory (its final ``model.zip``, else its last
+    checkpoint).
+    """
+    p = Path(path)
+    run_dir: Path | None = None
+    if p.is_dir():
+        run_dir = p
+        if (p / "model.zip").exists():
+            p = p / "model.zip"
+        else:
+            from bluesky_gym.training.runner import latest_checkpoint
+
+            ckpt = latest_checkpoint(p)
+            if ckpt is None:
+                raise FileNotFoundError(f"{path} holds neither model.zip nor a checkpoint")
+            p = ckpt[1] / "model.zip"
+    elif not p.exists() and p.with_suffix(".zip").exists():
+        p = p.with_suffix(".zip")
+    if not p.exists():
+        raise FileNotFoundError(f"no model at {path}")
+    for d in [run_dir, p.parent, p.parent.parent, p.parent.parent.parent]:
+        if d is not None and (d / "config.json").exists():
+            return p, str(read_json(d / "config.json").get("algo", "")) or None
+    return p, None
+
+
+def algorithm_of_zip(path: str | Path) -> str | None:
+    """Tell the algorithm of an SB3 model file from its stored hyperparameters (None if unsure).
+
+    PPO stores ``n_epochs``, SAC ``target_entropy``; TD3 and DDPG store ``policy_delay`` (DDPG is
+    TD3 with ``policy_delay=1`` and no target noise clipping).
+    """
+    import json
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            data = json.loads(z.read("data"))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        return None
+    if "n_epochs" in data:
+        return "PPO"
+    if "target_entropy" in data:
+        return "SAC"
+    if "policy_delay" in data:
+        return "DDPG" if data["policy_delay"] == 1 and data.get("target_noise_clip") == 0.0 else "TD3"
+    return None
+
+
+def load_policy(path: str | Path, algo: str | None = None, device: str = "cpu") -> SB3Policy:
+    """Load a trained SB3 model as a deterministic :class:`SB3Policy`.
+
+    Args:
+        path: Model ``.zip`` or run directory.
+        algo: Algorithm (default: from the run directory's config, else read from the file).
+        device: Torch device.
+
+    """
+    model_path, run_algo = find_model(path)
+    algo = algo or run_algo or algorithm_of_zip(model_path)
+    if algo is None:
+        raise ValueError(f"cannot tell the algorithm of {model_path}; pass --algo")
+    model = algorithm_class(algo).load(model_path, device=device)
+    return SB3Policy(model, deterministic=True, name=f"{algo}:{Path(path).name}")
+
+
+def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
+    """Make a policy from a command-line spec: ``random``, ``classical`` or a model path."""
+    if spec in REFERENCE_POLICIES:
+        venv = make_vector_env(env_id, 1)
+        try:
+            space = venv.single_action_space
+            return reference_policy(spec, env_id, space.low, space.high)
+        finally:
+            venv.close()
+    return load_policy(spec, algo)
+
+
+# --- reference scores ------------------------------------------------------------------------------
+def reference_scores(env_id: str, episodes: int, cache_dir: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    """Summaries of ``random`` and ``classical`` on the first ``episodes`` held-out scenarios.
+
+    With ``cache_dir``, results are read from / written to ``<cache_dir>/<env_id>.json`` (reused
+    only if computed on the same number of episodes by the same package version).
+
+    Returns:
+        ``{"random": summary-json, "classical": summary-json}`` (the :meth:`EvalResult.to_json` form).
+
+    """
+    import bluesky_gym
+
+    path = Path(cache_dir) / f"{env_id}.json" if cache_dir is not None else None
+    if path is not None and path.exists():
+        cached = read_json(path)
+        if cached.get("episodes") == episodes and cached.get("version") == bluesky_gym.__version__:
+            return {k: cached[k] for k in REFERENCE_POLICIES}
+    results = {name: evaluate(env_id, make_policy(name, env_id), episodes) for name in REFERENCE_POLICIES}
+    if cache_dir is not None:
+        write_references(cache_dir, env_id, episodes, results)
+    return {k: v.to_json() for k, v in results.items()}
+
+
+def write_references(cache_dir: str | Path, env_id: str, episodes: int, results: dict[str, EvalResult]) -> Path:
+    """Cache reference evaluations as ``<cache_dir>/<env_id>.json`` (read by :func:`reference_scores`)."""
+    import bluesky_gym
+
+    path = Path(cache_dir) / f"{env_id}.json"
+    atomic_write_json(
+        path, {"env_id": env_id, "episodes": episodes, "version": bluesky_gym.__version__, **{k: v.to_json() for k, v in results.items()}}
+    )
+    return path
+
+
+def reference_returns(refs: dict[str, Any]) -> dict[str, float]:
+    """Mean returns of the reference policies from :func:`reference_scores`' result."""
+    return {k: float(v["summary"]["return"]["mean"]) for k, v in refs.items()}

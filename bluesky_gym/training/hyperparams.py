@@ -1,0 +1,223 @@
+"""Hyperparameters: the paper's defaults, config files and their resolution for one run.
+
+The paper (BlueSky-Gym, SESAR Innovation Days 2024) trained every algorithm with
+Stable-Baselines3 2.2.1 defaults, a learning rate of 3e-4 (1e-4 for PPO on
+StaticObstacleEnv-v0), one environment, and 2e6 steps. SB3 2.3 changed the TD3/DDPG defaults, so
+the 2.2.1 values are written out here instead of relying on the installed SB3's defaults.
+
+A config file (TOML or JSON) has the same layout as :data:`PAPER`, e.g.::
+
+    [run]
+    n_envs = 8
+    checkpoint_freq = 20000
+
+    [algos.PPO]
+    n_steps = 256
+
+    [algos.PPO.envs."DescentEnv-v0"]
+    learning_rate = 1e-4
+
+    [env_options."SectorCREnv-v0"]
+    ac_density_mode = "uniform"
+
+Values in a file override the paper's; command-line options override the file.
+``configs/paper.toml`` holds exactly :data:`PAPER` (a test keeps the two identical).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+from bluesky_gym.training import ALGORITHMS, OFF_POLICY
+
+#: The policy class of every run: observations are dicts.
+POLICY = "MultiInputPolicy"
+
+#: Everything a run needs besides env, algorithm, seed and steps.
+PAPER: dict[str, Any] = {
+    "run": {
+        "n_envs": 1,
+        "total_timesteps": 2_000_000,
+        "checkpoint_freq": 50_000,
+        "eval_episodes": 50,
+        "device": "cpu",
+        "torch_threads": 1,
+    },
+    "algos": {
+        "PPO": {
+            "learning_rate": 3e-4,
+            "n_steps": 2048,
+            "batch_size": 64,
+            "n_epochs": 10,
+            "gamma": 0.99,
+            "gae_lambda": 0.95,
+            "clip_range": 0.2,
+            "ent_coef": 0.0,
+            "vf_coef": 0.5,
+            "max_grad_norm": 0.5,
+            "envs": {"StaticObstacleEnv-v0": {"learning_rate": 1e-4}},
+        },
+        "SAC": {
+            "learning_rate": 3e-4,
+            "buffer_size": 1_000_000,
+            "learning_starts": 100,
+            "batch_size": 256,
+            "tau": 0.005,
+            "gamma": 0.99,
+            "train_freq": 1,
+            "gradient_steps": 1,
+            "ent_coef": "auto",
+            "target_entropy": "auto",
+        },
+        # SB3 2.2.1 defaults (before 2.3 aligned TD3/DDPG with SAC), learning rate from the paper.
+        "TD3": {
+            "learning_rate": 3e-4,
+            "buffer_size": 1_000_000,
+            "learning_starts": 100,
+            "batch_size": 100,
+            "tau": 0.005,
+            "gamma": 0.99,
+            "train_freq": [1, "episode"],
+            "gradient_steps": -1,
+            "policy_delay": 2,
+            "target_policy_noise": 0.2,
+            "target_noise_clip": 0.5,
+        },
+        "DDPG": {
+            "learning_rate": 3e-4,
+            "buffer_size": 1_000_000,
+            "learning_starts": 100,
+            "batch_size": 100,
+            "tau": 0.005,
+            "gamma": 0.99,
+            "train_freq": [1, "episode"],
+            "gradient_steps": -1,
+        },
+    },
+    "env_options": {},
+}
+
+#: Settings of the ``demo`` command: PPO on 16 batched environments, short rollouts.
+DEMO: dict[str, Any] = {
+    "run": {"n_envs": 16, "total_timesteps": 250_000, "checkpoint_freq": 50_000, "eval_episodes": 100},
+    "algos": {"PPO": {"n_steps": 128, "batch_size": 256, "n_epochs": 10}},
+}
+
+RUN_KEYS = frozenset(PAPER["run"])
+
+
+def load_config_file(path: str | Path) -> dict[str, Any]:
+    """Read a config file (``.toml`` or ``.json``) and check its layout."""
+    p = Path(path)
+    if p.suffix.lower() == ".toml":
+        try:
+            import tomllib
+        except ModuleNotFoundError:  # Python 3.10
+            try:
+                import tomli as tomllib  # type: ignore[no-redef]
+            except ModuleNotFoundError as exc:
+                raise ValueError(f"reading {p} needs Python >= 3.11 or the 'tomli' package; or use a .json config") from exc
+        with open(p, "rb") as f:
+            data = tomllib.load(f)
+    elif p.suffix.lower() == ".json":
+        data = json.loads(p.read_text(encoding="utf-8"))
+    else:
+        raise ValueError(f"config file {p} must end in .toml or .json")
+    check_config(data, source=str(p))
+    return data
+
+
+def check_config(data: dict[str, Any], source: str = "config") -> None:
+    """Raise ``ValueError`` if ``data`` does not have the layout of :data:`PAPER`."""
+    unknown = set(data) - {"run", "algos", "env_options"}
+    if unknown:
+        raise ValueError(f"{source}: unknown section(s) {sorted(unknown)}; expected run, algos, env_options")
+    bad_run = set(data.get("run", {})) - RUN_KEYS
+    if bad_run:
+        raise ValueError(f"{source}: unknown [run] key(s) {sorted(bad_run)}; valid: {', '.join(sorted(RUN_KEYS))}")
+    for algo, table in data.get("algos", {}).items():
+        if algo not in ALGORITHMS:
+            raise ValueError(f"{source}: unknown algorithm [algos.{algo}]; choose from {', '.join(ALGORITHMS)}")
+        if not isinstance(table, dict) or not isinstance(table.get("envs", {}), dict):
+            raise ValueError(f"{source}: [algos.{algo}] must be a table (with an optional 'envs' sub-table)")
+    for env_id, opts in data.get("env_options", {}).items():
+        if not isinstance(opts, dict):
+            raise ValueError(f'{source}: [env_options."{env_id}"] must be a table')
+
+
+def merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
+    """Return a deep copy of ``base`` with ``override`` merged in (tables recursively, values replaced)."""
+    out = copy.deepcopy(base)
+    for k, v in override.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+def resolve(config: dict[str, Any], env_id: str, algo: str) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """Return the run settings, algorithm hyperparameters and scenario options of one (env, algorithm).
+
+    Args:
+        config: A full config (:data:`PAPER` merged with files and command-line values).
+        env_id: Environment id.
+        algo: Algorithm name.
+
+    Returns:
+        ``(run, hyperparameters, env_options)``; per-environment algorithm overrides are applied.
+
+    """
+    algo = algo.upper()
+    table = dict(config["algos"].get(algo, {}))
+    per_env = table.pop("envs", {})
+    hp = merge(table, per_env.get(env_id, {}))
+    return dict(config["run"]), hp, dict(config.get("env_options", {}).get(env_id, {}))
+
+
+def adapt_to_n_envs(algo: str, hp: dict[str, Any], n_envs: int) -> tuple[dict[str, Any], list[str]]:
+    """Adjust off-policy settings to several batched environments, keeping the update ratio.
+
+    With one environment the paper's off-policy settings make one gradient step per collected
+    transition. SB3 counts ``train_freq`` and ``gradient_steps`` per *vector* step, and refuses
+    episodic ``train_freq`` with several environments. So, when ``n_envs > 1``:
+
+    * ``train_freq`` in episodes (TD3/DDPG, SB3 2.2.1) becomes 1 step with ``gradient_steps=-1``
+      (one gradient step per transition, as per episode with ``-1``);
+    * ``train_freq=1`` step with ``gradient_steps=1`` (SAC) becomes ``gradient_steps=-1``.
+
+    Returns:
+        The adjusted hyperparameters and a note per change (recorded in the run directory).
+
+    """
+    out = dict(hp)
+    notes: list[str] = []
+    if algo.upper() not in OFF_POLICY or n_envs <= 1:
+        return out, notes
+    tf = out.get("train_freq", 1)
+    episodic = isinstance(tf, (list, tuple)) and len(tf) == 2 and str(tf[1]).startswith("episode")
+    steps = tf if isinstance(tf, int) else (int(tf[0]) if isinstance(tf, (list, tuple)) and not episodic else None)
+    if episodic:
+        if out.get("gradient_steps", 1) != -1:
+            raise ValueError(
+                f"{algo}: train_freq {tf} in episodes with gradient_steps={out.get('gradient_steps')} cannot run on "
+                f"{n_envs} batched environments; give train_freq in steps"
+            )
+        out["train_freq"] = 1
+        notes.append(f"train_freq {list(tf)} -> 1 step with gradient_steps -1 ({n_envs} environments; SB3 trains per vector step)")
+    elif steps == 1 and out.get("gradient_steps", 1) == 1:
+        out["gradient_steps"] = -1
+        notes.append(f"gradient_steps 1 -> -1: one gradient step per transition with {n_envs} environments, as with one")
+    return out, notes
+
+
+def sb3_kwargs(hp: dict[str, Any]) -> dict[str, Any]:
+    """Hyperparameters in the form SB3's constructors take (``train_freq`` lists become tuples)."""
+    out = dict(hp)
+    tf = out.get("train_freq")
+    if isinstance(tf, list):
+        out["train_freq"] = (int(tf[0]), str(tf[1]))
+    return out

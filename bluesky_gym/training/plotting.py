@@ -1,0 +1,369 @@
+"""Learning curves and the aggregate across environments, from run directories.
+
+* ``learning_curves.png``: episode return against environment steps, one panel per environment,
+  one line per algorithm: the mean over seeds of each run's smoothed curve, with a 95%
+  bootstrap confidence band over seeds (like the paper's figure).
+* ``kpis_<env>.png``: the same for return and every KPI the environment reports (success rate,
+  losses of separation, minimum separation, drift, time to goal, episode length).
+* ``aggregate.png`` / ``aggregate.json``: per algorithm, the interquartile mean (IQM) of
+  normalised scores across all environments and seeds, ``(score - random) / (classical -
+  random)``, with 95% stratified bootstrap confidence intervals (runs resampled within each
+  environment): (left) of the final held-out return, (right) of the smoothed training return
+  over the fraction of training done.
+
+A run's curve at step ``x`` is the mean over episodes that ended in the window ``(x - w, x]``,
+``w`` = 5% of the longest run (no value before the first episode, nor in empty windows; the
+aggregate curve carries a run's last value over empty windows and uses its first value before).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bluesky_gym.training.io import atomic_path, atomic_write_json, read_csv_rows, read_json
+
+Array = NDArray[np.float64]
+
+#: (episode-log column, axis label) of the KPI panels.
+CURVE_METRICS: tuple[tuple[str, str], ...] = (
+    ("return", "episode return"),
+    ("kpi_success", "success rate"),
+    ("kpi_los_count", "losses of separation / episode"),
+    ("kpi_min_separation_nm", "minimum separation [NM]"),
+    ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+    ("kpi_time_to_goal_s", "time to goal [s]"),
+    ("length", "episode length [steps]"),
+)
+GRID_POINTS = 100
+WINDOW_FRACTION = 0.05
+BOOTSTRAP = 2000
+ALGO_COLOURS = {"PPO": "tab:blue", "SAC": "tab:orange", "TD3": "tab:green", "DDPG": "tab:red"}
+
+
+@dataclass
+class Run:
+    """What the plots need from one run directory."""
+
+    path: Path
+    env_id: str
+    algo: str
+    seed: int
+    total_timesteps: int
+    columns: dict[str, Array]
+    final_return: float | None
+
+    @property
+    def timesteps(self) -> Array:
+        """Return the timesteps at which each logged episode ended."""
+        return self.columns.get("timesteps", np.zeros(0))
+
+    def metric(self, name: str) -> Array:
+        """Return a column with non-finite values as NaN (LoS counts only where there is traffic)."""
+        y = self.columns.get(name, np.full(self.timesteps.shape, np.nan)).copy()
+        if name == "kpi_los_count":
+            y[~np.isfinite(self.columns.get("kpi_min_separation_nm", np.full(y.shape, np.nan)))] = np.nan
+        y[~np.isfinite(y)] = np.nan
+        return y
+
+
+def find_runs(paths: Sequence[str | Path]) -> list[Path]:
+    """Return every run directory (holding ``config.json``) at or below ``paths``."""
+    found: list[Path] = []
+    for p in map(Path, paths):
+        if (p / "config.json").exists():
+            found.append(p)
+        elif p.is_dir():
+            found.extend(sorted(c.parent for c in p.rglob("config.json")))
+        else:
+            raise FileNotFoundError(f"{p} is not a run or sweep directory")
+    return list(dict.fromkeys(found))
+
+
+def load_run(path: str | Path) -> Run:
+    """Read a run's config, episode log and final held-out return."""
+    d = Path(path)
+    cfg = read_json(d / "config.json")
+    columns: dict[str, Array] = {}
+    if (d / "episodes.csv").exists():
+        header, rows = read_csv_rows(d / "episodes.csv")
+        data = np.array([[_num(x) for x in r] for r in rows], dtype=np.float64).reshape(len(rows), len(header))
+        columns = {h: data[:, j] for j, h in enumerate(header)}
+    final = None
+    if (d / "eval.json").exists():
+        final = read_json(d / "eval.json")["summary"]["return"]["mean"]
+    return Run(d, cfg["env_id"], cfg["algo"], int(cfg["seed"]), int(cfg["total_timesteps"]), columns, final)
+
+
+def _num(x: str) -> float:
+    try:
+        return float(x) if x != "" else math.nan
+    except ValueError:
+        return math.nan
+
+
+def smoothed(x: Array, y: Array, grid: Array, window: float) -> Array:
+    """Return the mean of ``y`` over points with ``x`` in ``(g - window, g]`` for each grid point ``g``."""
+    ok = np.isfinite(y) & np.isfinite(x)
+    x, y = x[ok], y[ok]
+    order = np.argsort(x, kind="stable")
+    x, y = x[order], y[order]
+    csum = np.concatenate([[0.0], np.cumsum(y)])
+    hi = np.searchsorted(x, grid, side="right")
+    lo = np.searchsorted(x, grid - window, side="right")
+    n = hi - lo
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, (csum[hi] - csum[lo]) / np.maximum(n, 1), np.nan)
+
+
+def bootstrap_mean_ci(curves: Array, rng: np.random.Generator, n_boot: int = BOOTSTRAP) -> tuple[Array, Array, Array]:
+    """Return the mean over runs (axis 0) and its 95% percentile-bootstrap band, ignoring NaN."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns (no episode yet)
+        mean = np.nanmean(curves, axis=0)
+        if curves.shape[0] < 2:
+            return mean, mean.copy(), mean.copy()
+        idx = rng.integers(0, curves.shape[0], size=(n_boot, curves.shape[0]))
+        boots = np.nanmean(curves[idx], axis=1)
+        return mean, np.nanpercentile(boots, 2.5, axis=0), np.nanpercentile(boots, 97.5, axis=0)
+
+
+def iqm(x: Array, axis: int = -1) -> Array:
+    """Interquartile mean: the mean after cutting ``floor(n/4)`` values from each end."""
+    x = np.sort(np.asarray(x, dtype=np.float64), axis=axis)
+    n = x.shape[axis]
+    k = int(math.floor(0.25 * n))
+    return np.take(x, np.arange(k, n - k), axis=axis).mean(axis=axis)
+
+
+def stratified_bootstrap_iqm(scores: dict[str, Array], rng: np.random.Generator, n_boot: int = BOOTSTRAP) -> tuple[float, float, float]:
+    """IQM of pooled scores and its 95% CI, resampling runs within each environment.
+
+    Args:
+        scores: Environment id -> normalised scores of its runs (1-D, or 2-D runs x points).
+        rng: Random generator.
+        n_boot: Bootstrap samples.
+
+    """
+    pooled = np.concatenate([np.asarray(v, dtype=np.float64) for v in scores.values()], axis=0)
+    point = iqm(pooled, axis=0)
+    samples = []
+    for _ in range(n_boot):
+        parts = [v[rng.integers(0, len(v), len(v))] for v in map(np.asarray, scores.values())]
+        samples.append(iqm(np.concatenate(parts, axis=0), axis=0))
+    s = np.asarray(samples)
+    return point, np.percentile(s, 2.5, axis=0), np.percentile(s, 97.5, axis=0)
+
+
+def _pyplot() -> Any:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as exc:
+        from bluesky_gym.training import TRAIN_EXTRA_HINT, MissingDependencyError
+
+        raise MissingDependencyError(f"plotting needs matplotlib: {TRAIN_EXTRA_HINT}") from exc
+    return plt
+
+
+def _save(fig: Any, path: Path) -> None:
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight", format="png")
+
+
+def _groups(runs: Sequence[Run]) -> dict[str, dict[str, list[Run]]]:
+    out: dict[str, dict[str, list[Run]]] = {}
+    for r in runs:
+        out.setdefault(r.env_id, {}).setdefault(r.algo, []).append(r)
+    return out
+
+
+def _curves(runs: Sequence[Run], metric: str, grid: Array, window: float) -> Array:
+    rows = []
+    for r in runs:
+        if metric not in r.columns or r.timesteps.size == 0:
+            rows.append(np.full(grid.shape, np.nan))
+            continue
+        rows.append(smoothed(r.timesteps, r.metric(metric), grid, window))
+    return np.asarray(rows)
+
+
+def _fill_gaps(curve: Array) -> Array:
+    """Carry the last value over empty windows; before the first value, use the first."""
+    y = np.asarray(curve, dtype=np.float64).copy()
+    valid = np.isfinite(y)
+    if not valid.any():
+        return y
+    idx = np.where(valid, np.arange(y.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    first = int(np.argmax(valid))
+    y = y[idx]
+    y[:first] = y[first]
+    return y
+
+
+def plot_learning_curves(runs: Sequence[Run], out_dir: str | Path, seed: int = 0) -> list[Path]:
+    """Write ``learning_curves.png`` and one ``kpis_<env>.png`` per environment."""
+    plt = _pyplot()
+    out = Path(out_dir)
+    rng = np.random.default_rng(seed)
+    groups = _groups(runs)
+    written = []
+    n = len(groups)
+    cols = min(n, 4)
+    fig, axes = plt.subplots(math.ceil(n / cols), cols, figsize=(4.2 * cols, 3.2 * math.ceil(n / cols)), squeeze=False)
+    for ax, (env_id, by_algo) in zip(axes.flat, groups.items(), strict=False):
+        _panel(ax, by_algo, "return", rng)
+        ax.set_title(env_id)
+        ax.set_ylabel("episode return")
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    _save(fig, out / "learning_curves.png")
+    plt.close(fig)
+    written.append(out / "learning_curves.png")
+
+    for env_id, by_algo in groups.items():
+        metrics = [(m, lab) for m, lab in CURVE_METRICS if any(np.isfinite(r.metric(m)).any() for rs in by_algo.values() for r in rs)]
+        cols = min(len(metrics), 3)
+        rows = math.ceil(len(metrics) / cols)
+        fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
+        for ax, (metric, label) in zip(axes.flat, metrics, strict=False):
+            _panel(ax, by_algo, metric, rng)
+            ax.set_ylabel(label)
+        for ax in list(axes.flat)[len(metrics) :]:
+            ax.set_visible(False)
+        fig.suptitle(env_id)
+        fig.tight_layout()
+        path = out / f"kpis_{env_id}.png"
+        _save(fig, path)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+def _panel(ax: Any, by_algo: dict[str, list[Run]], metric: str, rng: np.random.Generator) -> None:
+    horizon = max(max(r.total_timesteps, float(np.nanmax(r.timesteps, initial=0))) for rs in by_algo.values() for r in rs)
+    grid = np.linspace(0.0, horizon, GRID_POINTS + 1)[1:]
+    window = WINDOW_FRACTION * horizon
+    for algo, rs in sorted(by_algo.items()):
+        curves = _curves(rs, metric, grid, window)
+        mean, lo, hi = bootstrap_mean_ci(curves, rng)
+        colour = ALGO_COLOURS.get(algo)
+        ax.plot(grid, mean, label=f"{algo} ({len(rs)} seed{'s' if len(rs) > 1 else ''})", color=colour)
+        ax.fill_between(grid, lo, hi, alpha=0.25, color=colour, linewidth=0)
+    ax.set_xlabel("environment steps")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+
+
+def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed: int = 0) -> dict[str, Any]:
+    """IQM of normalised scores per algorithm across environments, with bootstrap CIs.
+
+    Args:
+        runs: The runs (environments without references are left out).
+        references: Environment id -> ``{"random": mean return, "classical": mean return}``.
+        seed: Seed of the bootstrap.
+
+    Returns:
+        ``{"final": {algo: {iqm, ci_low, ci_high, runs, envs}}, "curve": {algo: {x, iqm, ci_low,
+        ci_high}}, "normalised_runs": [...]}``.
+
+    """
+    from bluesky_gym.training.evaluation import normalised_score
+
+    rng = np.random.default_rng(seed)
+    grid = np.linspace(0.0, 1.0, GRID_POINTS + 1)[1:]
+    final: dict[str, dict[str, list[float]]] = {}
+    curve: dict[str, dict[str, list[Array]]] = {}
+    listing = []
+    for r in runs:
+        ref = references.get(r.env_id)
+        if ref is None:
+            continue
+        span = ref["classical"] - ref["random"]
+        score = r.final_return
+        if score is None and r.timesteps.size:
+            tail = r.columns["return"][r.timesteps >= 0.9 * r.timesteps.max()]
+            score = float(np.mean(tail)) if tail.size else None
+        if score is not None:
+            norm = normalised_score(score, ref["random"], ref["classical"])
+            if np.isfinite(norm):
+                final.setdefault(r.algo, {}).setdefault(r.env_id, []).append(norm)
+                listing.append({"env_id": r.env_id, "algo": r.algo, "seed": r.seed, "score": score, "normalised": norm})
+        if r.timesteps.size and np.isfinite(span) and abs(span) > 0:
+            c = smoothed(r.timesteps / max(r.total_timesteps, 1), r.columns["return"], grid, WINDOW_FRACTION)
+            curve.setdefault(r.algo, {}).setdefault(r.env_id, []).append(_fill_gaps((c - ref["random"]) / span))
+    out: dict[str, Any] = {"final": {}, "curve": {}, "normalised_runs": listing, "references": references}
+    for algo, by_env in sorted(final.items()):
+        point, lo, hi = stratified_bootstrap_iqm({k: np.asarray(v) for k, v in by_env.items()}, rng)
+        out["final"][algo] = {
+            "iqm": float(point),
+            "ci_low": float(lo),
+            "ci_high": float(hi),
+            "runs": sum(map(len, by_env.values())),
+            "envs": sorted(by_env),
+        }
+    for algo, by_env in sorted(curve.items()):
+        point, lo, hi = stratified_bootstrap_iqm({k: np.asarray(v) for k, v in by_env.items()}, rng, n_boot=500)
+        out["curve"][algo] = {"x": grid.tolist(), "iqm": point.tolist(), "ci_low": lo.tolist(), "ci_high": hi.tolist()}
+    return out
+
+
+def plot_aggregate(agg: dict[str, Any], out_dir: str | Path) -> list[Path]:
+    """Write ``aggregate.png`` and ``aggregate.json``."""
+    plt = _pyplot()
+    out = Path(out_dir)
+    atomic_write_json(out / "aggregate.json", agg)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
+    algos = list(agg["final"])
+    for k, algo in enumerate(algos):
+        s = agg["final"][algo]
+        colour = ALGO_COLOURS.get(algo)
+        ax1.errorbar([s["iqm"]], [k], xerr=[[s["iqm"] - s["ci_low"]], [s["ci_high"] - s["iqm"]]], fmt="o", color=colour, capsize=4)
+    ax1.set_yticks(range(len(algos)), [f"{a} ({agg['final'][a]['runs']} runs)" for a in algos])
+    ax1.axvline(0.0, color="grey", lw=0.8, ls="--")
+    ax1.axvline(1.0, color="black", lw=0.8, ls="--")
+    ax1.set_xlabel("IQM normalised held-out score\n(0 = random, 1 = classical)")
+    ax1.grid(alpha=0.3)
+    for algo, c in agg["curve"].items():
+        colour = ALGO_COLOURS.get(algo)
+        ax2.plot(c["x"], c["iqm"], label=algo, color=colour)
+        ax2.fill_between(c["x"], c["ci_low"], c["ci_high"], alpha=0.25, color=colour, linewidth=0)
+    ax2.axhline(0.0, color="grey", lw=0.8, ls="--")
+    ax2.axhline(1.0, color="black", lw=0.8, ls="--")
+    ax2.set_xlabel("fraction of training")
+    ax2.set_ylabel("IQM normalised training return")
+    ax2.grid(alpha=0.3)
+    if agg["curve"]:
+        ax2.legend(fontsize=8)
+    envs = sorted({e for s in agg["final"].values() for e in s["envs"]})
+    fig.suptitle(f"Aggregate over {len(envs)} environment{'s' if len(envs) != 1 else ''} (95% stratified bootstrap CIs)")
+    fig.tight_layout()
+    _save(fig, out / "aggregate.png")
+    plt.close(fig)
+    return [out / "aggregate.png", out / "aggregate.json"]
+
+
+def find_references(run_dirs: Sequence[Path], env_ids: Sequence[str]) -> dict[str, dict[str, float]]:
+    """Return reference returns cached in a ``references`` directory above the runs, if any."""
+    from bluesky_gym.training.evaluation import reference_returns
+
+    found: dict[str, dict[str, float]] = {}
+    for d in run_dirs:
+        for parent in [d, *d.parents]:
+            for env_id in env_ids:
+                p = parent / "references" / f"{env_id}.json"
+                if env_id not in found and p.exists():
+                    data = read_json(p)
+                    found[env_id] = reference_returns({k: data[k] for k in ("random", "classical")})
+    return found

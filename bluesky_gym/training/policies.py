@@ -1,0 +1,414 @@
+"""Policies for evaluation: the reference policies and a wrapper around trained SB3 models.
+
+Two reference policies exist for every environment, so that scores can be normalised
+(``(score - random) / (classical - random)``):
+
+* ``random``: uniform actions in the action box, from a generator with a fixed seed.
+* ``classical``: a simple hand-written controller that only reads the observation (it sees what
+  an agent sees, decoded with the environment's normalisation constants):
+
+  - DescentEnv-v0: hold the target altitude; descend along a glide path (``GLIDE_SLOPE`` m per
+    km of runway distance, down to ``RUNWAY_ALT`` m) once that path is below the target.
+  - VerticalCREnv-v0: the descent controller, plus, for the closest intruder that is closing in
+    within ``VERTICAL_ALERT_KM`` km and less than ``VERTICAL_ALERT_ALT`` m away vertically, an
+    altitude at least that far above or below it (whichever side it already is on; above when
+    below would be too low).
+  - HorizontalCREnv-v0: turn to the waypoint; turn away (full heading step) from the closest
+    intruder that is closing in within ``HORIZONTAL_ALERT_KM`` km in front of the aircraft.
+  - PlanWaypointEnv-v0: fly to the nearest waypoint not reached yet.
+  - SectorCREnv-v0 and MergeEnv-v0: turn to the waypoint (FAF, then runway); for the intruder
+    with the nearest predicted loss of separation (closest point of approach closer than the
+    protected zone plus margin, within a look-ahead time, computed from relative position and
+    velocity), turn away from the side on which it passes.
+  - StaticObstacleEnv-v0: fly at the highest speed towards the goal on the heading closest to
+    it whose straight path (to the goal, at most ``OBSTACLE_LOOKAHEAD_KM``) stays outside every
+    obstacle's enclosing circle plus ``OBSTACLE_MARGIN_KM``.
+
+  Controllers that need the previous observation (closing-in tests in VerticalCR and
+  HorizontalCR, whose intruders are not sorted) keep it per environment; :meth:`Policy.reset`
+  clears it for the environments whose episodes restarted.
+
+These controllers are baselines, not optimised solutions: they show what an agent has to beat.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bluesky_gym.core.units import NM2KM
+
+Array = NDArray[np.float64]
+Obs = dict[str, Array]
+
+# --- DescentEnv-v0 / VerticalCREnv-v0 observation constants (envs-v0 sections 1 and 2) --------
+ALT_MEAN, ALT_STD = 1500.0, 3000.0  # m
+RWY_DIS_MEAN, RWY_DIS_STD = 100.0, 200.0  # km
+ACTION_2_MS = 12.5  # m/s of vertical speed per unit action
+STEP_S_VERTICAL = 30.0  # s per decision step
+GROUND_SPEED_EST = 0.17  # km/s, typical ground speed of the descent scenarios (CAS 150 m/s)
+GLIDE_SLOPE = 80.0  # m per km of runway distance: steeper than the ~70 m/km possible, as the command lags
+RUNWAY_ALT = 60.0  # m, altitude aimed at over the runway threshold (alt <= 0 before it crashes)
+MIN_ACTION = 0.01  # |a| <= 0.008 selects BlueSky's default 7.62 m/s vertical speed; stay above
+VERTICAL_ALERT_KM = 40.0  # km: intruders closer than this (and closing in) are avoided
+VERTICAL_ALERT_ALT = 450.0  # m: vertical distance kept from an alerting intruder
+VERTICAL_MIN_ALT = 300.0  # m: do not avoid downwards below this
+INTRUDER_DIST_VERTICAL = 200.0  # km per unit of intruder_distance
+
+# --- HorizontalCREnv-v0 / PlanWaypointEnv-v0 ---------------------------------------------------
+D_HEADING_HORIZONTAL = 45.0  # deg per unit action
+INTRUDER_DIST_HORIZONTAL = 150.0  # km per unit of intruder_distance
+HORIZONTAL_ALERT_KM = 30.0
+WAYPOINT_DIST_PLAN = 75.0  # km per unit of waypoint_distance
+CAPTURE_KM = 5.0
+
+# --- SectorCREnv-v0 ----------------------------------------------------------------------------
+D_HEADING_SECTOR = 22.5
+SECTOR_POS_SCALE = 13000.0  # m
+SECTOR_VN_SCALE, SECTOR_VE_SCALE = 32.0, 66.0  # m/s
+SECTOR_PZ_M = 5.0 * NM2KM * 1000.0
+SECTOR_LOOKAHEAD_S = 180.0
+
+# --- MergeEnv-v0 -------------------------------------------------------------------------------
+D_HEADING_MERGE = 15.0
+MERGE_POS_SCALE = 1e6  # m
+MERGE_VEL_SCALE = 150.0  # m/s
+MERGE_PZ_M = 4.0 * NM2KM * 1000.0
+MERGE_LOOKAHEAD_S = 300.0
+CPA_MARGIN = 1.0  # alert when the predicted miss distance is below margin * protected zone
+
+# --- StaticObstacleEnv-v0 ----------------------------------------------------------------------
+D_HEADING_OBSTACLE = 45.0
+OBSTACLE_DIST_SCALE = 170.0  # km per unit of distance
+OBSTACLE_RADIUS_SCALE_KM = 50.0 * NM2KM  # km per unit of restricted_area_radius
+OBSTACLE_MARGIN_KM = 3.0
+OBSTACLE_LOOKAHEAD_KM = 60.0
+CANDIDATE_TURNS = np.arange(-180.0, 180.0, 5.0)  # deg, relative headings searched
+
+
+class Policy(abc.ABC):
+    """A batched policy: a dict of ``(n_envs, *shape)`` observations to ``(n_envs, dim)`` actions."""
+
+    #: Name shown in result tables.
+    name: str = "policy"
+
+    def reset(self, envs: NDArray[np.bool_] | None = None) -> None:  # noqa: B027 - stateless by default
+        """Forget the memory of the environments ``envs`` (a mask; all when None)."""
+
+    @abc.abstractmethod
+    def act(self, obs: Obs) -> Array:
+        """Actions for a batch of observations."""
+
+
+class RandomPolicy(Policy):
+    """Uniform random actions in ``[low, high]`` from a seeded generator.
+
+    Args:
+        low: Lower bound of the action box (per component).
+        high: Upper bound.
+        seed: Seed of the action generator.
+
+    """
+
+    name = "random"
+
+    def __init__(self, low: Array, high: Array, seed: int = 0) -> None:
+        self.low = np.asarray(low, dtype=np.float64)
+        self.high = np.asarray(high, dtype=np.float64)
+        self.rng = np.random.default_rng(seed)
+
+    def act(self, obs: Obs) -> Array:
+        """Draw one action per environment."""
+        n = next(iter(obs.values())).shape[0]
+        return self.rng.uniform(self.low, self.high, size=(n, *self.low.shape))
+
+
+class SB3Policy(Policy):
+    """A trained Stable-Baselines3 model, acting deterministically by default.
+
+    Args:
+        model: An SB3 algorithm instance (``PPO.load(...)`` etc.).
+        deterministic: Use the mean / greedy action.
+        name: Name shown in result tables.
+
+    """
+
+    def __init__(self, model: Any, deterministic: bool = True, name: str = "model") -> None:
+        self.model = model
+        self.deterministic = deterministic
+        self.name = name
+
+    def act(self, obs: Obs) -> Array:
+        """Predict the model's actions."""
+        action, _ = self.model.predict(obs, deterministic=self.deterministic)
+        return np.asarray(action, dtype=np.float64)
+
+
+def _angle(sin: Array, cos: Array) -> Array:
+    """Angle [deg, (-180, 180]] from its sine and cosine."""
+    return np.degrees(np.arctan2(sin, cos))
+
+
+def _vs_action(v_cmd: Array) -> Array:
+    """Vertical-speed command [m/s] to an action, avoiding BlueSky's default-VS band."""
+    a = np.clip(v_cmd / ACTION_2_MS, -1.0, 1.0)
+    return np.where(np.abs(a) < MIN_ACTION, np.where(a < 0, -MIN_ACTION, MIN_ACTION), a)
+
+
+class _ClosingTracker:
+    """Previous intruder distances per environment, to tell which intruders are closing in."""
+
+    def __init__(self) -> None:
+        self.prev: Array | None = None
+
+    def reset(self, envs: NDArray[np.bool_] | None) -> None:
+        if self.prev is None:
+            return
+        if envs is None:
+            self.prev = None
+        else:
+            self.prev[np.asarray(envs, dtype=bool)] = np.nan
+
+    def closing(self, dist: Array) -> NDArray[np.bool_]:
+        """Whether each distance decreased since the last call (True without a previous value)."""
+        if self.prev is None or self.prev.shape != dist.shape:
+            self.prev = np.full(dist.shape, np.nan)
+        out = ~(dist >= self.prev)  # NaN (no history) counts as closing
+        self.prev = dist.copy()
+        return out
+
+
+class DescentController(Policy):
+    """DescentEnv-v0: hold the target altitude, then follow a glide path to the runway."""
+
+    name = "classical"
+
+    def target_altitude(self, obs: Obs) -> tuple[Array, Array]:
+        """Return the current and the wanted altitude [m] at the end of the next step."""
+        alt = obs["altitude"][:, 0] * ALT_STD + ALT_MEAN
+        target = obs["target_altitude"][:, 0] * ALT_STD + ALT_MEAN
+        rd_next = obs["runway_distance"][:, 0] * RWY_DIS_STD + RWY_DIS_MEAN - GROUND_SPEED_EST * STEP_S_VERTICAL
+        glide = RUNWAY_ALT + GLIDE_SLOPE * np.maximum(rd_next, 0.0)
+        return alt, np.minimum(target, glide)
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions."""
+        alt, wanted = self.target_altitude(obs)
+        return _vs_action((wanted - alt) / STEP_S_VERTICAL)[:, None]
+
+
+class VerticalCRController(DescentController):
+    """VerticalCREnv-v0: the descent controller plus vertical avoidance of closing intruders."""
+
+    def __init__(self) -> None:
+        self.tracker = _ClosingTracker()
+
+    def reset(self, envs: NDArray[np.bool_] | None = None) -> None:
+        """Forget the previous intruder distances of ``envs`` (all when None)."""
+        self.tracker.reset(envs)
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions."""
+        alt, wanted = self.target_altitude(obs)
+        dist = obs["intruder_distance"] * INTRUDER_DIST_VERTICAL  # (n, k) km
+        dalt = obs["altitude_difference"] * ALT_STD  # intruder minus own, m
+        closing = self.tracker.closing(dist)
+        # Intruders near the wanted altitude that are closing in.
+        near = closing & (dist < VERTICAL_ALERT_KM) & (np.abs(wanted[:, None] - (alt[:, None] + dalt)) < VERTICAL_ALERT_ALT)
+        d_alert = np.where(near, dist, np.inf)
+        k = np.argmin(d_alert, axis=1)
+        rows = np.arange(len(k))
+        alert = np.isfinite(d_alert[rows, k])
+        int_alt = alt + dalt[rows, k]
+        below = int_alt - VERTICAL_ALERT_ALT
+        above = int_alt + VERTICAL_ALERT_ALT
+        go_below = (int_alt > alt) & (below > VERTICAL_MIN_ALT)
+        avoid = np.where(go_below, np.minimum(wanted, below), np.maximum(wanted, above))
+        wanted = np.where(alert, avoid, wanted)
+        return _vs_action((wanted - alt) / STEP_S_VERTICAL)[:, None]
+
+
+class HorizontalCRController(Policy):
+    """HorizontalCREnv-v0: steer to the waypoint; turn away from the closest closing intruder."""
+
+    name = "classical"
+
+    def __init__(self) -> None:
+        self.tracker = _ClosingTracker()
+
+    def reset(self, envs: NDArray[np.bool_] | None = None) -> None:
+        """Forget the previous intruder distances of ``envs`` (all when None)."""
+        self.tracker.reset(envs)
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions."""
+        drift = _angle(obs["sin_drift"][:, 0], obs["cos_drift"][:, 0])
+        a = np.clip(-drift / D_HEADING_HORIZONTAL, -1.0, 1.0)
+        dist = obs["intruder_distance"] * INTRUDER_DIST_HORIZONTAL
+        closing = self.tracker.closing(dist)
+        ahead = obs["cos_difference_pos"] > 0.0
+        threat = np.where(closing & ahead & (dist < HORIZONTAL_ALERT_KM), dist, np.inf)
+        k = np.argmin(threat, axis=1)
+        rows = np.arange(len(k))
+        alert = np.isfinite(threat[rows, k])
+        # difference_pos = hdg - bearing > 0: the intruder is on the left, so turn right (a > 0).
+        away = np.where(obs["sin_difference_pos"][rows, k] >= 0.0, 1.0, -1.0)
+        return np.where(alert, away, a)[:, None]
+
+
+class PlanWaypointController(Policy):
+    """PlanWaypointEnv-v0: fly to the nearest waypoint not yet reached."""
+
+    name = "classical"
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions."""
+        dist = obs["waypoint_distance"] * WAYPOINT_DIST_PLAN
+        open_ = (obs["waypoint_reached"] < 0.5) & (dist >= CAPTURE_KM)
+        k = np.argmin(np.where(open_, dist, np.inf), axis=1)
+        rows = np.arange(len(k))
+        drift = _angle(obs["sin_difference"][rows, k], obs["cos_difference"][rows, k])
+        a = np.clip(-drift / D_HEADING_HORIZONTAL, -1.0, 1.0)
+        return np.where(open_.any(axis=1), a, 0.0)[:, None]
+
+
+def _cpa_turn(rn: Array, re: Array, vn: Array, ve: Array, pz: float, lookahead: float) -> tuple[NDArray[np.bool_], Array]:
+    """Decide on a conflict alert and turn direction from relative positions and velocities.
+
+    Args:
+        rn: Intruder position north of the ownship [m], (n, k).
+        re: Intruder position east of the ownship [m], (n, k).
+        vn: Intruder velocity relative to the ownship, north [m/s], (n, k).
+        ve: Intruder velocity relative to the ownship, east [m/s], (n, k).
+        pz: Protected-zone radius [m].
+        lookahead: Alert horizon [s].
+
+    Returns:
+        Per environment: whether some intruder alerts, and the turn (+1 right, -1 left) away from
+        the most urgent one.
+
+    """
+    v2 = np.maximum(vn * vn + ve * ve, 1e-9)
+    tcpa = -(rn * vn + re * ve) / v2
+    mn, me = rn + vn * tcpa, re + ve * tcpa  # intruder relative position at the CPA
+    dcpa = np.hypot(mn, me)
+    inside = np.hypot(rn, re) < pz
+    alert = inside | ((tcpa > 0.0) & (tcpa < lookahead) & (dcpa < CPA_MARGIN * pz))
+    urgency = np.where(alert, np.maximum(tcpa, 0.0), np.inf)
+    k = np.argmin(urgency, axis=1)
+    rows = np.arange(len(k))
+    # The ownship moves relative to the intruder along w = -v; moving towards -m (away from the
+    # intruder's CPA side) widens the miss. With similar speeds the heading is within 90 deg of w,
+    # so "-m right of w" means "turn right". Dead-on conflicts (m ~ 0) turn right.
+    wn, we = -vn[rows, k], -ve[rows, k]
+    cross = wn * (-me[rows, k]) - we * (-mn[rows, k])
+    turn = np.where(cross >= 0.0, 1.0, -1.0)
+    return alert.any(axis=1), turn
+
+
+class SectorCRController(Policy):
+    """SectorCREnv-v0: steer to the exit waypoint; turn away from the most urgent conflict."""
+
+    name = "classical"
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions."""
+        drift = _angle(obs["sin(drift)"][:, 0], obs["cos(drift)"][:, 0])
+        a = np.clip(-drift / D_HEADING_SECTOR, -1.0, 1.0)
+        alert, turn = _cpa_turn(
+            obs["x_r"] * SECTOR_POS_SCALE,
+            obs["y_r"] * SECTOR_POS_SCALE,
+            obs["vx_r"] * SECTOR_VN_SCALE,
+            obs["vy_r"] * SECTOR_VE_SCALE,
+            SECTOR_PZ_M,
+            SECTOR_LOOKAHEAD_S,
+        )
+        heading = np.where(alert, turn, a)
+        return np.stack([heading, np.zeros_like(heading)], axis=1)
+
+
+class MergeController(Policy):
+    """MergeEnv-v0: steer to the FAF then the runway; turn away from the most urgent conflict."""
+
+    name = "classical"
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions."""
+        drift = _angle(obs["sin(drift)"][:, 0], obs["cos(drift)"][:, 0])
+        a = np.clip(-drift / D_HEADING_MERGE, -1.0, 1.0)
+        alert, turn = _cpa_turn(
+            obs["x_r"] * MERGE_POS_SCALE,
+            obs["y_r"] * MERGE_POS_SCALE,
+            obs["vx_r"] * MERGE_VEL_SCALE,
+            obs["vy_r"] * MERGE_VEL_SCALE,
+            MERGE_PZ_M,
+            MERGE_LOOKAHEAD_S,
+        )
+        heading = np.where(alert, turn, a)
+        return np.stack([heading, np.zeros_like(heading)], axis=1)
+
+
+class StaticObstacleController(Policy):
+    """StaticObstacleEnv-v0: full speed on the heading nearest the goal with a clear path."""
+
+    name = "classical"
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions."""
+        goal_rel = -_angle(obs["destination_waypoint_sin_drift"][:, 0], obs["destination_waypoint_cos_drift"][:, 0])  # deg, + right
+        goal_km = obs["destination_waypoint_distance"][:, 0] * OBSTACLE_DIST_SCALE
+        d = obs["restricted_area_distance"] * OBSTACLE_DIST_SCALE  # (n, m) km
+        r = obs["restricted_area_radius"] * OBSTACLE_RADIUS_SCALE_KM + OBSTACLE_MARGIN_KM
+        beta = -_angle(obs["sin_difference_restricted_area_pos"], obs["cos_difference_restricted_area_pos"])  # + right
+        # Candidate relative headings (n, c); the path to check for each (n, c, m).
+        cand = CANDIDATE_TURNS[None, :]
+        rel = np.radians(beta[:, None, :] - cand[:, :, None])
+        along = d[:, None, :] * np.cos(rel)
+        across = np.abs(d[:, None, :] * np.sin(rel))
+        length = np.minimum(goal_km, OBSTACLE_LOOKAHEAD_KM)[:, None, None]
+        inside = (d < r)[:, None, :]  # already within an enclosing circle: that circle is ignored
+        blocked = ~inside & (across < r[:, None, :]) & (along > 0.0) & (along < length + r[:, None, :])
+        clear = ~blocked.any(axis=2)
+        off_goal = np.abs((cand - goal_rel[:, None] + 180.0) % 360.0 - 180.0)
+        best = np.argmin(np.where(clear, off_goal, np.inf), axis=1)
+        turn = np.where(clear.any(axis=1), CANDIDATE_TURNS[best], goal_rel)
+        heading = np.clip(turn / D_HEADING_OBSTACLE, -1.0, 1.0)
+        return np.stack([heading, np.ones_like(heading)], axis=1)
+
+
+#: Classical controller factory per environment id.
+CLASSICAL: dict[str, Callable[[], Policy]] = {
+    "DescentEnv-v0": DescentController,
+    "VerticalCREnv-v0": VerticalCRController,
+    "HorizontalCREnv-v0": HorizontalCRController,
+    "PlanWaypointEnv-v0": PlanWaypointController,
+    "SectorCREnv-v0": SectorCRController,
+    "StaticObstacleEnv-v0": StaticObstacleController,
+    "MergeEnv-v0": MergeController,
+}
+
+REFERENCE_POLICIES = ("random", "classical")
+RANDOM_POLICY_SEED = 0
+
+
+def reference_policy(name: str, env_id: str, action_low: Array, action_high: Array) -> Policy:
+    """Make a reference policy (``random`` or ``classical``) of an environment.
+
+    Args:
+        name: ``"random"`` or ``"classical"``.
+        env_id: Environment id.
+        action_low: Lower bound of the single-environment action box.
+        action_high: Upper bound.
+
+    """
+    if name == "random":
+        return RandomPolicy(action_low, action_high, seed=RANDOM_POLICY_SEED)
+    if name == "classical":
+        if env_id not in CLASSICAL:
+            raise ValueError(f"no classical controller for {env_id}; available: {', '.join(CLASSICAL)}")
+        return CLASSICAL[env_id]()
+    raise ValueError(f"unknown reference policy {name!r}; choose one of {', '.join(REFERENCE_POLICIES)}")

@@ -1,0 +1,558 @@
+"""One training run in its own directory: resumable, crash-safe, fully recorded.
+
+A run is ``(environment, algorithm, seed, steps, hyperparameters)``. Its directory holds:
+
+* ``config.json`` - the exact configuration (resolved hyperparameters as passed to SB3, scenario
+  options, seeds and the train/eval seed split), written once. Rerunning in the same directory
+  with a different configuration is refused.
+* ``run.json`` - one entry per process that trained the run (start, end, host, package
+  versions, command, timesteps at start).
+* ``episodes.csv`` - one row per finished training episode: episode number, timesteps and wall
+  time when it ended, environment index, return, length, whether it terminated, the reference
+  info values, summed reward components (``reward_*``) and the KPIs (``kpi_*``).
+* ``checkpoints/step_<N>/`` - the latest checkpoint: ``model.zip`` and, for off-policy
+  algorithms, ``replay_buffer.pkl``; ``checkpoint.json`` names it and records the timesteps,
+  the number of episode rows and the training wall time it includes.
+* ``model.zip`` - the final model; ``eval.json`` / ``eval_episodes.csv`` - its deterministic
+  evaluation on held-out scenarios; ``result.json`` - written last, marks the run finished.
+
+Every file except the episode log is replaced atomically, and ``checkpoint.json`` is written only
+after the files it names, so a run killed at any moment (even ``SIGKILL``) resumes from its last
+complete checkpoint: model weights, optimiser state, replay buffer and timesteps are restored,
+episode-log rows written after that checkpoint are dropped (they are played again) and episodes
+in flight at the checkpoint are abandoned. Checkpoints are taken at the start of a rollout, where
+the model has been trained on every transition counted so far (for PPO: between rollouts), so
+no transition is lost or counted twice. A resumed run continues with fresh training scenario
+streams derived from the run seed and the timesteps done (see :mod:`bluesky_gym.training.seeds`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from bluesky_gym.training import algorithm_class, require_sb3
+from bluesky_gym.training.hyperparams import POLICY, adapt_to_n_envs, resolve, sb3_kwargs
+from bluesky_gym.training.io import AppendCSV, atomic_path, atomic_write_csv, atomic_write_json, read_csv_rows, read_json
+from bluesky_gym.training.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, train_env_seeds
+
+EPISODE_LOG = "episodes.csv"
+LEADING_COLUMNS = ["episode", "timesteps", "wall_time_s", "env_index", "return", "length", "terminated"]
+
+
+class RunConfigMismatch(RuntimeError):
+    """The run directory belongs to a run with a different configuration."""
+
+
+class RunLocked(RuntimeError):
+    """Another live process is training in this run directory."""
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """Everything that defines one training run.
+
+    Attributes:
+        env_id: Environment id.
+        algo: ``PPO``, ``SAC``, ``TD3`` or ``DDPG``.
+        seed: Run seed (model initialisation, exploration and training scenarios).
+        total_timesteps: Environment steps to train for (PPO stops at the end of a rollout).
+        n_envs: Batched environments.
+        hyperparams: Constructor arguments of the SB3 algorithm (after :func:`adapt_to_n_envs`).
+        env_options: Scenario options of the environment.
+        notes: How the hyperparameters were adapted, if at all.
+        checkpoint_freq: Steps between checkpoints (rounded up to rollouts).
+        eval_episodes: Held-out episodes evaluated at the end (0: none).
+        device: Torch device.
+        torch_threads: Torch intra-op threads (0: leave PyTorch's default).
+
+    """
+
+    env_id: str
+    algo: str
+    seed: int
+    total_timesteps: int
+    n_envs: int
+    hyperparams: dict[str, Any]
+    env_options: dict[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    checkpoint_freq: int = 50_000
+    eval_episodes: int = 50
+    device: str = "cpu"
+    torch_threads: int = 1
+
+    def identity(self) -> dict[str, Any]:
+        """Return the parts that determine what is learned (a resumed run must match them)."""
+        return json.loads(
+            json.dumps(
+                {
+                    "env_id": self.env_id,
+                    "algo": self.algo,
+                    "seed": self.seed,
+                    "total_timesteps": self.total_timesteps,
+                    "n_envs": self.n_envs,
+                    "policy": POLICY,
+                    "hyperparams": self.hyperparams,
+                    "env_options": self.env_options,
+                },
+                sort_keys=True,
+            )
+        )
+
+    def digest(self) -> str:
+        """Return a short hash of :meth:`identity`."""
+        return hashlib.sha256(json.dumps(self.identity(), sort_keys=True).encode()).hexdigest()[:16]
+
+
+def make_run_spec(config: dict[str, Any], env_id: str, algo: str, seed: int, **run_overrides: Any) -> RunSpec:
+    """Resolve a full config (see :mod:`bluesky_gym.training.hyperparams`) into a :class:`RunSpec`.
+
+    Args:
+        config: The merged config (paper defaults, config file).
+        env_id: Environment id.
+        algo: Algorithm name.
+        seed: Run seed (non-negative, below ``2**31``).
+        **run_overrides: Values of the ``run`` section given on the command line (None = unset).
+
+    """
+    algo = algo.upper()
+    algorithm_class(algo)  # validates the name (and that SB3 is installed)
+    if not 0 <= int(seed) < TRAIN_SEED_LIMIT:
+        raise ValueError(f"seed must be in [0, 2**31), got {seed}")
+    run, hp, env_options = resolve(config, env_id, algo)
+    run.update({k: v for k, v in run_overrides.items() if v is not None})
+    n_envs = int(run["n_envs"])
+    if n_envs < 1 or int(run["total_timesteps"]) < 1:
+        raise ValueError("n_envs and total_timesteps must be positive")
+    hp, notes = adapt_to_n_envs(algo, hp, n_envs)
+    return RunSpec(
+        env_id=env_id,
+        algo=algo,
+        seed=int(seed),
+        total_timesteps=int(run["total_timesteps"]),
+        n_envs=n_envs,
+        hyperparams=hp,
+        env_options=env_options,
+        notes=tuple(notes),
+        checkpoint_freq=max(1, int(run["checkpoint_freq"])),
+        eval_episodes=max(0, int(run["eval_episodes"])),
+        device=str(run["device"]),
+        torch_threads=int(run["torch_threads"]),
+    )
+
+
+def run_dir_for(out: str | Path, env_id: str, algo: str, seed: int) -> Path:
+    """Return the run directory of ``(env, algo, seed)`` under ``out``: ``out/<env>/<ALGO>/seed_<S>``."""
+    return Path(out) / env_id / algo.upper() / f"seed_{seed}"
+
+
+# --- versions and metadata --------------------------------------------------------------------
+def package_versions() -> dict[str, str]:
+    """Versions of Python, the platform and every package a run depends on."""
+    import importlib.metadata as md
+
+    import bluesky_gym
+
+    out = {"python": sys.version.split()[0], "platform": platform.platform(), "bluesky_gym": bluesky_gym.__version__}
+    for dist in ("numpy", "gymnasium", "stable_baselines3", "torch"):
+        try:
+            out[dist] = md.version(dist.replace("_", "-"))
+        except md.PackageNotFoundError:
+            out[dist] = "not installed"
+    commit = _git_commit(Path(bluesky_gym.__file__).resolve().parent)
+    if commit:
+        out["bluesky_gym_git"] = commit
+    return out
+
+
+def _git_commit(directory: Path) -> str | None:
+    try:
+        res = subprocess.run(["git", "-C", str(directory), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5, check=False)
+        if res.returncode != 0:
+            return None
+        status = ["git", "-C", str(directory), "status", "--porcelain", "--untracked-files=no"]
+        dirty = subprocess.run(status, capture_output=True, text=True, timeout=5, check=False)
+        return res.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+# --- lock ------------------------------------------------------------------------------------------
+class RunLock:
+    """An exclusive lock file in a run directory, taken over when its owner process is gone.
+
+    Args:
+        run_dir: The run directory.
+
+    """
+
+    def __init__(self, run_dir: Path) -> None:
+        self.path = run_dir / ".lock"
+        self.owner = f"{socket.gethostname()} {os.getpid()}"
+
+    def __enter__(self) -> RunLock:
+        for _ in range(2):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+            except FileExistsError:
+                if self._stale():
+                    self.path.unlink(missing_ok=True)
+                    continue
+                owner = self.path.read_text().strip()
+                raise RunLocked(f"{self.path.parent} is being trained by {owner} (delete {self.path} if not)") from None
+            with os.fdopen(fd, "w") as f:
+                f.write(self.owner + "\n")
+            return self
+        raise RunLocked(f"could not lock {self.path.parent}")
+
+    def __exit__(self, *exc: object) -> None:
+        try:
+            if self.path.read_text().strip() == self.owner:
+                self.path.unlink()
+        except OSError:
+            pass
+
+    def _stale(self) -> bool:
+        try:
+            host, pid = self.path.read_text().split()
+        except (OSError, ValueError):
+            return True  # unreadable or half-written: its writer died before finishing
+        if host != socket.gethostname():
+            return False
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            return True
+        except PermissionError:
+            return False
+        return int(pid) == os.getpid()
+
+
+# --- checkpoints -------------------------------------------------------------------------------------
+def latest_checkpoint(run_dir: str | Path) -> tuple[dict[str, Any], Path] | None:
+    """Return the committed checkpoint of a run: its record and directory (None if there is none)."""
+    p = Path(run_dir) / "checkpoint.json"
+    if not p.exists():
+        return None
+    info = read_json(p)
+    d = Path(run_dir) / info["dir"]
+    if not (d / "model.zip").exists():
+        return None
+    return info, d
+
+
+def save_checkpoint(model: Any, run_dir: Path, episodes_logged: int, wall_time_s: float) -> dict[str, Any]:
+    """Save model (and replay buffer) into a new step directory, then commit ``checkpoint.json``."""
+    step = int(model.num_timesteps)
+    rel = Path("checkpoints") / f"step_{step:012d}"
+    d = run_dir / rel
+    d.mkdir(parents=True, exist_ok=True)
+    with atomic_path(d / "model.zip") as tmp:
+        model.save(tmp)
+    buffer = getattr(model, "replay_buffer", None)
+    if buffer is not None:
+        with atomic_path(d / "replay_buffer.pkl") as tmp:
+            model.save_replay_buffer(tmp)
+    record = {
+        "timesteps": step,
+        "dir": rel.as_posix(),
+        "episodes_logged": int(episodes_logged),
+        "wall_time_s": float(wall_time_s),
+        "replay_buffer": buffer is not None,
+        "saved_at": _now(),
+    }
+    atomic_write_json(run_dir / "checkpoint.json", record)
+    for old in (run_dir / "checkpoints").glob("step_*"):
+        if old.name != d.name:
+            shutil.rmtree(old, ignore_errors=True)
+    return record
+
+
+# --- the callback --------------------------------------------------------------------------------------
+def _make_callback(run_dir: Path, spec: RunSpec, log: AppendCSV, start_timesteps: int, wall_offset: float, verbose: int) -> Any:
+    """Build the SB3 callback that logs episodes and takes checkpoints (lazily: it needs SB3)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class RunCallback(BaseCallback):
+        """Episode log rows and checkpoints at rollout starts."""
+
+        def __init__(self) -> None:
+            super().__init__(verbose=0)
+            self.last_checkpoint = start_timesteps
+            self.t0 = time.time()
+            self.recent: list[float] = []
+
+        def wall_time(self) -> float:
+            return wall_offset + time.time() - self.t0
+
+        def _on_rollout_start(self) -> None:
+            if self.model.num_timesteps - self.last_checkpoint >= spec.checkpoint_freq:
+                self.checkpoint()
+
+        def checkpoint(self) -> None:
+            log.flush()
+            save_checkpoint(self.model, run_dir, log.rows_written, self.wall_time())
+            self.last_checkpoint = self.model.num_timesteps
+            if verbose:
+                mean = sum(self.recent) / len(self.recent) if self.recent else float("nan")
+                rate = (self.model.num_timesteps - start_timesteps) / max(time.time() - self.t0, 1e-9)
+                print(
+                    f"[{spec.env_id} {spec.algo} seed {spec.seed}] checkpoint at {self.model.num_timesteps} steps, "
+                    f"{rate:.0f} steps/s, mean return of the last {len(self.recent)} episodes {mean:.2f}",
+                    flush=True,
+                )
+                self.recent.clear()
+
+        def _on_step(self) -> bool:
+            for i, info in enumerate(self.locals["infos"]):
+                ep = info.get("episode")
+                if ep is None:
+                    continue
+                record = {
+                    "episode": log.rows_written,
+                    "timesteps": self.model.num_timesteps,
+                    "wall_time_s": round(self.wall_time(), 3),
+                    "env_index": i,
+                    "return": ep["r"],
+                    "length": ep["l"],
+                    "terminated": not info.get("TimeLimit.truncated", False),
+                }
+                record.update(info.get("episode_reward_components", {}))
+                record.update(
+                    {k: v for k, v in info.items() if isinstance(v, (int, float)) and k != "TimeLimit.truncated" and not k.startswith("reward_")}
+                )
+                log.append(record)
+                self.recent.append(float(ep["r"]))
+            return True
+
+    return RunCallback()
+
+
+def _episode_header(record: dict[str, Any]) -> list[str]:
+    rest = sorted(k for k in record if k not in LEADING_COLUMNS)
+    ordered = [k for k in rest if not k.startswith(("reward_", "kpi_"))]
+    ordered += [k for k in rest if k.startswith("reward_")] + [k for k in rest if k.startswith("kpi_")]
+    return LEADING_COLUMNS + ordered
+
+
+def _truncate_log(path: Path, rows: int) -> None:
+    """Keep the header and the first ``rows`` complete rows of the episode log (atomically)."""
+    if not path.exists():
+        return
+    header, data = read_csv_rows(path)
+    if rows == 0 or not header:
+        path.unlink()
+        return
+    atomic_write_csv(path, header, data[:rows])
+
+
+# --- the run -----------------------------------------------------------------------------------------
+def run_status(run_dir: str | Path) -> str:
+    """``finished``, ``checkpointed`` (resumable), ``started`` or ``new``."""
+    d = Path(run_dir)
+    if (d / "result.json").exists():
+        return "finished"
+    if latest_checkpoint(d) is not None:
+        return "checkpointed"
+    return "started" if (d / "config.json").exists() else "new"
+
+
+def run_training(
+    spec: RunSpec,
+    run_dir: str | Path,
+    *,
+    progress_bar: bool = False,
+    verbose: int = 1,
+    callbacks: list[Any] | None = None,
+) -> dict[str, Any]:
+    """Train (or resume, or skip if finished) one run and return its ``result.json`` content.
+
+    Args:
+        spec: The run.
+        run_dir: Its directory (created if needed).
+        progress_bar: Show SB3's progress bar (needs tqdm and rich).
+        verbose: 1 prints a line per checkpoint and at the end.
+        callbacks: Extra SB3 callbacks (e.g. to stop early).
+
+    Raises:
+        RunConfigMismatch: ``run_dir`` holds a run with another configuration.
+        RunLocked: another live process trains in ``run_dir``.
+
+    """
+    require_sb3()
+    d = Path(run_dir)
+    d.mkdir(parents=True, exist_ok=True)
+    with RunLock(d):
+        for stale in d.rglob(".*.tmp"):  # temporary files of a writer killed mid-write
+            stale.unlink(missing_ok=True)
+        _check_or_write_config(spec, d)
+        if (d / "result.json").exists():
+            result = read_json(d / "result.json")
+            result["skipped"] = True
+            return result
+        return _train(spec, d, progress_bar, verbose, callbacks or [])
+
+
+def _check_or_write_config(spec: RunSpec, d: Path) -> None:
+    path = d / "config.json"
+    if path.exists():
+        stored = read_json(path)
+        if stored.get("identity") != spec.identity():
+            old, new = stored.get("identity", {}), spec.identity()
+            diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+            raise RunConfigMismatch(f"{d} holds a run with another configuration (differs in: {', '.join(diff)}); use another output directory")
+        return
+    atomic_write_json(
+        path,
+        {
+            **asdict(spec),
+            "identity": spec.identity(),
+            "digest": spec.digest(),
+            "policy": POLICY,
+            "seeds": {
+                "train": f"training scenario seeds derived from seed {spec.seed}, all below 2**31",
+                "train_env_seeds_at_start": train_env_seeds(spec.seed, spec.n_envs),
+                "eval_seed_base": EVAL_SEED_BASE,
+            },
+            "created_at": _now(),
+        },
+    )
+
+
+def set_torch_threads(n: int) -> None:
+    """Limit PyTorch to ``n`` intra-op threads (0 leaves its default).
+
+    Small MLPs gain nothing from several threads, and on a loaded machine threads that wait for
+    each other slow training down by an order of magnitude.
+    """
+    if n > 0:
+        import torch
+
+        torch.set_num_threads(n)
+
+
+def new_model(spec: RunSpec, venv: Any) -> Any:
+    """Create the untrained SB3 model of a run on ``venv`` (seeded with the run seed)."""
+    return algorithm_class(spec.algo)(POLICY, venv, seed=spec.seed, device=spec.device, verbose=0, **sb3_kwargs(spec.hyperparams))
+
+
+def _train(spec: RunSpec, d: Path, progress_bar: bool, verbose: int, extra_callbacks: list[Any]) -> dict[str, Any]:
+    from bluesky_gym.training.sb3_vec_env import SB3VecEnv
+
+    set_torch_threads(spec.torch_threads)
+    cls = algorithm_class(spec.algo)
+    venv = SB3VecEnv(spec.env_id, num_envs=spec.n_envs, **spec.env_options)
+    log_path = d / EPISODE_LOG
+    ckpt = latest_checkpoint(d)
+    if ckpt is not None:
+        info, ckpt_dir = ckpt
+        model = cls.load(ckpt_dir / "model.zip", env=venv, device=spec.device)
+        if info.get("replay_buffer"):
+            model.load_replay_buffer(ckpt_dir / "replay_buffer.pkl")
+        model.set_random_seed(train_env_seeds(spec.seed, 1, stream=int(info["timesteps"]))[0])
+        _truncate_log(log_path, int(info["episodes_logged"]))
+        wall_offset = float(info["wall_time_s"])
+        resumed_from: int | None = int(info["timesteps"])
+    else:
+        model = new_model(spec, venv)
+        _truncate_log(log_path, 0)
+        wall_offset = 0.0
+        resumed_from = None
+    start = int(model.num_timesteps)
+    process = _start_process(d, start, resumed_from)
+
+    log = AppendCSV(log_path, _episode_header)
+    callback = _make_callback(d, spec, log, start, wall_offset, verbose)
+    if verbose:
+        what = f"resuming from {start} steps" if resumed_from is not None else "starting"
+        tag = f"[{spec.env_id} {spec.algo} seed {spec.seed}]"
+        print(f"{tag} {what}; {spec.total_timesteps} steps, {spec.n_envs} environments -> {d}", flush=True)
+    try:
+        remaining = spec.total_timesteps - start
+        if remaining > 0:
+            model.learn(
+                total_timesteps=remaining,
+                callback=[callback, *extra_callbacks],
+                reset_num_timesteps=resumed_from is None,
+                progress_bar=progress_bar,
+            )
+        wall = callback.wall_time()
+        if int(model.num_timesteps) != callback.last_checkpoint:
+            log.flush()
+            save_checkpoint(model, d, log.rows_written, wall)
+    finally:
+        log.close()
+        venv.close()
+
+    with atomic_path(d / "model.zip") as tmp:
+        model.save(tmp)
+    eval_summary = None
+    if spec.eval_episodes > 0:
+        from bluesky_gym.training.evaluation import evaluate, save_result
+        from bluesky_gym.training.policies import SB3Policy
+
+        res = evaluate(spec.env_id, SB3Policy(model, name=spec.algo), spec.eval_episodes, env_options=spec.env_options)
+        save_result(res, d, stem="eval")
+        eval_summary = res.summary
+    trained = int(model.num_timesteps) - start
+    result = {
+        "status": "finished",
+        "env_id": spec.env_id,
+        "algo": spec.algo,
+        "seed": spec.seed,
+        "digest": spec.digest(),
+        "timesteps": int(model.num_timesteps),
+        "episodes": log.rows_written,
+        "wall_time_s": wall,
+        "steps_per_second_last_process": trained / max(wall - wall_offset, 1e-9) if trained else None,
+        "resumed_from": resumed_from,
+        "eval_episodes": spec.eval_episodes,
+        "eval": eval_summary,
+        "finished_at": _now(),
+    }
+    _end_process(d, process, int(model.num_timesteps))
+    atomic_write_json(d / "result.json", result)
+    if verbose:
+        ret = f", held-out return {eval_summary['return']['mean']:.2f}" if eval_summary else ""
+        print(f"[{spec.env_id} {spec.algo} seed {spec.seed}] finished: {model.num_timesteps} steps in {wall:.0f} s{ret}", flush=True)
+    return result
+
+
+def _start_process(d: Path, timesteps: int, resumed_from: int | None) -> int:
+    path = d / "run.json"
+    data = read_json(path) if path.exists() else {"processes": []}
+    data["processes"].append(
+        {
+            "started_at": _now(),
+            "host": socket.gethostname(),
+            "pid": os.getpid(),
+            "start_timesteps": timesteps,
+            "resumed_from_checkpoint": resumed_from,
+            "versions": package_versions(),
+            "command": sys.argv,
+        }
+    )
+    atomic_write_json(path, data)
+    return len(data["processes"]) - 1
+
+
+def _end_process(d: Path, index: int, timesteps: int) -> None:
+    path = d / "run.json"
+    data = read_json(path)
+    data["processes"][index].update({"ended_at": _now(), "end_timesteps": timesteps})
+    atomic_write_json(path, data)

@@ -1,0 +1,123 @@
+"""Evaluation on held-out scenarios and the KPI table."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from bluesky_gym.training.evaluation import (
+    evaluate,
+    format_table,
+    load_result,
+    make_policy,
+    normalised_score,
+    reference_scores,
+    save_result,
+    summarise,
+)
+from bluesky_gym.training.policies import DescentController
+from bluesky_gym.training.seeds import EVAL_SEED_BASE
+
+ENV = "DescentEnv-v0"
+
+
+def test_batched_evaluation_equals_single_episodes() -> None:
+    res = evaluate(ENV, DescentController(), 5, batch=2)  # chunks of 2, 2 and 1 episodes
+    assert [e["seed"] for e in res.episodes] == list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + 5))
+    env = gym.make(ENV)
+    ctrl = DescentController()
+    for rec in res.episodes:
+        obs, _ = env.reset(seed=rec["seed"])
+        ret, n, done = 0.0, 0, False
+        while not done:
+            a = ctrl.act({k: v[None] for k, v in obs.items()})[0]
+            obs, r, te, tr, info = env.step(a)
+            ret += r
+            n += 1
+            done = te or tr
+        assert rec["return"] == pytest.approx(ret, rel=1e-12)
+        assert rec["length"] == n
+        assert rec["kpi_success"] == info["kpi_success"] and rec["terminated"] is True
+        assert rec["final_altitude"] == pytest.approx(info["final_altitude"])
+
+
+def test_evaluation_is_deterministic_and_offsets_seeds() -> None:
+    a = evaluate(ENV, make_policy("random", ENV), 6)
+    b = evaluate(ENV, make_policy("random", ENV), 6)
+    assert [e["return"] for e in a.episodes] == [e["return"] for e in b.episodes]
+    c = evaluate(ENV, make_policy("classical", ENV), 3, seed_offset=3)
+    d = evaluate(ENV, make_policy("classical", ENV), 6)
+    assert [e["return"] for e in c.episodes] == [e["return"] for e in d.episodes[3:]]
+
+
+def test_summary_table_and_files(tmp_path: Path) -> None:
+    rand = evaluate(ENV, make_policy("random", ENV), 8)
+    clas = evaluate(ENV, make_policy("classical", ENV), 8)
+    s = clas.summary
+    assert s["return"]["n"] == 8 and s["success"]["mean"] == 1.0
+    assert s["los"]["n"] == 0 and s["min_sep_nm"]["n"] == 0  # no traffic in Descent
+    assert s["time_to_goal_s"]["mean"] > 0
+    table = format_table([rand, clas], {"random": rand.mean_return, "classical": clas.mean_return})
+    assert "normalised" in table and "LoS" not in table and "time to goal" in table
+    lines = table.splitlines()
+    assert lines[2].startswith("random") and lines[2].rstrip().endswith("0.000")
+    assert lines[3].startswith("classical") and lines[3].rstrip().endswith("1.000")
+    save_result(clas, tmp_path, "eval_classical")
+    again = load_result(tmp_path, "eval_classical")
+    assert again.summary == clas.summary and len(again.episodes) == 8
+
+
+def test_summarise_ignores_missing_values() -> None:
+    eps = [
+        {"return": 1.0, "length": 10, "kpi_time_to_goal_s": 100.0, "kpi_min_separation_nm": 3.0, "kpi_los_count": 1.0},
+        {"return": 3.0, "length": 20, "kpi_time_to_goal_s": math.nan, "kpi_min_separation_nm": math.inf, "kpi_los_count": 0.0},
+    ]
+    s = summarise(eps)
+    assert s["return"]["mean"] == 2.0 and s["return"]["n"] == 2
+    assert s["time_to_goal_s"] == {"mean": 100.0, "std": 0.0, "ci95": 0.0, "n": 1}
+    assert s["los"]["n"] == 1 and s["min_sep_nm"]["n"] == 1
+    assert math.isnan(s["drift_deg"]["mean"])
+
+
+def test_normalised_score() -> None:
+    assert normalised_score(-50.0, -100.0, 0.0) == 0.5
+    assert normalised_score(-100.0, -100.0, 0.0) == 0.0
+    assert normalised_score(10.0, -100.0, 0.0) == pytest.approx(1.1)
+    assert math.isnan(normalised_score(1.0, 2.0, 2.0))
+
+
+def test_reference_scores_are_cached(tmp_path: Path) -> None:
+    first = reference_scores(ENV, 4, tmp_path)
+    assert (tmp_path / f"{ENV}.json").exists()
+    assert first["classical"]["summary"]["return"]["mean"] > first["random"]["summary"]["return"]["mean"]
+    cache = json.loads((tmp_path / f"{ENV}.json").read_text())
+    cache["random"]["summary"]["return"]["mean"] = -1234.5
+    (tmp_path / f"{ENV}.json").write_text(json.dumps(cache))
+    assert reference_scores(ENV, 4, tmp_path)["random"]["summary"]["return"]["mean"] == -1234.5  # read, not recomputed
+    assert reference_scores(ENV, 5, tmp_path)["random"]["episodes"] == 5  # other size: recomputed
+
+
+def test_trained_model_is_found_in_a_run_directory(tmp_path: Path) -> None:
+    from stable_baselines3 import DDPG, PPO, SAC, TD3
+
+    from bluesky_gym.training.evaluation import algorithm_of_zip, find_model, load_policy
+    from bluesky_gym.training.sb3_vec_env import SB3VecEnv
+
+    model = PPO("MultiInputPolicy", SB3VecEnv(ENV, 1), n_steps=16, batch_size=16, device="cpu")
+    model.save(tmp_path / "model.zip")
+    assert algorithm_of_zip(tmp_path / "model.zip") == "PPO"
+    for cls in (SAC, TD3, DDPG):
+        cls("MultiInputPolicy", SB3VecEnv(ENV, 1), buffer_size=10, device="cpu").save(tmp_path / "other.zip")
+        assert algorithm_of_zip(tmp_path / "other.zip") == cls.__name__
+    (tmp_path / "other.zip").unlink()
+    assert find_model(tmp_path) == (tmp_path / "model.zip", None)
+    policy = load_policy(tmp_path)
+    res = evaluate(ENV, policy, 2)
+    assert np.isfinite(res.mean_return)
+    with pytest.raises(FileNotFoundError):
+        find_model(tmp_path / "nothing")

@@ -1,0 +1,144 @@
+"""Training runs: recorded, resumable after an interruption, never half-written."""
+
+from __future__ import annotations
+
+import csv
+import os
+import pickle
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from stable_baselines3.common.callbacks import BaseCallback
+
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.io import read_json
+from bluesky_gym.training.runner import (
+    RunConfigMismatch,
+    RunLock,
+    RunLocked,
+    latest_checkpoint,
+    make_run_spec,
+    run_status,
+    run_training,
+)
+
+ENV = "DescentEnv-v0"
+TINY = merge(
+    PAPER,
+    {
+        "algos": {
+            "PPO": {"n_steps": 32, "batch_size": 64, "n_epochs": 2},
+            "SAC": {"buffer_size": 4000, "learning_starts": 64, "batch_size": 32},
+            "TD3": {"buffer_size": 4000, "batch_size": 32},
+            "DDPG": {"buffer_size": 4000, "batch_size": 32},
+        }
+    },
+)
+
+
+class Interrupt(Exception):
+    """Stands for a crash."""
+
+
+class CrashAfterCheckpoints(BaseCallback):
+    """Raise once ``n`` checkpoints have been committed and ``extra`` more steps were taken."""
+
+    def __init__(self, run_dir: Path, n: int, extra: int) -> None:
+        super().__init__()
+        self.run_dir, self.n, self.extra = run_dir, n, extra
+        self.seen: int | None = None
+
+    def _on_step(self) -> bool:
+        ckpt = latest_checkpoint(self.run_dir)
+        if ckpt is not None and self.seen is None and ckpt[0]["timesteps"] >= self.n:
+            self.seen = self.model.num_timesteps
+        if self.seen is not None and self.model.num_timesteps >= self.seen + self.extra:
+            raise Interrupt
+        return True
+
+
+def _rows(path: Path) -> list[list[str]]:
+    with open(path, newline="") as f:
+        return list(csv.reader(f))
+
+
+def test_run_records_everything(tmp_path: Path) -> None:
+    spec = make_run_spec(TINY, ENV, "PPO", 3, n_envs=4, total_timesteps=300, checkpoint_freq=100, eval_episodes=4)
+    d = tmp_path / "run"
+    assert run_status(d) == "new"
+    result = run_training(spec, d, verbose=0)
+    assert run_status(d) == "finished"
+    assert result["timesteps"] == 384  # PPO finishes its rollout: 3 x 32 steps x 4 envs
+    cfg = read_json(d / "config.json")
+    assert cfg["identity"] == spec.identity() and cfg["hyperparams"]["n_steps"] == 32 and cfg["seed"] == 3
+    assert cfg["seeds"]["eval_seed_base"] == 2**31 and all(s < 2**31 for s in cfg["seeds"]["train_env_seeds_at_start"])
+    versions = read_json(d / "run.json")["processes"][0]["versions"]
+    assert {"python", "numpy", "gymnasium", "stable_baselines3", "torch", "bluesky_gym"} <= set(versions)
+    rows = _rows(d / "episodes.csv")
+    header, data = rows[0], rows[1:]
+    assert header[:7] == ["episode", "timesteps", "wall_time_s", "env_index", "return", "length", "terminated"]
+    assert {"total_reward", "final_altitude", "reward_altitude", "kpi_success", "kpi_min_separation_nm"} <= set(header)
+    assert [int(r[0]) for r in data] == list(range(len(data))) and len(data) == result["episodes"] > 0
+    steps = [int(r[1]) for r in data]
+    assert steps == sorted(steps) and steps[-1] <= 384
+    col = header.index
+    for r in data:
+        assert float(r[col("return")]) == pytest.approx(float(r[col("total_reward")]))
+        parts = sum(float(r[col(k)]) for k in ("reward_altitude", "reward_crash", "reward_runway"))
+        assert parts == pytest.approx(float(r[col("return")]))
+    assert (d / "model.zip").exists() and read_json(d / "eval.json")["episodes"] == 4
+    assert latest_checkpoint(d)[0]["timesteps"] == 384
+    assert len(list((d / "checkpoints").iterdir())) == 1  # older checkpoints are removed
+    # Rerunning skips the finished run; another configuration is refused.
+    assert run_training(spec, d, verbose=0)["skipped"] is True
+    other = make_run_spec(TINY, ENV, "PPO", 3, n_envs=4, total_timesteps=600, checkpoint_freq=100, eval_episodes=4)
+    with pytest.raises(RunConfigMismatch, match="total_timesteps"):
+        run_training(other, d, verbose=0)
+
+
+@pytest.mark.parametrize("algo", ["PPO", "SAC", "TD3"])
+def test_interrupted_run_resumes_without_loss_or_repeat(tmp_path: Path, algo: str) -> None:
+    total = 512 if algo == "PPO" else 300
+    spec = make_run_spec(TINY, ENV, algo, 1, n_envs=2, total_timesteps=total, checkpoint_freq=100, eval_episodes=0)
+    d = tmp_path / algo
+    with pytest.raises(Interrupt):
+        run_training(spec, d, verbose=0, callbacks=[CrashAfterCheckpoints(d, 100, 60)])
+    ckpt, ckpt_dir = latest_checkpoint(d)
+    assert run_status(d) == "checkpointed" and 100 <= ckpt["timesteps"] < total
+    before = _rows(d / "episodes.csv")
+    assert len(before) - 1 > ckpt["episodes_logged"]  # rows were logged after the checkpoint
+    assert not (d / ".lock").exists()
+
+    result = run_training(spec, d, verbose=0)
+    assert result["resumed_from"] == ckpt["timesteps"]
+    expected = total if algo != "PPO" else 512
+    assert result["timesteps"] == expected
+    after = _rows(d / "episodes.csv")
+    kept = ckpt["episodes_logged"] + 1
+    assert after[:kept] == before[:kept]  # rows up to the checkpoint are untouched
+    assert [int(r[0]) for r in after[1:]] == list(range(len(after) - 1))  # no row lost or repeated
+    steps = [int(r[1]) for r in after[1:]]
+    assert steps == sorted(steps) and all(s > ckpt["timesteps"] for s in steps[kept - 1 :])
+    procs = read_json(d / "run.json")["processes"]
+    assert [s["start_timesteps"] for s in procs] == [0, ckpt["timesteps"]]
+    final, final_dir = latest_checkpoint(d)
+    assert final["timesteps"] == expected
+    if algo != "PPO":
+        with open(final_dir / "replay_buffer.pkl", "rb") as f:
+            buffer = pickle.load(f)
+        assert buffer.size() * 2 == expected  # every transition once: none lost, none twice
+
+
+def test_lock_refuses_a_live_owner_and_takes_over_a_dead_one(tmp_path: Path) -> None:
+    lock = tmp_path / ".lock"
+    lock.write_text(f"{socket.gethostname()} {os.getppid()}\n")  # a live process
+    with pytest.raises(RunLocked), RunLock(tmp_path):
+        pass
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=True)
+    lock.write_text(f"{socket.gethostname()} {int(dead.stdout)}\n")
+    with RunLock(tmp_path):
+        assert lock.read_text().split()[1] == str(os.getpid())
+    assert not lock.exists()
