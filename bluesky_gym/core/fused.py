@@ -584,7 +584,7 @@ def _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits,
 
 
 @_jit
-def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):
+def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, active):
     """Advance every aircraft by one step; mirrors ``Simulator.step`` operation by operation.
 
     Args:
@@ -599,13 +599,16 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         perf: Performance constants (``perf_tuple``).
         limits: (hmax, vsmax, mmo, v_rotate).
         memo: (aircraft, MEMO_COLUMNS) memo table.
+        active: (aircraft,) slots holding an aircraft; empty slots are skipped (their values are
+            meaningless, unlike in the numpy path, which computes them too).
     """
     for i in range(F.shape[1]):
-        _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo)
+        if active[i]:
+            _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo)
 
 
 @_jit
-def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, lnav):
+def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, active, lnav):
     """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
 
     Valid when aircraft do not interact within these steps, which holds for the physics and
@@ -616,6 +619,8 @@ def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, 
     route_lon, python_geo)``, or None when no aircraft flies LNAV.
     """
     for i in range(F.shape[1]):
+        if not active[i]:
+            continue
         for k in range(perf_due.shape[0]):
             if lnav is not None:
                 _lnav_one(F, i, lnav[0], lnav[1], lnav[2], lnav[3], lnav[4], lnav[5], lnav[6], lnav[7], lnav[8], lnav[9])

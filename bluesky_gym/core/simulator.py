@@ -6,8 +6,8 @@ which slots hold an aircraft. Creating and deleting aircraft writes into preallo
 one :meth:`Simulator.step` advances every airspace by ``dt`` seconds with whole-array numpy
 operations, in BlueSky 1.1.1's update order [dynamics.md 2].
 
-Inactive slots are still computed (it is cheaper than masking) but their values are meaningless;
-readers must use the ``active`` mask.
+The numpy path still computes inactive slots (cheaper than masking), the compiled path skips
+them; either way their values are meaningless and readers must use the ``active`` mask.
 """
 
 from __future__ import annotations
@@ -185,6 +185,7 @@ class Simulator:
         self.wind = WindField(self.n_envs)
         self._empty = np.zeros(0)
         self._phase_flat = self.phase.reshape(-1)  # a view
+        self._active_flat = self.active.reshape(-1)  # a view
         self._kernel = fused.step_kernel if self.kernel == "fused" else None
         # Memo table of the fused kernel: (n_envs * max_aircraft, columns), NaN = nothing cached.
         self._memo = np.full((self.n_envs * self.max_aircraft, fused.MEMO_COLUMNS), np.nan)
@@ -536,6 +537,7 @@ class Simulator:
             self._perf_args,
             self._limit_args,
             self._memo,
+            self._active_flat,
             self._lnav_args() if self.swlnav.any() else None,
         )
 
@@ -578,7 +580,20 @@ class Simulator:
         else:
             wn = we = self._empty
             haswind = self._empty_bool
-        self._kernel(self._float_flat, self._phase_flat, wn, we, haswind, any_wind, do_perf, self.dt, self._perf_args, self._limit_args, self._memo)
+        self._kernel(
+            self._float_flat,
+            self._phase_flat,
+            wn,
+            we,
+            haswind,
+            any_wind,
+            do_perf,
+            self.dt,
+            self._perf_args,
+            self._limit_args,
+            self._memo,
+            self._active_flat,
+        )
 
     def _update_performance(self) -> None:
         """OpenAP update from the start-of-step state [dynamics.md 1.3-1.4]."""
