@@ -502,14 +502,14 @@ class Simulator:
     def run(self, n_steps: int) -> None:
         """Advance every airspace by ``n_steps`` steps (same result as calling :meth:`step` n times).
 
-        With the fused kernel, and while no aircraft flies LNAV and any wind is uniform, the
-        aircraft do not influence each other between steps, so each one is advanced through all
-        ``n_steps`` at once while it sits in the CPU cache.
+        With the fused kernel, and while any wind is uniform, the aircraft do not influence each
+        other between steps (LNAV included), so each one is advanced through all ``n_steps`` at
+        once while it sits in the CPU cache.
         """
         if n_steps < 0:
             raise ValueError(f"n_steps must be >= 0, got {n_steps}")
         wind = self.wind
-        independent = self.kernel == "fused" and n_steps > 1 and not self.swlnav.any() and not (wind.count > 1).any()
+        independent = self.kernel == "fused" and n_steps > 1 and not (wind.count > 1).any()
         if not independent:
             for _ in range(n_steps):
                 self.step()

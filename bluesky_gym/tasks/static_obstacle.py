@@ -116,6 +116,7 @@ class StaticObstacleTask(Task):
     # --- generator ------------------------------------------------------------------------------
     def allocate(self) -> None:
         """Obstacle polygons, waypoint, stale observation values and episode counters."""
+        self._obstacle_cache: tuple[tuple[NDArray, ...], PolygonSet] | None = None
         n, k = self.n_envs, self.config.num_obstacles
         self.obstacle_centre_lat = np.zeros((n, k))  # deg
         self.obstacle_centre_lon = np.zeros((n, k))  # deg
@@ -213,8 +214,12 @@ class StaticObstacleTask(Task):
 
     def inside_obstacles(self) -> NDArray[np.bool_]:
         """(n_envs, num_obstacles) whether each obstacle polygon contains the aircraft now."""
-        obstacles = PolygonSet(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
-        return obstacles.contains(self.sim.lat[:, :1], self.sim.lon[:, :1])[:, 0, :]
+        key = (self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
+        cached = self._obstacle_cache
+        if cached is None or not all(np.array_equal(a, b) for a, b in zip(key, cached[0])):
+            # Prepared once per set of scenarios; any change to the polygons rebuilds it.
+            cached = self._obstacle_cache = (tuple(a.copy() for a in key), PolygonSet(*key))
+        return cached[1].contains(self.sim.lat[:, :1], self.sim.lon[:, :1])[:, 0, :]
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self) -> dict[str, Array]:
