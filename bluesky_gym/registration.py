@@ -24,7 +24,14 @@ def available_envs() -> list[str]:
 
 
 def register_envs() -> None:
-    """Register every BlueSky-Gym id with Gymnasium (idempotent)."""
+    """Register every BlueSky-Gym id with Gymnasium (idempotent).
+
+    The seven paper environments, and the centralised multi-agent environments
+    (``SectorCRCentralised-v0``, ``MergeCentralised-v0``, ``HorizontalCRCentralised-v0``).
+    """
+    from bluesky_gym.multiagent.registration import register_envs as register_centralised
+
+    register_centralised()
     for env_id in available_envs():
         module, cls, steps = ENVIRONMENTS[env_id]
         if env_id in gym.registry:

@@ -1,0 +1,232 @@
+"""PettingZoo ``ParallelEnv`` shells: every aircraft is an agent.
+
+Each environment is a :class:`~bluesky_gym.multiagent.base.MultiAgentTask` with one episode; the
+shell only converts between the task's arrays and PettingZoo's per-agent dicts.
+
+* ``possible_agents`` are ``"aircraft_0" .. "aircraft_{n-1}"``, one per aircraft slot of the
+  scenario (SectorCR sizes its slots for the densest traffic its configuration allows, so most
+  episodes use only some of them); ``agents`` are the aircraft of the current episode still flying.
+* ``step(actions)`` takes a dict agent -> action. An agent of ``agents`` missing from the dict
+  keeps its heading and speed (action 0); actions of agents that are not in ``agents`` are
+  ignored; an unknown name raises ``KeyError``.
+* An agent leaves ``agents`` in the step where it is terminated (goal reached) or truncated
+  (SectorCR: it left the sector; every task: the time limit); the returned dicts hold exactly the
+  agents that acted in that step.
+* ``reset(seed=s)`` gives the episode of seed ``s`` (the single-agent scenario of that seed with
+  every aircraft as an agent); ``reset()`` continues the environment's generator.
+* ``state()`` is the global state for centralised training (see
+  :meth:`~bluesky_gym.multiagent.base.MultiAgentTask.state`), ``state_space`` its Box.
+* infos: per agent ``return``, ``intrusions`` and ``completed`` (exit / arrival); in the step
+  that ends the episode, the agents of that step also get the episode's KPIs ``kpi_*`` (KPIs
+  without a value, e.g. the time to complete when no agent completed, are left out).
+
+PettingZoo is an optional dependency: ``pip install "bluesky-gym[multiagent]"``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+
+from bluesky_gym.multiagent import require_pettingzoo
+from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask
+from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
+from bluesky_gym.multiagent.merge import MergeMultiAgentTask
+from bluesky_gym.multiagent.render import agent_name
+from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
+from bluesky_gym.tasks.base import BoxSpec
+
+ParallelEnv = require_pettingzoo().ParallelEnv
+
+RENDER_MODES = ["rgb_array", "human"]
+RENDER_FPS = 30
+
+
+def box(spec: BoxSpec) -> spaces.Box:
+    """Return a float64 ``Box`` from a task's :class:`~bluesky_gym.tasks.base.BoxSpec`."""
+    return spaces.Box(low=spec.low, high=spec.high, shape=spec.shape, dtype=np.float64)
+
+
+def agent_observation_space(task: MultiAgentTask) -> spaces.Dict:
+    """Return the observation space of one agent."""
+    return spaces.Dict({k: box(v) for k, v in task.observation_spec.items()})
+
+
+def state_box(task: MultiAgentTask) -> spaces.Box:
+    """Return the Box of the global state: per aircraft slot, the features of :data:`STATE_FEATURES`."""
+    return spaces.Box(-np.inf, np.inf, (task.n_agents * len(STATE_FEATURES),), np.float64)
+
+
+class BlueSkyParallelEnv(ParallelEnv):
+    """Base of the multi-agent PettingZoo environments (subclasses set ``task_class``).
+
+    Args:
+        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+        max_episode_steps: Time limit in decision steps (default: the single-agent environment's).
+        **options: Scenario options of the single-agent task (see its config dataclass).
+
+    """
+
+    task_class: ClassVar[type[MultiAgentTask]]
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS, "is_parallelizable": True}
+
+    def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, **options: Any) -> None:
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
+        self.render_mode = render_mode
+        self.task = self.task_class(1, self.task_class.make_config(options), max_episode_steps=max_episode_steps)
+        self.possible_agents: list[str] = [agent_name(k) for k in range(self.task.n_agents)]
+        self.agent_name_mapping: dict[str, int] = {a: k for k, a in enumerate(self.possible_agents)}
+        self.agents: list[str] = []
+        self._observation_spaces = {a: agent_observation_space(self.task) for a in self.possible_agents}
+        self._action_spaces = {a: box(self.task.action_spec) for a in self.possible_agents}
+        self.state_space = state_box(self.task)
+        self._np_random: np.random.Generator | None = None
+        self._np_random_seed: int | None = None
+        self._renderer: Any = None
+        self._last_reward = 0.0
+        self._last_info: dict[str, Any] = {}
+
+    def observation_space(self, agent: str) -> spaces.Dict:
+        """Return the observation space of ``agent`` (the same object at every call)."""
+        return self._observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        """Return the action space of ``agent`` (the same object at every call)."""
+        return self._action_spaces[agent]
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The scenario generator (seeded by ``reset(seed=...)``)."""
+        if self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random()
+        return self._np_random
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+        """Start a new episode; ``seed`` seeds the scenario generator. ``options`` are not used."""
+        if seed is not None or self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random(seed)
+        self.task.seed(np.array([0]), [self._np_random])
+        self.task.reset()
+        active = np.flatnonzero(self.task.sim.active[0])
+        self.agents = [self.possible_agents[k] for k in active]
+        obs = self.task.observation()
+        observations = {self.possible_agents[k]: {key: v[0, k].copy() for key, v in obs.items()} for k in active}
+        infos: dict[str, dict[str, Any]] = {a: {} for a in self.agents}
+        self._last_reward = 0.0
+        self._last_info = {k: v[0].item() for k, v in self.task.episode_info().items()}
+        if self.render_mode == "human":
+            self.render()
+        return observations, infos
+
+    def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict[str, Any]]]:
+        """Advance every agent one decision step."""
+        if not self.agents:
+            raise RuntimeError("step() called without agents: call reset() first (the episode has ended or never started)")
+        task = self.task
+        joint = np.zeros((1, task.n_agents, *task.action_spec.shape))
+        for agent, action in actions.items():
+            k = self.agent_name_mapping[agent]  # KeyError for an unknown agent
+            a = np.asarray(action, dtype=np.float64)
+            if a.size != joint[0, k].size:
+                raise ValueError(f"action of {agent} has shape {a.shape}, expected {task.action_spec.shape}")
+            joint[0, k] = a.reshape(task.action_spec.shape)
+        res = task.step(joint)
+        acting = np.flatnonzero(res.acting[0])
+        names = [self.possible_agents[k] for k in acting]
+        observations = {a: {key: v[0, k].copy() for key, v in res.observation.items()} for a, k in zip(names, acting, strict=True)}
+        rewards = {a: float(res.reward[0, k]) for a, k in zip(names, acting, strict=True)}
+        terminations = {a: bool(res.terminated[0, k]) for a, k in zip(names, acting, strict=True)}
+        truncations = {a: bool(res.truncated[0, k]) for a, k in zip(names, acting, strict=True)}
+        infos: dict[str, dict[str, Any]] = {}
+        kpis = {}
+        if res.episode_done[0]:
+            kpis = {key: float(v[0]) for key, v in res.info.items() if key.startswith("kpi_") and np.isfinite(v[0])}
+        for a, k in zip(names, acting, strict=True):
+            info = {key: v[0, k].item() for key, v in res.agent_info.items()}
+            info.update(kpis)
+            infos[a] = info
+        self.agents = [a for a in names if not (terminations[a] or truncations[a])]
+        self._last_reward = float(res.reward[0].sum())
+        self._last_info = {key: v[0].item() for key, v in res.info.items()}
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    def state(self) -> np.ndarray:
+        """Return the global state of the episode (see :meth:`MultiAgentTask.state`)."""
+        return self.task.state()[0].copy()
+
+    def kpis(self) -> dict[str, float]:
+        """Return the KPIs of the current episode so far."""
+        return {k: float(v[0]) for k, v in self.task.kpis().items()}
+
+    def render(self) -> np.ndarray | None:
+        """Draw the current state: an RGB frame (``rgb_array``) or the window (``human``)."""
+        if self.render_mode is None:
+            return None
+        if self._renderer is None:
+            from bluesky_gym.multiagent.render import make_renderer
+
+            self._renderer = make_renderer(self.task, self.render_mode, RENDER_FPS)
+        return self._renderer.render(0, reward=self._last_reward, info=self._last_info)
+
+    def close(self) -> None:
+        """Close the window, if one was opened."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class SectorCRParallelEnv(BlueSkyParallelEnv):
+    """Multi-agent SectorCR: every aircraft in the sector is an agent.
+
+    See :class:`~bluesky_gym.multiagent.sector_cr.SectorCRMultiAgentTask` for the observation,
+    action and reward of each agent. Scenario options are SectorCREnv-v0's (``ac_density_mode``, ...).
+    """
+
+    task_class = SectorCRMultiAgentTask
+    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": SectorCRMultiAgentTask.name}
+
+
+class MergeParallelEnv(BlueSkyParallelEnv):
+    """Multi-agent Merge: every arrival is an agent.
+
+    See :class:`~bluesky_gym.multiagent.merge.MergeMultiAgentTask`. Scenario options are
+    MergeEnv-v0's (``num_aircraft``, ...).
+    """
+
+    task_class = MergeMultiAgentTask
+    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": MergeMultiAgentTask.name}
+
+
+class HorizontalCRParallelEnv(BlueSkyParallelEnv):
+    """Multi-agent HorizontalCR: the ownship and its intruders are all agents.
+
+    See :class:`~bluesky_gym.multiagent.horizontal_cr.HorizontalCRMultiAgentTask`. Scenario
+    options are HorizontalCREnv-v0's (``num_intruders``, ...).
+    """
+
+    task_class = HorizontalCRMultiAgentTask
+    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}
+
+
+PARALLEL_ENVS: dict[str, type[BlueSkyParallelEnv]] = {
+    cls.task_class.name: cls for cls in (SectorCRParallelEnv, MergeParallelEnv, HorizontalCRParallelEnv)
+}
+
+
+def parallel_env(name: str, **kwargs: Any) -> BlueSkyParallelEnv:
+    """Create a multi-agent environment by name (``"sector_cr_v0"``, ``"merge_v0"``, ``"horizontal_cr_v0"``).
+
+    Args:
+        name: Environment name.
+        **kwargs: ``render_mode``, ``max_episode_steps`` and scenario options.
+
+    """
+    if name not in PARALLEL_ENVS:
+        raise ValueError(f"unknown multi-agent environment {name!r}; available: {', '.join(PARALLEL_ENVS)}")
+    return PARALLEL_ENVS[name](**kwargs)
