@@ -91,6 +91,16 @@ FLOAT_FIELDS = tuple(name for name, dtype, _ in _STATE_FIELDS if dtype is np.flo
 FIELD_INDEX = {name: i for i, name in enumerate(FLOAT_FIELDS)}
 
 
+def _route_position(lat: ArrayLike, lon: ArrayLike) -> tuple[Array, Array]:
+    """A waypoint position as BlueSky's route stores it: (lat + 90) % 180 - 90, (lon + 180) % 360 - 180.
+
+    The round trip can move a coordinate by one ulp, which LNAV then sees.
+    """
+    lat = np.asarray(lat, dtype=np.float64)
+    lon = np.asarray(lon, dtype=np.float64)
+    return (lat + 90.0) % 180.0 - 90.0, (lon + 180.0) % 360.0 - 180.0
+
+
 class _Field:
     """A state array stored as one row of a contiguous block.
 
@@ -388,8 +398,7 @@ class Simulator:
             self.route_lat[e, s, i + 1] = self.route_lat[e, s, i]
             self.route_lon[e, s, i + 1] = self.route_lon[e, s, i]
             # BlueSky keeps the active index, so an active destination becomes the new waypoint.
-        self.route_lat[env, slot, idx] = lat
-        self.route_lon[env, slot, idx] = lon
+        self.route_lat[env, slot, idx], self.route_lon[env, slot, idx] = _route_position(lat, lon)
         self._after_route_insert(env, slot, grew=np.ones(env.shape, bool))
 
     def set_destination(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
@@ -402,8 +411,7 @@ class Simulator:
         has_dest = self.route_has_dest[env, slot]
         self._check_route_room(env[~has_dest], slot[~has_dest])
         idx = np.where(has_dest, self.nwp[env, slot] - 1, self.nwp[env, slot])
-        self.route_lat[env, slot, idx] = lat
-        self.route_lon[env, slot, idx] = lon
+        self.route_lat[env, slot, idx], self.route_lon[env, slot, idx] = _route_position(lat, lon)
         self.route_has_dest[env, slot] = True
         self._after_route_insert(env, slot, grew=~has_dest)
 

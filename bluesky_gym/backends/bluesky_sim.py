@@ -1,0 +1,665 @@
+"""The real BlueSky 1.1.1 simulator behind the :class:`~bluesky_gym.core.Simulator` interface.
+
+:class:`BlueSkyPhysics` runs BlueSky in this process, headless (``bs.init(mode='sim',
+detached=True)``, once per process), and exposes it with the same attributes and methods as the
+native batched core, for one airspace (``n_envs == 1``):
+
+* every aircraft slot is a BlueSky aircraft (``AC0``, ``AC1``, ... by slot number);
+* commands take BlueSky's own command paths, as the reference environments use them: the stack
+  commands ``HDG``, ``SPD``, ``ADDWPT`` and ``DEST`` (parsed and executed by BlueSky's stack at the
+  moment of the call, so they act before the next step exactly as stacked text does), and the
+  traffic methods ``traf.cre``, ``traf.creconfs``, ``ap.selaltcmd`` and ``ap.selvspdcmd``;
+* values that a task writes directly into the state arrays (``selalt``, ``selvs``, ``hdg``,
+  ``ap_trk``, ...) are written into ``bs.traf`` before the next command or step, and after every
+  step, creation or command the arrays are refreshed from ``bs.traf``;
+* ``wind.add_points`` adds BlueSky wind points (``traf.wind.addpointvne``).
+
+BlueSky keeps its simulator in module-level singletons, so a process holds one open
+:class:`BlueSkyPhysics` at a time. Run several BlueSky environments in parallel with one process
+each, e.g. ``gymnasium.make_vec(env_id, num_envs=4, vectorization_mode="async",
+backend="bluesky")``.
+
+The ``bluesky`` extra (``pip install "bluesky-gym[bluesky]"``) installs BlueSky 1.1.1 with
+``numpy<2.4``: BlueSky 1.1.1's scalar wind look-up, used by every ``creconfs``, fails on numpy 2.4.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import tempfile
+import warnings
+import weakref
+from collections.abc import Iterator
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bluesky_gym.core.simulator import FIELD_INDEX, Simulator
+from bluesky_gym.core.wind import WindField
+
+Array = NDArray[np.float64]
+
+ACTYPE = "A320"
+INSTALL_HINT = 'pip install "bluesky-gym[bluesky]"'
+
+# State array -> (object under bs.traf, or "" for bs.traf itself; attribute). These are read
+# after every step and written back when a task has changed them.
+TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = (
+    ("lat", "", "lat"),
+    ("lon", "", "lon"),
+    ("alt", "", "alt"),
+    ("hdg", "", "hdg"),
+    ("trk", "", "trk"),
+    ("tas", "", "tas"),
+    ("cas", "", "cas"),
+    ("mach", "", "M"),
+    ("gs", "", "gs"),
+    ("gsnorth", "", "gsnorth"),
+    ("gseast", "", "gseast"),
+    ("vs", "", "vs"),
+    ("ax", "", "ax"),
+    ("windnorth", "", "windnorth"),
+    ("windeast", "", "windeast"),
+    ("distflown", "", "distflown"),
+    ("selspd", "", "selspd"),
+    ("selalt", "", "selalt"),
+    ("selvs", "", "selvs"),
+    ("swlnav", "", "swlnav"),
+    ("swvnav", "", "swvnav"),
+    ("swvnavspd", "", "swvnavspd"),
+    ("ap_trk", "ap", "trk"),
+    ("ap_tas", "ap", "tas"),
+    ("ap_vs", "ap", "vs"),
+    ("ap_alt", "ap", "alt"),
+    ("turnphi", "ap", "turnphi"),
+    ("phase", "perf", "phase"),
+    ("vmin", "perf", "vmin"),
+    ("vmax", "perf", "vmax"),
+    ("axmax", "perf", "axmax"),
+    ("actwp_lat", "actwp", "lat"),
+    ("actwp_lon", "actwp", "lon"),
+    ("curlegdir", "actwp", "curlegdir"),
+    ("turndist", "actwp", "turndist"),
+    ("next_qdr", "actwp", "next_qdr"),
+    ("swlastwp", "actwp", "swlastwp"),
+)
+# Read from the aircraft's Route object; change them only through the route commands.
+ROUTE_FIELDS: tuple[str, ...] = ("iactwp", "nwp", "route_has_dest", "route_lat", "route_lon")
+
+_owner: weakref.ReferenceType[BlueSkyPhysics] | None = None
+
+
+def load_bluesky() -> ModuleType:
+    """Import BlueSky and initialise it headless (once per process).
+
+    Returns:
+        The ``bluesky`` module, with ``bluesky.sim`` and ``bluesky.traf`` ready.
+
+    Raises:
+        ImportError: BlueSky is not installed, or numpy is too new for BlueSky 1.1.1.
+    """
+    try:
+        import bluesky
+    except ImportError as exc:
+        raise ImportError(f"the 'bluesky' backend needs the BlueSky simulator (bluesky-simulator 1.1.1): {INSTALL_HINT}") from exc
+    major, minor = (int(x) for x in np.__version__.split(".")[:2])
+    if (major, minor) >= (2, 4):
+        raise ImportError(
+            f"BlueSky 1.1.1 needs numpy<2.4 (its wind look-up, used by every creconfs, fails on numpy {np.__version__}): {INSTALL_HINT}"
+        )
+    if bluesky.sim is None:
+        out = io.StringIO()
+        try:
+            with _first_start_lock(), contextlib.redirect_stdout(out):
+                bluesky.init(mode="sim", detached=True)
+        except Exception as exc:
+            raise RuntimeError(f"BlueSky failed to start; its start-up output was:\n{out.getvalue()}") from exc
+    return bluesky
+
+
+@contextlib.contextmanager
+def _first_start_lock() -> Iterator[None]:
+    """Serialise BlueSky's first start-up between processes.
+
+    On its first start BlueSky creates its folder in the home directory and writes its navigation
+    database cache there; processes starting together (test workers, vector env workers) would
+    race on both. After a start-up has completed under the lock, a marker file in the temporary
+    directory lets later start-ups skip it.
+    """
+    home = Path.home()
+    key = hashlib.sha1(str(home).encode()).hexdigest()[:12]
+    marker = Path(tempfile.gettempdir()) / f"bluesky-gym-bluesky-ready-{key}"
+    if marker.exists() and (home / "bluesky" / "settings.cfg").exists():
+        yield
+        return
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: no inter-process lock
+        yield
+        return
+    with open(Path(tempfile.gettempdir()) / f"bluesky-gym-bluesky-start-{key}.lock", "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+            marker.touch()
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def _number(x: float) -> str:
+    """Shortest text that parses back to exactly ``x`` (no exponent, which BlueSky's parsers reject)."""
+    if not np.isfinite(x):
+        raise ValueError(f"BlueSky commands need finite numbers, got {x}")
+    return np.format_float_positional(float(x), unique=True, trim="-")
+
+
+class BlueSkyWind(WindField):
+    """Wind of a :class:`BlueSkyPhysics`: BlueSky's own wind field (``bs.traf.wind``).
+
+    The definition points are also kept in the :class:`~bluesky_gym.core.wind.WindField`
+    bookkeeping (``has_wind``, ``count``, ...); wind values come from BlueSky's ``getdata``.
+
+    Args:
+        bluesky: The initialised ``bluesky`` module.
+    """
+
+    def __init__(self, bluesky: ModuleType) -> None:
+        super().__init__(1)
+        self._bs = bluesky
+
+    def clear(self, envs: ArrayLike | slice | None = None) -> None:
+        """Remove all wind points (BlueSky has one wind field)."""
+        super().clear(envs)
+        self._bs.traf.wind.clear()
+
+    def add_points(self, env: int, lat: ArrayLike, lon: ArrayLike, vnorth: ArrayLike, veast: ArrayLike) -> None:
+        """Add wind definition points: ``traf.wind.addpointvne`` with 2-D (1, points) components.
+
+        Args:
+            env: Airspace index (must be 0).
+            lat: Latitudes [deg].
+            lon: Longitudes [deg].
+            vnorth: North components [m/s] (direction blown to).
+            veast: East components [m/s].
+        """
+        if int(env) != 0:
+            raise IndexError("the 'bluesky' backend has one airspace (env 0)")
+        super().add_points(env, lat, lon, vnorth, veast)
+        lat, lon, vn, ve = (np.atleast_1d(np.asarray(x, dtype=np.float64)).ravel() for x in (lat, lon, vnorth, veast))
+        # BlueSky 1.1.1 needs sized lat/lon and (1, npoints) wind arrays [dynamics.md 6.1].
+        self._bs.traf.wind.addpointvne(lat.copy(), lon.copy(), vn.reshape(1, -1).copy(), ve.reshape(1, -1).copy())
+
+    def _getdata(self, lat: ArrayLike, lon: ArrayLike) -> tuple[Array, Array]:
+        lat = np.asarray(lat, dtype=np.float64)
+        lon = np.asarray(lon, dtype=np.float64)
+        shape = np.broadcast_shapes(lat.shape, lon.shape)
+        flat_lat = np.broadcast_to(lat, shape).ravel().copy()
+        flat_lon = np.broadcast_to(lon, shape).ravel().copy()
+        if flat_lat.size == 0:
+            return np.zeros(shape), np.zeros(shape)
+        vn, ve = self._bs.traf.wind.getdata(flat_lat, flat_lon)
+        return np.asarray(vn, dtype=np.float64).reshape(shape), np.asarray(ve, dtype=np.float64).reshape(shape)
+
+    def at(self, env: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> tuple[Array, Array]:
+        """Wind (north, east) [m/s] from BlueSky at positions (``env`` must be 0)."""
+        if np.any(np.asarray(env) != 0):
+            raise IndexError("the 'bluesky' backend has one airspace (env 0)")
+        return self._getdata(lat, lon)
+
+    def at_all(self, lat: Array, lon: Array) -> tuple[Array, Array]:
+        """Wind from BlueSky at positions shaped (1, aircraft)."""
+        return self._getdata(lat, lon)
+
+
+class BlueSkyPhysics(Simulator):
+    """One airspace simulated by the real BlueSky 1.1.1, with the native core's interface.
+
+    The state arrays, their shapes (``(1, max_aircraft)``) and meaning are those of
+    :class:`~bluesky_gym.core.Simulator`; only active slots hold BlueSky aircraft. Every aircraft
+    is an A320 (OpenAP performance), as in the native core.
+
+    Args:
+        max_aircraft: Aircraft slots.
+        dt: Simulation time step [s] (stacked as ``DT`` at every reset).
+        max_waypoints: Route capacity per aircraft (BlueSky has none; kept for the interface).
+
+    Raises:
+        ImportError: BlueSky is not installed (``pip install "bluesky-gym[bluesky]"``).
+        RuntimeError: Another :class:`BlueSkyPhysics` is open in this process.
+    """
+
+    def __init__(self, max_aircraft: int, dt: float = 1.0, max_waypoints: int = 4) -> None:
+        global _owner
+        bluesky = load_bluesky()
+        other = _owner() if _owner is not None else None
+        if other is not None and not other.closed:
+            raise RuntimeError(
+                "BlueSky has one simulator per process (bluesky.sim and bluesky.traf are module-level singletons), "
+                "and this process already has an open 'bluesky' backend; close() that environment first. "
+                "To run several BlueSky environments in parallel use one process per environment, e.g. "
+                'gymnasium.make_vec(env_id, num_envs=4, vectorization_mode="async", backend="bluesky") '
+                "(gymnasium.vector.AsyncVectorEnv), or use the native backend, which batches many environments in one process"
+            )
+        super().__init__(1, max_aircraft, dt=dt, max_waypoints=max_waypoints, kernel="numpy")
+        self._bs = bluesky
+        self.closed = False
+        _owner = weakref.ref(self)
+        from bluesky.stack import argparser
+        from bluesky.stack.cmdparser import Command
+        from bluesky.tools import aero
+        from bluesky.tools.misc import txt2hdg, txt2spd
+
+        self._commands = Command.cmddict
+        self._nextarg = argparser.getnextarg
+        self._kts = float(aero.kts)
+        self._txt2spd = txt2spd
+        self._txt2hdg = txt2hdg
+        self.wind = BlueSkyWind(bluesky)
+        from bluesky.tools import geo as bs_geo
+        from bluesky.tools.geo import _geo
+
+        #: Which of BlueSky's geo function sets its LNAV uses: "compiled" (BlueSky's default
+        #: setting) or "python" (when ``bluesky.tools.geo`` was imported before ``bs.init``, as the
+        #: reference gym environments do). They differ in the last bits; see ``Simulator(geo=...)``.
+        self.geo = "python" if bs_geo.qdrdist is _geo.qdrdist else "compiled"
+        self._acid = [f"AC{k}" for k in range(self.max_aircraft)]
+        self._slots = np.zeros(0, dtype=np.int64)  # active slots, in BlueSky's traffic order
+        self._tidx = np.zeros(0, dtype=np.int64)  # their BlueSky traffic indices
+        # Float state: rows of the core's float block (one row per field, see Simulator).
+        self._float_fields = [f for f in TRAFFIC_FIELDS if f[0] in FIELD_INDEX]
+        self._other_fields = [f for f in TRAFFIC_FIELDS if f[0] not in FIELD_INDEX]
+        self._rows = np.array([FIELD_INDEX[name] for name, _, _ in self._float_fields], dtype=np.int64)
+        self._block = self._float_block[:, 0, :]  # (fields, max_aircraft) view
+        # Non-float fields written back when changed, then fields that must not be written.
+        self._watched = [f[0] for f in self._other_fields] + [*ROUTE_FIELDS, "active"]
+        self._float_shadow = self._block[self._rows]
+        self._shadow: dict[str, np.ndarray] = {}
+        self.reset_envs()
+
+    # ------------------------------------------------------------------------------------------
+    # Airspace management
+    # ------------------------------------------------------------------------------------------
+    @property
+    def traffic(self) -> Any:
+        """BlueSky's traffic object (``bluesky.traf``)."""
+        self._check_open()
+        return self._bs.traf
+
+    def acid(self, slot: int) -> str:
+        """The BlueSky callsign of an aircraft slot."""
+        return self._acid[int(slot)]
+
+    def reset_envs(self, envs: ArrayLike | None = None) -> None:
+        """Delete all traffic and wind (``traf.reset()``) and stack the time step again (``DT dt;FF``)."""
+        self._check_open()
+        if envs is not None:
+            self._index(envs, 0)
+        self._bs.traf.reset()
+        super().reset_envs(None)
+        self._remap()
+        self._snapshot()
+        self.command(f"DT {_number(self.dt)}")
+        self.command("FF")  # start the simulation (state OP), as the reference envs' "DT dt;FF"
+        self.simt = float(self._bs.sim.simt)  # BlueSky's clock runs on across resets (traf.reset keeps it)
+
+    def create(
+        self,
+        env: ArrayLike,
+        slot: ArrayLike,
+        lat: ArrayLike = 52.0,
+        lon: ArrayLike = 4.0,
+        hdg: ArrayLike = 0.0,
+        alt: ArrayLike = 0.0,
+        spd: ArrayLike = 0.0,
+    ) -> None:
+        """Create aircraft with ``traf.cre(acid, "A320", lat, lon, hdg, alt, spd)``.
+
+        Args:
+            env: Airspace index of each new aircraft (0).
+            slot: Slot index of each new aircraft (must be free).
+            lat: Latitude [deg].
+            lon: Longitude [deg].
+            hdg: Heading [deg].
+            alt: Altitude [m].
+            spd: CAS [m/s], or Mach when 0.1 < spd < 2.
+        """
+        env, slot = self._begin(env, slot)
+        if np.any(self.active[env, slot]) or np.unique(slot).size != slot.size:
+            raise ValueError("create: an aircraft already exists in one of the requested slots")
+        n = slot.size
+        if n == 0:
+            return
+        values = [np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)).copy() for x in (lat, lon, hdg, alt, spd)]
+        acids = [self._acid[s] for s in slot]
+        ok = self._bs.traf.cre(acids, [ACTYPE] * n, *values)
+        if ok is not True:
+            raise RuntimeError(f"BlueSky traf.cre failed: {ok}")
+        self._defaults_for(slot)
+        self.active[0, slot] = True
+        self._remap()
+        self._sync_out()
+
+    def delete(self, env: ArrayLike, slot: ArrayLike) -> None:
+        """Delete aircraft (``traf.delete``); free slots are ignored."""
+        env, slot = self._begin(env, slot)
+        slot = np.unique(slot[self.active[env, slot]])
+        if slot.size == 0:
+            return
+        idx = np.array(self._bs.traf.id2idx([self._acid[s] for s in slot]), dtype=np.int64)
+        self._bs.traf.delete(idx)
+        self.active[0, slot] = False
+        self._remap()
+        self._sync_out()
+
+    # ------------------------------------------------------------------------------------------
+    # Commands
+    # ------------------------------------------------------------------------------------------
+    def command(self, line: str) -> None:
+        """Execute one BlueSky stack command now, with BlueSky's parser and command objects.
+
+        This is what ``bs.sim.step()`` does first with stacked text, so a command acts before the
+        next step exactly as if it had been stacked. Direct array writes made before the call are
+        sent to BlueSky first, and the arrays are refreshed afterwards.
+
+        Args:
+            line: The command text, e.g. ``"HDG AC0 90"``.
+
+        Raises:
+            RuntimeError: BlueSky rejected the command.
+        """
+        self._check_open()
+        self._sync_in()
+        cmd, args = self._nextarg(line)
+        cmdobj = self._commands.get(cmd.upper())
+        if cmdobj is None:
+            raise RuntimeError(f"BlueSky has no command {cmd!r} (in {line!r})")
+        try:
+            ok, text = cmdobj(args)
+        except Exception as exc:  # BlueSky's argument parsers raise on bad arguments
+            raise RuntimeError(f"BlueSky rejected {line!r}: {str(exc).strip()}") from exc
+        if not ok:
+            raise RuntimeError(f"BlueSky rejected {line!r}: {text}")
+        self._sync_out()
+
+    def cmd_heading(self, env: ArrayLike, slot: ArrayLike, hdg: ArrayLike) -> None:
+        """Stack ``HDG acid hdg`` [deg] (a track with wind above 50 ft; LNAV off)."""
+        env, slot = self._begin(env, slot)
+        hdg = np.broadcast_to(np.asarray(hdg, dtype=np.float64), slot.shape)
+        for s, h in zip(slot, hdg):
+            text = _number(h)
+            if self._txt2hdg(text) != h:  # pragma: no cover - positional text always round-trips
+                raise ValueError(f"heading {h!r} cannot be written exactly as a BlueSky HDG argument")
+            self.command(f"HDG {self._acid_of(s)} {text}")
+
+    def cmd_speed(self, env: ArrayLike, slot: ArrayLike, casmach: ArrayLike) -> None:
+        """Stack ``SPD acid kts`` for a CAS [m/s], or the Mach number; VNAV speed off.
+
+        The knots text is chosen so that BlueSky's conversion (``kts * 0.514444``) gives back
+        exactly the requested CAS; where no text does (Mach above 1, tiny speeds), the SPD
+        command's function ``ap.selspdcmd`` is called with the SI value instead.
+        """
+        env, slot = self._begin(env, slot)
+        casmach = np.broadcast_to(np.asarray(casmach, dtype=np.float64), slot.shape)
+        for s, v in zip(slot, casmach):
+            text = self._speed_text(float(v))
+            if text is not None:
+                self.command(f"SPD {self._acid_of(s)} {text}")
+            else:
+                self._sync_in()
+                self._bs.traf.ap.selspdcmd(self._tidx_of(s), float(v))
+                self._sync_out()
+
+    def cmd_altitude(self, env: ArrayLike, slot: ArrayLike, alt: ArrayLike, vs: ArrayLike | None = None) -> None:
+        """``ap.selaltcmd(idx, alt [m], vs [m/s])``, the ALT command in SI; VNAV off."""
+        env, slot = self._begin(env, slot)
+        alt = np.broadcast_to(np.asarray(alt, dtype=np.float64), slot.shape)
+        vs_arr = None if vs is None else np.broadcast_to(np.asarray(vs, dtype=np.float64), slot.shape)
+        self._sync_in()
+        for k, s in enumerate(slot):
+            v = None if vs_arr is None else float(vs_arr[k])
+            self._bs.traf.ap.selaltcmd(self._tidx_of(s), float(alt[k]), v)
+        self._sync_out()
+
+    def cmd_vertical_speed(self, env: ArrayLike, slot: ArrayLike, vs: ArrayLike) -> None:
+        """``ap.selvspdcmd(idx, vs [m/s])``, the VS command in SI; VNAV off."""
+        env, slot = self._begin(env, slot)
+        vs = np.broadcast_to(np.asarray(vs, dtype=np.float64), slot.shape)
+        self._sync_in()
+        for s, v in zip(slot, vs):
+            self._bs.traf.ap.selvspdcmd(self._tidx_of(s), float(v))
+        self._sync_out()
+
+    def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
+        """Stack ``ADDWPT acid lat lon``: a fly-by waypoint (before the destination); LNAV on."""
+        env, slot = self._begin(env, slot)
+        self._check_route_room(env, slot)
+        lat = np.broadcast_to(np.asarray(lat, dtype=np.float64), slot.shape)
+        lon = np.broadcast_to(np.asarray(lon, dtype=np.float64), slot.shape)
+        for s, la, lo in zip(slot, lat, lon):
+            self.command(f"ADDWPT {self._acid_of(s)} {_number(la)} {_number(lo)}")
+
+    def set_destination(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
+        """Stack ``DEST acid lat lon``.
+
+        Unlike the native core, BlueSky switches VNAV on when the destination is the route's only
+        waypoint and then descends towards it (altitude constraint 0) [dynamics.md 2.7].
+        """
+        env, slot = self._begin(env, slot)
+        has_dest = self.route_has_dest[env, slot]
+        self._check_route_room(env[~has_dest], slot[~has_dest])
+        lat = np.broadcast_to(np.asarray(lat, dtype=np.float64), slot.shape)
+        lon = np.broadcast_to(np.asarray(lon, dtype=np.float64), slot.shape)
+        for s, la, lo in zip(slot, lat, lon):
+            self.command(f"DEST {self._acid_of(s)} {_number(la)} {_number(lo)}")
+
+    def creconfs(
+        self,
+        env: ArrayLike,
+        target: ArrayLike,
+        slot: ArrayLike,
+        dpsi: ArrayLike,
+        dcpa: ArrayLike,
+        tlosh: ArrayLike,
+        dh: ArrayLike | None = None,
+        tlosv: ArrayLike | None = None,
+        spd: ArrayLike | None = None,
+    ) -> None:
+        """Create intruders with ``traf.creconfs(acid, "A320", target, dpsi, dcpa, tlosh, dH, tlosv, spd)``.
+
+        Args:
+            env: Airspace of each intruder (0).
+            target: Slot of the target aircraft.
+            slot: Free slot for the intruder.
+            dpsi: Track difference intruder - target [deg].
+            dcpa: Distance at the closest point of approach [NM].
+            tlosh: Time to horizontal loss of separation [s].
+            dh: Altitude offset [m], or None.
+            tlosv: Time to vertical loss of separation [s], or None (= tlosh).
+            spd: Intruder CAS [m/s] or Mach, or None (the target's ground speed).
+        """
+        env, target = self._begin(env, target)
+        _, slot = self._index(env, slot)
+        n = slot.size
+        if not np.all(self.active[env, target]):
+            raise ValueError("creconfs: a target slot holds no aircraft")
+        if np.any(self.active[env, slot]) or np.unique(slot).size != n:
+            raise ValueError("creconfs: an aircraft already exists in one of the requested slots")
+
+        def per(x: ArrayLike | None) -> list[float | None]:
+            if x is None:
+                return [None] * n
+            return [float(v) for v in np.broadcast_to(np.asarray(x, dtype=np.float64), (n,))]
+
+        for t, s, a, c, th, h, tv, v in zip(target, slot, per(dpsi), per(dcpa), per(tlosh), per(dh), per(tlosv), per(spd)):
+            with warnings.catch_warnings():
+                # BlueSky 1.1.1's scalar wind look-up converts a 1-element array with float().
+                warnings.filterwarnings("ignore", "Conversion of an array with ndim > 0", DeprecationWarning)
+                self._bs.traf.creconfs(self._acid[s], ACTYPE, self._tidx_of(t), a, c, th, h, tv, v)
+            self._defaults_for(np.array([s]))
+            self.active[0, s] = True
+            self._remap()
+        self._sync_out()
+
+    # ------------------------------------------------------------------------------------------
+    # Stepping
+    # ------------------------------------------------------------------------------------------
+    def step(self) -> None:
+        """Send direct array writes to BlueSky, run one ``bs.sim.step()`` and read the state back."""
+        self._check_open()
+        self._sync_in()
+        self._bs.sim.step()
+        self.simt = float(self._bs.sim.simt)
+        self._sync_out(routes=False)
+
+    def run(self, n_steps: int) -> None:
+        """Advance by ``n_steps`` BlueSky steps (same result as calling :meth:`step` n times).
+
+        Direct writes are sent before the first step and the state is read back after the last.
+        """
+        if n_steps < 0:
+            raise ValueError(f"n_steps must be >= 0, got {n_steps}")
+        self._check_open()
+        self._sync_in()
+        for _ in range(int(n_steps)):
+            self._bs.sim.step()
+        self.simt = float(self._bs.sim.simt)
+        self._sync_out(routes=False)
+
+    def close(self) -> None:
+        """Delete this backend's traffic and wind and give the process's simulator free for another one.
+
+        BlueSky itself stays initialised (it cannot be initialised twice in a process).
+        """
+        global _owner
+        if self.closed:
+            return
+        self._bs.traf.reset()
+        self.active[:] = False
+        self.closed = True
+        if _owner is not None and _owner() is self:
+            _owner = None
+
+    # ------------------------------------------------------------------------------------------
+    # Synchronisation between the arrays and bs.traf
+    # ------------------------------------------------------------------------------------------
+    def _check_open(self) -> None:
+        if self.closed:
+            raise RuntimeError("this BlueSky backend has been closed")
+
+    def _begin(self, env: ArrayLike, slot: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Validate indices and send pending direct writes to BlueSky (before anything reads it)."""
+        self._check_open()
+        self._sync_in()
+        return self._index(env, slot)
+
+    def _acid_of(self, slot: int) -> str:
+        if not self.active[0, slot]:
+            raise ValueError(f"slot {int(slot)} holds no aircraft")
+        return self._acid[int(slot)]
+
+    def _tidx_of(self, slot: int) -> int:
+        if not self.active[0, slot]:
+            raise ValueError(f"slot {int(slot)} holds no aircraft")
+        return int(self._tidx[np.flatnonzero(self._slots == slot)[0]])
+
+    def _speed_text(self, v: float) -> str | None:
+        """Text for the SPD command that BlueSky parses back to exactly ``v``, or None."""
+        if not np.isfinite(v):
+            raise ValueError(f"speed must be finite, got {v}")
+        if 0.1 < v < 2.0:
+            candidates = [v]  # Mach: written as is (parsed as Mach below 1)
+        else:
+            k = v / self._kts
+            candidates = [k]
+            lo = hi = k
+            for _ in range(4):
+                lo, hi = np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
+                candidates += [hi, lo]
+        for c in candidates:
+            text = _number(c)
+            if self._txt2spd(text) == v:
+                return text
+        return None
+
+    def _defaults_for(self, slot: NDArray[np.int64]) -> None:
+        for name, (_dtype, value) in self._defaults.items():
+            getattr(self, name)[0, slot] = value
+        self.route_lat[0, slot] = 0.0
+        self.route_lon[0, slot] = 0.0
+
+    def _remap(self) -> None:
+        """Recompute the BlueSky traffic index of every active slot."""
+        slots = np.flatnonzero(self.active[0])
+        idx = np.array(self._bs.traf.id2idx([self._acid[s] for s in slots]), dtype=np.int64)
+        if np.any(idx < 0) or len(self._bs.traf.id) != slots.size:
+            raise RuntimeError("BlueSky traffic and the backend's slots disagree (was bs.traf changed from outside?)")
+        order = np.argsort(idx)
+        self._slots, self._tidx = slots[order], idx[order]
+
+    def _sync_out(self, routes: bool = True) -> None:
+        """Read the state of every aircraft from ``bs.traf`` into the arrays.
+
+        Args:
+            routes: Read the route geometry even if no route changed length (only commands change
+                routes; steps move ``iactwp``).
+        """
+        slots, idx = self._slots, self._tidx
+        if slots.size:
+            traf = self._bs.traf
+            parents = {"": traf, "ap": traf.ap, "perf": traf.perf, "actwp": traf.actwp}
+            values = np.array([getattr(parents[owner], attr) for _, owner, attr in self._float_fields], dtype=np.float64)
+            self._block[self._rows[:, None], slots[None, :]] = values[:, idx]
+            for name, owner, attr in self._other_fields:
+                getattr(self, name)[0, slots] = getattr(parents[owner], attr)[idx]
+            plans = traf.ap.route
+            self.iactwp[0, slots] = [plans[i].iactwp for i in idx]
+            if routes or np.any(self.nwp[0, slots] != [plans[i].nwp for i in idx]):
+                for s, i in zip(slots, idx):
+                    r = plans[i]
+                    nwp = int(r.nwp)
+                    if nwp > self.max_waypoints:
+                        raise ValueError(f"route full: at most {self.max_waypoints} waypoints per aircraft (max_waypoints)")
+                    self.nwp[0, s] = nwp
+                    self.route_has_dest[0, s] = nwp > 0 and r.wptype[-1] == r.dest
+                    self.route_lat[0, s, :nwp] = r.wplat
+                    self.route_lon[0, s, :nwp] = r.wplon
+                    self.route_lat[0, s, nwp:] = 0.0
+                    self.route_lon[0, s, nwp:] = 0.0
+        self._snapshot()
+
+    def _snapshot(self) -> None:
+        """Remember the values just read, to find the entries a task writes afterwards."""
+        self._float_shadow = self._block[self._rows]
+        self._shadow = {name: getattr(self, name).copy() for name in self._watched}
+
+    def _sync_in(self) -> None:
+        """Write array entries that changed since the last read into ``bs.traf``."""
+        for name in self._watched[len(self._other_fields):]:
+            if not np.array_equal(getattr(self, name), self._shadow[name], equal_nan=True):
+                what = "create() and delete()" if name == "active" else "add_waypoint() and set_destination()"
+                raise RuntimeError(f"'{name}' was written directly; the 'bluesky' backend changes it only through {what}")
+        slots, idx = self._slots, self._tidx
+        if not slots.size:
+            return
+        traf = self._bs.traf
+        parents = {"": traf, "ap": traf.ap, "perf": traf.perf, "actwp": traf.actwp}
+        new = self._block[self._rows[:, None], slots[None, :]]
+        old = self._float_shadow[:, slots]
+        changed = (new != old) & ~(np.isnan(new) & np.isnan(old))
+        if changed.any():
+            for k in np.flatnonzero(changed.any(axis=1)):
+                _, owner, attr = self._float_fields[k]
+                c = changed[k]
+                getattr(parents[owner], attr)[idx[c]] = new[k, c]
+                self._float_shadow[k, slots[c]] = new[k, c]
+        for name, owner, attr in self._other_fields:
+            cur, old = getattr(self, name)[0, slots], self._shadow[name][0, slots]
+            c = cur != old
+            if c.any():
+                getattr(parents[owner], attr)[idx[c]] = cur[c]
+                self._shadow[name][0, slots[c]] = cur[c]
