@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator
-from bluesky_gym.tasks.geometry import ref_kwikqdrdist
+from bluesky_gym.tasks.geometry import ref_kwikdist, ref_kwikqdrdist
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -76,6 +76,15 @@ def check_range(name: str, value: Any, low: float, high: float | None = None, *,
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     if (value <= low if strict_low else value < low) or (high is not None and value > high):
         raise ValueError(f"{name} must be {'>' if strict_low else '>='} {low}{f' and <= {high}' if high is not None else ''}, got {value}")
+
+
+def check_pair(name: str, value: Any) -> tuple[float, float]:
+    """Validate a (low, high) pair option of finite numbers."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != 2:
+        raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
+    for v in value:
+        check_range(name, v, -np.inf)
+    return float(value[0]), float(value[1])
 
 
 def wrap180(x: Array) -> Array:
@@ -238,6 +247,26 @@ class Task(abc.ABC):
         """
         n = self.sim.max_aircraft
         return np.full((self.n_envs, n), np.inf), np.zeros((self.n_envs, n), bool)
+
+    def kwik_separation(self, intrusion_nm: float, vertical_m: float | None = None) -> tuple[Array, BoolArray]:
+        """Reference kwik distance [NM] from the ownship (slot 0) to every other active aircraft.
+
+        Args:
+            intrusion_nm: Horizontal intrusion distance [NM].
+            vertical_m: Vertical margin [m], or None for a purely horizontal intrusion test.
+
+        Returns:
+            Distances (inf for the ownship and empty slots) and intrusion flags, (n_envs, max_aircraft).
+        """
+        s = self.sim
+        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
+        other = s.active.copy()
+        other[:, 0] = False
+        dist = np.where(other, dist, np.inf)
+        los = other & (dist < intrusion_nm)
+        if vertical_m is not None:
+            los &= np.abs(s.alt[:, :1] - s.alt) < vertical_m
+        return dist, los
 
     def drift_deg(self) -> Array | None:
         """(n_envs,) current |drift| [deg] to the goal, or None if the task has no heading goal."""

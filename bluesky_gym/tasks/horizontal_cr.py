@@ -221,12 +221,7 @@ class HorizontalCRTask(Task):
     # --- KPIs -----------------------------------------------------------------------------------
     def ownship_separation(self) -> tuple[Array, BoolArray]:
         """Kwik distance [NM] from the ownship to every other aircraft and the intrusion flags."""
-        s = self.sim
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
-        other = s.active.copy()
-        other[:, 0] = False
-        dist = np.where(other, dist, np.inf)
-        return dist, other & (dist < INTRUSION_DISTANCE)
+        return self.kwik_separation(INTRUSION_DISTANCE)
 
     def drift_deg(self) -> Array | None:
         """(n_envs,) |drift| to the waypoint [deg]."""

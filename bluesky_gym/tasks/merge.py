@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range, wrap180
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_pair, check_range, wrap180
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist, ref_kwikdist_matrix, ref_kwikqdrdist
 from bluesky_gym.tasks.sector_cr import relative_velocity
 
@@ -49,14 +48,6 @@ ALT_MAX = 11060.0  # m: the A320's altitude ceiling
 CAS_RANGE = (67.0, 163.0)  # m/s: the A320's CAS envelope away from the ground
 
 
-def _pair(name: str, value: Any) -> tuple[float, float]:
-    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != 2:
-        raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
-    for v in value:
-        check_range(name, v, -np.inf)
-    return float(value[0]), float(value[1])
-
-
 @dataclass(frozen=True)
 class MergeConfig(TaskConfig):
     """Scenario options of the merge task (defaults: the paper's).
@@ -90,7 +81,7 @@ class MergeConfig(TaskConfig):
         """Raise ``ValueError`` naming the first invalid option."""
         check_int("num_aircraft", self.num_aircraft, NUM_AC_STATE + 1, MAX_NUM_AC)
         for name in ("spawn_distance_km", "intruder_distance_km"):
-            low, high = _pair(name, getattr(self, name))
+            low, high = check_pair(name, getattr(self, name))
             if not 0 <= low <= high <= 2000.0:
                 raise ValueError(f"{name} must satisfy 0 <= low <= high <= 2000 km, got {getattr(self, name)}")
         check_range("spawn_bearing_deg", self.spawn_bearing_deg, 0.0, 180.0)
@@ -268,12 +259,7 @@ class MergeTask(Task):
     # --- KPIs -----------------------------------------------------------------------------------
     def ownship_separation(self) -> tuple[Array, BoolArray]:
         """Kwik distance [NM] from the ownship to every other aircraft and the intrusion flags."""
-        s = self.sim
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
-        other = s.active.copy()
-        other[:, 0] = False
-        dist = np.where(other, dist, np.inf)
-        return dist, other & (dist < INTRUSION_DISTANCE)
+        return self.kwik_separation(INTRUSION_DISTANCE)
 
     def drift_deg(self) -> Array | None:
         """(n_envs,) |drift| to the current target at the last observation [deg]."""

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_range, wrap180
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_pair, check_range, wrap180
 from bluesky_gym.tasks.geometry import (
     initial_bearing,
     latlon_to_nm,
@@ -59,14 +58,6 @@ INITIAL_VERTEX_CAPACITY = 16  # polygon vertex slots, grown when a polygon needs
 CANDIDATES_PER_AIRCRAFT = 2  # rejection-sampling candidates drawn per missing aircraft and round
 
 
-def _pair(name: str, value: Any) -> tuple[float, float]:
-    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != 2:
-        raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
-    for v in value:
-        check_range(name, v, -np.inf)
-    return float(value[0]), float(value[1])
-
-
 @dataclass(frozen=True)
 class SectorCRConfig(TaskConfig):
     """Scenario options of the sector conflict-resolution task (defaults: the paper's).
@@ -98,12 +89,12 @@ class SectorCRConfig(TaskConfig):
         """Raise ``ValueError`` naming the first invalid option."""
         if not isinstance(self.ac_density_mode, str) or self.ac_density_mode not in DENSITY_MODES:
             raise ValueError(f"ac_density_mode must be one of {DENSITY_MODES}, got {self.ac_density_mode!r}")
-        low, high = _pair("ac_density_range", self.ac_density_range)
+        low, high = check_pair("ac_density_range", self.ac_density_range)
         if not 0 < low <= high:
             raise ValueError(f"ac_density_range must satisfy 0 < low <= high, got {self.ac_density_range}")
         check_range("ac_density_mu", self.ac_density_mu, 0.0, strict_low=True)
         check_range("ac_density_sigma", self.ac_density_sigma, 0.0)
-        area_min, area_max = _pair("poly_area_range", self.poly_area_range)
+        area_min, area_max = check_pair("poly_area_range", self.poly_area_range)
         if not 0 < area_min < area_max:
             raise ValueError(f"poly_area_range must satisfy 0 < min < max, got {self.poly_area_range}")
         if area_min > MAX_AREA_RATIO * area_max:
@@ -394,12 +385,7 @@ class SectorCRTask(Task):
     # --- KPIs -----------------------------------------------------------------------------------
     def ownship_separation(self) -> tuple[Array, BoolArray]:
         """Kwik distance [NM] from the agent to every other aircraft and the intrusion flags."""
-        s = self.sim
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
-        other = s.active.copy()
-        other[:, 0] = False
-        dist = np.where(other, dist, np.inf)
-        return dist, other & (dist < INTRUSION_DISTANCE)
+        return self.kwik_separation(INTRUSION_DISTANCE)
 
     def drift_deg(self) -> Array | None:
         """(n_envs,) |drift| to the agent's waypoint at the last observation [deg]."""

@@ -245,10 +245,4 @@ class VerticalCRTask(DescentTask):
     # --- KPIs -----------------------------------------------------------------------------------
     def ownship_separation(self) -> tuple[Array, BoolArray]:
         """Kwik distance [NM] from the ownship to every other aircraft and the 5 NM / 1000 ft intrusion flags."""
-        s = self.sim
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
-        other = s.active.copy()
-        other[:, 0] = False
-        dist = np.where(other, dist, np.inf)
-        los = other & (dist < INTRUSION_DISTANCE) & (np.abs(s.alt[:, :1] - s.alt) < VERTICAL_MARGIN)
-        return dist, los
+        return self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)

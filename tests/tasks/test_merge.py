@@ -120,11 +120,12 @@ def test_scenarios_over_200_seeds() -> None:
     assert not s.swlnav[:, 0].any() and (s.nwp[:, 0] == 0).all()
     assert s.swlnav[:, 1:].all() and (s.nwp[:, 1:] == 2).all() and (s.iactwp[:, 1:] == 0).all()
     assert not s.swvnav.any()
-    np.testing.assert_array_equal(s.route_lat[:, 1:, 0], FAF_LAT)
-    np.testing.assert_array_equal(s.route_lon[:, 1:, 0], FAF_LON)
-    np.testing.assert_array_equal(s.route_lat[:, 1:, 1], RWY_LAT)
-    np.testing.assert_array_equal(s.route_lon[:, 1:, 1], RWY_LON)
-    np.testing.assert_array_equal(s.actwp_lat[:, 1:], FAF_LAT)
+    # Stored as BlueSky's route stores positions: (lat + 90) % 180 - 90, (lon + 180) % 360 - 180.
+    np.testing.assert_array_equal(s.route_lat[:, 1:, 0], (FAF_LAT + 90.0) % 180.0 - 90.0)
+    np.testing.assert_array_equal(s.route_lon[:, 1:, 0], (FAF_LON + 180.0) % 360.0 - 180.0)
+    np.testing.assert_array_equal(s.route_lat[:, 1:, 1], (RWY_LAT + 90.0) % 180.0 - 90.0)
+    np.testing.assert_array_equal(s.route_lon[:, 1:, 1], (RWY_LON + 180.0) % 360.0 - 180.0)
+    np.testing.assert_array_equal(s.actwp_lat[:, 1:], (FAF_LAT + 90.0) % 180.0 - 90.0)
 
 
 def test_intruders_follow_lnav_to_the_faf_then_the_runway() -> None:
