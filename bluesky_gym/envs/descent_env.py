@@ -9,6 +9,8 @@ from bluesky_gym.tasks.descent import DescentTask
 class DescentEnv(BlueSkyEnv):
     """Vertical control: hold a target altitude, then descend to the runway in time.
 
+    Animation: ``docs/gifs/DescentEnv-v0.gif`` (made with ``bluesky-gym render DescentEnv-v0 --policy classical``).
+
     ## Description
     An A320 flies north from 52°N 4°E at CAS 150 m/s towards a runway 200 km ahead (measured
     from the start point). The agent commands a vertical speed every 30 s. It should hold the

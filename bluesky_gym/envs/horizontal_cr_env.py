@@ -9,6 +9,8 @@ from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
 class HorizontalCREnv(BlueSkyEnv):
     """Horizontal conflict resolution: reach a waypoint while avoiding crossing traffic.
 
+    Animation: ``docs/gifs/HorizontalCREnv-v0.gif`` (made with ``bluesky-gym render HorizontalCREnv-v0 --policy classical``).
+
     ## Description
     An A320 starts at 52°N 4°E heading north and must reach a waypoint due north of it, 100 to
     150 km away. Five intruders, created with BlueSky's `creconfs`, fly straight towards

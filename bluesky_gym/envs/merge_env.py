@@ -9,6 +9,8 @@ from bluesky_gym.tasks.merge import MergeTask
 class MergeEnv(BlueSkyEnv):
     """Arrival merging: join a stream of 19 arrivals through a final approach fix to the runway.
 
+    Animation: ``docs/gifs/MergeEnv-v0.gif`` (made with ``bluesky-gym render MergeEnv-v0 --policy classical``).
+
     ## Description
     A final approach fix (FAF) lies 200 km due north of the Schiphol runway threshold
     (52.3624°N 4.7132°E), at 54.1610°N 4.7132°E; the reference's comment says NM, the value is used

@@ -9,6 +9,8 @@ from bluesky_gym.tasks.plan_waypoint import PlanWaypointTask
 class PlanWaypointEnv(BlueSkyEnv):
     """Horizontal control: fly over five scattered waypoints, in any order.
 
+    Animation: ``docs/gifs/PlanWaypointEnv-v0.gif`` (made with ``bluesky-gym render PlanWaypointEnv-v0 --policy classical``).
+
     ## Description
     An A320 is created at 52°N 4°E, heading north, with a requested CAS of 150 m/s but at
     altitude 0 m. BlueSky therefore treats it as being on the ground: OpenAP's ground phase caps

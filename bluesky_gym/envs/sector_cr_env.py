@@ -9,6 +9,8 @@ from bluesky_gym.tasks.sector_cr import SectorCRTask
 class SectorCREnv(BlueSkyEnv):
     """Horizontal conflict resolution: cross a sector towards an exit point through random traffic.
 
+    Animation: ``docs/gifs/SectorCREnv-v0.gif`` (made with ``bluesky-gym render SectorCREnv-v0 --policy classical``).
+
     ## Description
     Every episode draws a convex sector (airspace polygon) around 51.9904°N 4.3761°E: points are
     drawn uniformly on the circle of area 3750 NM² (radius 34.55 NM) until their polygon, sorted

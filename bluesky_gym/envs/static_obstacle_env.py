@@ -9,6 +9,8 @@ from bluesky_gym.tasks.static_obstacle import StaticObstacleTask
 class StaticObstacleEnv(BlueSkyEnv):
     """Horizontal control: reach a waypoint while avoiding ten polygonal restricted areas.
 
+    Animation: ``docs/gifs/StaticObstacleEnv-v0.gif`` (made with ``bluesky-gym render StaticObstacleEnv-v0 --policy classical``).
+
     ## Description
     An A320 at 350 m (the reference's `ALTITUDE = 350` is meant as FL350 but used as metres;
     kept) starts at 52°N 4°E with CAS 150 m/s (TAS about 152 m/s), pointing at a waypoint

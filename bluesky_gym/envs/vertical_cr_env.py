@@ -9,6 +9,8 @@ from bluesky_gym.tasks.vertical_cr import VerticalCRTask
 class VerticalCREnv(BlueSkyEnv):
     """Vertical conflict resolution: the descent task with level intruders crossing the path.
 
+    Animation: ``docs/gifs/VerticalCREnv-v0.gif`` (made with ``bluesky-gym render VerticalCREnv-v0 --policy classical``).
+
     ## Description
     An A320 flies north from 52°N 4°E at CAS 150 m/s towards a runway 200 km ahead (measured
     from the start point), exactly as in `DescentEnv-v0`: it should hold a target altitude and
