@@ -25,29 +25,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+from bluesky_gym.cli.arguments import positive_float, positive_int
+
 #: Environment variables giving the default of ``--bluesky-python`` and ``--reference-python``.
 BLUESKY_PYTHON_VAR = "BLUESKY_PYTHON"
 REFERENCE_PYTHON_VAR = "BLUESKY_GYM_REFERENCE_PYTHON"
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
-    return value
-
-
 def _add_repeat(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--repeat",
-        type=_positive_int,
+        type=positive_int,
         default=1,
         metavar="N",
         help="measure everything N times; report per-cell medians and the medians of same-run ratios",
@@ -73,19 +61,17 @@ def _add_bluesky(p: argparse.ArgumentParser) -> None:
 def _add_core(p: argparse.ArgumentParser, seconds_flag: str = "--seconds") -> None:
     from bluesky_gym.benchmarks.core_bench import AIRCRAFT_COUNTS, BATCH_SIZES, DEFAULT_SECONDS
 
-    p.add_argument("--envs", nargs="+", type=_positive_int, default=list(BATCH_SIZES), metavar="N", help="batch sizes (airspaces)")
-    p.add_argument("--aircraft", nargs="+", type=_positive_int, default=list(AIRCRAFT_COUNTS), metavar="N", help="aircraft per airspace")
+    p.add_argument("--envs", nargs="+", type=positive_int, default=list(BATCH_SIZES), metavar="N", help="batch sizes (airspaces)")
+    p.add_argument("--aircraft", nargs="+", type=positive_int, default=list(AIRCRAFT_COUNTS), metavar="N", help="aircraft per airspace")
     p.add_argument("--kernel", action="append", metavar="NAME", help="core step kernel to measure (repeatable; default: every available one)")
-    p.add_argument(
-        seconds_flag, dest="core_seconds", type=_positive_float, default=DEFAULT_SECONDS, metavar="S", help="time budget per core cell [s]"
-    )
+    p.add_argument(seconds_flag, dest="core_seconds", type=positive_float, default=DEFAULT_SECONDS, metavar="S", help="time budget per core cell [s]")
 
 
 def _add_envs(p: argparse.ArgumentParser, seconds_flag: str = "--seconds") -> None:
     from bluesky_gym.benchmarks.env_bench import BATCH_SIZES, DEFAULT_SECONDS
 
     p.add_argument("--ids", nargs="+", metavar="ID", help="environment ids (default: every available one)")
-    p.add_argument("--batch", nargs="+", type=_positive_int, default=list(BATCH_SIZES), metavar="N", help="vector environment sizes")
+    p.add_argument("--batch", nargs="+", type=positive_int, default=list(BATCH_SIZES), metavar="N", help="vector environment sizes")
     p.add_argument(
         "--reference-python",
         metavar="PATH",
@@ -93,7 +79,7 @@ def _add_envs(p: argparse.ArgumentParser, seconds_flag: str = "--seconds") -> No
         help=f"Python interpreter with the reference bluesky-gym==0.2.0 installed (default: ${REFERENCE_PYTHON_VAR}; measured when given)",
     )
     p.add_argument(
-        seconds_flag, dest="env_seconds", type=_positive_float, default=DEFAULT_SECONDS, metavar="S", help="time budget per environment cell [s]"
+        seconds_flag, dest="env_seconds", type=positive_float, default=DEFAULT_SECONDS, metavar="S", help="time budget per environment cell [s]"
     )
 
 
@@ -130,11 +116,11 @@ def add_parser(subparsers: Any) -> None:
     both.set_defaults(func=run_all_command)
 
     prof = sub.add_parser("profile", help="cProfile of the core step: where the time goes")
-    prof.add_argument("--envs", type=_positive_int, default=4096, metavar="N", help="airspaces")
-    prof.add_argument("--aircraft", type=_positive_int, default=20, metavar="N", help="aircraft per airspace")
+    prof.add_argument("--envs", type=positive_int, default=4096, metavar="N", help="airspaces")
+    prof.add_argument("--aircraft", type=positive_int, default=20, metavar="N", help="aircraft per airspace")
     prof.add_argument("--kernel", action="append", metavar="NAME", help="kernel to profile (repeatable; default: every available one)")
-    prof.add_argument("--steps", type=_positive_int, default=30, help="profiled steps")
-    prof.add_argument("--top", type=_positive_int, default=15, help="functions listed")
+    prof.add_argument("--steps", type=positive_int, default=30, help="profiled steps")
+    prof.add_argument("--top", type=positive_int, default=15, help="functions listed")
     _add_common(prof)
     prof.set_defaults(func=run_profile_command)
 

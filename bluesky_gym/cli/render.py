@@ -25,23 +25,11 @@ from typing import Any
 
 import numpy as np
 
+from bluesky_gym.cli.arguments import positive_float, positive_int
+
 Actor = Callable[[dict[str, np.ndarray]], np.ndarray]
 NAMED_POLICIES = ("random", "classical")
 SB3_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "a2c": "A2C"}
-
-
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
-    return value
 
 
 def _option(text: str) -> tuple[str, Any]:
@@ -67,16 +55,16 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--policy", default="random", help="random, classical, or the path of a Stable-Baselines3 model .zip (default: random)")
     p.add_argument("--algo", choices=sorted(SB3_ALGORITHMS), help="algorithm of the model .zip (default: read from the file)")
     p.add_argument("--stochastic", action="store_true", help="sample the model's actions instead of taking the deterministic ones")
-    p.add_argument("--episodes", type=_positive_int, default=1, metavar="K", help="episodes to record (default: 1)")
+    p.add_argument("--episodes", type=positive_int, default=1, metavar="K", help="episodes to record (default: 1)")
     p.add_argument("--out", type=Path, metavar="FILE", help="output .gif or .mp4 (default: ID.gif; not written with --human)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first episode and of random actions (default: 0)")
-    p.add_argument("--max-steps", type=_positive_int, metavar="N", help="truncate each episode after N steps (default: the id's limit)")
-    p.add_argument("--every", type=_positive_int, default=1, metavar="N", help="keep one frame every N steps (default: 1)")
-    p.add_argument("--max-frames", type=_positive_int, metavar="N", help="stop after N frames")
-    p.add_argument("--fps", type=_positive_float, default=10.0, help="frames per second of the video (default: 10)")
-    p.add_argument("--scale", type=_positive_float, default=1.0, help="resize factor of the video frames (default: 1)")
+    p.add_argument("--max-steps", type=positive_int, metavar="N", help="truncate each episode after N steps (default: the id's limit)")
+    p.add_argument("--every", type=positive_int, default=1, metavar="N", help="keep one frame every N steps (default: 1)")
+    p.add_argument("--max-frames", type=positive_int, metavar="N", help="stop after N frames")
+    p.add_argument("--fps", type=positive_float, default=10.0, help="frames per second of the video (default: 10)")
+    p.add_argument("--scale", type=positive_float, default=1.0, help="resize factor of the video frames (default: 1)")
     p.add_argument("--colors", type=int, default=192, metavar="N", help="palette size of GIF frames, 2..256 (default: 192)")
-    p.add_argument("--grid", type=_positive_int, default=1, metavar="N", help="draw N episodes of a batched environment side by side")
+    p.add_argument("--grid", type=positive_int, default=1, metavar="N", help="draw N episodes of a batched environment side by side")
     p.add_argument("--human", action="store_true", help="show the episodes in a window instead of writing a file")
     p.add_argument("--option", type=_option, action="append", default=[], metavar="KEY=VALUE", help="scenario option (repeatable)")
     p.set_defaults(func=run)

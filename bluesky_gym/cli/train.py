@@ -26,23 +26,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from bluesky_gym.cli.arguments import non_negative_int, positive_int
 from bluesky_gym.training import ALGORITHMS, MissingDependencyError
-
-
-def positive_int(text: str) -> int:
-    """Parse a positive integer; also accepts ``2e6`` style numbers."""
-    value = float(text) if any(c in text for c in ".eE") else int(text)
-    if value != int(value) or value < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
-    return int(value)
-
-
-def non_negative_int(text: str) -> int:
-    """Parse an integer >= 0."""
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
 
 
 def algorithm(text: str) -> str:
