@@ -325,22 +325,22 @@ class SectorCRTask(Task):
         track = np.arctan2(vy_r, vx_r)
         # Intruders sorted ascending by flat distance; empty slots last.
         order = np.argsort(np.where(s.active[:, 1:], dist, np.inf), axis=1, kind="stable")[:, :NUM_AC_STATE]
-
-        def closest(a: Array) -> Array:
-            return np.take_along_axis(a, order, axis=1)
-
+        # One gather of the six per-intruder quantities, in sorted order: (n, NUM_AC_STATE, 6).
+        x, y, vx, vy, trk, d = np.moveaxis(
+            np.take_along_axis(np.stack([rel[..., 0], rel[..., 1], vx_r, vy_r, track, dist], axis=-1), order[..., None], axis=1), -1, 0
+        )
         return {
             "cos(drift)": np.cos(np.deg2rad(drift))[:, None],
             "sin(drift)": np.sin(np.deg2rad(drift))[:, None],
             # Kept as in the reference although it leaves the declared [-1, 1] bound.
             "airspeed": ((s.tas[:, :1] - AIRSPEED_MEAN) / AIRSPEED_STD),
-            "x_r": closest(rel[..., 0]) / POSITION_SCALE,
-            "y_r": closest(rel[..., 1]) / POSITION_SCALE,
-            "vx_r": closest(vx_r) / VX_SCALE,
-            "vy_r": closest(vy_r) / VY_SCALE,
-            "cos(track)": np.cos(closest(track)),
-            "sin(track)": np.sin(closest(track)),
-            "distances": (closest(dist) - DISTANCE_MEAN) / DISTANCE_STD,
+            "x_r": x / POSITION_SCALE,
+            "y_r": y / POSITION_SCALE,
+            "vx_r": vx / VX_SCALE,
+            "vy_r": vy / VY_SCALE,
+            "cos(track)": np.cos(trk),
+            "sin(track)": np.sin(trk),
+            "distances": (d - DISTANCE_MEAN) / DISTANCE_STD,
         }
 
     # --- reward ---------------------------------------------------------------------------------
