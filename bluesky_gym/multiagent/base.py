@@ -30,7 +30,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator, geo
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int
+from bluesky_gym.core.units import KTS, MPS2KT
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, wrap180
 from bluesky_gym.tasks.geometry import latlon_to_nm
 
 IntArray = NDArray[np.int64]
@@ -237,6 +238,19 @@ class MultiAgentTask(abc.ABC):
     @abc.abstractmethod
     def apply_action(self, action: Array, acting: BoolArray) -> None:
         """Turn clipped actions (n_envs, n_agents, dim) of the acting agents into autopilot commands."""
+
+    def command_heading_and_speed(self, action: Array, acting: BoolArray, d_heading: float, d_speed: float) -> None:
+        """The single-agent SectorCR/Merge action mapping for every acting agent.
+
+        HDG wrap180(hdg + d_heading·a0); SPD (CAS + d_speed·a1)·1.94384 kt, which BlueSky converts
+        back with 0.514444 m/s per kt (the reference's unit round trip).
+        """
+        s = self.sim
+        e, k = np.nonzero(acting)
+        heading_new = wrap180(s.hdg[e, k] + action[e, k, 0] * d_heading)
+        speed_kts = (s.cas[e, k] + action[e, k, 1] * d_speed) * MPS2KT
+        s.cmd_heading(e, k, heading_new)
+        s.cmd_speed(e, k, speed_kts * KTS)
 
     @abc.abstractmethod
     def observe(self) -> dict[str, Array]:

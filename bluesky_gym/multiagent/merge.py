@@ -14,7 +14,7 @@ from typing import ClassVar
 import numpy as np
 
 from bluesky_gym.core import geo
-from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
+from bluesky_gym.core.units import NM2KM
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, nearest_neighbours, of_neighbours
 from bluesky_gym.tasks import merge as mg
 from bluesky_gym.tasks.base import BoxSpec, wrap180
@@ -83,12 +83,7 @@ class MergeMultiAgentTask(MultiAgentTask):
 
     def apply_action(self, action: Array, acting: BoolArray) -> None:
         """HDG wrap180(hdg + 15 a0); SPD (CAS + 20 a1) * 1.94384 kt, for every acting agent."""
-        s = self.sim
-        e, k = np.nonzero(acting)
-        heading_new = wrap180(s.hdg[e, k] + action[e, k, 0] * mg.D_HEADING)
-        speed_kts = (s.cas[e, k] + action[e, k, 1] * mg.D_SPEED) * MPS2KT
-        s.cmd_heading(e, k, heading_new)
-        s.cmd_speed(e, k, speed_kts * KTS)
+        self.command_heading_and_speed(action, acting, mg.D_HEADING, mg.D_SPEED)
 
     def targets(self) -> tuple[Array, Array]:
         """Return the FAF, or the runway for agents that reached the FAF."""

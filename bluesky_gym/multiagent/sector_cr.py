@@ -13,7 +13,6 @@ from typing import ClassVar
 import numpy as np
 
 from bluesky_gym.core import geo
-from bluesky_gym.core.units import KTS, MPS2KT
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, nearest_neighbours, of_neighbours, pick
 from bluesky_gym.tasks import sector_cr as sc
 from bluesky_gym.tasks.base import BoxSpec, wrap180
@@ -69,12 +68,7 @@ class SectorCRMultiAgentTask(MultiAgentTask):
 
     def apply_action(self, action: Array, acting: BoolArray) -> None:
         """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt, for every acting agent."""
-        s = self.sim
-        e, k = np.nonzero(acting)
-        heading_new = wrap180(s.hdg[e, k] + action[e, k, 0] * sc.D_HEADING)
-        speed_kts = (s.cas[e, k] + action[e, k, 1] * sc.D_VELOCITY) * MPS2KT
-        s.cmd_heading(e, k, heading_new)
-        s.cmd_speed(e, k, speed_kts * KTS)
+        self.command_heading_and_speed(action, acting, sc.D_HEADING, sc.D_VELOCITY)
 
     def targets(self) -> tuple[Array, Array]:
         """Each aircraft's exit point."""

@@ -310,46 +310,56 @@ def _cpa_turn(rn: Array, re: Array, vn: Array, ve: Array, pz: float, lookahead: 
     return alert.any(axis=1), turn
 
 
-class SectorCRController(Policy):
+class _SteerAndAvoid(Policy):
+    """Steer to the target; turn away from the most urgent conflict (relative-traffic observations).
+
+    Subclasses give the observation scales, the heading step and the conflict parameters.
+    """
+
+    name = "classical"
+    heading_step: float  # deg per unit action
+    pos_scale: float  # m per unit of x_r / y_r
+    vn_scale: float  # m/s per unit of vx_r
+    ve_scale: float  # m/s per unit of vy_r
+    pz_m: float  # protected-zone radius [m]
+    lookahead_s: float  # conflict look-ahead [s]
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions."""
+        drift = _angle(obs["sin(drift)"][:, 0], obs["cos(drift)"][:, 0])
+        a = np.clip(-drift / self.heading_step, -1.0, 1.0)
+        alert, turn = _cpa_turn(
+            obs["x_r"] * self.pos_scale,
+            obs["y_r"] * self.pos_scale,
+            obs["vx_r"] * self.vn_scale,
+            obs["vy_r"] * self.ve_scale,
+            self.pz_m,
+            self.lookahead_s,
+        )
+        heading = np.where(alert, turn, a)
+        return np.stack([heading, np.zeros_like(heading)], axis=1)
+
+
+class SectorCRController(_SteerAndAvoid):
     """SectorCREnv-v0: steer to the exit waypoint; turn away from the most urgent conflict."""
 
-    name = "classical"
-
-    def act(self, obs: Obs) -> Array:
-        """Compute the controller's actions."""
-        drift = _angle(obs["sin(drift)"][:, 0], obs["cos(drift)"][:, 0])
-        a = np.clip(-drift / D_HEADING_SECTOR, -1.0, 1.0)
-        alert, turn = _cpa_turn(
-            obs["x_r"] * SECTOR_POS_SCALE,
-            obs["y_r"] * SECTOR_POS_SCALE,
-            obs["vx_r"] * SECTOR_VN_SCALE,
-            obs["vy_r"] * SECTOR_VE_SCALE,
-            SECTOR_PZ_M,
-            SECTOR_LOOKAHEAD_S,
-        )
-        heading = np.where(alert, turn, a)
-        return np.stack([heading, np.zeros_like(heading)], axis=1)
+    heading_step = D_HEADING_SECTOR
+    pos_scale = SECTOR_POS_SCALE
+    vn_scale = SECTOR_VN_SCALE
+    ve_scale = SECTOR_VE_SCALE
+    pz_m = SECTOR_PZ_M
+    lookahead_s = SECTOR_LOOKAHEAD_S
 
 
-class MergeController(Policy):
+class MergeController(_SteerAndAvoid):
     """MergeEnv-v0: steer to the FAF then the runway; turn away from the most urgent conflict."""
 
-    name = "classical"
-
-    def act(self, obs: Obs) -> Array:
-        """Compute the controller's actions."""
-        drift = _angle(obs["sin(drift)"][:, 0], obs["cos(drift)"][:, 0])
-        a = np.clip(-drift / D_HEADING_MERGE, -1.0, 1.0)
-        alert, turn = _cpa_turn(
-            obs["x_r"] * MERGE_POS_SCALE,
-            obs["y_r"] * MERGE_POS_SCALE,
-            obs["vx_r"] * MERGE_VEL_SCALE,
-            obs["vy_r"] * MERGE_VEL_SCALE,
-            MERGE_PZ_M,
-            MERGE_LOOKAHEAD_S,
-        )
-        heading = np.where(alert, turn, a)
-        return np.stack([heading, np.zeros_like(heading)], axis=1)
+    heading_step = D_HEADING_MERGE
+    pos_scale = MERGE_POS_SCALE
+    vn_scale = MERGE_VEL_SCALE
+    ve_scale = MERGE_VEL_SCALE
+    pz_m = MERGE_PZ_M
+    lookahead_s = MERGE_LOOKAHEAD_S
 
 
 class StaticObstacleController(Policy):

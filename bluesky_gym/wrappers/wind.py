@@ -64,6 +64,13 @@ class _Wind:
         return {"wind_u": u[:, None], "wind_v": v[:, None]}
 
 
+def _install(env: Any, lat: ArrayLike, lon: ArrayLike, vnorth: ArrayLike, veast: ArrayLike, alt: ArrayLike | None) -> Task:
+    """Validate the wind definition and add it to every new episode of ``env``'s task."""
+    task = _task_of(env)
+    _Wind(lat, lon, vnorth, veast, alt).install(task)
+    return task
+
+
 def _augmented_space(space: gym.Space) -> spaces.Dict:
     if not isinstance(space, spaces.Dict):
         raise TypeError("augment_obs needs a Dict observation space")
@@ -95,9 +102,7 @@ class WindFieldWrapper(gym.Wrapper):
         augment_obs: bool = False,
     ) -> None:
         super().__init__(env)
-        self._wind = _Wind(lat, lon, vnorth, veast, alt)
-        self._task = _task_of(env)
-        self._wind.install(self._task)
+        self._task = _install(env, lat, lon, vnorth, veast, alt)
         self.augment_obs = augment_obs
         if augment_obs:
             self.observation_space = _augmented_space(env.observation_space)
@@ -136,14 +141,11 @@ class VectorWindFieldWrapper(VectorWrapper):
         augment_obs: bool = False,
     ) -> None:
         super().__init__(env)
-        self._wind = _Wind(lat, lon, vnorth, veast, alt)
-        self._task = _task_of(env)
-        self._wind.install(self._task)
+        self._task = _install(env, lat, lon, vnorth, veast, alt)
         self.augment_obs = augment_obs
         if augment_obs:
             self.single_observation_space = _augmented_space(env.single_observation_space)
             self.observation_space = batch_space(self.single_observation_space, env.num_envs)
-        self._final_wind: dict[str, np.ndarray] | None = None
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
         """Reset every episode."""
