@@ -340,8 +340,8 @@ class Simulator:
         env, slot = self._index(env, slot)
         hdg = np.broadcast_to(np.asarray(hdg, dtype=np.float64), env.shape)
         trk = hdg.copy()
-        windy = self.wind.has_wind[env]
-        if np.any(windy):
+        windy = self.wind.has_wind[env] if self.wind.any else None
+        if windy is not None and windy.any():
             e, s = env[windy], slot[windy]
             above = self.alt[e, s] > WIND_MIN_ALT
             e, s, h = e[above], s[above], hdg[windy][above]
@@ -714,18 +714,36 @@ class Simulator:
 
     # ------------------------------------------------------------------------------------------
     def _index(self, env: ArrayLike, slot: ArrayLike) -> tuple[IntArray, IntArray]:
-        env_a = np.atleast_1d(np.asarray(env, dtype=np.int64))
-        slot_a = np.atleast_1d(np.asarray(slot, dtype=np.int64))
-        env_a, slot_a = np.broadcast_arrays(env_a, slot_a)
-        if env_a.size and (env_a.min() < 0 or env_a.max() >= self.n_envs):
-            raise IndexError(f"environment index out of range [0, {self.n_envs})")
-        if slot_a.size and (slot_a.min() < 0 or slot_a.max() >= self.max_aircraft):
-            raise IndexError(f"aircraft slot out of range [0, {self.max_aircraft})")
-        return env_a.ravel(), slot_a.ravel()
+        """Validated, broadcast 1-D (env, slot) index arrays."""
+        env_a = _checked_index(env, self.n_envs, "environment index")
+        slot_a = _checked_index(slot, self.max_aircraft, "aircraft slot")
+        if env_a.shape != slot_a.shape:
+            if slot_a.size == 1:
+                slot_a = np.full(env_a.shape, slot_a[0])
+            elif env_a.size == 1:
+                env_a = np.full(slot_a.shape, env_a[0])
+            else:
+                env_a, slot_a = (a.ravel() for a in np.broadcast_arrays(env_a, slot_a))
+        return env_a, slot_a
 
     def state_fields(self) -> Sequence[str]:
         """Names of the per-aircraft state arrays."""
         return [name for name, _, _ in _STATE_FIELDS]
+
+
+def _checked_index(index: ArrayLike, bound: int, what: str) -> IntArray:
+    """``index`` as a 1-D int64 array, every entry in [0, bound), else ``IndexError``."""
+    if isinstance(index, (int, np.integer)) and not isinstance(index, (bool, np.bool_)):
+        if not 0 <= index < bound:
+            raise IndexError(f"{what} out of range [0, {bound}): {index}")
+        return np.array([index], dtype=np.int64)
+    a = np.asarray(index, dtype=np.int64)
+    if a.ndim != 1:
+        a = a.reshape(-1)
+    # One reduction checks both ends: negative indices are huge as unsigned integers.
+    if a.size and a.view(np.uint64).max() >= bound:
+        raise IndexError(f"{what} out of range [0, {bound})")
+    return a
 
 
 for _name, _i in FIELD_INDEX.items():

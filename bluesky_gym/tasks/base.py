@@ -190,6 +190,9 @@ class Task(abc.ABC):
         self.sim = backend
         if self.sim.n_envs != self.n_envs:
             raise ValueError(f"physics backend has {self.sim.n_envs} airspaces, the task {self.n_envs}")
+        #: Whether observation and reward geometry run compiled (:mod:`bluesky_gym.tasks.compiled`):
+        #: with the physics' fused kernel, i.e. when numba is installed and not switched off.
+        self.compiled = getattr(self.sim, "kernel", None) == "fused"
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(self.n_envs)]
         self.stats = EpisodeStats(self.n_envs)
         self.all_envs = np.arange(self.n_envs)
@@ -259,6 +262,13 @@ class Task(abc.ABC):
             Distances (inf for the ownship and empty slots) and intrusion flags, (n_envs, max_aircraft).
         """
         s = self.sim
+        if self.compiled:
+            from bluesky_gym.tasks import compiled
+
+            dist = np.empty(s.lat.shape)
+            los = np.empty(s.lat.shape, bool)
+            compiled.kwik_separation(s.lat, s.lon, s.alt, s.active, intrusion_nm, np.nan if vertical_m is None else vertical_m, dist, los)
+            return dist, los
         dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
         other = s.active.copy()
         other[:, 0] = False

@@ -6,6 +6,8 @@ tasks need it, with every random draw taken from a generator passed in.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -47,8 +49,7 @@ def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: Arr
 
 def random_point_on_circle(rng: np.random.Generator, radius: float) -> Array:
     """A uniformly random point (x, y) on a circle of ``radius`` around the origin."""
-    alpha = 2 * np.pi * rng.uniform(0.0, 1.0)
-    return np.array([radius * np.cos(alpha), radius * np.sin(alpha)])
+    return np.array(_point_on_circle(rng, float(radius)))
 
 
 def sort_points_clockwise(vertices: ArrayLike) -> Array:
@@ -59,14 +60,7 @@ def sort_points_clockwise(vertices: ArrayLike) -> Array:
 
 def polygon_area(vertices: ArrayLike) -> float:
     """Absolute shoelace area of a polygon (same unit squared as the vertices)."""
-    v = np.asarray(vertices, dtype=np.float64)
-    area = 0.0
-    n = len(v)
-    for i in range(n):  # summed in vertex order, as the reference does
-        x1, y1 = v[i]
-        x2, y2 = v[(i + 1) % n]
-        area += x1 * y2 - y1 * x2
-    return float(np.abs(area) / 2.0)
+    return _shoelace(np.asarray(vertices, dtype=np.float64).tolist())
 
 
 def random_convex_polygon(rng: np.random.Generator, radius: float, min_area: float) -> Array:
@@ -74,20 +68,47 @@ def random_convex_polygon(rng: np.random.Generator, radius: float, min_area: flo
 
     Starts with three points, adds one at a time (the reference's polygon generator).
     """
-    pts = [random_point_on_circle(rng, radius) for _ in range(3)]
-    poly = sort_points_clockwise(pts)
-    while polygon_area(poly) < min_area:
-        pts.append(random_point_on_circle(rng, radius))
-        poly = sort_points_clockwise(pts)
-    return poly
+    # Scalar Python on a handful of points: the same operations as the numpy helpers above
+    # (libm cos/sin/atan2, a stable sort, the shoelace sum in vertex order), without the
+    # per-call overhead of tiny arrays.
+    r = float(radius)
+    pts = [_point_on_circle(rng, r) for _ in range(3)]
+    poly = sorted(pts, key=_compass_key)
+    while _shoelace(poly) < min_area:
+        pts.append(_point_on_circle(rng, r))
+        poly = sorted(pts, key=_compass_key)
+    return np.array(poly)
+
+
+def _point_on_circle(rng: np.random.Generator, radius: float) -> tuple[float, float]:
+    alpha = 2 * math.pi * rng.uniform(0.0, 1.0)
+    return radius * math.cos(alpha), radius * math.sin(alpha)
+
+
+def _compass_key(p: tuple[float, float]) -> float:
+    return math.atan2(p[1], p[0])
+
+
+def _shoelace(v: list) -> float:
+    """Absolute shoelace area of a list of (x, y) points, summed in vertex order (the reference's)."""
+    area = 0.0
+    n = len(v)
+    for i in range(n):
+        x1, y1 = v[i]
+        x2, y2 = v[(i + 1) % n]
+        area += x1 * y2 - y1 * x2
+    return abs(area) / 2.0
 
 
 def nm_to_latlon(center: ArrayLike, points: ArrayLike) -> Array:
-    """(north NM, east NM) offsets around ``center`` (lat, lon) to (lat, lon) [deg]."""
+    """(north NM, east NM) offsets around ``center`` (lat, lon) to (lat, lon) [deg].
+
+    ``center`` is one (lat, lon) pair or one per point (broadcast against ``points``).
+    """
     c = np.asarray(center, dtype=np.float64)
     p = np.asarray(points, dtype=np.float64)
-    lat = c[0] + (p[..., 0] / 60)
-    lon = c[1] + (p[..., 1] / (60 * np.cos(np.radians(c[0]))))
+    lat = c[..., 0] + (p[..., 0] / 60)
+    lon = c[..., 1] + (p[..., 1] / (60 * np.cos(np.radians(c[..., 0]))))
     return np.stack([lat, lon], axis=-1)
 
 

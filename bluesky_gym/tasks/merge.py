@@ -43,6 +43,7 @@ POSITION_SCALE = 1e6  # m: x_r, y_r
 SPEED_SCALE = 150.0  # m/s: vx_r, vy_r
 M_PER_KM = 1000.0
 
+_OBS_SCALES = (POSITION_SCALE, SPEED_SCALE, WAYPOINT_DIST_SCALE)  # for the compiled observation
 MAX_NUM_AC = 200  # largest supported traffic count
 ALT_MAX = 11060.0  # m: the A320's altitude ceiling
 CAS_RANGE = (67.0, 163.0)  # m/s: the A320's CAS envelope away from the ground
@@ -187,6 +188,8 @@ class MergeTask(Task):
         """Ownship drift, airspeed and target distance, and the 5 closest intruders by kwik distance."""
         s = self.sim
         tlat, tlon = self.target()
+        if self.compiled:
+            return self._observe_compiled(tlat, tlon)
         # BlueSky's Python kwik forms (bearing mod 360, degrees subtracted first), which the
         # reference runs use.
         qdr, dist = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], tlat, tlon)
@@ -219,12 +222,31 @@ class MergeTask(Task):
             "distances": closest(d_sort) / WAYPOINT_DIST_SCALE,
         }
 
+    def _observe_compiled(self, tlat: Array, tlon: Array) -> dict[str, Array]:
+        """The same observation through :func:`bluesky_gym.tasks.compiled.merge_observe`."""
+        from bluesky_gym.tasks import compiled
+
+        s = self.sim
+        n = self.n_envs
+        own = np.empty((n, 4))
+        intruders = np.empty((n, 7, NUM_AC_STATE))
+        compiled.merge_observe(s.lat, s.lon, s.hdg, s.tas, s.active, tlat, tlon, _OBS_SCALES, own, intruders)
+        self.drift = own[:, 0].copy()
+        self.waypoint_dist = own[:, 1].copy()
+        obs = {
+            "cos(drift)": own[:, 2:3],
+            "sin(drift)": own[:, 3:4],
+            "airspeed": s.tas[:, :1].copy(),
+            "waypoint_dist": own[:, 1:2] / WAYPOINT_DIST_SCALE,
+            "faf_reached": self.wpt_reach[:, None].astype(np.float64),
+        }
+        obs.update(zip(("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances"), intruders.transpose(1, 0, 2)))
+        return obs
+
     # --- reward ---------------------------------------------------------------------------------
     def intrusions(self) -> BoolArray:
         """(n_envs, max_aircraft - 1) intruders within 4 NM (kwik distance) of the ownship."""
-        s = self.sim
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
-        return (dist < INTRUSION_DISTANCE) & s.active[:, 1:]
+        return self.kwik_separation(INTRUSION_DISTANCE)[1][:, 1:]
 
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
         """FAF reach reward, runway goal, drift and intrusion penalties."""

@@ -18,7 +18,6 @@ from bluesky_gym.tasks.geometry import (
     points_in_polygons,
     polygon_area,
     random_convex_polygon,
-    ref_kwikdist,
     ref_kwikqdrdist,
 )
 
@@ -114,6 +113,12 @@ class SectorCRConfig(TaskConfig):
         if self.ac_density_mode == "normal":
             return float(self.ac_density_mu + DENSITY_CLIP_SIGMAS * self.ac_density_sigma)
         return float(self.ac_density_range[1])
+
+
+# The flat projection of the observation, as geometry.latlon_to_nm evaluates it, and the
+# observation scales, for the compiled observation.
+_FLAT_CENTER = (CENTER[0], CENTER[1], float(np.cos(np.radians(np.asarray(CENTER, dtype=np.float64))[0])))
+_OBS_SCALES = (AIRSPEED_MEAN, AIRSPEED_STD, POSITION_SCALE, VX_SCALE, VY_SCALE, DISTANCE_MEAN, DISTANCE_STD)
 
 
 def worst_case_aircraft(config: SectorCRConfig) -> int:
@@ -316,6 +321,8 @@ class SectorCRTask(Task):
     def observe(self) -> dict[str, Array]:
         """Agent drift and airspeed, and the 4 closest intruders by flat distance."""
         s = self.sim
+        if self.compiled:
+            return self._observe_compiled()
         drift = self.waypoint_drift()
         self.drift = drift
         loc = self.flat_positions_m()
@@ -343,12 +350,26 @@ class SectorCRTask(Task):
             "distances": (d - DISTANCE_MEAN) / DISTANCE_STD,
         }
 
+    def _observe_compiled(self) -> dict[str, Array]:
+        """The same observation through :func:`bluesky_gym.tasks.compiled.sector_observe`."""
+        from bluesky_gym.tasks import compiled
+
+        s = self.sim
+        n = self.n_envs
+        drift = np.empty(n)
+        own = np.empty((n, 3))
+        intruders = np.empty((n, 7, NUM_AC_STATE))
+        compiled.sector_observe(s.lat, s.lon, s.hdg, s.tas, s.active, self.wpt_lat[:, 0], self.wpt_lon[:, 0], _FLAT_CENTER, _OBS_SCALES,
+                                drift, own, intruders)
+        self.drift = drift
+        obs = {"cos(drift)": own[:, 0:1], "sin(drift)": own[:, 1:2], "airspeed": own[:, 2:3]}
+        obs.update(zip(("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances"), intruders.transpose(1, 0, 2)))
+        return obs
+
     # --- reward ---------------------------------------------------------------------------------
     def intrusions(self) -> BoolArray:
         """(n_envs, max_aircraft - 1) intruders within 5 NM (kwik distance) of the agent."""
-        s = self.sim
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
-        return (dist < INTRUSION_DISTANCE) & s.active[:, 1:]
+        return self.kwik_separation(INTRUSION_DISTANCE)[1][:, 1:]
 
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Drift and intrusion penalties; never terminates (leaving the sector truncates)."""
@@ -365,6 +386,12 @@ class SectorCRTask(Task):
     def agent_inside(self) -> BoolArray:
         """(n_envs,) whether the agent is inside its sector (2-D even-odd test on lat/lon)."""
         s = self.sim
+        if self.compiled:
+            from bluesky_gym.tasks import compiled
+
+            out = np.empty((self.n_envs, 1), bool)
+            compiled.ownship_in_polygons(s.lat, s.lon, self.poly_lat[:, None], self.poly_lon[:, None], self.n_vertices[:, None], out)
+            return out[:, 0]
         inside = points_in_polygons(s.lat[:, :1], s.lon[:, :1], self.poly_lat[:, None], self.poly_lon[:, None], self.n_vertices[:, None])
         return inside[:, 0, 0]
 

@@ -158,15 +158,14 @@ class StaticObstacleTask(Task):
                 b[i] = rng.integers(0, BEARING_END)
             clat, clon = point_at_distance(lat0[j], lon0[j], d, b)
             self.obstacle_centre_lat[e], self.obstacle_centre_lon[e] = clat, clon
-            self.obstacle_nv[e] = 0
+            polys = []
             for i in range(k):
                 circle_area = rng.integers(2 * c.obstacle_area_min, c.obstacle_area_max)
                 radius = np.sqrt(circle_area / np.pi)
-                poly_nm = random_convex_polygon(rng, radius, c.obstacle_area_min)
-                vertices = nm_to_latlon((clat[i], clon[i]), poly_nm)
-                self._store_polygon(e, i, vertices)
+                polys.append(random_convex_polygon(rng, radius, c.obstacle_area_min))
                 self.obstacle_radius[e, i] = radius
-                self.obstacle_area[e, i] = polygon_area(poly_nm)
+                self.obstacle_area[e, i] = polygon_area(polys[-1])
+            self._store_polygons(e, clat, clon, polys)
             self.wpt_lat[e], self.wpt_lon[e] = sample_waypoint(
                 rng, lat0[j], lon0[j], self.obstacle_lat[e], self.obstacle_lon[e], self.obstacle_nv[e],
                 c.waypoint_distance_min, c.waypoint_distance_max,
@@ -185,18 +184,22 @@ class StaticObstacleTask(Task):
         self.obs_wpt_km[envs] = dist_km[envs]
         self.obs_drift[envs] = drift[envs]
 
-    def _store_polygon(self, e: int, i: int, vertices: Array) -> None:
-        nv = len(vertices)
+    def _store_polygons(self, e: int, clat: Array, clon: Array, polys: list[Array]) -> None:
+        """Store episode ``e``'s polygons, (north, east) NM around their centres, as (lat, lon)."""
+        nv = np.array([len(p) for p in polys])
         cap = self.obstacle_lat.shape[-1]
-        if nv > cap:  # rare: grow the vertex capacity of every polygon
-            pad = ((0, 0), (0, 0), (0, max(nv, 2 * cap) - cap))
+        if nv.max() > cap:  # rare: grow the vertex capacity of every polygon
+            pad = ((0, 0), (0, 0), (0, max(int(nv.max()), 2 * cap) - cap))
             self.obstacle_lat = np.pad(self.obstacle_lat, pad)
             self.obstacle_lon = np.pad(self.obstacle_lon, pad)
-        self.obstacle_lat[e, i, :nv] = vertices[:, 0]
-        self.obstacle_lon[e, i, :nv] = vertices[:, 1]
-        self.obstacle_lat[e, i, nv:] = 0.0
-        self.obstacle_lon[e, i, nv:] = 0.0
-        self.obstacle_nv[e, i] = nv
+        # All polygons in one conversion: each vertex with its polygon's centre.
+        vertices = nm_to_latlon(np.stack([np.repeat(clat, nv), np.repeat(clon, nv)], axis=-1), np.concatenate(polys))
+        mask = np.arange(self.obstacle_lat.shape[-1]) < nv[:, None]
+        self.obstacle_lat[e] = 0.0
+        self.obstacle_lon[e] = 0.0
+        self.obstacle_lat[e][mask] = vertices[:, 0]
+        self.obstacle_lon[e][mask] = vertices[:, 1]
+        self.obstacle_nv[e] = nv
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
@@ -214,6 +217,12 @@ class StaticObstacleTask(Task):
 
     def inside_obstacles(self) -> NDArray[np.bool_]:
         """(n_envs, num_obstacles) whether each obstacle polygon contains the aircraft now."""
+        if self.compiled:
+            from bluesky_gym.tasks import compiled
+
+            out = np.empty(self.obstacle_nv.shape, bool)
+            compiled.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
+            return out
         key = (self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
         cached = self._obstacle_cache
         if cached is None or not all(np.array_equal(a, b) for a, b in zip(key, cached[0])):
@@ -281,20 +290,29 @@ class StaticObstacleTask(Task):
         sub-step k. In a batch the other episodes keep stepping; the ended ones are stepped too
         (the physics is batched) and then put back to their state at sub-step k. Only the reward
         of the last evaluated sub-step is returned (spec 6).
+
+        This is :meth:`evaluate_substep` after every sub-step, with the work that does not change
+        between sub-steps done once: the waypoint distance and drift are the stale values of the
+        last observation, so a waypoint is reached (and the episode ends) at the first sub-step
+        or not at all, and only the obstacle test needs the live position.
         """
-        running = np.ones(self.n_envs, bool)
-        terminated = np.zeros(self.n_envs, bool)
-        reward = np.zeros(self.n_envs)
-        components: dict[str, Array] = {}
+        n = self.n_envs
+        running = np.ones(n, bool)
+        last = np.zeros(n, np.int64)  # last evaluated sub-step of each episode
+        count = np.zeros(n, np.int64)  # obstacles containing the aircraft at that sub-step
+        reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
+        done_anyway = self.wpt_reached | reached  # ends at the first sub-step, obstacles or not
+        drift_rad = np.abs(np.deg2rad(self.obs_drift))
         frozen: list[tuple[NDArray[np.int64], dict[str, np.ndarray]]] = []
         for k in range(self.action_frequency):
             self.sim.step()
-            r, done, comp = self.evaluate_substep(running)
-            reward = np.where(running, r, reward)
-            components = {name: np.where(running, v, components.get(name, 0.0)) for name, v in comp.items()}
-            ended = running & done
-            terminated |= ended
-            running &= ~done
+            self.drift_sum_rad += np.where(running, drift_rad, 0.0)
+            self.drift_count += running
+            c = self.inside_obstacles().sum(axis=1)
+            ended = running & (done_anyway | (c > 0))
+            last[running] = k
+            count[running] = c[running]
+            running &= ~ended
             for hook in self.substep_hooks:
                 hook(self, k)
             if not running.any():
@@ -305,8 +323,16 @@ class StaticObstacleTask(Task):
         for envs, state in frozen:
             for f, v in state.items():
                 getattr(self.sim, f)[envs] = v
+        self.wpt_reached |= reached
+        self.crashed |= count > 0
+        self.intrusions += count
+        reach = np.where(reached, REACH_REWARD, 0.0)
+        drift = drift_rad * DRIFT_PENALTY
+        intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
+        reward = reach + drift + intrusion
+        terminated = done_anyway | (count > 0)
         obs = self.observe()
-        return reward, terminated, components, obs
+        return reward, terminated, {"reach": reach, "drift": drift, "intrusion": intrusion}, obs
 
     # --- info and KPIs --------------------------------------------------------------------------
     def average_drift(self) -> Array:

@@ -1,0 +1,148 @@
+"""The compiled observation/reward geometry equals the numpy path to the last bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bluesky_gym.core import Simulator
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.geometry import (
+    points_in_polygons,
+    polygon_area,
+    random_convex_polygon,
+    ref_kwikdist,
+    sort_points_clockwise,
+)
+from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
+from bluesky_gym.tasks.merge import MergeTask
+from bluesky_gym.tasks.sector_cr import SectorCRTask
+from bluesky_gym.tasks.static_obstacle import StaticObstacleTask
+from bluesky_gym.tasks.vertical_cr import VerticalCRTask
+
+pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason="numba (extra 'fast') not installed")
+
+N_ENVS = 6
+
+
+def _task(task_class: type, kernel: str, seed: int) -> object:
+    probe = task_class(N_ENVS)
+    sim = Simulator(N_ENVS, probe.sim.max_aircraft, dt=task_class.dt, max_waypoints=probe.sim.max_waypoints, kernel=kernel)
+    task = task_class(N_ENVS, backend=sim)
+    task.seed(task.all_envs, [np.random.default_rng(seed + i) for i in range(N_ENVS)])
+    task.reset()
+    return task
+
+
+def _assert_same(a: dict, b: dict, what: str) -> None:
+    assert a.keys() == b.keys()
+    for k in a:
+        np.testing.assert_array_equal(np.asarray(a[k]), np.asarray(b[k]), err_msg=f"{what}: {k}", strict=True)
+
+
+@pytest.mark.parametrize("task_class", [SectorCRTask, MergeTask, StaticObstacleTask, HorizontalCRTask, VerticalCRTask])
+def test_compiled_episodes_equal_numpy_episodes(task_class: type) -> None:
+    ref, fast = _task(task_class, "numpy", 11), _task(task_class, "fused", 11)
+    assert not ref.compiled and fast.compiled
+    _assert_same(ref.observe(), fast.observe(), "reset")
+    rng = np.random.default_rng(3)
+    ended = 0
+    for step in range(160):
+        action = rng.uniform(-1, 1, (N_ENVS, *ref.action_spec.shape))
+        ra, rb = ref.step(action), fast.step(action)
+        _assert_same(ra.observation, rb.observation, f"step {step}")
+        _assert_same(ra.info, rb.info, f"step {step} info")
+        np.testing.assert_array_equal(ra.reward, rb.reward)
+        np.testing.assert_array_equal(ra.terminated, rb.terminated)
+        np.testing.assert_array_equal(ra.truncated, rb.truncated)
+        done = np.flatnonzero(ra.terminated | ra.truncated)
+        if done.size:
+            ended += done.size
+            ref.reset(done)
+            fast.reset(done)
+            _assert_same(ref.observe(), fast.observe(), f"reset at step {step}")
+    assert ended > 0  # the comparison covered episode ends and resets
+
+
+def _random_airspace(rng: np.random.Generator, n: int, m: int) -> tuple[np.ndarray, ...]:
+    lat = 52.0 + rng.normal(0, 0.3, (n, m))
+    lon = 4.0 + rng.normal(0, 0.3, (n, m))
+    hdg = rng.uniform(-180, 360, (n, m))
+    tas = rng.uniform(80, 250, (n, m))
+    active = rng.uniform(size=(n, m)) < 0.8
+    active[:, 0] = True
+    return lat, lon, hdg, tas, active
+
+
+def test_closest_intruders_keep_the_stable_order_of_ties_and_skip_empty_slots() -> None:
+    from bluesky_gym.tasks.merge import _OBS_SCALES
+
+    rng = np.random.default_rng(0)
+    lat, lon, hdg, tas, active = _random_airspace(rng, 200, 12)
+    lat[:, 3] = lat[:, 5]  # two intruders at the same place: equal distances
+    lon[:, 3] = lon[:, 5]
+    active[:5, 1:9] = False  # fewer active intruders than observed ones in some airspaces
+    own = np.empty((200, 4))
+    out = np.empty((200, 7, 5))
+    compiled.merge_observe(lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7), _OBS_SCALES, own, out)
+    # distances column: the numpy order (stable argsort, empty slots last) of kwikdist_matrix.
+    from bluesky_gym.tasks.geometry import ref_kwikdist_matrix
+
+    d = ref_kwikdist_matrix(lat[:, :1], lon[:, :1], lat[:, 1:], lon[:, 1:])
+    order = np.argsort(np.where(active[:, 1:], d, np.inf), axis=1, kind="stable")[:, :5]
+    expected = np.take_along_axis(d, order, axis=1) / _OBS_SCALES[2]
+    np.testing.assert_array_equal(out[:, 6], expected)
+    # The cases were exercised: equal distances, and fewer active intruders than observed ones.
+    assert np.array_equal(d[:, 2], d[:, 4])
+    assert (active[:5, 1:].sum(axis=1) < 5).all()
+
+
+def test_kwik_separation_matches_the_numpy_formula_with_and_without_vertical_margin() -> None:
+    rng = np.random.default_rng(1)
+    lat, lon, _, _, active = _random_airspace(rng, 50, 9)
+    lat[:, 1:] = lat[:, :1] + rng.normal(0, 0.05, (50, 8))
+    alt = rng.uniform(0, 3000, (50, 9))
+    expected = np.where(active, ref_kwikdist(lat[:, :1], lon[:, :1], lat, lon), np.inf)
+    expected[:, 0] = np.inf
+    for vertical in (np.nan, 300.0):
+        dist = np.empty((50, 9))
+        los = np.empty((50, 9), bool)
+        compiled.kwik_separation(lat, lon, alt, active, 5.0, vertical, dist, los)
+        np.testing.assert_array_equal(dist, expected)
+        want = expected < 5.0
+        if not np.isnan(vertical):
+            want &= np.abs(alt[:, :1] - alt) < vertical
+        np.testing.assert_array_equal(los, want)
+        assert los.any() and not los.all()
+
+
+def test_ownship_in_polygons_matches_the_numpy_even_odd_test() -> None:
+    rng = np.random.default_rng(2)
+    n, k, v = 300, 4, 9
+    poly_lat = 52.0 + rng.uniform(-0.5, 0.5, (n, k, v))
+    poly_lon = 4.0 + rng.uniform(-0.5, 0.5, (n, k, v))  # self-intersecting too: even-odd rule
+    nv = rng.integers(0, v + 1, (n, k))
+    lat = 52.0 + rng.uniform(-0.5, 0.5, (n, 1))
+    lon = 4.0 + rng.uniform(-0.5, 0.5, (n, 1))
+    out = np.empty((n, k), bool)
+    compiled.ownship_in_polygons(lat, lon, poly_lat, poly_lon, nv, out)
+    np.testing.assert_array_equal(out, points_in_polygons(lat, lon, poly_lat, poly_lon, nv)[:, 0, :])
+    assert out.any() and not out.all()
+
+
+def test_scalar_polygon_generator_equals_the_numpy_helpers() -> None:
+    for seed in range(300):
+        rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
+        radius = 1.0 + 30.0 * rng_a.uniform()
+        rng_b.uniform()
+        min_area = 0.6 * np.pi * radius * radius
+        poly = random_convex_polygon(rng_a, radius, min_area)
+        # The same draws through the numpy helpers.
+        pts = [np.array([radius * np.cos(a), radius * np.sin(a)]) for a in 2 * np.pi * rng_b.uniform(0.0, 1.0, 3)]
+        ref = sort_points_clockwise(pts)
+        while polygon_area(ref) < min_area:
+            a = 2 * np.pi * rng_b.uniform(0.0, 1.0)
+            pts.append(np.array([radius * np.cos(a), radius * np.sin(a)]))
+            ref = sort_points_clockwise(pts)
+        np.testing.assert_array_equal(poly, ref)
+        assert rng_a.uniform() == rng_b.uniform()  # same number of draws
