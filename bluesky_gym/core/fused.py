@@ -608,7 +608,7 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
 
 @_jit
-def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, active, lnav):
+def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, active, lnav, trace):
     """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
 
     Valid when aircraft do not interact within these steps, which holds for the physics and
@@ -616,7 +616,9 @@ def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, 
     stays in cache for all its steps. Same arguments as :func:`step_kernel`, with
     ``perf_due[k]`` telling whether the performance model updates in step ``k`` and ``lnav``
     the LNAV arrays ``(swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat,
-    route_lon, python_geo)``, or None when no aircraft flies LNAV.
+    route_lon, python_geo)``, or None when no aircraft flies LNAV. ``trace`` is None, or a
+    ``(steps, 2, aircraft)`` array that receives each aircraft's latitude and longitude after
+    every step.
     """
     for i in range(F.shape[1]):
         if not active[i]:
@@ -625,6 +627,9 @@ def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, 
             if lnav is not None:
                 _lnav_one(F, i, lnav[0], lnav[1], lnav[2], lnav[3], lnav[4], lnav[5], lnav[6], lnav[7], lnav[8], lnav[9])
             _step_one(F, i, phase, wn, we, haswind, any_wind, perf_due[k], dt, perf, limits, memo)
+            if trace is not None:
+                trace[k, 0, i] = F[_I_LAT, i]
+                trace[k, 1, i] = F[_I_LON, i]
 
 
 def perf_tuple(perf: pf.AircraftPerformance) -> tuple[float, ...]:

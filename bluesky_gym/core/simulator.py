@@ -13,6 +13,7 @@ them; either way their values are meaningless and readers must use the ``active`
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -89,6 +90,8 @@ _STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
 
 FLOAT_FIELDS = tuple(name for name, dtype, _ in _STATE_FIELDS if dtype is np.float64)
 FIELD_INDEX = {name: i for i, name in enumerate(FLOAT_FIELDS)}
+#: Per-aircraft arrays outside the float block (snapshots copy these and the block).
+_NON_FLOAT_STATE = (*(name for name, dtype, _ in _STATE_FIELDS if dtype is not np.float64), "route_lat", "route_lon")
 
 
 def _route_position(lat: ArrayLike, lon: ArrayLike) -> tuple[Array, Array]:
@@ -507,24 +510,39 @@ class Simulator:
             self._update_groundspeed(any_wind)
             self._update_position(alt_t)
 
-    def run(self, n_steps: int) -> None:
+    def run(self, n_steps: int, trace: bool = False) -> Array | None:
         """Advance every airspace by ``n_steps`` steps (same result as calling :meth:`step` n times).
 
         With the fused kernel, and while any wind is uniform, the aircraft do not influence each
         other between steps (LNAV included), so each one is advanced through all ``n_steps`` at
         once while it sits in the CPU cache.
+
+        Args:
+            n_steps: Number of steps.
+            trace: Also return every aircraft's position after each step.
+
+        Returns:
+            With ``trace``, an array (n_steps, 2, n_envs, max_aircraft) of latitudes and
+            longitudes [deg] (empty slots hold meaningless values); otherwise None.
         """
         if n_steps < 0:
             raise ValueError(f"n_steps must be >= 0, got {n_steps}")
+        track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft)) if trace else None
         wind = self.wind
         independent = self.kernel == "fused" and n_steps > 1 and not (wind.count > 1).any()
         if not independent:
-            for _ in range(n_steps):
+            for k in range(n_steps):
                 self.step()
-            return
+                if track is not None:
+                    track[k, 0], track[k, 1] = self.lat, self.lon
+            return track
         from bluesky_gym.core.fused import run_kernel
 
-        perf_due = np.array([self._performance_due() for _ in range(n_steps)])
+        if self.dt >= PERFORMANCE_INTERVAL - 1e-9:  # due at every step (what the timer gives)
+            self._since_perf = 0.0
+            perf_due = np.ones(n_steps, bool)
+        else:
+            perf_due = np.array([self._performance_due() for _ in range(n_steps)])
         self.simt += n_steps * self.dt
         any_wind = wind.any
         if any_wind:  # uniform: the same wind wherever the aircraft goes
@@ -547,7 +565,39 @@ class Simulator:
             self._memo,
             self._active_flat,
             self._lnav_args() if self.swlnav.any() else None,
+            None if track is None else track.reshape(n_steps, 2, -1),
         )
+        return track
+
+    def snapshot(self, envs: ArrayLike | None = None) -> dict[str, Any]:
+        """A copy of the aircraft and route state of airspaces ``envs`` (all when None), and the clocks.
+
+        The wind definition is not part of it (it does not change while stepping).
+        """
+        idx = slice(None) if envs is None else _checked_index(envs, self.n_envs, "environment index")
+        snap: dict[str, Any] = {"_float_block": self._float_block[:, idx].copy(), "simt": self.simt, "_since_perf": self._since_perf}
+        for name in _NON_FLOAT_STATE:
+            snap[name] = getattr(self, name)[idx].copy()
+        return snap
+
+    def restore(self, snap: dict[str, Any], envs: ArrayLike | None = None) -> None:
+        """Put airspaces back to a :meth:`snapshot` of the same airspaces.
+
+        Args:
+            snap: The snapshot.
+            envs: The airspaces it was taken of; None means all of them, clocks included (a
+                partial restore leaves the shared clocks as they are).
+        """
+        if envs is None:
+            self._float_block[...] = snap["_float_block"]
+            self.simt, self._since_perf = snap["simt"], snap["_since_perf"]
+            for name in _NON_FLOAT_STATE:
+                getattr(self, name)[...] = snap[name]
+            return
+        idx = _checked_index(envs, self.n_envs, "environment index")
+        self._float_block[:, idx] = snap["_float_block"]
+        for name in _NON_FLOAT_STATE:
+            getattr(self, name)[idx] = snap[name]
 
     def _lnav_args(self) -> tuple:
         """The LNAV arrays as the compiled kernels take them (flattened views)."""

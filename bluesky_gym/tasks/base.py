@@ -332,7 +332,7 @@ class Task(abc.ABC):
         reward, terminated, components, obs = self.transition()
         self.stats.steps += 1
         self.stats.total_reward += reward
-        self._track_separation(self.all_envs, count_steps=True)
+        self._track_separation(slice(None), count_steps=True)
         drift = self.drift_deg()
         if drift is not None:
             self.stats.drift_sum += drift
@@ -368,9 +368,10 @@ class Task(abc.ABC):
         reward, terminated, components = self.evaluate()
         return reward, terminated, components, obs
 
-    def _track_separation(self, envs: NDArray[np.int64], count_steps: bool) -> None:
+    def _track_separation(self, envs: NDArray[np.int64] | slice, count_steps: bool) -> None:
         dist, los = self.ownship_separation()
-        dist, los = dist[envs], los[envs]
+        if not isinstance(envs, slice):
+            dist, los = dist[envs], los[envs]
         st = self.stats
         st.min_separation[envs] = np.minimum(st.min_separation[envs], dist.min(axis=1))
         new = los & ~st.in_los[envs]

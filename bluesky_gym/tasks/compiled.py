@@ -150,6 +150,22 @@ def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
             out[e, k] = _polygon_contains(lat[e, 0], lon[e, 0], poly_lat[e, k], poly_lon[e, k], n_vertices[e, k])
 
 
+@_jit
+def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
+    """How many of its polygons contain each episode's ownship at each step of a track.
+
+    ``track`` is :meth:`bluesky_gym.core.Simulator.run`'s (steps, 2, n, m) positions, ``poly_*``
+    (n, K, V), ``n_vertices`` (n, K) and ``out`` (steps, n).
+    """
+    for k in range(track.shape[0]):
+        for e in range(poly_lat.shape[0]):
+            c = 0
+            for j in range(poly_lat.shape[1]):
+                if _polygon_contains(track[k, 0, e, 0], track[k, 1, e, 0], poly_lat[e, j], poly_lon[e, j], n_vertices[e, j]):
+                    c += 1
+            out[k, e] = c
+
+
 @_jit_inline
 def _relative_velocity(hdg, tas, e, j):
     """(vx_r, vy_r) of intruder slot ``j`` (:func:`bluesky_gym.tasks.sector_cr.relative_velocity`)."""

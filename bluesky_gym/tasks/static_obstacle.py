@@ -296,6 +296,8 @@ class StaticObstacleTask(Task):
         last observation, so a waypoint is reached (and the episode ends) at the first sub-step
         or not at all, and only the obstacle test needs the live position.
         """
+        if self.compiled and not self.substep_hooks:
+            return self._transition_traced()
         n = self.n_envs
         running = np.ones(n, bool)
         last = np.zeros(n, np.int64)  # last evaluated sub-step of each episode
@@ -323,6 +325,54 @@ class StaticObstacleTask(Task):
         for envs, state in frozen:
             for f, v in state.items():
                 getattr(self.sim, f)[envs] = v
+        return self._finish_transition(reached, done_anyway, drift_rad, count)
+
+    def _transition_traced(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
+        """:meth:`transition` from one traced run of all sub-steps (compiled physics and geometry).
+
+        The obstacle test needs only the ownship's position after each sub-step, so all sub-steps
+        run in one call that records the positions; the episodes that ended before the last
+        sub-step are then put back to the state they had when they ended by re-running them from
+        a snapshot.
+        """
+        from bluesky_gym.tasks import compiled
+
+        sim, n, steps = self.sim, self.n_envs, self.action_frequency
+        reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
+        done_anyway = self.wpt_reached | reached
+        drift_rad = np.abs(np.deg2rad(self.obs_drift))
+        start = sim.snapshot()
+        track = sim.run(steps, trace=True)
+        counts = np.empty((steps, n), np.int64)
+        compiled.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts)
+        hit = done_anyway | (counts > 0)  # (steps, n): the episode ends at this sub-step
+        ends = hit.any(axis=0)
+        last = np.where(ends, hit.argmax(axis=0), steps - 1)  # last evaluated sub-step
+        count = counts[last, self.all_envs]
+        early = np.flatnonzero(last < steps - 1)
+        if early.size:
+            end = sim.snapshot()
+            sim.restore(start)
+            stopped = []
+            for k in range(int(last[early].max()) + 1):
+                sim.step()
+                group = early[last[early] == k]
+                if group.size:
+                    stopped.append((group, sim.snapshot(group)))
+            if early.size < n:  # when every episode ended early, the clocks stop there too
+                sim.restore(end)
+            for group, state in stopped:
+                sim.restore(state, group)
+        for k in range(int(last.max()) + 1):
+            evaluated = last >= k
+            self.drift_sum_rad += np.where(evaluated, drift_rad, 0.0)
+            self.drift_count += evaluated
+        return self._finish_transition(reached, done_anyway, drift_rad, count)
+
+    def _finish_transition(
+        self, reached: BoolArray, done_anyway: BoolArray, drift_rad: Array, count: NDArray[np.int64]
+    ) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
+        """Flags, counters, the last evaluated sub-step's reward, and the observation."""
         self.wpt_reached |= reached
         self.crashed |= count > 0
         self.intrusions += count
