@@ -96,6 +96,13 @@ def _jit_inline(fn):
 @_jit
 def _mod(a, b):
     """numpy/Python float remainder (result has the sign of ``b``)."""
+    # Fast paths with the same result: fmod(a, b) is exactly a when |a| < |b|, and numpy then
+    # adds b to a negative remainder. (Zero goes the long way: its sign is set below.)
+    if b > 0.0:
+        if 0.0 < a < b:
+            return a
+        if -b < a < 0.0:
+            return a + b
     m = np.fmod(a, b)
     if m != 0.0:
         if (b < 0.0) != (m < 0.0):
