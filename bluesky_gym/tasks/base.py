@@ -193,6 +193,12 @@ class Task(abc.ABC):
         #: Whether observation and reward geometry run compiled (:mod:`bluesky_gym.tasks.compiled`):
         #: with the physics' fused kernel, i.e. when numba is installed and not switched off.
         self.compiled = getattr(self.sim, "kernel", None) == "fused"
+        #: The compiled functions (the module :mod:`bluesky_gym.tasks.compiled`), or None.
+        self.kernels: Any = None
+        if self.compiled:
+            from bluesky_gym.tasks import compiled
+
+            self.kernels = compiled
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(self.n_envs)]
         self.stats = EpisodeStats(self.n_envs)
         self.all_envs = np.arange(self.n_envs)
@@ -263,11 +269,9 @@ class Task(abc.ABC):
         """
         s = self.sim
         if self.compiled:
-            from bluesky_gym.tasks import compiled
-
             dist = np.empty(s.lat.shape)
             los = np.empty(s.lat.shape, bool)
-            compiled.kwik_separation(s.lat, s.lon, s.alt, s.active, intrusion_nm, np.nan if vertical_m is None else vertical_m, dist, los)
+            self.kernels.kwik_separation(s.lat, s.lon, s.alt, s.active, intrusion_nm, np.nan if vertical_m is None else vertical_m, dist, los)
             return dist, los
         dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
         other = s.active.copy()

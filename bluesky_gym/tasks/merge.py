@@ -224,13 +224,11 @@ class MergeTask(Task):
 
     def _observe_compiled(self, tlat: Array, tlon: Array) -> dict[str, Array]:
         """The same observation through :func:`bluesky_gym.tasks.compiled.merge_observe`."""
-        from bluesky_gym.tasks import compiled
-
         s = self.sim
         n = self.n_envs
         own = np.empty((n, 4))
         intruders = np.empty((n, 7, NUM_AC_STATE))
-        compiled.merge_observe(s.lat, s.lon, s.hdg, s.tas, s.active, tlat, tlon, _OBS_SCALES, own, intruders)
+        self.kernels.merge_observe(s.lat, s.lon, s.hdg, s.tas, s.active, tlat, tlon, _OBS_SCALES, own, intruders)
         self.drift = own[:, 0].copy()
         self.waypoint_dist = own[:, 1].copy()
         obs = {

@@ -352,14 +352,12 @@ class SectorCRTask(Task):
 
     def _observe_compiled(self) -> dict[str, Array]:
         """The same observation through :func:`bluesky_gym.tasks.compiled.sector_observe`."""
-        from bluesky_gym.tasks import compiled
-
         s = self.sim
         n = self.n_envs
         drift = np.empty(n)
         own = np.empty((n, 3))
         intruders = np.empty((n, 7, NUM_AC_STATE))
-        compiled.sector_observe(s.lat, s.lon, s.hdg, s.tas, s.active, self.wpt_lat[:, 0], self.wpt_lon[:, 0], _FLAT_CENTER, _OBS_SCALES,
+        self.kernels.sector_observe(s.lat, s.lon, s.hdg, s.tas, s.active, self.wpt_lat[:, 0], self.wpt_lon[:, 0], _FLAT_CENTER, _OBS_SCALES,
                                 drift, own, intruders)
         self.drift = drift
         obs = {"cos(drift)": own[:, 0:1], "sin(drift)": own[:, 1:2], "airspeed": own[:, 2:3]}
@@ -387,10 +385,8 @@ class SectorCRTask(Task):
         """(n_envs,) whether the agent is inside its sector (2-D even-odd test on lat/lon)."""
         s = self.sim
         if self.compiled:
-            from bluesky_gym.tasks import compiled
-
             out = np.empty((self.n_envs, 1), bool)
-            compiled.ownship_in_polygons(s.lat, s.lon, self.poly_lat[:, None], self.poly_lon[:, None], self.n_vertices[:, None], out)
+            self.kernels.ownship_in_polygons(s.lat, s.lon, self.poly_lat[:, None], self.poly_lon[:, None], self.n_vertices[:, None], out)
             return out[:, 0]
         inside = points_in_polygons(s.lat[:, :1], s.lon[:, :1], self.poly_lat[:, None], self.poly_lon[:, None], self.n_vertices[:, None])
         return inside[:, 0, 0]

@@ -218,10 +218,8 @@ class StaticObstacleTask(Task):
     def inside_obstacles(self) -> NDArray[np.bool_]:
         """(n_envs, num_obstacles) whether each obstacle polygon contains the aircraft now."""
         if self.compiled:
-            from bluesky_gym.tasks import compiled
-
             out = np.empty(self.obstacle_nv.shape, bool)
-            compiled.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
+            self.kernels.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
             return out
         key = (self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
         cached = self._obstacle_cache
@@ -335,8 +333,6 @@ class StaticObstacleTask(Task):
         sub-step are then put back to the state they had when they ended by re-running them from
         a snapshot.
         """
-        from bluesky_gym.tasks import compiled
-
         sim, n, steps = self.sim, self.n_envs, self.action_frequency
         reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
         done_anyway = self.wpt_reached | reached
@@ -344,7 +340,7 @@ class StaticObstacleTask(Task):
         start = sim.snapshot()
         track = sim.run(steps, trace=True)
         counts = np.empty((steps, n), np.int64)
-        compiled.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts)
+        self.kernels.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts)
         hit = done_anyway | (counts > 0)  # (steps, n): the episode ends at this sub-step
         ends = hit.any(axis=0)
         last = np.where(ends, hit.argmax(axis=0), steps - 1)  # last evaluated sub-step
