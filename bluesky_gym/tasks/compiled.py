@@ -151,6 +151,13 @@ def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
 
 
 @_jit
+def points_in_polygon(lat, lon, poly_lat, poly_lon, n_vertices, out):
+    """Even-odd test of points (P,) against one polygon's first ``n_vertices`` vertices, into ``out`` (P,)."""
+    for p in range(lat.shape[0]):
+        out[p] = _polygon_contains(lat[p], lon[p], poly_lat, poly_lon, n_vertices)
+
+
+@_jit
 def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
     """How many of its polygons contain each episode's ownship at each step of a track.
 

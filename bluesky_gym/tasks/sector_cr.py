@@ -207,7 +207,8 @@ class SectorCRTask(Task):
         c = self.config
         radius = np.sqrt(c.poly_area_range[1] / np.pi)  # NM: circle of the maximum area
         density_cap = c.density_cap()
-        cre_env, cre_slot, cre_lat, cre_lon, cre_hdg = [], [], [], [], []
+        cre_lat: list[Array] = []
+        cre_lon: list[Array] = []
         for e in envs:
             rng = self.rngs[e]
             # 1. Convex polygon: points on the circle, sorted by compass bearing, added until the
@@ -235,25 +236,25 @@ class SectorCRTask(Task):
             num_ac = int(max(np.ceil(min(density, density_cap) * area), MIN_AIRCRAFT))
             self.num_ac[e] = num_ac
             # 3. One waypoint per aircraft, uniform along the perimeter, sorted by perimeter position.
-            wpts = self._perimeter_points(poly, np.sort(rng.uniform(0, self._perimeter(poly)[-1], num_ac)))
+            cum = self._perimeter(poly)
             self.wpt_nm[e] = 0.0
-            self.wpt_nm[e, :num_ac] = wpts
-            wlat, wlon = self._latlon(wpts)
-            self.wpt_lat[e] = 0.0
-            self.wpt_lon[e] = 0.0
-            self.wpt_lat[e, :num_ac] = wlat
-            self.wpt_lon[e, :num_ac] = wlon
+            self.wpt_nm[e, :num_ac] = self._perimeter_points(poly, np.sort(rng.uniform(0, cum[-1], num_ac)), cum)
             # 4. Start points: uniform in the bounding box, kept when inside the sector.
             lat0, lon0 = self._sample_inside(rng, e, poly, num_ac)
-            cre_env.append(np.full(num_ac, e))
-            cre_slot.append(np.arange(num_ac))
             cre_lat.append(lat0)
             cre_lon.append(lon0)
-            cre_hdg.append(initial_bearing(lat0, lon0, wlat, wlon))
+        # Waypoints in (lat, lon) for all reset episodes at once (element by element the same).
+        used = np.arange(self.sim.max_aircraft) < self.num_ac[envs, None]
+        wlat, wlon = self._latlon(self.wpt_nm[envs])
+        self.wpt_lat[envs] = np.where(used, wlat, 0.0)
+        self.wpt_lon[envs] = np.where(used, wlon, 0.0)
+        cre_env, cre_slot = np.nonzero(used)
+        cre_env = envs[cre_env]
+        lat0, lon0 = np.concatenate(cre_lat), np.concatenate(cre_lon)
+        hdg0 = initial_bearing(lat0, lon0, self.wpt_lat[cre_env, cre_slot], self.wpt_lon[cre_env, cre_slot])
         # Everyone flies straight at its waypoint's initial bearing, CAS 150 m/s, at 350 m (the
         # reference's ALTITUDE 350 "FL" used as metres). No routes: they never turn.
-        self.sim.create(np.concatenate(cre_env), np.concatenate(cre_slot), np.concatenate(cre_lat), np.concatenate(cre_lon),
-                        np.concatenate(cre_hdg), ALTITUDE, AC_SPD)
+        self.sim.create(cre_env, cre_slot, lat0, lon0, hdg0, ALTITUDE, AC_SPD)
         self.drift[envs] = 0.0
         self.total_intrusions[envs] = 0
         self.drift_rad_sum[envs] = 0.0
@@ -266,9 +267,9 @@ class SectorCRTask(Task):
         return np.cumsum(np.sqrt(np.sum(edges**2, axis=1)))
 
     @classmethod
-    def _perimeter_points(cls, poly: Array, d: Array) -> Array:
-        """Points at perimeter positions ``d`` [NM], walking the edges from vertex 0."""
-        cum = cls._perimeter(poly)
+    def _perimeter_points(cls, poly: Array, d: Array, cum: Array | None = None) -> Array:
+        """Points at perimeter positions ``d`` [NM], walking the edges from vertex 0 (``cum``: :meth:`_perimeter`)."""
+        cum = cls._perimeter(poly) if cum is None else cum
         k = np.searchsorted(cum, d, side="left")  # first edge whose end lies at or beyond d
         start = np.where(k > 0, cum[np.maximum(k - 1, 0)], 0.0)  # perimeter at the edge's first vertex
         p1 = poly[k]
@@ -287,7 +288,11 @@ class SectorCRTask(Task):
         while missing > 0:
             cand = rng.uniform(low, high, size=(CANDIDATES_PER_AIRCRAFT * missing + 4, 2))  # rows: (north, east)
             clat, clon = self._latlon(cand)
-            inside = points_in_polygons(clat, clon, self.poly_lat[e][None], self.poly_lon[e][None], nv)[:, 0]
+            if self.compiled:
+                inside = np.empty(clat.shape, bool)
+                self.kernels.points_in_polygon(clat, clon, self.poly_lat[e], self.poly_lon[e], int(nv[0]), inside)
+            else:
+                inside = points_in_polygons(clat, clon, self.poly_lat[e][None], self.poly_lon[e][None], nv)[:, 0]
             take = np.flatnonzero(inside)[:missing]
             lat_acc.append(clat[take])
             lon_acc.append(clon[take])
