@@ -516,19 +516,38 @@ class BlueSkyPhysics(Simulator):
         self.simt = float(self._bs.sim.simt)
         self._sync_out(routes=False)
 
-    def run(self, n_steps: int) -> None:
+    def run(self, n_steps: int, trace: bool = False) -> Array | None:
         """Advance by ``n_steps`` BlueSky steps (same result as calling :meth:`step` n times).
 
-        Direct writes are sent before the first step and the state is read back after the last.
+        Direct writes are sent before the first step and the state is read back after the last
+        (after every step with ``trace``, which returns the positions as :meth:`Simulator.run` does).
         """
         if n_steps < 0:
             raise ValueError(f"n_steps must be >= 0, got {n_steps}")
+        if trace:
+            track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft))
+            for k in range(int(n_steps)):
+                self.step()
+                track[k, 0], track[k, 1] = self.lat, self.lon
+            return track
         self._check_open()
         self._sync_in()
         for _ in range(int(n_steps)):
             self._bs.sim.step()
         self.simt = float(self._bs.sim.simt)
         self._sync_out(routes=False)
+        return None
+
+    def snapshot(self, envs: ArrayLike | None = None) -> dict[str, Any]:
+        """Not available: BlueSky's internal state cannot be put back (see :meth:`restore`)."""
+        raise NotImplementedError(
+            "the 'bluesky' backend has no snapshot/restore: BlueSky's traffic, autopilot, route and performance objects "
+            "cannot be rebuilt from the state arrays; use the native backend"
+        )
+
+    def restore(self, snap: dict[str, Any], envs: ArrayLike | None = None) -> None:
+        """Not available (see :meth:`snapshot`)."""
+        self.snapshot(envs)
 
     def close(self) -> None:
         """Delete this backend's traffic and wind and give the process's simulator free for another one.

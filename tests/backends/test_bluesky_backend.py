@@ -104,6 +104,20 @@ def test_close_releases_traffic_and_refuses_use(physics) -> None:
 
 
 @needs_bluesky
+def test_traced_run_and_no_snapshots(physics) -> None:
+    physics.create(0, [0, 1], [52.0, 52.5], 4.0, [0.0, 90.0], 3000.0, 150.0)
+    track = physics.run(3, trace=True)
+    assert track.shape == (3, 2, 1, 3)
+    np.testing.assert_array_equal(track[-1, 0], physics.lat)
+    np.testing.assert_array_equal(track[-1, 1], physics.lon)
+    assert (np.diff(track[:, 0, 0, 0]) > 0).all() and (np.diff(track[:, 1, 0, 1]) > 0).all()  # north, east
+    with pytest.raises(NotImplementedError, match="native backend"):
+        physics.snapshot()
+    with pytest.raises(NotImplementedError, match="native backend"):
+        physics.restore({})
+
+
+@needs_bluesky
 def test_reset_clears_traffic_and_wind_and_sets_dt() -> None:
     bs = _bs()
     from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
