@@ -173,6 +173,25 @@ def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
             out[k, e] = c
 
 
+@_jit
+def intruder_relative_state(lat, lon, hdg, gs, out):
+    """:func:`bluesky_gym.tasks.vertical_cr.intruder_relative_state` into ``out`` (5, n, m - 1).
+
+    Rows: dist_km, cos_bearing, sin_bearing, x_dif, y_dif.
+    """
+    for e in range(lat.shape[0]):
+        lat0, lon0, hdg0, gs0 = lat[e, 0], lon[e, 0], hdg[e, 0], gs[e, 0]
+        for j in range(1, lat.shape[1]):
+            qdr, dist = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
+            bearing = _wrap180(hdg0 - qdr) * _RAD
+            difference = (hdg0 - hdg[e, j]) * _RAD
+            out[0, e, j - 1] = dist * NM2KM
+            out[1, e, j - 1] = math.cos(bearing)
+            out[2, e, j - 1] = math.sin(bearing)
+            out[3, e, j - 1] = -math.cos(difference) * gs[e, j]
+            out[4, e, j - 1] = gs0 - math.sin(difference) * gs[e, j]
+
+
 @_jit_inline
 def _relative_velocity(hdg, tas, e, j):
     """(vx_r, vy_r) of intruder slot ``j`` (:func:`bluesky_gym.tasks.sector_cr.relative_velocity`)."""

@@ -168,7 +168,7 @@ class HorizontalCRTask(Task):
         """Observation of every episode: key -> (n_envs, *shape), float64."""
         s = self.sim
         self.ac_hdg = s.hdg[:, 0].copy()
-        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
+        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs, self.kernels)
         wpt_dist_km, drift = self.waypoint_geometry()
         return {
             # Intruders in creation order (slots 1..n), no sorting (spec section 3).
@@ -185,9 +185,7 @@ class HorizontalCRTask(Task):
     # --- reward ---------------------------------------------------------------------------------
     def intrusions(self) -> BoolArray:
         """(n_envs, num_intruders) intruders within 5 NM of the ownship (horizontal only)."""
-        s = self.sim
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
-        return (dist < INTRUSION_DISTANCE) & s.active[:, 1:]
+        return self.kwik_separation(INTRUSION_DISTANCE)[1][:, 1:]
 
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Reward, termination and reward components after a step."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,7 +12,7 @@ from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core.units import FT, NM2KM
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, TaskConfig, check_int, check_range, wrap180
 from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentTask
-from bluesky_gym.tasks.geometry import ref_kwikdist, ref_kwikqdrdist
+from bluesky_gym.tasks.geometry import ref_kwikqdrdist
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
 INTRUSION_DISTANCE = 5.0  # NM, horizontal radius of the intrusion cylinder
@@ -23,11 +23,13 @@ TLOSV = 1e11  # s: vertical time to loss of separation given to creconfs (intrud
 KM = 1000.0  # m per km
 
 
-def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array) -> dict[str, Array]:
+def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array, kernels: Any = None) -> dict[str, Array]:
     """Ownship-relative geometry of the intruders (slots 1..) shared by the CR tasks.
 
     All inputs are (n_envs, max_aircraft) simulator arrays with the ownship in slot 0. The
     expressions and their operation order are the reference's (spec sections 2 and 3).
+    ``kernels`` is a task's compiled functions (:attr:`~bluesky_gym.tasks.base.Task.kernels`), or
+    None for numpy.
 
     Returns:
         ``dist_km`` kwik distance [km]; ``cos_bearing``/``sin_bearing`` of
@@ -35,6 +37,10 @@ def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Arra
         the reference's ownship frame (not yet normalised). Each (n_envs, max_aircraft - 1).
 
     """
+    if kernels is not None:  # the same numbers from the compiled form (Task.kernels)
+        out = np.empty((5, sim_lat.shape[0], sim_lat.shape[1] - 1))
+        kernels.intruder_relative_state(sim_lat, sim_lon, hdg, gs, out)
+        return dict(zip(("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif"), out))
     qdr, dist = ref_kwikqdrdist(sim_lat[:, :1], sim_lon[:, :1], sim_lat[:, 1:], sim_lon[:, 1:])
     own_hdg = hdg[:, :1]
     bearing = wrap180(own_hdg - qdr)
@@ -206,7 +212,7 @@ class VerticalCRTask(DescentTask):
         """Observation of every episode: key -> (n_envs, *shape), float64."""
         obs = super().observe()
         s = self.sim
-        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
+        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs, self.kernels)
         # Intruders in creation order (slots 1..n), no sorting (spec section 2).
         obs["intruder_distance"] = rel["dist_km"] / INTRUDER_DISTANCE_SCALE
         obs["cos_difference_pos"] = rel["cos_bearing"]
@@ -220,10 +226,7 @@ class VerticalCRTask(DescentTask):
     # --- reward ---------------------------------------------------------------------------------
     def intrusions(self) -> BoolArray:
         """(n_envs, num_intruders) intruders within 5 NM and 1000 ft of the ownship."""
-        s = self.sim
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
-        vert = s.alt[:, :1] - s.alt[:, 1:]
-        return (dist < INTRUSION_DISTANCE) & (np.abs(vert) < VERTICAL_MARGIN) & s.active[:, 1:]
+        return self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)[1][:, 1:]
 
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Descent reward and termination plus the intrusion penalty."""
