@@ -151,10 +151,14 @@ def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
 
 
 @_jit
-def points_in_polygon(lat, lon, poly_lat, poly_lon, n_vertices, out):
-    """Even-odd test of points (P,) against one polygon's first ``n_vertices`` vertices, into ``out`` (P,)."""
+def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out):
+    """Even-odd test of points (P,) each against the polygon of its episode ``owner[p]``.
+
+    ``poly_*`` are (n, V) and ``n_vertices`` (n,); ``out`` is (P,).
+    """
     for p in range(lat.shape[0]):
-        out[p] = _polygon_contains(lat[p], lon[p], poly_lat, poly_lon, n_vertices)
+        e = owner[p]
+        out[p] = _polygon_contains(lat[p], lon[p], poly_lat[e], poly_lon[e], n_vertices[e])
 
 
 @_jit

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 from typing import ClassVar
@@ -203,12 +204,15 @@ class SectorCRTask(Task):
         return ll[..., 0], ll[..., 1]
 
     def generate(self, envs: NDArray[np.int64]) -> None:
-        """Polygon, traffic count, perimeter waypoints and start points of each reset episode."""
+        """Polygon, traffic count, perimeter waypoints and start points of each reset episode.
+
+        Each episode draws from its own generator in the reference's order (polygon points,
+        density, perimeter positions, start-point candidates); the geometry between the draws is
+        done for all reset episodes at once where the draws do not depend on it.
+        """
         c = self.config
         radius = np.sqrt(c.poly_area_range[1] / np.pi)  # NM: circle of the maximum area
         density_cap = c.density_cap()
-        cre_lat: list[Array] = []
-        cre_lon: list[Array] = []
         for e in envs:
             rng = self.rngs[e]
             # 1. Convex polygon: points on the circle, sorted by compass bearing, added until the
@@ -220,11 +224,6 @@ class SectorCRTask(Task):
                 self._alloc_vertices(max(nv, 2 * self.poly_nm.shape[1]))
             self.poly_nm[e] = 0.0
             self.poly_nm[e, :nv] = poly
-            lat_v, lon_v = self._latlon(poly)
-            self.poly_lat[e] = lat_v[0]  # padding repeats vertex 0 (ignored: n_vertices)
-            self.poly_lon[e] = lon_v[0]
-            self.poly_lat[e, :nv] = lat_v
-            self.poly_lon[e, :nv] = lon_v
             self.n_vertices[e] = nv
             self.poly_area[e] = area
             # 2. Traffic count, agent included.
@@ -239,18 +238,22 @@ class SectorCRTask(Task):
             cum = self._perimeter(poly)
             self.wpt_nm[e] = 0.0
             self.wpt_nm[e, :num_ac] = self._perimeter_points(poly, np.sort(rng.uniform(0, cum[-1], num_ac)), cum)
-            # 4. Start points: uniform in the bounding box, kept when inside the sector.
-            lat0, lon0 = self._sample_inside(rng, e, poly, num_ac)
-            cre_lat.append(lat0)
-            cre_lon.append(lon0)
-        # Waypoints in (lat, lon) for all reset episodes at once (element by element the same).
+        # Polygons in (lat, lon); the padding repeats vertex 0 (ignored: n_vertices).
+        lat_v, lon_v = self._latlon(self.poly_nm[envs])
+        real = np.arange(self.poly_nm.shape[1]) < self.n_vertices[envs, None]
+        self.poly_lat[envs] = np.where(real, lat_v, lat_v[:, :1])
+        self.poly_lon[envs] = np.where(real, lon_v, lon_v[:, :1])
+        # 4. Start points: uniform in the bounding box, kept when inside the sector.
+        starts = self._sample_inside(envs, self.num_ac[envs], [self.rngs[e] for e in envs])
+        # Waypoints in (lat, lon), element by element as one episode at a time would give them.
         used = np.arange(self.sim.max_aircraft) < self.num_ac[envs, None]
         wlat, wlon = self._latlon(self.wpt_nm[envs])
         self.wpt_lat[envs] = np.where(used, wlat, 0.0)
         self.wpt_lon[envs] = np.where(used, wlon, 0.0)
         cre_env, cre_slot = np.nonzero(used)
         cre_env = envs[cre_env]
-        lat0, lon0 = np.concatenate(cre_lat), np.concatenate(cre_lon)
+        lat0 = np.concatenate([lat for lat, _ in starts])
+        lon0 = np.concatenate([lon for _, lon in starts])
         hdg0 = initial_bearing(lat0, lon0, self.wpt_lat[cre_env, cre_slot], self.wpt_lon[cre_env, cre_slot])
         # Everyone flies straight at its waypoint's initial bearing, CAS 150 m/s, at 350 m (the
         # reference's ALTITUDE 350 "FL" used as metres). No routes: they never turn.
@@ -261,43 +264,71 @@ class SectorCRTask(Task):
         self.drift_rad_n[envs] = 0
 
     @staticmethod
-    def _perimeter(poly: Array) -> Array:
+    def _perimeter(poly: Array) -> list[float]:
         """Cumulative perimeter [NM] at the end of each edge (edge k: vertex k -> k+1, closing)."""
-        edges = np.roll(poly, -1, axis=0) - poly
-        return np.cumsum(np.sqrt(np.sum(edges**2, axis=1)))
+        # Scalar Python on a few vertices: np.roll / np.sum / np.cumsum's operations in their order.
+        pts = np.asarray(poly, dtype=np.float64).tolist()
+        n = len(pts)
+        cum, total = [], 0.0
+        for k in range(n):
+            (x1, y1), (x2, y2) = pts[k], pts[(k + 1) % n]
+            dx, dy = x2 - x1, y2 - y1
+            total += math.sqrt(dx * dx + dy * dy)
+            cum.append(total)
+        return cum
 
     @classmethod
-    def _perimeter_points(cls, poly: Array, d: Array, cum: Array | None = None) -> Array:
+    def _perimeter_points(cls, poly: Array, d: Array, cum: list[float] | None = None) -> Array:
         """Points at perimeter positions ``d`` [NM], walking the edges from vertex 0 (``cum``: :meth:`_perimeter`)."""
+        pts = np.asarray(poly, dtype=np.float64).tolist()
         cum = cls._perimeter(poly) if cum is None else cum
-        k = np.searchsorted(cum, d, side="left")  # first edge whose end lies at or beyond d
-        start = np.where(k > 0, cum[np.maximum(k - 1, 0)], 0.0)  # perimeter at the edge's first vertex
-        p1 = poly[k]
-        p2 = np.roll(poly, -1, axis=0)[k]
-        edge_len = np.sqrt(np.sum((p2 - p1) ** 2, axis=1))
-        frac = (d - start) / edge_len
-        return p1 + frac[:, None] * (p2 - p1)
+        n = len(pts)
+        out = []
+        for dist in np.asarray(d, dtype=np.float64).tolist():
+            k = bisect.bisect_left(cum, dist)  # first edge whose end lies at or beyond d
+            start = cum[k - 1] if k > 0 else 0.0  # perimeter at the edge's first vertex
+            (x1, y1), (x2, y2) = pts[k], pts[(k + 1) % n]
+            ex, ey = x2 - x1, y2 - y1
+            frac = (dist - start) / math.sqrt(ex * ex + ey * ey)
+            out.append((x1 + frac * ex, y1 + frac * ey))
+        return np.array(out).reshape(-1, 2)
 
-    def _sample_inside(self, rng: np.random.Generator, e: int, poly: Array, num_ac: int) -> tuple[Array, Array]:
-        """``num_ac`` start points uniform in the sector (rejection sampling in the bounding box)."""
-        low, high = poly.min(axis=0), poly.max(axis=0)
-        nv = np.array([self.n_vertices[e]])
-        lat_acc: list[Array] = []
-        lon_acc: list[Array] = []
-        missing = num_ac
-        while missing > 0:
-            cand = rng.uniform(low, high, size=(CANDIDATES_PER_AIRCRAFT * missing + 4, 2))  # rows: (north, east)
-            clat, clon = self._latlon(cand)
-            if self.compiled:
-                inside = np.empty(clat.shape, bool)
-                self.kernels.points_in_polygon(clat, clon, self.poly_lat[e], self.poly_lon[e], int(nv[0]), inside)
-            else:
-                inside = points_in_polygons(clat, clon, self.poly_lat[e][None], self.poly_lon[e][None], nv)[:, 0]
-            take = np.flatnonzero(inside)[:missing]
-            lat_acc.append(clat[take])
-            lon_acc.append(clon[take])
-            missing -= take.size
-        return np.concatenate(lat_acc), np.concatenate(lon_acc)
+    def _sample_inside(self, envs: NDArray[np.int64], counts: NDArray[np.int64], rngs: list[np.random.Generator]) -> list[tuple[Array, Array]]:
+        """``counts[i]`` start points uniform in sector ``envs[i]``: rejection sampling in the bounding box.
+
+        Each round draws every still-incomplete episode's candidates from its own generator, then
+        tests all candidates together.
+
+        Returns:
+            (lat, lon) of the start points of each episode, in ``envs`` order.
+        """
+        lows = [self.poly_nm[e, : self.n_vertices[e]].min(axis=0) for e in envs]
+        highs = [self.poly_nm[e, : self.n_vertices[e]].max(axis=0) for e in envs]
+        missing = np.asarray(counts, dtype=np.int64).copy()
+        taken: list[list[tuple[Array, Array]]] = [[] for _ in envs]
+        pending = np.flatnonzero(missing > 0)
+        while pending.size:
+            cands = [rngs[i].uniform(lows[i], highs[i], size=(CANDIDATES_PER_AIRCRAFT * missing[i] + 4, 2)) for i in pending]  # (north, east)
+            sizes = np.array([len(x) for x in cands])
+            clat, clon = self._latlon(np.concatenate(cands))
+            owner = np.repeat(envs[pending], sizes)
+            inside = self._start_inside(clat, clon, owner)
+            first = np.concatenate([[0], np.cumsum(sizes)])
+            for j, i in enumerate(pending):
+                sel = slice(first[j], first[j + 1])
+                take = np.flatnonzero(inside[sel])[: missing[i]]
+                taken[i].append((clat[sel][take], clon[sel][take]))
+                missing[i] -= take.size
+            pending = np.flatnonzero(missing > 0)
+        return [(np.concatenate([a for a, _ in t]), np.concatenate([b for _, b in t])) if t else (np.zeros(0), np.zeros(0)) for t in taken]
+
+    def _start_inside(self, lat: Array, lon: Array, owner: NDArray[np.int64]) -> NDArray[np.bool_]:
+        """Whether each point (lat, lon) lies in the sector of episode ``owner``."""
+        if self.compiled:
+            inside = np.empty(lat.shape, bool)
+            self.kernels.points_in_owner_polygon(lat, lon, owner, self.poly_lat, self.poly_lon, self.n_vertices, inside)
+            return inside
+        return points_in_polygons(lat[:, None], lon[:, None], self.poly_lat[owner][:, None], self.poly_lon[owner][:, None], self.n_vertices[owner][:, None])[:, 0, 0]
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:

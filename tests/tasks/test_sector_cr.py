@@ -145,7 +145,7 @@ def test_start_points_cover_the_sector() -> None:
     nv = task.n_vertices[0]
     poly = task.poly_nm[0, :nv]
     rng = np.random.default_rng(5)
-    pts = np.concatenate([np.stack(task._sample_inside(rng, 0, poly, 200), axis=1) for _ in range(30)])
+    pts = np.concatenate([np.stack(task._sample_inside(np.array([0]), np.array([200]), [rng])[0], axis=1) for _ in range(30)])
     north = (pts[:, 0] - CENTER[0]) * 60
     east = (pts[:, 1] - CENTER[1]) * 60 * COS_C
     x, y = poly[:, 0], poly[:, 1]
