@@ -328,7 +328,10 @@ class SectorCRTask(Task):
             inside = np.empty(lat.shape, bool)
             self.kernels.points_in_owner_polygon(lat, lon, owner, self.poly_lat, self.poly_lon, self.n_vertices, inside)
             return inside
-        return points_in_polygons(lat[:, None], lon[:, None], self.poly_lat[owner][:, None], self.poly_lon[owner][:, None], self.n_vertices[owner][:, None])[:, 0, 0]
+        inside = points_in_polygons(
+            lat[:, None], lon[:, None], self.poly_lat[owner][:, None], self.poly_lon[owner][:, None], self.n_vertices[owner][:, None]
+        )
+        return inside[:, 0, 0]
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
