@@ -341,13 +341,13 @@ class Simulator:
     def cmd_heading(self, env: ArrayLike, slot: ArrayLike, hdg: ArrayLike) -> None:
         """``HDG acid hdg`` [deg]: select a track (wind-corrected above 50 ft); LNAV off."""
         env, slot = self._index(env, slot)
-        hdg = np.broadcast_to(np.asarray(hdg, dtype=np.float64), env.shape)
-        trk = hdg.copy()
+        hdg = np.asarray(hdg, dtype=np.float64)
+        trk = hdg.copy() if hdg.shape == env.shape else np.broadcast_to(hdg, env.shape).copy()
         windy = self.wind.has_wind[env] if self.wind.any else None
         if windy is not None and windy.any():
             e, s = env[windy], slot[windy]
             above = self.alt[e, s] > WIND_MIN_ALT
-            e, s, h = e[above], s[above], hdg[windy][above]
+            e, s, h = e[above], s[above], trk[windy][above]
             tasnorth = self.tas[e, s] * np.cos(np.radians(h))
             taseast = self.tas[e, s] * np.sin(np.radians(h))
             vn, ve = self.wind.at(e, self.lat[e, s], self.lon[e, s])

@@ -228,7 +228,7 @@ class BlueSkyVectorEnv(VectorEnv):
             if k.startswith("kpi_"):
                 info[f"_{k}"] = done.copy()
         obs = res.observation
-        if np.any(done):
+        if done.any():
             ended = np.flatnonzero(done)
             final_obs = {k: v.copy() for k, v in obs.items()}
             final_info = {k: v.copy() for k, v in res.info.items()}

@@ -325,9 +325,9 @@ class Task(abc.ABC):
             raise ValueError(f"action must be numeric with shape {(self.n_envs, *spec.shape)}, got {action!r}") from exc
         if a.shape != (self.n_envs, *spec.shape):
             raise ValueError(f"action has shape {a.shape}, expected {(self.n_envs, *spec.shape)} for {self.env_id}")
-        if not np.all(np.isfinite(a)):
+        if not np.isfinite(a).all():
             raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
-        return np.clip(a, spec.low, spec.high)
+        return np.minimum(np.maximum(a, spec.low), spec.high)  # np.clip's result, for finite values
 
     def step(self, action: Any) -> StepResult:
         """Apply a batch of actions, run the physics sub-steps and evaluate every episode."""
@@ -342,12 +342,13 @@ class Task(abc.ABC):
             self.stats.drift_sum += drift
             self.stats.drift_n += 1
         reached = self.goal_reached() & np.isnan(self.stats.time_to_goal)
-        self.stats.time_to_goal[reached] = self.stats.steps[reached] * self.dt * self.action_frequency
+        if reached.any():
+            self.stats.time_to_goal[reached] = self.stats.steps[reached] * self.dt * self.action_frequency
         truncated = ~terminated & ((self.stats.steps >= self.time_limit) | self.truncate())
         info = self.episode_info()
         info.update({f"reward_{k}": v for k, v in components.items()})
         done = terminated | truncated
-        if np.any(done):
+        if done.any():
             info.update(self.kpis())
         return StepResult(obs, reward, terminated, truncated, info)
 
