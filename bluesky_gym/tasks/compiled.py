@@ -168,13 +168,23 @@ def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
     ``track`` is :meth:`bluesky_gym.core.Simulator.run`'s (steps, 2, n, m) positions, ``poly_*``
     (n, K, V), ``n_vertices`` (n, K) and ``out`` (steps, n).
     """
-    for k in range(track.shape[0]):
-        for e in range(poly_lat.shape[0]):
-            c = 0
-            for j in range(poly_lat.shape[1]):
-                if _polygon_contains(track[k, 0, e, 0], track[k, 1, e, 0], poly_lat[e, j], poly_lon[e, j], n_vertices[e, j]):
-                    c += 1
-            out[k, e] = c
+    for e in range(poly_lat.shape[0]):
+        for k in range(track.shape[0]):
+            out[k, e] = 0
+        for j in range(poly_lat.shape[1]):
+            nv = n_vertices[e, j]
+            if nv == 0:
+                continue
+            # A point outside the polygon's latitude range crosses no edge: the even-odd test
+            # would say "outside" for it, so only the others are tested.
+            lo = hi = poly_lat[e, j, 0]
+            for v in range(1, nv):
+                lo = min(lo, poly_lat[e, j, v])
+                hi = max(hi, poly_lat[e, j, v])
+            for k in range(track.shape[0]):
+                y = track[k, 0, e, 0]
+                if lo <= y < hi and _polygon_contains(y, track[k, 1, e, 0], poly_lat[e, j], poly_lon[e, j], nv):
+                    out[k, e] += 1
 
 
 @_jit
