@@ -33,6 +33,17 @@ def point_at_distance(lat: ArrayLike, lon: ArrayLike, d_km: ArrayLike, bearing: 
     return np.degrees(lat2), np.degrees(lon2)
 
 
+def point_at_distance_scalar(lat: float, lon: float, d_km: float, bearing: float, radius_km: float = EARTH_RADIUS_KM) -> tuple[float, float]:
+    """:func:`point_at_distance` for one point, in scalar Python (the same libm calls and order)."""
+    lat1 = math.radians(lat)
+    lon1 = math.radians(lon)
+    a = math.radians(bearing)
+    dr = float(d_km) / radius_km
+    lat2 = math.asin(math.sin(lat1) * math.cos(dr) + math.cos(lat1) * math.sin(dr) * math.cos(a))
+    lon2 = lon1 + math.atan2(math.sin(a) * math.sin(dr) * math.cos(lat1), math.cos(dr) - math.sin(lat1) * math.sin(lat2))
+    return math.degrees(lat2), math.degrees(lon2)
+
+
 def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: ArrayLike) -> Array:
     """Great-circle initial bearing [deg, 0..360) from point 1 to point 2 (the reference ``get_hdg``).
 

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,6 +16,7 @@ from bluesky_gym.tasks.geometry import (
     PolygonSet,
     nm_to_latlon,
     point_at_distance,
+    point_at_distance_scalar,
     points_in_polygons,
     polygon_area,
     random_convex_polygon,
@@ -161,14 +163,14 @@ class StaticObstacleTask(Task):
             polys = []
             for i in range(k):
                 circle_area = rng.integers(2 * c.obstacle_area_min, c.obstacle_area_max)
-                radius = np.sqrt(circle_area / np.pi)
+                radius = math.sqrt(int(circle_area) / math.pi)
                 polys.append(random_convex_polygon(rng, radius, c.obstacle_area_min))
                 self.obstacle_radius[e, i] = radius
                 self.obstacle_area[e, i] = polygon_area(polys[-1])
             self._store_polygons(e, clat, clon, polys)
             self.wpt_lat[e], self.wpt_lon[e] = sample_waypoint(
                 rng, lat0[j], lon0[j], self.obstacle_lat[e], self.obstacle_lon[e], self.obstacle_nv[e],
-                c.waypoint_distance_min, c.waypoint_distance_max,
+                c.waypoint_distance_min, c.waypoint_distance_max, self.kernels,
             )
         # The aircraft starts pointing at the waypoint: hdg and the autopilot track (spec 6).
         qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
@@ -425,6 +427,7 @@ def sample_waypoint(
     n_vertices: NDArray[np.int64],
     d_min: int,
     d_max: int,
+    kernels: Any = None,
 ) -> tuple[float, float]:
     """Rejection-sample a waypoint outside every obstacle, as the reference does.
 
@@ -441,6 +444,7 @@ def sample_waypoint(
         n_vertices: (K,) vertex counts.
         d_min: Lower bound of the distance draw [km].
         d_max: Exclusive upper bound of the distance draw [km].
+        kernels: A task's compiled functions for the inside test, or None for numpy.
 
     Returns:
         The waypoint (lat, lon) [deg].
@@ -454,8 +458,12 @@ def sample_waypoint(
         tries += 1
         d = rng.integers(d_min, d_max)
         b = rng.integers(0, BEARING_END)
-        wlat, wlon = point_at_distance(lat, lon, d, b)
-        inside = points_in_polygons(np.atleast_1d(wlat), np.atleast_1d(wlon), poly_lat, poly_lon, n_vertices)
+        wlat, wlon = point_at_distance_scalar(lat, lon, d, b)
+        if kernels is not None:
+            inside = np.empty((1, len(n_vertices)), bool)
+            kernels.ownship_in_polygons(np.array([[wlat]]), np.array([[wlon]]), poly_lat[None], poly_lon[None], n_vertices[None], inside)
+        else:
+            inside = points_in_polygons(np.atleast_1d(wlat), np.atleast_1d(wlon), poly_lat, poly_lon, n_vertices)
         if tries > MAX_WAYPOINT_TRIES:
             raise RuntimeError(
                 f"no waypoint outside the obstacles after {MAX_WAYPOINT_TRIES} tries; the obstacles cover the waypoint "

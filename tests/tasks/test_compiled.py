@@ -9,10 +9,7 @@ from bluesky_gym.core import Simulator
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.geometry import (
     points_in_polygons,
-    polygon_area,
-    random_convex_polygon,
     ref_kwikdist,
-    sort_points_clockwise,
 )
 from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
 from bluesky_gym.tasks.merge import MergeTask
@@ -128,24 +125,6 @@ def test_ownship_in_polygons_matches_the_numpy_even_odd_test() -> None:
     compiled.ownship_in_polygons(lat, lon, poly_lat, poly_lon, nv, out)
     np.testing.assert_array_equal(out, points_in_polygons(lat, lon, poly_lat, poly_lon, nv)[:, 0, :])
     assert out.any() and not out.all()
-
-
-def test_scalar_polygon_generator_equals_the_numpy_helpers() -> None:
-    for seed in range(300):
-        rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
-        radius = 1.0 + 30.0 * rng_a.uniform()
-        rng_b.uniform()
-        min_area = 0.6 * np.pi * radius * radius
-        poly = random_convex_polygon(rng_a, radius, min_area)
-        # The same draws through the numpy helpers.
-        pts = [np.array([radius * np.cos(a), radius * np.sin(a)]) for a in 2 * np.pi * rng_b.uniform(0.0, 1.0, 3)]
-        ref = sort_points_clockwise(pts)
-        while polygon_area(ref) < min_area:
-            a = 2 * np.pi * rng_b.uniform(0.0, 1.0)
-            pts.append(np.array([radius * np.cos(a), radius * np.sin(a)]))
-            ref = sort_points_clockwise(pts)
-        np.testing.assert_array_equal(poly, ref)
-        assert rng_a.uniform() == rng_b.uniform()  # same number of draws
 
 
 def test_polygon_counts_along_a_track_match_the_numpy_test() -> None:
