@@ -233,8 +233,10 @@ class BlueSkyVectorEnv(VectorEnv):
             final_obs = {k: v.copy() for k, v in obs.items()}
             final_info = {k: v.copy() for k, v in res.info.items()}
             self.task.reset(ended)
-            new_obs = self.task.observe()
-            obs = {k: np.where(_expand(done, v.ndim), new_obs[k], v) for k, v in obs.items()}
+            new_obs = self.task.observe_envs(ended)
+            obs = {k: v.copy() for k, v in obs.items()}
+            for k, v in obs.items():
+                v[ended] = new_obs[k]
             info["final_obs"] = final_obs
             info["_final_obs"] = done.copy()
             info["final_info"] = final_info
@@ -263,10 +265,6 @@ class BlueSkyVectorEnv(VectorEnv):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-
-def _expand(mask: np.ndarray, ndim: int) -> np.ndarray:
-    return mask.reshape(mask.shape + (1,) * (ndim - 1))
 
 
 def _pick(info: dict[str, Any], i: int) -> dict[str, Any]:

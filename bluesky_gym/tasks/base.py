@@ -241,6 +241,14 @@ class Task(abc.ABC):
     def observe(self) -> dict[str, Array]:
         """Observation of every episode: key -> (n_envs, *shape), float64."""
 
+    def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
+        """Observation of episodes ``envs`` only: key -> (len(envs), *shape) (e.g. after resetting them).
+
+        The same values as :meth:`observe` gives for those rows. By default it is that
+        observation, indexed; tasks with a cheaper per-episode form override it.
+        """
+        return {k: v[envs] for k, v in self.observe().items()}
+
     @abc.abstractmethod
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Reward (n_envs,), termination (n_envs,) and named reward components, after a step."""

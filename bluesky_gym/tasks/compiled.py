@@ -216,10 +216,11 @@ def _relative_velocity(hdg, tas, e, j):
 
 # --- SectorCR ----------------------------------------------------------------------------------
 @_jit
-def sector_observe(lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out):
-    """:meth:`bluesky_gym.tasks.sector_cr.SectorCRTask.observe`.
+def sector_observe(envs, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out):
+    """:meth:`bluesky_gym.tasks.sector_cr.SectorCRTask.observe` of episodes ``envs``.
 
     Args:
+        envs: (p,) the episodes to observe; output row i belongs to episode ``envs[i]``.
         lat: (n, m) latitudes [deg].
         lon: (n, m) longitudes [deg].
         hdg: (n, m) headings [deg].
@@ -229,9 +230,9 @@ def sector_observe(lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales,
         wpt_lon: (n,) its longitude [deg].
         center: (lat, lon, cos(radians(lat))) of the flat projection.
         scales: (airspeed mean, airspeed std, position, vx, vy, distance mean, distance std).
-        drift_out: (n,) drift [deg].
-        own_out: (n, 3) cos(drift), sin(drift), airspeed.
-        intruder_out: (n, 7, k) x_r, y_r, vx_r, vy_r, cos(track), sin(track), distances of the
+        drift_out: (p,) drift [deg].
+        own_out: (p, 3) cos(drift), sin(drift), airspeed.
+        intruder_out: (p, 7, k) x_r, y_r, vx_r, vy_r, cos(track), sin(track), distances of the
             k closest intruders.
     """
     spd_mean, spd_std, pos_scale, vx_scale, vy_scale, d_mean, d_std = scales
@@ -242,13 +243,14 @@ def sector_observe(lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales,
     order = np.empty(k, np.int64)
     rx = np.empty(m - 1)
     ry = np.empty(m - 1)
-    for e in range(lat.shape[0]):
+    for r in range(envs.shape[0]):
+        e = envs[r]
         qdr, _ = _kwikqdrdist(lat[e, 0], lon[e, 0], wpt_lat[e], wpt_lon[e])
         drift = _wrap180(hdg[e, 0] - qdr)
-        drift_out[e] = drift
-        own_out[e, 0] = math.cos(drift * _RAD)
-        own_out[e, 1] = math.sin(drift * _RAD)
-        own_out[e, 2] = (tas[e, 0] - spd_mean) / spd_std
+        drift_out[r] = drift
+        own_out[r, 0] = math.cos(drift * _RAD)
+        own_out[r, 1] = math.sin(drift * _RAD)
+        own_out[r, 2] = (tas[e, 0] - spd_mean) / spd_std
         # Flat positions [m] around the sector centre (geometry.latlon_to_nm * 1852).
         x0 = (lat[e, 0] - clat) * 60.0 * NM2KM * _M_PER_KM
         y0 = (lon[e, 0] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM
@@ -261,21 +263,22 @@ def sector_observe(lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales,
             j = order[i]
             vx, vy = _relative_velocity(hdg, tas, e, j + 1)
             trk = math.atan2(vy, vx)
-            intruder_out[e, 0, i] = rx[j] / pos_scale
-            intruder_out[e, 1, i] = ry[j] / pos_scale
-            intruder_out[e, 2, i] = vx / vx_scale
-            intruder_out[e, 3, i] = vy / vy_scale
-            intruder_out[e, 4, i] = math.cos(trk)
-            intruder_out[e, 5, i] = math.sin(trk)
-            intruder_out[e, 6, i] = (key[j] - d_mean) / d_std
+            intruder_out[r, 0, i] = rx[j] / pos_scale
+            intruder_out[r, 1, i] = ry[j] / pos_scale
+            intruder_out[r, 2, i] = vx / vx_scale
+            intruder_out[r, 3, i] = vy / vy_scale
+            intruder_out[r, 4, i] = math.cos(trk)
+            intruder_out[r, 5, i] = math.sin(trk)
+            intruder_out[r, 6, i] = (key[j] - d_mean) / d_std
 
 
 # --- Merge -------------------------------------------------------------------------------------
 @_jit
-def merge_observe(lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out):
-    """:meth:`bluesky_gym.tasks.merge.MergeTask.observe`.
+def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out):
+    """:meth:`bluesky_gym.tasks.merge.MergeTask.observe` of episodes ``envs``.
 
     Args:
+        envs: (p,) the episodes to observe; output row i belongs to episode ``envs[i]``.
         lat: (n, m) latitudes [deg].
         lon: (n, m) longitudes [deg].
         hdg: (n, m) headings [deg].
@@ -284,8 +287,8 @@ def merge_observe(lat, lon, hdg, tas, active, target_lat, target_lon, scales, ow
         target_lat: (n,) latitude of the ownship's current target [deg].
         target_lon: (n,) its longitude [deg].
         scales: (position, speed, distance) divisors.
-        own_out: (n, 4) drift [deg], target distance [NM], cos(drift), sin(drift).
-        intruder_out: (n, 7, k) x_r, y_r, vx_r, vy_r, cos(track), sin(track), distances of the
+        own_out: (p, 4) drift [deg], target distance [NM], cos(drift), sin(drift).
+        intruder_out: (p, 7, k) x_r, y_r, vx_r, vy_r, cos(track), sin(track), distances of the
             k closest intruders.
     """
     pos_scale, spd_scale, d_scale = scales
@@ -293,14 +296,15 @@ def merge_observe(lat, lon, hdg, tas, active, target_lat, target_lon, scales, ow
     k = intruder_out.shape[2]
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
-    for e in range(lat.shape[0]):
+    for r in range(envs.shape[0]):
+        e = envs[r]
         lat0, lon0 = lat[e, 0], lon[e, 0]
         qdr, dist = _kwikqdrdist(lat0, lon0, target_lat[e], target_lon[e])
         drift = _wrap180(hdg[e, 0] - qdr)
-        own_out[e, 0] = drift
-        own_out[e, 1] = dist
-        own_out[e, 2] = math.cos(drift * _RAD)
-        own_out[e, 3] = math.sin(drift * _RAD)
+        own_out[r, 0] = drift
+        own_out[r, 1] = dist
+        own_out[r, 2] = math.cos(drift * _RAD)
+        own_out[r, 3] = math.sin(drift * _RAD)
         for j in range(1, m):
             key[j - 1] = _kwikdist_matrix(lat0, lon0, lat[e, j], lon[e, j])
         _closest(key, active[e, 1:], order)
@@ -310,10 +314,10 @@ def merge_observe(lat, lon, hdg, tas, active, target_lat, target_lon, scales, ow
             d_m = d_int * NM2KM * _M_PER_KM
             vx, vy = _relative_velocity(hdg, tas, e, j)
             trk = math.atan2(vy, vx)
-            intruder_out[e, 0, i] = d_m * math.cos(brg * _RAD) / pos_scale
-            intruder_out[e, 1, i] = d_m * math.sin(brg * _RAD) / pos_scale
-            intruder_out[e, 2, i] = vx / spd_scale
-            intruder_out[e, 3, i] = vy / spd_scale
-            intruder_out[e, 4, i] = math.cos(trk)
-            intruder_out[e, 5, i] = math.sin(trk)
-            intruder_out[e, 6, i] = key[j - 1] / d_scale
+            intruder_out[r, 0, i] = d_m * math.cos(brg * _RAD) / pos_scale
+            intruder_out[r, 1, i] = d_m * math.sin(brg * _RAD) / pos_scale
+            intruder_out[r, 2, i] = vx / spd_scale
+            intruder_out[r, 3, i] = vy / spd_scale
+            intruder_out[r, 4, i] = math.cos(trk)
+            intruder_out[r, 5, i] = math.sin(trk)
+            intruder_out[r, 6, i] = key[j - 1] / d_scale

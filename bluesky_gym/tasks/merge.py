@@ -222,24 +222,36 @@ class MergeTask(Task):
             "distances": closest(d_sort) / WAYPOINT_DIST_SCALE,
         }
 
-    def _observe_compiled(self, tlat: Array, tlon: Array) -> dict[str, Array]:
-        """The same observation through :func:`bluesky_gym.tasks.compiled.merge_observe`."""
+    def _observe_compiled(self, tlat: Array, tlon: Array, envs: NDArray[np.int64] | None = None) -> dict[str, Array]:
+        """The same observation through :func:`bluesky_gym.tasks.compiled.merge_observe` (of ``envs`` only if given)."""
         s = self.sim
-        n = self.n_envs
+        rows = self.all_envs if envs is None else envs
+        n = len(rows)
         own = np.empty((n, 4))
         intruders = np.empty((n, 7, NUM_AC_STATE))
-        self.kernels.merge_observe(s.lat, s.lon, s.hdg, s.tas, s.active, tlat, tlon, _OBS_SCALES, own, intruders)
-        self.drift = own[:, 0].copy()
-        self.waypoint_dist = own[:, 1].copy()
+        self.kernels.merge_observe(rows, s.lat, s.lon, s.hdg, s.tas, s.active, tlat, tlon, _OBS_SCALES, own, intruders)
+        if envs is None:
+            self.drift = own[:, 0].copy()
+            self.waypoint_dist = own[:, 1].copy()
+        else:
+            self.drift[envs] = own[:, 0]
+            self.waypoint_dist[envs] = own[:, 1]
         obs = {
             "cos(drift)": own[:, 2:3],
             "sin(drift)": own[:, 3:4],
-            "airspeed": s.tas[:, :1].copy(),
+            "airspeed": s.tas[rows, :1],
             "waypoint_dist": own[:, 1:2] / WAYPOINT_DIST_SCALE,
-            "faf_reached": self.wpt_reach[:, None].astype(np.float64),
+            "faf_reached": self.wpt_reach[rows, None].astype(np.float64),
         }
         obs.update(zip(("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances"), intruders.transpose(1, 0, 2)))
         return obs
+
+    def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
+        """Observation of episodes ``envs`` only (compiled: computed for those alone)."""
+        if self.compiled:
+            tlat, tlon = self.target()
+            return self._observe_compiled(tlat, tlon, np.asarray(envs, dtype=np.int64))
+        return super().observe_envs(envs)
 
     # --- reward ---------------------------------------------------------------------------------
     def intrusions(self) -> BoolArray:

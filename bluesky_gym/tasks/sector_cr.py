@@ -389,19 +389,29 @@ class SectorCRTask(Task):
             "distances": (d - DISTANCE_MEAN) / DISTANCE_STD,
         }
 
-    def _observe_compiled(self) -> dict[str, Array]:
-        """The same observation through :func:`bluesky_gym.tasks.compiled.sector_observe`."""
+    def _observe_compiled(self, envs: NDArray[np.int64] | None = None) -> dict[str, Array]:
+        """The same observation through :func:`bluesky_gym.tasks.compiled.sector_observe` (of ``envs`` only if given)."""
         s = self.sim
-        n = self.n_envs
+        rows = self.all_envs if envs is None else envs
+        n = len(rows)
         drift = np.empty(n)
         own = np.empty((n, 3))
         intruders = np.empty((n, 7, NUM_AC_STATE))
-        self.kernels.sector_observe(s.lat, s.lon, s.hdg, s.tas, s.active, self.wpt_lat[:, 0], self.wpt_lon[:, 0], _FLAT_CENTER, _OBS_SCALES,
-                                drift, own, intruders)
-        self.drift = drift
+        self.kernels.sector_observe(rows, s.lat, s.lon, s.hdg, s.tas, s.active, self.wpt_lat[:, 0], self.wpt_lon[:, 0], _FLAT_CENTER,
+                                    _OBS_SCALES, drift, own, intruders)
+        if envs is None:
+            self.drift = drift
+        else:
+            self.drift[envs] = drift
         obs = {"cos(drift)": own[:, 0:1], "sin(drift)": own[:, 1:2], "airspeed": own[:, 2:3]}
         obs.update(zip(("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances"), intruders.transpose(1, 0, 2)))
         return obs
+
+    def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
+        """Observation of episodes ``envs`` only (compiled: computed for those alone)."""
+        if self.compiled:
+            return self._observe_compiled(np.asarray(envs, dtype=np.int64))
+        return super().observe_envs(envs)
 
     # --- reward ---------------------------------------------------------------------------------
     def intrusions(self) -> BoolArray:

@@ -58,6 +58,8 @@ def test_compiled_episodes_equal_numpy_episodes(task_class: type) -> None:
             ref.reset(done)
             fast.reset(done)
             _assert_same(ref.observe(), fast.observe(), f"reset at step {step}")
+            # The observation of the reset episodes alone equals their rows of the full one.
+            _assert_same(fast.observe_envs(done), {k: v[done] for k, v in ref.observe().items()}, f"reset rows at step {step}")
     assert ended > 0  # the comparison covered episode ends and resets
 
 
@@ -81,7 +83,7 @@ def test_closest_intruders_keep_the_stable_order_of_ties_and_skip_empty_slots() 
     active[:5, 1:9] = False  # fewer active intruders than observed ones in some airspaces
     own = np.empty((200, 4))
     out = np.empty((200, 7, 5))
-    compiled.merge_observe(lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7), _OBS_SCALES, own, out)
+    compiled.merge_observe(np.arange(200), lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7), _OBS_SCALES, own, out)
     # distances column: the numpy order (stable argsort, empty slots last) of kwikdist_matrix.
     from bluesky_gym.tasks.geometry import ref_kwikdist_matrix
 
