@@ -58,11 +58,6 @@ def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: Arr
     return (np.degrees(np.arctan2(x, y)) + 360) % 360
 
 
-def random_point_on_circle(rng: np.random.Generator, radius: float) -> Array:
-    """A uniformly random point (x, y) on a circle of ``radius`` around the origin."""
-    return np.array(_point_on_circle(rng, float(radius)))
-
-
 def sort_points_clockwise(vertices: ArrayLike) -> Array:
     """Sort (north, east) points by atan2(east, north) ascending: clockwise by compass bearing."""
     v = np.asarray(vertices, dtype=np.float64)
@@ -92,6 +87,7 @@ def random_convex_polygon(rng: np.random.Generator, radius: float, min_area: flo
 
 
 def _point_on_circle(rng: np.random.Generator, radius: float) -> tuple[float, float]:
+    """A uniformly random point (x, y) on a circle of ``radius`` around the origin."""
     alpha = 2 * math.pi * rng.uniform(0.0, 1.0)
     return radius * math.cos(alpha), radius * math.sin(alpha)
 
