@@ -74,14 +74,14 @@ def _wrap180(x):
 
 
 @_jit_inline
-def _closest(key, active, out):
+def _closest(key, active, out, best):
     """Indices of the ``len(out)`` smallest ``key[j]`` over active j (ties: lower j first).
 
     The first columns of a stable argsort of ``where(active, key, inf)``; empty slots count as
-    inf. ``key`` and ``active`` run over the intruders (slots 1.. of the airspace).
+    inf. ``key`` and ``active`` run over the intruders (slots 1.. of the airspace); ``best`` is
+    scratch space of ``len(out)`` floats.
     """
     k = out.shape[0]
-    best = np.empty(k)
     filled = 0
     for j in range(key.shape[0]):
         d = key[j] if active[j] else np.inf
@@ -241,6 +241,7 @@ def sector_observe(envs, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, s
     k = intruder_out.shape[2]
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
+    best = np.empty(k)
     rx = np.empty(m - 1)
     ry = np.empty(m - 1)
     for r in range(envs.shape[0]):
@@ -258,7 +259,7 @@ def sector_observe(envs, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, s
             rx[j - 1] = (lat[e, j] - clat) * 60.0 * NM2KM * _M_PER_KM - x0
             ry[j - 1] = (lon[e, j] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM - y0
             key[j - 1] = math.sqrt(rx[j - 1] * rx[j - 1] + ry[j - 1] * ry[j - 1])
-        _closest(key, active[e, 1:], order)
+        _closest(key, active[e, 1:], order, best)
         for i in range(k):
             j = order[i]
             vx, vy = _relative_velocity(hdg, tas, e, j + 1)
@@ -296,6 +297,7 @@ def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scal
     k = intruder_out.shape[2]
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
+    best = np.empty(k)
     for r in range(envs.shape[0]):
         e = envs[r]
         lat0, lon0 = lat[e, 0], lon[e, 0]
@@ -307,7 +309,7 @@ def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scal
         own_out[r, 3] = math.sin(drift * _RAD)
         for j in range(1, m):
             key[j - 1] = _kwikdist_matrix(lat0, lon0, lat[e, j], lon[e, j])
-        _closest(key, active[e, 1:], order)
+        _closest(key, active[e, 1:], order, best)
         for i in range(k):
             j = order[i] + 1
             brg, d_int = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])

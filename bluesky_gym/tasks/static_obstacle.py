@@ -305,7 +305,7 @@ class StaticObstacleTask(Task):
         reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
         done_anyway = self.wpt_reached | reached  # ends at the first sub-step, obstacles or not
         drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        frozen: list[tuple[NDArray[np.int64], dict[str, np.ndarray]]] = []
+        frozen: list[tuple[NDArray[np.int64], dict[str, Any]]] = []
         for k in range(self.action_frequency):
             self.sim.step()
             self.drift_sum_rad += np.where(running, drift_rad, 0.0)
@@ -321,10 +321,9 @@ class StaticObstacleTask(Task):
                 break
             if ended.any() and k < self.action_frequency - 1:
                 envs = np.flatnonzero(ended)
-                frozen.append((envs, {f: getattr(self.sim, f)[envs].copy() for f in self.sim.state_fields()}))
+                frozen.append((envs, self.sim.snapshot(envs)))
         for envs, state in frozen:
-            for f, v in state.items():
-                getattr(self.sim, f)[envs] = v
+            self.sim.restore(state, envs)
         return self._finish_transition(reached, done_anyway, drift_rad, count)
 
     def _transition_traced(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
