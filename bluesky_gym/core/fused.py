@@ -18,15 +18,12 @@ import math
 
 import numpy as np
 
-try:  # numba is optional (extra "fast")
-    import numba
-
-    AVAILABLE = True
-except ImportError:  # pragma: no cover - exercised when the extra is missing
-    numba = None
-    AVAILABLE = False
-
 from bluesky_gym.core import performance as pf
+from bluesky_gym.core.jit import AVAILABLE as AVAILABLE
+from bluesky_gym.core.jit import jit, jit_inline
+from bluesky_gym.core.scalar import maximum as _maximum
+from bluesky_gym.core.scalar import mod as _mod
+from bluesky_gym.core.scalar import sign as _sign
 from bluesky_gym.core.simulator import FIELD_INDEX
 from bluesky_gym.core.units import FPM, FT, G0, R_EARTH
 
@@ -81,49 +78,13 @@ _I_VMAX = FIELD_INDEX["vmax"]
 _I_AXMAX = FIELD_INDEX["axmax"]
 
 
-def _jit(fn):
-    if numba is None:  # pragma: no cover
-        return fn
-    return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)
 
 
-def _jit_inline(fn):
-    if numba is None:  # pragma: no cover
-        return fn
-    return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)
 
 
-@_jit
-def _mod(a, b):
-    """numpy/Python float remainder (result has the sign of ``b``)."""
-    # Fast paths with the same result: fmod(a, b) is exactly a when |a| < |b|, and numpy then
-    # adds b to a negative remainder. (Zero goes the long way: its sign is set below.)
-    if b > 0.0:
-        if 0.0 < a < b:
-            return a
-        if -b < a < 0.0:
-            return a + b
-    m = np.fmod(a, b)
-    if m != 0.0:
-        if (b < 0.0) != (m < 0.0):
-            m += b
-    else:
-        m = math.copysign(0.0, b)
-    return m
 
 
-@_jit
-def _sign(x):
-    if x > 0.0:
-        return 1.0
-    if x < 0.0:
-        return -1.0
-    if x == 0.0:
-        return 0.0
-    return x  # NaN
-
-
-@_jit
+@jit
 def _atmos(h):
     """Vector ISA (p, rho, T) at ``h`` [m], BlueSky's ``vatmos`` operation order."""
     t = 288.15 - 0.0065 * h
@@ -138,31 +99,23 @@ def _atmos(h):
     return p, rho, t
 
 
-@_jit
+@jit
 def _tas2cas(tas, p, rho):
     qdyn = p * (math.pow(1.0 + rho * tas * tas / (7.0 * p), 3.5) - 1.0)
     cas = math.sqrt(_7P0_RHO0 * (math.pow(qdyn / _P0 + 1.0, 2.0 / 7.0) - 1.0))
     return -1 * cas if tas < 0 else cas
 
 
-@_jit
+@jit
 def _cas2tas(cas, p, rho):
     qdyn = _P0 * (math.pow(1.0 + _RHO0 * cas * cas / (7.0 * _P0), 3.5) - 1.0)
     tas = math.sqrt(7.0 * p / rho * (math.pow(1.0 + qdyn / p, 2.0 / 7.0) - 1.0))
     return -1 * tas if cas < 0 else tas
 
 
-@_jit
-def _maximum(a, b):
-    """np.maximum for scalars (NaN propagates)."""
-    if a != a:
-        return a
-    if b != b:
-        return b
-    return a if a >= b else b
 
 
-@_jit
+@jit
 def _performance(tas, vs, alt, perf):
     """OpenAP phase, speed envelope and axmax [dynamics.md 1.3-1.4]."""
     (
@@ -263,7 +216,7 @@ def _performance(tas, vs, alt, perf):
     return ph, vmin, vmax, axmax
 
 
-@_jit
+@jit
 def _same(a, b):
     """Bitwise-equal floats (so a memoised result is exactly what recomputing would give)."""
     return a == b and (a != 0.0 or math.copysign(1.0, a) == math.copysign(1.0, b))
@@ -299,14 +252,14 @@ _G_TAN_LNAV = G0 * float(np.tan(np.deg2rad(np.rad2deg(np.float64(_BANK_DEFAULT))
 _BANK_LNAV = float(np.deg2rad(np.rad2deg(np.float64(_BANK_DEFAULT))))
 
 
-@_jit
+@jit
 def _rwgs84_sc(sinlat, coslat):
     s2 = sinlat * sinlat
     c2 = coslat * coslat
     return math.sqrt((_A4 * c2 + _B4 * s2) / (_A2 * c2 + _B2 * s2))
 
 
-@_jit
+@jit
 def _qdrdist_compiled(latd1, lond1, latd2, lond2):
     """Scalar copy of :func:`bluesky_gym.core.geo.qdrdist` (deg, NM)."""
     lat1 = _DEG2RAD * latd1
@@ -333,7 +286,7 @@ def _qdrdist_compiled(latd1, lond1, latd2, lond2):
     return qdr, _M2NM * dist
 
 
-@_jit
+@jit
 def _rwgs84_python(latd):
     lat = latd * _RAD
     coslat = math.cos(lat)
@@ -345,7 +298,7 @@ def _rwgs84_python(latd):
     return math.sqrt((an * an + bn * bn) / (ad * ad + bd * bd))
 
 
-@_jit
+@jit
 def _qdrdist_python(latd1, lond1, latd2, lond2):
     """Scalar copy of :func:`bluesky_gym.core.geo.qdrdist_python` (deg, NM)."""
     res1 = _rwgs84_python(0.5 * (latd1 + latd2))
@@ -367,26 +320,26 @@ def _qdrdist_python(latd1, lond1, latd2, lond2):
     return qdr, d / _NM
 
 
-@_jit
+@jit
 def _qdrdist(python_geo, latd1, lond1, latd2, lond2):
     if python_geo:
         return _qdrdist_python(latd1, lond1, latd2, lond2)
     return _qdrdist_compiled(latd1, lond1, latd2, lond2)
 
 
-@_jit
+@jit
 def _degto180(x):
     return _mod(x + 180.0, 360) - 180.0
 
 
-@_jit
+@jit
 def _turn_distance(tas, qdr, next_qdr):
     local_next = qdr if next_qdr < -900.0 else next_qdr
     turnrad = tas * tas / _G_TAN_LNAV
     return abs(turnrad * math.tan(0.5 * abs(_degto180(_mod(qdr, 360.0) - _mod(local_next, 360.0))) * _RAD))
 
 
-@_jit_inline
+@jit_inline
 def _lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):
     """LNAV of aircraft ``i`` (mirrors ``Simulator._update_lnav``)."""
     if not swlnav[i]:
@@ -428,14 +381,14 @@ def _lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, ro
         F[_I_AP_TRK, i] = _mod(qdr, 360.0)
 
 
-@_jit
+@jit
 def lnav_kernel(F, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):
     """LNAV of every aircraft (flattened arrays; ``route_*`` shaped (aircraft, waypoints))."""
     for i in range(F.shape[1]):
         _lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo)
 
 
-@_jit_inline
+@jit_inline
 def _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
     hmax, vsmax, mmo, v_rotate = limits
@@ -590,7 +543,7 @@ def _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits,
     F[_I_DISTFLOWN, i] = F[_I_DISTFLOWN, i] + g * dt
 
 
-@_jit
+@jit
 def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, active):
     """Advance every aircraft by one step; mirrors ``Simulator.step`` operation by operation.
 
@@ -614,7 +567,7 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
             _step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo)
 
 
-@_jit
+@jit
 def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, active, lnav, trace):
     """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
 

@@ -19,7 +19,8 @@ import math
 
 import numpy as np
 
-from bluesky_gym.core.fused import AVAILABLE, _jit, _jit_inline, _mod
+from bluesky_gym.core.jit import AVAILABLE, jit, jit_inline
+from bluesky_gym.core.scalar import mod as _mod
 from bluesky_gym.core.units import NM2KM
 
 __all__ = ["AVAILABLE"]
@@ -32,7 +33,7 @@ _M_PER_KM = 1000.0
 
 
 # --- BlueSky's Python kwik forms (tasks/geometry.ref_kwik*), per pair of points -----------------
-@_jit_inline
+@jit_inline
 def _kwik_parts(lata, lona, latb, lonb):
     dlat = (latb - lata) * _RAD
     dlon = (_mod((lonb - lona) + 180.0, 360.0) - 180.0) * _RAD
@@ -40,14 +41,14 @@ def _kwik_parts(lata, lona, latb, lonb):
     return dlat, dlon, cavelat
 
 
-@_jit_inline
+@jit_inline
 def _kwikdist(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist` [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
     return _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
 
 
-@_jit_inline
+@jit_inline
 def _kwikqdrdist(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikqdrdist`: bearing [deg, 0..360) and distance [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
@@ -56,14 +57,14 @@ def _kwikqdrdist(lata, lona, latb, lonb):
     return qdr, dist
 
 
-@_jit_inline
+@jit_inline
 def _kwikdist_matrix(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist_matrix` [NM] (other product grouping)."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
     return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
 
 
-@_jit_inline
+@jit_inline
 def _wrap180(x):
     """The reference's single wrap (:func:`bluesky_gym.tasks.base.wrap180`)."""
     if x > 180.0:
@@ -73,7 +74,7 @@ def _wrap180(x):
     return x
 
 
-@_jit_inline
+@jit_inline
 def _closest(key, active, out, best):
     """Indices of the ``len(out)`` smallest ``key[j]`` over active j (ties: lower j first).
 
@@ -100,7 +101,7 @@ def _closest(key, active, out, best):
         out[pos] = j
 
 
-@_jit_inline
+@jit_inline
 def _polygon_contains(y, x, py, px, nv):
     """Even-odd test of point (lat y, lon x) against the first ``nv`` vertices of (py, px).
 
@@ -116,7 +117,7 @@ def _polygon_contains(y, x, py, px, nv):
 
 
 # --- shared by the tasks -----------------------------------------------------------------------
-@_jit
+@jit
 def kwik_separation(lat, lon, alt, active, intrusion_nm, vertical_m, dist_out, los_out):
     """:meth:`bluesky_gym.tasks.base.Task.kwik_separation` into ``dist_out``/``los_out`` (n, m).
 
@@ -139,7 +140,7 @@ def kwik_separation(lat, lon, alt, active, intrusion_nm, vertical_m, dist_out, l
                 los_out[e, j] = False
 
 
-@_jit
+@jit
 def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
     """Whether each episode's ownship (slot 0) lies in each of its polygons.
 
@@ -150,7 +151,7 @@ def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
             out[e, k] = _polygon_contains(lat[e, 0], lon[e, 0], poly_lat[e, k], poly_lon[e, k], n_vertices[e, k])
 
 
-@_jit
+@jit
 def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out):
     """Even-odd test of points (P,) each against the polygon of its episode ``owner[p]``.
 
@@ -161,7 +162,7 @@ def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out
         out[p] = _polygon_contains(lat[p], lon[p], poly_lat[e], poly_lon[e], n_vertices[e])
 
 
-@_jit
+@jit
 def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
     """How many of its polygons contain each episode's ownship at each step of a track.
 
@@ -187,7 +188,7 @@ def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
                     out[k, e] += 1
 
 
-@_jit
+@jit
 def intruder_relative_state(lat, lon, hdg, gs, out):
     """:func:`bluesky_gym.tasks.vertical_cr.intruder_relative_state` into ``out`` (5, n, m - 1).
 
@@ -206,7 +207,7 @@ def intruder_relative_state(lat, lon, hdg, gs, out):
             out[4, e, j - 1] = gs0 - math.sin(difference) * gs[e, j]
 
 
-@_jit_inline
+@jit_inline
 def _relative_velocity(hdg, tas, e, j):
     """(vx_r, vy_r) of intruder slot ``j`` (:func:`bluesky_gym.tasks.sector_cr.relative_velocity`)."""
     vx = math.cos(hdg[e, j] * _RAD) * tas[e, j] - math.cos(hdg[e, 0] * _RAD) * tas[e, 0]
@@ -215,7 +216,7 @@ def _relative_velocity(hdg, tas, e, j):
 
 
 # --- SectorCR ----------------------------------------------------------------------------------
-@_jit
+@jit
 def sector_observe(envs, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out):
     """:meth:`bluesky_gym.tasks.sector_cr.SectorCRTask.observe` of episodes ``envs``.
 
@@ -274,7 +275,7 @@ def sector_observe(envs, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, s
 
 
 # --- Merge -------------------------------------------------------------------------------------
-@_jit
+@jit
 def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out):
     """:meth:`bluesky_gym.tasks.merge.MergeTask.observe` of episodes ``envs``.
 

@@ -1,0 +1,54 @@
+"""Compilation of the scalar kernels with numba, and the uncompiled fallback.
+
+Every piece of physics and geometry in the package is written once, as scalar Python functions
+that numba compiles (``nopython``, no fast-math, so floating-point results are those of the
+plain source). Where numba is not installed the same functions run as ordinary Python: correct,
+but orders of magnitude slower, and a :class:`RuntimeWarning` says so once.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+try:
+    import numba
+
+    AVAILABLE = True
+except ImportError:  # pragma: no cover - exercised only without numba
+    numba = None
+    AVAILABLE = False
+
+#: How to get the compiled kernels.
+INSTALL_HINT = "pip install numba"
+_warned = False
+
+
+def _warn_uncompiled() -> None:
+    global _warned
+    if not _warned:
+        _warned = True
+        warnings.warn(
+            f"numba is not installed: BlueSky-Gym's kernels run as plain Python, about 1000x slower ({INSTALL_HINT})",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+
+
+def jit(fn: F) -> F:
+    """Compile ``fn`` with numba (cached, no fast-math); without numba, return it unchanged."""
+    if numba is None:  # pragma: no cover
+        _warn_uncompiled()
+        return fn
+    return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)  # type: ignore[no-any-return]
+
+
+def jit_inline(fn: F) -> F:
+    """:func:`jit`, inlined into its callers by numba (for small helpers of hot loops)."""
+    if numba is None:  # pragma: no cover
+        _warn_uncompiled()
+        return fn
+    return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)  # type: ignore[no-any-return]
