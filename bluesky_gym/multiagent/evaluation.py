@@ -1,7 +1,7 @@
 """Evaluation of joint policies on held-out multi-agent scenarios, and KPI tables.
 
 ``evaluate(name, policy, episodes)`` plays the scenarios of the evaluation seeds
-``2**31 .. 2**31 + episodes - 1`` (:func:`bluesky_gym.training.seeds.eval_seeds`, never used in
+``2**31 .. 2**31 + episodes - 1`` (:func:`bluesky_gym.envs.seeds.eval_seeds`, never used in
 training) as one batch of multi-agent episodes, each played once, and returns one record per
 episode: the team return and the episode KPIs ``kpi_*`` of
 :meth:`~bluesky_gym.multiagent.base.MultiAgentTask.kpis`. Every policy evaluated with the same
@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 from gymnasium.utils import seeding
 
+from bluesky_gym.envs.seeds import eval_seeds
 from bluesky_gym.multiagent import task_class
 from bluesky_gym.multiagent.policies import MultiAgentPolicy
-from bluesky_gym.training.seeds import eval_seeds
 
 #: (record key, column label) of the KPI table.
 KPI_COLUMNS: tuple[tuple[str, str], ...] = (

@@ -48,10 +48,10 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
+from bluesky_gym.envs.seeds import train_env_seeds
+from bluesky_gym.extras import require_sb3
 from bluesky_gym.multiagent import task_class
 from bluesky_gym.multiagent.base import MultiAgentTask
-from bluesky_gym.training import require_sb3
-from bluesky_gym.training.seeds import train_env_seeds
 
 require_sb3()
 

@@ -1,11 +1,10 @@
 """The benchmark: train, evaluate, compare and plot Stable-Baselines3 agents on BlueSky-Gym.
 
 Stable-Baselines3 and PyTorch are optional (the ``train`` extra). Modules of this package that
-need them import them lazily through :func:`require_sb3`, so ``import bluesky_gym.training`` and
+need them import them lazily through :func:`bluesky_gym.extras.require_sb3`, so ``import bluesky_gym.training`` and
 the reference policies, evaluation and plotting of stored runs work without them.
 
 Modules:
-    seeds: the training / evaluation seed split.
     sb3_vec_env: :class:`~bluesky_gym.training.sb3_vec_env.SB3VecEnv`, SB3's VecEnv over the
         native batched environment.
     hyperparams: the paper's hyperparameters and config files.
@@ -18,38 +17,12 @@ Modules:
 
 from __future__ import annotations
 
-from types import ModuleType
 from typing import Any
 
-TRAIN_EXTRA_HINT = 'pip install "bluesky-gym[train]"'
-DISTRIBUTED_EXTRA_HINT = 'pip install "bluesky-gym[distributed]"'
+from bluesky_gym.extras import require_sb3
 
 ALGORITHMS = ("PPO", "SAC", "TD3", "DDPG")
 OFF_POLICY = ("SAC", "TD3", "DDPG")
-
-
-class MissingDependencyError(ImportError):
-    """An optional dependency is not installed; the message says which extra provides it."""
-
-
-def require_sb3() -> ModuleType:
-    """Import Stable-Baselines3, or raise :class:`MissingDependencyError` naming the extra."""
-    try:
-        import stable_baselines3
-    except ImportError as exc:
-        raise MissingDependencyError(f"training needs Stable-Baselines3 and PyTorch, which are not installed: {TRAIN_EXTRA_HINT}") from exc
-    return stable_baselines3
-
-
-def require_ray() -> ModuleType:
-    """Import Ray, or raise :class:`MissingDependencyError` naming the extra."""
-    try:
-        import ray
-    except ImportError as exc:
-        raise MissingDependencyError(
-            f"distributed sweeps need Ray, which is not installed: {DISTRIBUTED_EXTRA_HINT} (or run the sweep with --local)"
-        ) from exc
-    return ray
 
 
 def make_vector_env(env_id: str, num_envs: int, **kwargs: Any) -> Any:

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from bluesky_gym.envs.seeds import EVAL_SEED_BASE
 from bluesky_gym.training.evaluation import (
     evaluate,
     format_table,
@@ -31,7 +32,6 @@ from bluesky_gym.training.evaluation import (
 from bluesky_gym.training.hyperparams import DEMO, PAPER, merge
 from bluesky_gym.training.io import atomic_write_json
 from bluesky_gym.training.runner import make_run_spec, run_dir_for, run_training
-from bluesky_gym.training.seeds import EVAL_SEED_BASE
 
 
 def run_demo(
@@ -126,10 +126,8 @@ def run_demo(
 
 def render_gif(env_id: str, model: Path, path: Path) -> Path | None:
     """Render one held-out episode of a trained model to a GIF, if the renderer is available."""
-    try:
-        from bluesky_gym.cli.render import record
-    except ImportError:
-        return None
+    from bluesky_gym.training.recording import record
+
     try:
         written, _ = record(env_id, policy=str(model), episodes=1, out=path, seed=EVAL_SEED_BASE, algo="ppo", fps=10.0)
     except ImportError:

@@ -1,7 +1,7 @@
 """Deterministic evaluation on held-out scenarios, KPI tables and reference scores.
 
 An evaluation of ``N`` episodes runs the scenarios of the evaluation seeds
-``2**31 .. 2**31 + N - 1`` (:func:`bluesky_gym.training.seeds.eval_seeds`), never used in
+``2**31 .. 2**31 + N - 1`` (:func:`bluesky_gym.envs.seeds.eval_seeds`), never used in
 training, as one batch of environments (in chunks of ``batch`` episodes): every environment of
 the batch plays exactly one episode and its first episode's final info is recorded. The same
 ``N`` gives every policy the same scenarios, so results are directly comparable.
@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from bluesky_gym.envs.seeds import EVAL_SEED_BASE, eval_seeds
 from bluesky_gym.training import algorithm_class, make_vector_env
-from bluesky_gym.training.io import atomic_write_csv, atomic_write_json, read_json
+from bluesky_gym.training.io import atomic_write_csv, atomic_write_json, latest_checkpoint, read_json
 from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_policy
-from bluesky_gym.training.seeds import EVAL_SEED_BASE, eval_seeds
 
 #: (column, episode-record key, label) of the KPI table.
 KPI_COLUMNS: tuple[tuple[str, str, str], ...] = (
@@ -273,8 +273,6 @@ def find_model(path: str | Path) -> tuple[Path, str | None]:
         if (p / "model.zip").exists():
             p = p / "model.zip"
         else:
-            from bluesky_gym.training.runner import latest_checkpoint
-
             ckpt = latest_checkpoint(p)
             if ckpt is None:
                 raise FileNotFoundError(f"{path} holds neither model.zip nor a checkpoint")

@@ -180,3 +180,15 @@ def _fsync(path: Path) -> None:
             os.fsync(fd)
         finally:
             os.close(fd)
+
+
+def latest_checkpoint(run_dir: str | Path) -> tuple[dict[str, Any], Path] | None:
+    """Return the committed checkpoint of a run: its record and directory (None if there is none)."""
+    p = Path(run_dir) / "checkpoint.json"
+    if not p.exists():
+        return None
+    info = read_json(p)
+    d = Path(run_dir) / info["dir"]
+    if not (d / "model.zip").exists():
+        return None
+    return info, d

@@ -23,7 +23,7 @@ episode-log rows written after that checkpoint are dropped (they are played agai
 in flight at the checkpoint are abandoned. Checkpoints are taken at the start of a rollout, where
 the model has been trained on every transition counted so far (for PPO: between rollouts), so
 no transition is lost or counted twice. A resumed run continues with fresh training scenario
-streams derived from the run seed and the timesteps done (see :mod:`bluesky_gym.training.seeds`).
+streams derived from the run seed and the timesteps done (see :mod:`bluesky_gym.envs.seeds`).
 """
 
 from __future__ import annotations
@@ -42,10 +42,11 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.training import algorithm_class, require_sb3
+from bluesky_gym.envs.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, train_env_seeds
+from bluesky_gym.extras import require_sb3
+from bluesky_gym.training import algorithm_class
 from bluesky_gym.training.hyperparams import POLICY, adapt_to_n_envs, resolve, sb3_kwargs
-from bluesky_gym.training.io import AppendCSV, atomic_path, atomic_write_csv, atomic_write_json, read_csv_rows, read_json
-from bluesky_gym.training.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, train_env_seeds
+from bluesky_gym.training.io import AppendCSV, atomic_path, atomic_write_csv, atomic_write_json, latest_checkpoint, read_csv_rows, read_json
 
 EPISODE_LOG = "episodes.csv"
 LEADING_COLUMNS = ["episode", "timesteps", "wall_time_s", "env_index", "return", "length", "terminated"]
@@ -244,18 +245,6 @@ class RunLock:
 
 
 # --- checkpoints -------------------------------------------------------------------------------------
-def latest_checkpoint(run_dir: str | Path) -> tuple[dict[str, Any], Path] | None:
-    """Return the committed checkpoint of a run: its record and directory (None if there is none)."""
-    p = Path(run_dir) / "checkpoint.json"
-    if not p.exists():
-        return None
-    info = read_json(p)
-    d = Path(run_dir) / info["dir"]
-    if not (d / "model.zip").exists():
-        return None
-    return info, d
-
-
 def save_checkpoint(model: Any, run_dir: Path, episodes_logged: int, wall_time_s: float) -> dict[str, Any]:
     """Save model (and replay buffer) into a new step directory, then commit ``checkpoint.json``."""
     step = int(model.num_timesteps)

@@ -17,7 +17,7 @@ It converts Gymnasium's vector conventions to SB3's:
 * observations are dicts of ``(num_envs, *shape)`` float64 arrays, as SB3's
   ``MultiInputPolicy`` expects.
 * :meth:`SB3VecEnv.seed` (called by SB3 when a model has a ``seed``) seeds the next ``reset``
-  with training-range scenario seeds (see :mod:`bluesky_gym.training.seeds`).
+  with training-range scenario seeds (see :mod:`bluesky_gym.envs.seeds`).
 * ``get_attr``, ``set_attr`` and ``env_method`` act on the one shared batched environment: every
   index sees the same attribute, and a method is called once, its result repeated per index.
 
@@ -34,8 +34,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from bluesky_gym.training import make_vector_env, require_sb3
-from bluesky_gym.training.seeds import train_env_seeds
+from bluesky_gym.envs.seeds import train_env_seeds
+from bluesky_gym.extras import require_sb3
+from bluesky_gym.training import make_vector_env
 
 require_sb3()
 

@@ -10,6 +10,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from bluesky_gym.envs.seeds import EVAL_SEED_BASE
 from bluesky_gym.training.evaluation import (
     evaluate,
     format_table,
@@ -21,7 +22,6 @@ from bluesky_gym.training.evaluation import (
     summarise,
 )
 from bluesky_gym.training.policies import DescentController
-from bluesky_gym.training.seeds import EVAL_SEED_BASE
 
 ENV = "DescentEnv-v0"
 

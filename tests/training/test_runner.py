@@ -14,12 +14,11 @@ import pytest
 from stable_baselines3.common.callbacks import BaseCallback
 
 from bluesky_gym.training.hyperparams import PAPER, merge
-from bluesky_gym.training.io import read_json
+from bluesky_gym.training.io import latest_checkpoint, read_json
 from bluesky_gym.training.runner import (
     RunConfigMismatch,
     RunLock,
     RunLocked,
-    latest_checkpoint,
     make_run_spec,
     run_status,
     run_training,

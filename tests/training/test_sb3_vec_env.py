@@ -9,9 +9,9 @@ from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
+from bluesky_gym.envs.seeds import TRAIN_SEED_LIMIT, train_env_seeds
 from bluesky_gym.training import make_vector_env
 from bluesky_gym.training.sb3_vec_env import SB3VecEnv
-from bluesky_gym.training.seeds import TRAIN_SEED_LIMIT, train_env_seeds
 
 ENV = "DescentEnv-v0"
 

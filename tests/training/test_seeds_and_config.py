@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from bluesky_gym.envs.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, eval_seeds, is_eval_seed, train_env_seeds
 from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.training.hyperparams import DEMO, PAPER, adapt_to_n_envs, load_config_file, merge, resolve, sb3_kwargs
-from bluesky_gym.training.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, eval_seeds, is_eval_seed, train_env_seeds
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 
