@@ -9,7 +9,8 @@ same and may be called again (it is idempotent), so the paper's code runs unchan
     env = gym.make("DescentEnv-v0")
 """
 
-from bluesky_gym.registration import ENVIRONMENTS, available_envs, register_envs
+from bluesky_gym.envs.registry import ENVIRONMENTS
+from bluesky_gym.registration import available_envs, register_envs
 
 __version__ = "1.0.0"
 __all__ = ["ENVIRONMENTS", "available_envs", "register_envs", "__version__"]

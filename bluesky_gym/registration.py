@@ -1,44 +1,31 @@
-"""Registration of every environment id with Gymnasium."""
+"""Registration of every environment id with Gymnasium, from the table in :mod:`bluesky_gym.envs.registry`."""
 
 from __future__ import annotations
 
 import gymnasium as gym
 
-# id -> (module, class, max_episode_steps)
-ENVIRONMENTS: dict[str, tuple[str, str, int]] = {
-    "DescentEnv-v0": ("descent_env", "DescentEnv", 300),
-    "VerticalCREnv-v0": ("vertical_cr_env", "VerticalCREnv", 300),
-    "PlanWaypointEnv-v0": ("plan_waypoint_env", "PlanWaypointEnv", 300),
-    "HorizontalCREnv-v0": ("horizontal_cr_env", "HorizontalCREnv", 300),
-    "SectorCREnv-v0": ("sector_cr_env", "SectorCREnv", 200),
-    "StaticObstacleEnv-v0": ("static_obstacle_env", "StaticObstacleEnv", 100),
-    "MergeEnv-v0": ("merge_env", "MergeEnv", 50),
-}
+from bluesky_gym.envs.registry import ENVIRONMENTS, env_ids
 
 
 def available_envs() -> list[str]:
-    """Ids whose implementation module is present."""
-    import importlib.util
-
-    return [i for i, (mod, _, _) in ENVIRONMENTS.items() if importlib.util.find_spec(f"bluesky_gym.envs.{mod}") is not None]
+    """Ids of the single-agent environments whose implementation modules are present."""
+    return env_ids()
 
 
 def register_envs() -> None:
     """Register every BlueSky-Gym id with Gymnasium (idempotent).
 
-    The seven paper environments, and the centralised multi-agent environments
-    (``SectorCRCentralised-v0``, ``MergeCentralised-v0``, ``HorizontalCRCentralised-v0``).
+    The seven paper environments (with their native vector environments as vector entry points),
+    and the centralised multi-agent environments (``SectorCRCentralised-v0``,
+    ``MergeCentralised-v0``, ``HorizontalCRCentralised-v0``).
+
+    The ids are registered without Gymnasium's time limit: each environment's task owns its limit
+    (``gym.make(id, max_episode_steps=N)`` and ``gym.make_vec(..., max_episode_steps=N)`` set it,
+    ``env.spec.max_episode_steps`` reports it).
     """
     from bluesky_gym.multiagent.registration import register_envs as register_centralised
 
+    for entry in ENVIRONMENTS:
+        if entry.id not in gym.registry and entry.is_available():
+            gym.register(id=entry.id, entry_point=entry.env, vector_entry_point=entry.vector_env, max_episode_steps=None)
     register_centralised()
-    for env_id in available_envs():
-        module, cls, steps = ENVIRONMENTS[env_id]
-        if env_id in gym.registry:
-            continue
-        gym.register(
-            id=env_id,
-            entry_point=f"bluesky_gym.envs.{module}:{cls}",
-            vector_entry_point=f"bluesky_gym.envs.{module}:{cls.replace('Env', 'VectorEnv')}",
-            max_episode_steps=steps,
-        )

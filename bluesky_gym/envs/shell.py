@@ -2,19 +2,28 @@
 
 The single environment *is* the batched task with one episode; there is no second copy of the
 physics or of the MDP. Both shells only convert between numpy batches and Gymnasium's API.
+
+The task owns the time limit: it truncates an episode after ``max_episode_steps`` decision steps
+(``terminated`` wins over ``truncated`` on the same step), computes the KPIs of that last step,
+and the shell refuses a step after the end. The ids are therefore registered without Gymnasium's
+``TimeLimit`` wrapper, and ``env.spec.max_episode_steps`` reports the task's limit.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import sys
 from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from bluesky_gym.envs.registry import scene_builder
 from bluesky_gym.tasks.base import BoxSpec, StepResult, Task
 
 RENDER_MODES = ["rgb_array", "human"]
@@ -39,7 +48,53 @@ def _check_render_mode(render_mode: str | None) -> None:
         raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
 
 
-class BlueSkyEnv(gym.Env):
+def time_limit(max_episode_steps: int | None) -> int | None:
+    """The time limit an environment constructor should give its task.
+
+    Its own ``max_episode_steps`` argument if given, else the ``max_episode_steps`` of the
+    :func:`gymnasium.make` call constructing it. Gymnasium keeps that argument for its
+    ``TimeLimit`` wrapper and never passes it to the environment (there is no public channel for
+    it), so it is read from ``make``'s arguments when ``make`` is the direct caller of the
+    constructor chain. The task then ends the episode at that step itself: with its KPIs, with
+    ``terminated`` taking precedence, and with an error on a further step. ``TimeLimit`` still
+    wraps the environment (Gymnasium always adds it for an explicit limit) and then agrees with it,
+    except that, by Gymnasium's convention, it also flags ``truncated`` when the episode
+    terminates exactly on that step.
+
+    Args:
+        max_episode_steps: The constructor's argument (None: not given).
+    """
+    if max_episode_steps is not None:
+        return max_episode_steps
+    frame = sys._getframe(1)
+    while frame is not None and frame.f_code.co_name == "__init__":  # the constructor chain
+        frame = frame.f_back  # type: ignore[assignment]
+    if frame is not None and frame.f_code is gym.make.__code__:
+        requested = frame.f_locals.get("max_episode_steps")
+        if isinstance(requested, int) and not isinstance(requested, bool) and requested > 0:
+            return requested
+    return None
+
+
+class TaskSpecMixin:
+    """``spec`` as Gymnasium sets it, with ``max_episode_steps`` the task's own limit."""
+
+    task: Any
+    _spec: EnvSpec | None = None
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        """Gymnasium's description of how this environment was made; ``max_episode_steps`` is the task's limit."""
+        if self._spec is None:
+            return None
+        return dataclasses.replace(self._spec, max_episode_steps=int(self.task.time_limit))
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        self._spec = value
+
+
+class BlueSkyEnv(TaskSpecMixin, gym.Env):
     """Base of the single-episode environments (subclasses set ``task_class``).
 
     Args:
@@ -56,8 +111,9 @@ class BlueSkyEnv(gym.Env):
         _check_render_mode(render_mode)
         self.render_mode = render_mode
         self.backend = backend
-        self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=max_episode_steps)
-        self.observation_space = observation_space(self.task)
+        limit = time_limit(max_episode_steps)
+        self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
+        self._observation_space = (self.task.observation_spec, observation_space(self.task))
         self.action_space = _box(self.task.action_spec)
         self._renderer: Any = None
         self._needs_reset = True
@@ -69,6 +125,15 @@ class BlueSkyEnv(gym.Env):
         """The task configuration (frozen dataclass)."""
         return self.task.config
 
+    @property
+    def observation_space(self) -> spaces.Dict:  # type: ignore[override]
+        """The observation space: the task's observation, with any terms added to it (e.g. wind)."""
+        spec, space = self._observation_space
+        if spec is not self.task.observation_spec:
+            self._observation_space = (self.task.observation_spec, observation_space(self.task))
+            space = self._observation_space[1]
+        return space
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start a new episode; ``seed`` seeds the episode generator (``self.np_random``)."""
         super().reset(seed=seed)
@@ -78,7 +143,7 @@ class BlueSkyEnv(gym.Env):
         self.task.reset()
         self._needs_reset = False
         self._last_reward = 0.0
-        obs = {k: v[0].copy() for k, v in self.task.observe().items()}
+        obs = {k: v[0].copy() for k, v in self.task.observation().items()}
         info = {k: _scalar(v[0]) for k, v in self.task.episode_info().items()}
         self._last_info = info
         if self.render_mode == "human":
@@ -114,7 +179,7 @@ class BlueSkyEnv(gym.Env):
         if self._renderer is None:
             from bluesky_gym.render import make_renderer
 
-            self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"])
+            self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id))
         return self._renderer.render(0, reward=self._last_reward, info=self._last_info)
 
     def close(self) -> None:
@@ -133,7 +198,7 @@ def _scalar(v: Any) -> Any:
     return v
 
 
-class BlueSkyVectorEnv(VectorEnv):
+class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
     """Native batched environment: ``num_envs`` episodes stepped with array operations.
 
     Autoreset is ``SAME_STEP``: when an episode ends, the returned observation is the first of
@@ -175,12 +240,13 @@ class BlueSkyVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self.render_env = int(render_env)
         self.render_grid = int(render_grid)
-        self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=max_episode_steps)
+        limit = time_limit(max_episode_steps)
+        self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
         if not 0 <= self.render_env < self.num_envs:
             raise ValueError(f"render_env must be in [0, {self.num_envs}), got {render_env}")
-        self.single_observation_space = observation_space(self.task)
+        single = observation_space(self.task)
+        self._observation_spaces = (self.task.observation_spec, single, batch_space(single, self.num_envs))
         self.single_action_space = _box(self.task.action_spec)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._renderer: Any = None
         self._reset_once = False
@@ -191,6 +257,24 @@ class BlueSkyVectorEnv(VectorEnv):
     def config(self) -> Any:
         """The task configuration (frozen dataclass)."""
         return self.task.config
+
+    def _spaces(self) -> tuple[spaces.Dict, spaces.Dict]:
+        spec, single, batched = self._observation_spaces
+        if spec is not self.task.observation_spec:
+            single = observation_space(self.task)
+            batched = batch_space(single, self.num_envs)
+            self._observation_spaces = (self.task.observation_spec, single, batched)
+        return single, batched
+
+    @property
+    def single_observation_space(self) -> spaces.Dict:  # type: ignore[override]
+        """One episode's observation space: the task's observation, with any terms added to it (e.g. wind)."""
+        return self._spaces()[0]
+
+    @property
+    def observation_space(self) -> spaces.Dict:  # type: ignore[override]
+        """The batched observation space."""
+        return self._spaces()[1]
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
@@ -215,7 +299,7 @@ class BlueSkyVectorEnv(VectorEnv):
         self._last_info = info
         if self.render_mode == "human":
             self.render()
-        return self.task.observe(), info
+        return self.task.observation(), info
 
     def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every episode; ended episodes are reset in the same call (SAME_STEP)."""
@@ -233,7 +317,7 @@ class BlueSkyVectorEnv(VectorEnv):
             final_obs = {k: v.copy() for k, v in obs.items()}
             final_info = {k: v.copy() for k, v in res.info.items()}
             self.task.reset(ended)
-            new_obs = self.task.observe_envs(ended)
+            new_obs = self.task.observation(ended)
             obs = {k: v.copy() for k, v in obs.items()}
             for k, v in obs.items():
                 v[ended] = new_obs[k]
@@ -255,7 +339,7 @@ class BlueSkyVectorEnv(VectorEnv):
         if self._renderer is None:
             from bluesky_gym.render import make_renderer
 
-            self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"])
+            self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id))
         if self.render_grid > 1:
             return self._renderer.render_grid(min(self.render_grid, self.num_envs), rewards=self._last_reward, info=self._last_info)
         return self._renderer.render(self.render_env, reward=float(self._last_reward[self.render_env]), info=_pick(self._last_info, self.render_env))

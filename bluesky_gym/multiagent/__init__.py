@@ -30,7 +30,8 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
-from bluesky_gym.multiagent.registration import CENTRALISED_ENVIRONMENTS, register_envs
+from bluesky_gym.envs.registry import multiagent_entries, multiagent_entry
+from bluesky_gym.multiagent.registration import centralised_ids, register_envs
 
 MULTIAGENT_EXTRA_HINT = 'pip install "bluesky-gym[multiagent]"'
 
@@ -50,9 +51,9 @@ _TASK_NAMES = {
 }
 
 __all__ = [
-    "CENTRALISED_ENVIRONMENTS",
     "MULTIAGENT_EXTRA_HINT",
-    "TASKS",
+    "centralised_ids",
+    "names",
     "register_envs",
     "require_pettingzoo",
     "task_class",
@@ -60,12 +61,10 @@ __all__ = [
     *_TASK_NAMES,
 ]
 
-#: Multi-agent environment name -> (module, class) of its batched task.
-TASKS: dict[str, tuple[str, str]] = {
-    "sector_cr_v0": ("sector_cr", "SectorCRMultiAgentTask"),
-    "merge_v0": ("merge", "MergeMultiAgentTask"),
-    "horizontal_cr_v0": ("horizontal_cr", "HorizontalCRMultiAgentTask"),
-}
+
+def names() -> list[str]:
+    """The multi-agent environment names (``"horizontal_cr_v0"``, ``"sector_cr_v0"``, ``"merge_v0"``), from the environment table."""
+    return [m.name for m in multiagent_entries()]
 
 
 def require_pettingzoo() -> ModuleType:
@@ -79,12 +78,7 @@ def require_pettingzoo() -> ModuleType:
 
 def task_class(name: str) -> type[Any]:
     """Return the batched multi-agent task of an environment name (``"sector_cr_v0"``, ``"merge_v0"``, ``"horizontal_cr_v0"``)."""
-    import importlib
-
-    if name not in TASKS:
-        raise ValueError(f"unknown multi-agent environment {name!r}; available: {', '.join(TASKS)}")
-    module, cls = TASKS[name]
-    return getattr(importlib.import_module(f"bluesky_gym.multiagent.{module}"), cls)
+    return multiagent_entry(name).task_class()
 
 
 def __getattr__(name: str) -> Any:

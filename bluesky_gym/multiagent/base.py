@@ -313,8 +313,8 @@ class MultiAgentTask(abc.ABC):
             return
         self.sim.reset_envs(envs)
         self.scenario.generate(envs)
-        for hook in self.scenario.reset_hooks:
-            hook(self.scenario, envs)
+        for effect in self.scenario.effects:
+            effect.on_reset(self.scenario, envs)
         self.stats.clear(envs)
         self.stats.n_start[envs] = self.sim.active[envs].sum(axis=1)
         self.finished[envs] = False

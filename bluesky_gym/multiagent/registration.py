@@ -1,24 +1,24 @@
 """Registration of the centralised multi-agent environments with Gymnasium.
 
-Only Gymnasium is imported here, so ``bluesky_gym`` can call :func:`register_envs` at import time
-without the optional multi-agent dependencies.
+The ids come from the environment table (:mod:`bluesky_gym.envs.registry`); only Gymnasium is
+imported here, so ``bluesky_gym`` can call :func:`register_envs` at import time without the
+optional multi-agent dependencies.
 """
 
 from __future__ import annotations
 
 import gymnasium as gym
 
-# id -> (class in bluesky_gym.multiagent.centralised, max_episode_steps)
-CENTRALISED_ENVIRONMENTS: dict[str, tuple[str, int]] = {
-    "SectorCRCentralised-v0": ("SectorCRCentralisedEnv", 200),
-    "MergeCentralised-v0": ("MergeCentralisedEnv", 50),
-    "HorizontalCRCentralised-v0": ("HorizontalCRCentralisedEnv", 300),
-}
+from bluesky_gym.envs.registry import multiagent_entries
+
+
+def centralised_ids() -> list[str]:
+    """Gymnasium ids of the centralised multi-agent environments, in table order."""
+    return [m.centralised_id for m in multiagent_entries()]
 
 
 def register_envs() -> None:
-    """Register the centralised ids with Gymnasium (idempotent)."""
-    for env_id, (cls, steps) in CENTRALISED_ENVIRONMENTS.items():
-        if env_id in gym.registry:
-            continue
-        gym.register(id=env_id, entry_point=f"bluesky_gym.multiagent.centralised:{cls}", max_episode_steps=steps)
+    """Register the centralised ids with Gymnasium (idempotent), without a Gymnasium time limit (the task owns it)."""
+    for m in multiagent_entries():
+        if m.centralised_id not in gym.registry:
+            gym.register(id=m.centralised_id, entry_point=m.centralised_env, max_episode_steps=None)

@@ -10,12 +10,12 @@ active / completed).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from bluesky_gym.core.units import NM2KM
+from bluesky_gym.envs.registry import multiagent_entry
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Area, Fix, Line, MapAircraft, MapScene, Runway
 from bluesky_gym.tasks import horizontal_cr as hc
@@ -171,13 +171,6 @@ def horizontal_cr_scene(task: Any, i: int) -> MapScene:
     )
 
 
-SCENES: dict[str, Callable[[Any, int], MapScene]] = {
-    "sector_cr_v0": sector_cr_scene,
-    "merge_v0": merge_scene,
-    "horizontal_cr_v0": horizontal_cr_scene,
-}
-
-
 def make_renderer(task: MultiAgentTask, render_mode: str, fps: float = 30.0) -> Renderer:
     """Return a renderer of the package drawing the multi-agent scene of ``task``.
 
@@ -192,7 +185,4 @@ def make_renderer(task: MultiAgentTask, render_mode: str, fps: float = 30.0) -> 
     """
     from bluesky_gym.render import make_renderer as make_single_agent_renderer
 
-    renderer = make_single_agent_renderer(task, render_mode, fps)
-    # The renderer looks scene builders up by single-agent id; draw the multi-agent scene instead.
-    renderer._build = SCENES[task.name]
-    return renderer
+    return make_single_agent_renderer(task, render_mode, fps, scene=multiagent_entry(task.name).scene_builder())

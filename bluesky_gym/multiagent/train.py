@@ -29,7 +29,7 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-from bluesky_gym.multiagent import TASKS
+from bluesky_gym.multiagent import names
 from bluesky_gym.multiagent.evaluation import evaluate, kpi_table
 from bluesky_gym.multiagent.policies import GeometricCRPolicy, RandomPolicy, SharedSB3Policy
 
@@ -49,7 +49,7 @@ DEFAULTS: dict[str, Any] = {
 def build_parser() -> argparse.ArgumentParser:
     """Return the command-line parser."""
     p = argparse.ArgumentParser(prog="python -m bluesky_gym.multiagent.train", description=(__doc__ or "").split("\n\n")[0])
-    p.add_argument("--env", default="sector_cr_v0", choices=sorted(TASKS), help="multi-agent environment")
+    p.add_argument("--env", default="sector_cr_v0", choices=sorted(names()), help="multi-agent environment")
     p.add_argument("--timesteps", type=int, default=DEFAULTS["timesteps"], help="PPO row-steps (all agent slots)")
     p.add_argument("--episodes", type=int, default=DEFAULTS["episodes"], help="parallel multi-agent training episodes")
     p.add_argument("--n-steps", type=int, default=DEFAULTS["n_steps"], help="PPO rollout length per row")

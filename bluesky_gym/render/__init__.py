@@ -24,17 +24,21 @@ from bluesky_gym.render.video import VideoWriter, write_video
 
 if TYPE_CHECKING:
     from bluesky_gym.render.renderer import Renderer
+    from bluesky_gym.render.scenes import SceneBuilder
 
 __all__ = ["INSTALL_HINT", "VideoWriter", "import_pygame", "make_renderer", "write_video"]
 
 
-def make_renderer(task: Any, render_mode: str, fps: float = 30.0) -> Renderer:
+def make_renderer(task: Any, render_mode: str, fps: float = 30.0, scene: SceneBuilder | None = None) -> Renderer:
     """The renderer of a batched task.
 
     Args:
         task: The batched task (a :class:`bluesky_gym.tasks.base.Task`); it is only read.
         render_mode: ``"rgb_array"`` or ``"human"``.
         fps: Frame-rate limit of the window in ``"human"`` mode.
+        scene: What to draw, a scene builder ``(task, env_index) -> Scene`` (the environment
+            table's scene of the task's id; default: every aircraft on a plan view around the
+            ownship, :func:`~bluesky_gym.render.scenes.generic.generic_scene`).
 
     Returns:
         An object with ``render(env_index, reward=..., info=...)``, ``render_grid(n, rewards=...,
@@ -47,4 +51,8 @@ def make_renderer(task: Any, render_mode: str, fps: float = 30.0) -> Renderer:
     import_pygame()
     from bluesky_gym.render.renderer import Renderer
 
-    return Renderer(task, render_mode, fps)
+    if scene is None:
+        from bluesky_gym.render.scenes.generic import generic_scene
+
+        scene = generic_scene
+    return Renderer(task, render_mode, fps, scene=scene)

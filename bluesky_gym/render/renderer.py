@@ -22,7 +22,7 @@ from bluesky_gym.render import draw
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.backend import WINDOW
 from bluesky_gym.render.scene import MapScene, Scene, SideScene
-from bluesky_gym.render.scenes import scene_builder
+from bluesky_gym.render.scenes import SceneBuilder
 from bluesky_gym.render.views import MapView, SideView, nice_step, scale_bar_nm
 
 PANEL_WIDTH = 224
@@ -61,15 +61,19 @@ class Renderer:
         task: The batched task to draw (read only).
         render_mode: ``"rgb_array"`` or ``"human"``.
         fps: Frame-rate limit of the window in ``"human"`` mode.
+        scene: The scene builder ``(task, env_index) -> Scene`` that says what to draw (see
+            :mod:`bluesky_gym.render.scenes`).
     """
 
-    def __init__(self, task: Any, render_mode: str, fps: float = 30.0) -> None:
+    def __init__(self, task: Any, render_mode: str, fps: float, scene: SceneBuilder) -> None:
         if render_mode not in ("rgb_array", "human"):
             raise ValueError(f"render_mode must be 'rgb_array' or 'human', got {render_mode!r}")
+        if not callable(scene):
+            raise TypeError(f"scene must be a scene builder (task, env_index) -> Scene, got {scene!r}")
         self.task = task
         self.render_mode = render_mode
         self.fps = float(fps)
-        self._build = scene_builder(task)
+        self.scene = scene
         self._memory: dict[int, _EpisodeMemory] = {}
         self._dot_steps = max(1, round(TRAIL_DOT_S / (float(task.dt) * int(task.action_frequency))))
         self._token = next(_tokens)
@@ -119,7 +123,7 @@ class Renderer:
     # --- drawing -------------------------------------------------------------------------------
     def draw_frame(self, env_index: int, reward: float | None = None, info: Mapping[str, Any] | None = None) -> pygame.Surface:
         """The picture of episode ``env_index`` as a pygame Surface."""
-        scene = self._build(self.task, env_index)
+        scene = self.scene(self.task, env_index)
         mem = self._remember(env_index, scene)
         if isinstance(scene, MapScene):
             plot = pygame.Surface(MAP_SIZE)

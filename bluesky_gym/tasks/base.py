@@ -22,7 +22,7 @@ import abc
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -134,6 +134,26 @@ class EpisodeStats:
         self.in_los[envs] = False
 
 
+class Effect(Protocol):
+    """Something added to every new episode of a task, e.g. wind (see :meth:`Task.add_effect`)."""
+
+    def on_reset(self, task: Task, envs: NDArray[np.int64]) -> None:
+        """Act on episodes ``envs`` right after their scenarios were generated (before the first observation)."""
+
+
+@dataclass(frozen=True)
+class ObservationTerm:
+    """An extra observation entry of a task (see :meth:`Task.add_observation_terms`).
+
+    Attributes:
+        spec: Its Box (shape of one episode's value, declared bounds).
+        value: ``value(task, envs) -> (len(envs), *spec.shape)`` float64, from the current state.
+    """
+
+    spec: BoxSpec
+    value: Callable[[Task, NDArray[np.int64]], Array]
+
+
 @dataclass
 class StepResult:
     """What one batched step returns (all arrays over the batch)."""
@@ -204,9 +224,9 @@ class Task(abc.ABC):
         self.all_envs = np.arange(self.n_envs)
         self.observation_spec = self.build_observation_spec()
         self.action_spec = self.build_action_spec()
-        self.substep_hooks: list[Callable[[Task, int], None]] = []
-        #: Called as ``hook(task, envs)`` after new episodes were generated (e.g. to add wind).
-        self.reset_hooks: list[Callable[[Task, NDArray[np.int64]], None]] = []
+        #: Per-episode effects (:meth:`add_effect`) and extra observation entries (:meth:`add_observation_terms`).
+        self.effects: list[Effect] = []
+        self.observation_terms: dict[str, ObservationTerm] = {}
         self.allocate()
 
     # --- what a task defines --------------------------------------------------------------------
@@ -306,6 +326,47 @@ class Task(abc.ABC):
         """
         return np.zeros(self.n_envs, bool)
 
+    # --- effects and extra observation terms -----------------------------------------------------
+    def add_effect(self, effect: Effect) -> None:
+        """Apply ``effect.on_reset(task, envs)`` to every new episode from the next reset on.
+
+        An effect changes the episodes' setting (e.g. installs wind in ``task.sim.wind``); it runs
+        right after :meth:`generate`, so aircraft are created without it and it acts from the first
+        step on. There are no per-sub-step effects: the physics sub-steps of a decision step run in
+        one :meth:`~bluesky_gym.core.Simulator.run` call.
+        """
+        if not callable(getattr(effect, "on_reset", None)):
+            raise TypeError(f"an effect needs an on_reset(task, envs) method, got {type(effect).__name__}")
+        self.effects.append(effect)
+
+    def add_observation_terms(self, terms: Mapping[str, ObservationTerm]) -> None:
+        """Add entries to the observation (and to :attr:`observation_spec`), after the task's own.
+
+        Every observation the task gives from then on (:meth:`observation`, the step's, the final
+        one of an ended episode) carries them.
+
+        Raises:
+            ValueError: If a name is already an observation key.
+        """
+        clash = sorted(set(terms) & set(self.observation_spec))
+        if clash:
+            raise ValueError(f"observation already has the key(s) {clash}")
+        self.observation_terms = {**self.observation_terms, **terms}
+        self.observation_spec = {**self.observation_spec, **{k: t.spec for k, t in terms.items()}}
+
+    def observation(self, envs: NDArray[np.int64] | None = None) -> dict[str, Array]:
+        """The observation the environments return: :meth:`observe` (or :meth:`observe_envs`) and the extra terms.
+
+        Args:
+            envs: Episodes to observe (all when None); rows follow ``envs``.
+        """
+        obs = self.observe() if envs is None else self.observe_envs(envs)
+        if self.observation_terms:
+            rows = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+            for name, term in self.observation_terms.items():
+                obs[name] = term.value(self, rows)
+        return obs
+
     # --- the episode loop ------------------------------------------------------------------------
     def seed(self, envs: NDArray[np.int64], generators: list[np.random.Generator]) -> None:
         """Give episodes ``envs`` their own random generators."""
@@ -320,8 +381,8 @@ class Task(abc.ABC):
         self.sim.reset_envs(envs)
         self.stats.clear(envs, self.sim.max_aircraft)
         self.generate(envs)
-        for hook in self.reset_hooks:
-            hook(self, envs)
+        for effect in self.effects:
+            effect.on_reset(self, envs)
         self._track_separation(envs, count_steps=False)
 
     def clip_action(self, action: Any) -> Array:
@@ -369,15 +430,8 @@ class Task(abc.ABC):
         Returns:
             Reward, termination, reward components and the observation.
         """
-        run = getattr(self.sim, "run", None)
-        if run is not None and not self.substep_hooks:
-            run(self.action_frequency)
-        else:
-            for k in range(self.action_frequency):
-                self.sim.step()
-                for hook in self.substep_hooks:
-                    hook(self, k)
-        obs = self.observe()
+        self.sim.run(self.action_frequency)
+        obs = self.observation()
         reward, terminated, components = self.evaluate()
         return reward, terminated, components, obs
 

@@ -296,7 +296,7 @@ class StaticObstacleTask(Task):
         last observation, so a waypoint is reached (and the episode ends) at the first sub-step
         or not at all, and only the obstacle test needs the live position.
         """
-        if self.compiled and not self.substep_hooks:
+        if self.compiled:
             return self._transition_traced()
         n = self.n_envs
         running = np.ones(n, bool)
@@ -315,8 +315,6 @@ class StaticObstacleTask(Task):
             last[running] = k
             count[running] = c[running]
             running &= ~ended
-            for hook in self.substep_hooks:
-                hook(self, k)
             if not running.any():
                 break
             if ended.any() and k < self.action_frequency - 1:
@@ -378,7 +376,7 @@ class StaticObstacleTask(Task):
         intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
         reward = reach + drift + intrusion
         terminated = done_anyway | (count > 0)
-        obs = self.observe()
+        obs = self.observation()
         return reward, terminated, {"reach": reach, "drift": drift, "intrusion": intrusion}, obs
 
     # --- info and KPIs --------------------------------------------------------------------------

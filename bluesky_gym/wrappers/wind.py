@@ -10,6 +10,13 @@ generated (so aircraft are created without wind and the wind acts from the first
 Wind acts only above 50 ft, so it has no effect in HorizontalCR and PlanWaypoint, whose
 aircraft fly at altitude 0 (BlueSky physics, kept). Unlike the reference, the wrapper also works
 on the terminal step and on natively batched environments (with autoreset).
+
+The wrappers hand the wind to the task: a :class:`WindEffect` (:meth:`Task.add_effect
+<bluesky_gym.tasks.base.Task.add_effect>`) installs it in every new episode, and with
+``augment_obs`` the two entries become observation terms of the task
+(:meth:`~bluesky_gym.tasks.base.Task.add_observation_terms`), so they are in every observation
+the environment returns, the final observation of an ended episode included. Nothing runs per
+physics sub-step, so a decision step stays one :meth:`~bluesky_gym.core.Simulator.run` call.
 """
 
 from __future__ import annotations
@@ -18,14 +25,13 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 from gymnasium.vector import VectorEnv, VectorWrapper
-from gymnasium.vector.utils import batch_space
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.tasks.base import Task
+from bluesky_gym.tasks.base import Array, BoxSpec, ObservationTerm, Task
 
 MAX_WIND = 50.0  # m/s, normalisation of the wind observation
+WIND_KEYS = ("wind_u", "wind_v")
 
 
 def _task_of(env: Any) -> Task:
@@ -35,10 +41,18 @@ def _task_of(env: Any) -> Task:
     return task
 
 
-class _Wind:
-    """The wind definition and what both wrappers do with it."""
+class WindEffect:
+    """A wind field (uniform or from definition points), installed in every new episode of a task.
 
-    def __init__(self, lat: ArrayLike, lon: ArrayLike, vnorth: ArrayLike, veast: ArrayLike, alt: ArrayLike | None) -> None:
+    Args:
+        lat: Latitudes of the wind points [deg].
+        lon: Longitudes of the wind points [deg].
+        vnorth: North components [m/s] (the direction the wind blows to).
+        veast: East components [m/s].
+        alt: Must be None (a 2-D field, the same wind at every altitude).
+    """
+
+    def __init__(self, lat: ArrayLike, lon: ArrayLike, vnorth: ArrayLike, veast: ArrayLike, alt: ArrayLike | None = None) -> None:
         if alt is not None:
             raise ValueError("wind altitude profiles are not supported; pass alt=None for a 2-D field (the same wind at every altitude)")
         self.lat, self.lon, self.vnorth, self.veast = (np.atleast_1d(np.asarray(x, dtype=np.float64)).ravel() for x in (lat, lon, vnorth, veast))
@@ -47,39 +61,45 @@ class _Wind:
         if not np.all(np.isfinite(np.concatenate([self.lat, self.lon, self.vnorth, self.veast]))):
             raise ValueError("wind: all values must be finite")
 
-    def install(self, task: Task) -> None:
-        def add_wind(t: Task, envs: NDArray[np.int64]) -> None:
-            for e in envs:
-                t.sim.wind.add_points(int(e), self.lat, self.lon, self.vnorth, self.veast)
-
-        task.reset_hooks.append(add_wind)
-
-    @staticmethod
-    def observation(task: Task) -> dict[str, np.ndarray]:
-        sim = task.sim
-        wn, we = sim.wind.at(task.all_envs, sim.lat[:, 0], sim.lon[:, 0])
-        h = np.deg2rad(sim.hdg[:, 0])
-        u = (wn * np.cos(h) + we * np.sin(h)) / MAX_WIND
-        v = (-wn * np.sin(h) + we * np.cos(h)) / MAX_WIND
-        return {"wind_u": u[:, None], "wind_v": v[:, None]}
+    def on_reset(self, task: Task, envs: NDArray[np.int64]) -> None:
+        """Add the wind points to the airspaces of the new episodes ``envs``."""
+        for e in envs:
+            task.sim.wind.add_points(int(e), self.lat, self.lon, self.vnorth, self.veast)
 
 
-def _install(env: Any, lat: ArrayLike, lon: ArrayLike, vnorth: ArrayLike, veast: ArrayLike, alt: ArrayLike | None) -> Task:
-    """Validate the wind definition and add it to every new episode of ``env``'s task."""
-    task = _task_of(env)
-    _Wind(lat, lon, vnorth, veast, alt).install(task)
-    return task
+def wind_at_ownship(task: Task, envs: NDArray[np.int64]) -> tuple[Array, Array]:
+    """Wind at the ownship in its heading frame, normalised: (along-heading, cross) / 50, (len(envs), 1) each."""
+    sim = task.sim
+    wn, we = sim.wind.at(envs, sim.lat[envs, 0], sim.lon[envs, 0])
+    h = np.deg2rad(sim.hdg[envs, 0])
+    u = (wn * np.cos(h) + we * np.sin(h)) / MAX_WIND
+    v = (-wn * np.sin(h) + we * np.cos(h)) / MAX_WIND
+    return u[:, None], v[:, None]
 
 
-def _augmented_space(space: gym.Space) -> spaces.Dict:
-    if not isinstance(space, spaces.Dict):
-        raise TypeError("augment_obs needs a Dict observation space")
-    extra = {k: spaces.Box(-np.inf, np.inf, shape=(1,), dtype=np.float64) for k in ("wind_u", "wind_v")}
-    return spaces.Dict({**space.spaces, **extra})
+def wind_observation_terms() -> dict[str, ObservationTerm]:
+    """The ``wind_u`` and ``wind_v`` observation terms."""
+    box = BoxSpec((1,))
+    return {
+        "wind_u": ObservationTerm(box, lambda task, envs: wind_at_ownship(task, envs)[0]),
+        "wind_v": ObservationTerm(box, lambda task, envs: wind_at_ownship(task, envs)[1]),
+    }
+
+
+def add_wind(task: Task, wind: WindEffect, augment_obs: bool) -> None:
+    """Install ``wind`` in every new episode of ``task``; with ``augment_obs`` also observe it."""
+    if augment_obs and set(WIND_KEYS) & set(task.observation_spec):
+        raise ValueError("the environment already observes the wind (wind_u, wind_v); wrap it with augment_obs=True only once")
+    task.add_effect(wind)
+    if augment_obs:
+        task.add_observation_terms(wind_observation_terms())
 
 
 class WindFieldWrapper(gym.Wrapper):
     """Add wind to a single environment.
+
+    The observation space of the environment (and of this wrapper) gains ``wind_u`` and
+    ``wind_v`` with ``augment_obs``.
 
     Args:
         env: A BlueSky-Gym environment.
@@ -102,25 +122,8 @@ class WindFieldWrapper(gym.Wrapper):
         augment_obs: bool = False,
     ) -> None:
         super().__init__(env)
-        self._task = _install(env, lat, lon, vnorth, veast, alt)
         self.augment_obs = augment_obs
-        if augment_obs:
-            self.observation_space = _augmented_space(env.observation_space)
-
-    def _augment(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        if not self.augment_obs:
-            return obs
-        return {**obs, **{k: v[0] for k, v in _Wind.observation(self._task).items()}}
-
-    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
-        """Reset; the wind is in place before the first step."""
-        obs, info = self.env.reset(**kwargs)
-        return self._augment(obs), info
-
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        """Step and append the wind observation (also on the terminal step)."""
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        return self._augment(obs), reward, terminated, truncated, info
+        add_wind(_task_of(env), WindEffect(lat, lon, vnorth, veast, alt), augment_obs)
 
 
 class VectorWindFieldWrapper(VectorWrapper):
@@ -141,38 +144,5 @@ class VectorWindFieldWrapper(VectorWrapper):
         augment_obs: bool = False,
     ) -> None:
         super().__init__(env)
-        self._task = _install(env, lat, lon, vnorth, veast, alt)
         self.augment_obs = augment_obs
-        if augment_obs:
-            self.single_observation_space = _augmented_space(env.single_observation_space)
-            self.observation_space = batch_space(self.single_observation_space, env.num_envs)
-
-    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
-        """Reset every episode."""
-        obs, info = self.env.reset(**kwargs)
-        if self.augment_obs:
-            obs = {**obs, **_Wind.observation(self._task)}
-        return obs, info
-
-    def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Step every episode."""
-        if self.augment_obs:
-            # Ended episodes are reset inside env.step (SAME_STEP autoreset), so the wind seen at
-            # their final state is captured after the last physics sub-step.
-            task = self._task
-            hook_store: dict[str, np.ndarray] = {}
-
-            def before_reset(t: Task, k: int) -> None:
-                if k == t.action_frequency - 1:
-                    hook_store.update(_Wind.observation(t))
-
-            task.substep_hooks.append(before_reset)
-            try:
-                obs, reward, terminated, truncated, info = self.env.step(actions)
-            finally:
-                task.substep_hooks.remove(before_reset)
-            obs = {**obs, **_Wind.observation(task)}
-            if "final_obs" in info:
-                info["final_obs"] = {**info["final_obs"], **hook_store}
-            return obs, reward, terminated, truncated, info
-        return self.env.step(actions)
+        add_wind(_task_of(env), WindEffect(lat, lon, vnorth, veast, alt), augment_obs)

@@ -44,7 +44,19 @@ def test_all_seven_registered() -> None:
     bluesky_gym.register_envs()  # idempotent
     for env_id in OBSERVATION:
         assert env_id in gym.registry
-        assert gym.registry[env_id].max_episode_steps == MAX_EPISODE_STEPS[env_id]
+        # The task owns the time limit: no Gymnasium TimeLimit wrapper, the made env's spec reports the task's limit.
+        assert gym.registry[env_id].max_episode_steps is None
+        env = gym.make(env_id)
+        assert env.spec.max_episode_steps == env.unwrapped.spec.max_episode_steps == MAX_EPISODE_STEPS[env_id]
+        assert not any(isinstance(w, gym.wrappers.TimeLimit) for w in _wrappers(env))
+        venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+        assert venv.spec.max_episode_steps == MAX_EPISODE_STEPS[env_id]
+
+
+def _wrappers(env):
+    while isinstance(env, gym.Wrapper):
+        yield env
+        env = env.env
 
 
 @pytest.mark.parametrize("env_id", IDS)

@@ -11,7 +11,8 @@ import bluesky_gym.multiagent as ma
 from bluesky_gym.multiagent.base import STATE_FEATURES
 from bluesky_gym.multiagent.centralised import HorizontalCRCentralisedEnv
 
-IDS = list(ma.CENTRALISED_ENVIRONMENTS)
+IDS = ma.centralised_ids()
+LIMITS = {"SectorCRCentralised-v0": 200, "MergeCentralised-v0": 50, "HorizontalCRCentralised-v0": 300}
 
 
 @pytest.fixture(autouse=True)
@@ -24,7 +25,8 @@ def _registered() -> None:
 def test_check_env(env_id: str) -> None:
     env = gym.make(env_id)
     check_env(env.unwrapped, skip_render_check=True)
-    assert gym.registry[env_id].max_episode_steps == ma.CENTRALISED_ENVIRONMENTS[env_id][1]
+    assert gym.registry[env_id].max_episode_steps is None  # the task owns the time limit
+    assert env.spec.max_episode_steps == LIMITS[env_id]
     env.close()
 
 

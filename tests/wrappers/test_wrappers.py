@@ -125,3 +125,68 @@ def test_vector_noise_perturbs_final_obs_too() -> None:
     obs_c, _ = clean.reset(seed=0)
     assert not np.array_equal(obs["altitude"], obs_c["altitude"])
     np.testing.assert_allclose(obs["altitude"], obs_c["altitude"], atol=0.5)
+
+
+def _count_physics_calls(monkeypatch, sim) -> dict[str, list[int]]:
+    calls: dict[str, list[int]] = {"run": [], "step": []}
+    run, step = sim.run, sim.step
+
+    def counted_run(n_steps, *args, **kwargs):
+        calls["run"].append(n_steps)
+        return run(n_steps, *args, **kwargs)
+
+    def counted_step():
+        calls["step"].append(1)
+        step()
+
+    monkeypatch.setattr(sim, "run", counted_run)
+    monkeypatch.setattr(sim, "step", counted_step)
+    return calls
+
+
+@pytest.mark.parametrize("vector", [False, True])
+def test_wind_keeps_the_one_call_fast_path(monkeypatch, vector: bool) -> None:
+    wind = dict(lat=[52.0], lon=[4.0], vnorth=[-10.0], veast=[15.0], augment_obs=True)
+    if vector:
+        env = VectorWindFieldWrapper(gym.make_vec("DescentEnv-v0", num_envs=3, vectorization_mode="vector_entry_point"), **wind)
+        action = np.zeros((3, 1))
+    else:
+        env = WindFieldWrapper(gym.make("DescentEnv-v0"), **wind)
+        action = np.zeros(1)
+    task = env.unwrapped.task
+    calls = _count_physics_calls(monkeypatch, task.sim)
+    env.reset(seed=0)
+    for _ in range(40):  # through the end of the first episodes
+        _, _, te, tr, _ = env.step(action)
+        if not vector and (te or tr):
+            env.reset()
+    assert calls["run"] == [task.action_frequency] * 40
+    assert calls["step"] == []
+
+
+def test_wind_is_part_of_the_task_observation() -> None:
+    env = _wind_env(augment_obs=True)
+    task = env.unwrapped.task
+    assert not hasattr(task, "reset_hooks") and not hasattr(task, "substep_hooks")
+    assert list(task.observation_spec)[-2:] == ["wind_u", "wind_v"]
+    assert {"wind_u", "wind_v"} <= set(env.unwrapped.observation_space.spaces)
+    obs, _ = env.reset(seed=1)
+    assert obs in env.unwrapped.observation_space
+    np.testing.assert_array_equal(task.observation()["wind_u"], obs["wind_u"][None])
+    with pytest.raises(ValueError, match="only once"):
+        WindFieldWrapper(env, lat=[52.0], lon=[4.0], vnorth=[1.0], veast=[1.0], augment_obs=True)
+
+
+def test_vector_wind_final_obs_is_the_ended_state() -> None:
+    base = gym.make_vec("DescentEnv-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    venv = VectorWindFieldWrapper(base, lat=[52.0], lon=[4.0], vnorth=[-10.0], veast=[15.0], augment_obs=True)
+    venv.reset(seed=0)
+    while True:
+        obs, _, te, tr, info = venv.step(np.full((2, 1), -1.0))
+        if (te | tr).any():
+            break
+    ended = np.flatnonzero(te | tr)
+    # The final observation is taken before the reset: a crashed aircraft's frame, and the new episode's own wind entries.
+    for k in ("wind_u", "wind_v"):
+        assert np.isfinite(info["final_obs"][k][ended]).all()
+    assert np.all(info["final_obs"]["altitude"][ended] != obs["altitude"][ended])

@@ -1,0 +1,227 @@
+"""The table of environments: one row per environment, read by every part of the package.
+
+Registration with Gymnasium, rendering, the CLI, the benchmarks and the multi-agent package all
+look environments up here; nothing else lists ids, classes or scenes. A row names its task, its
+single and vector environment classes, its render scene and its multi-agent form (if any) by
+import path (``"module:attribute"``), resolved on first use: reading the table imports no
+environment, so ``import bluesky_gym`` stays cheap and the table sits below every reader.
+
+The episode limit is the task's (:attr:`bluesky_gym.tasks.base.Task.max_episode_steps`): the
+task owns the limit, the table reports it.
+
+Adding an environment is adding a row to :data:`ENVIRONMENTS`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+#: The plan view drawn for a task without a scene of its own (every aircraft around the ownship).
+GENERIC_SCENE = "bluesky_gym.render.scenes.generic:generic_scene"
+
+
+def resolve(path: str) -> Any:
+    """Import ``"module:attribute"`` and return the attribute."""
+    module, sep, attr = path.partition(":")
+    if not sep or not module or not attr:
+        raise ValueError(f"expected an import path 'module:attribute', got {path!r}")
+    return getattr(importlib.import_module(module), attr)
+
+
+@dataclass(frozen=True)
+class MultiAgentEntry:
+    """The multi-agent form of an environment: every aircraft is an agent.
+
+    Attributes:
+        name: PettingZoo environment name (``"sector_cr_v0"``).
+        task: Batched multi-agent task class.
+        parallel_env: PettingZoo ``ParallelEnv`` class.
+        centralised_id: Gymnasium id of the centralised form (one agent steering every aircraft).
+        centralised_env: Its environment class.
+        scene: Scene builder ``(task, env_index) -> Scene`` of the multi-agent picture.
+    """
+
+    name: str
+    task: str
+    parallel_env: str
+    centralised_id: str
+    centralised_env: str
+    scene: str
+
+    def task_class(self) -> type[Any]:
+        """The batched multi-agent task class."""
+        return resolve(self.task)  # type: ignore[no-any-return]
+
+    def scene_builder(self) -> Callable[[Any, int], Any]:
+        """The scene builder of the multi-agent picture."""
+        return resolve(self.scene)  # type: ignore[no-any-return]
+
+
+@dataclass(frozen=True)
+class EnvEntry:
+    """One environment.
+
+    Attributes:
+        id: Gymnasium id.
+        task: Batched task class (owns the MDP and the episode limit).
+        env: Single-environment class (Gymnasium ``entry_point``).
+        vector_env: Natively batched environment class (Gymnasium ``vector_entry_point``).
+        scene: Scene builder ``(task, env_index) -> Scene`` drawn by the renderer.
+        multiagent: The multi-agent form, if the problem has one.
+    """
+
+    id: str
+    task: str
+    env: str
+    vector_env: str
+    scene: str = GENERIC_SCENE
+    multiagent: MultiAgentEntry | None = None
+
+    def task_class(self) -> type[Any]:
+        """The batched task class."""
+        return resolve(self.task)  # type: ignore[no-any-return]
+
+    def env_class(self) -> type[Any]:
+        """The single-environment class."""
+        return resolve(self.env)  # type: ignore[no-any-return]
+
+    def vector_env_class(self) -> type[Any]:
+        """The natively batched environment class."""
+        return resolve(self.vector_env)  # type: ignore[no-any-return]
+
+    def scene_builder(self) -> Callable[[Any, int], Any]:
+        """The scene builder the renderer draws this environment with."""
+        return resolve(self.scene)  # type: ignore[no-any-return]
+
+    @property
+    def max_episode_steps(self) -> int:
+        """Default episode limit in decision steps (the task's)."""
+        return int(self.task_class().max_episode_steps)
+
+    def is_available(self) -> bool:
+        """Whether the modules of the environment classes are present."""
+        return all(importlib.util.find_spec(p.partition(":")[0]) is not None for p in (self.task, self.env, self.vector_env))
+
+
+#: Every environment, in the order of the paper.
+ENVIRONMENTS: tuple[EnvEntry, ...] = (
+    EnvEntry(
+        id="DescentEnv-v0",
+        task="bluesky_gym.tasks.descent:DescentTask",
+        env="bluesky_gym.envs.descent_env:DescentEnv",
+        vector_env="bluesky_gym.envs.descent_env:DescentVectorEnv",
+        scene="bluesky_gym.render.scenes.descent:descent_scene",
+    ),
+    EnvEntry(
+        id="VerticalCREnv-v0",
+        task="bluesky_gym.tasks.vertical_cr:VerticalCRTask",
+        env="bluesky_gym.envs.vertical_cr_env:VerticalCREnv",
+        vector_env="bluesky_gym.envs.vertical_cr_env:VerticalCRVectorEnv",
+        scene="bluesky_gym.render.scenes.vertical_cr:vertical_cr_scene",
+    ),
+    EnvEntry(
+        id="PlanWaypointEnv-v0",
+        task="bluesky_gym.tasks.plan_waypoint:PlanWaypointTask",
+        env="bluesky_gym.envs.plan_waypoint_env:PlanWaypointEnv",
+        vector_env="bluesky_gym.envs.plan_waypoint_env:PlanWaypointVectorEnv",
+        scene="bluesky_gym.render.scenes.plan_waypoint:plan_waypoint_scene",
+    ),
+    EnvEntry(
+        id="HorizontalCREnv-v0",
+        task="bluesky_gym.tasks.horizontal_cr:HorizontalCRTask",
+        env="bluesky_gym.envs.horizontal_cr_env:HorizontalCREnv",
+        vector_env="bluesky_gym.envs.horizontal_cr_env:HorizontalCRVectorEnv",
+        scene="bluesky_gym.render.scenes.horizontal_cr:horizontal_cr_scene",
+        multiagent=MultiAgentEntry(
+            name="horizontal_cr_v0",
+            task="bluesky_gym.multiagent.horizontal_cr:HorizontalCRMultiAgentTask",
+            parallel_env="bluesky_gym.multiagent.parallel:HorizontalCRParallelEnv",
+            centralised_id="HorizontalCRCentralised-v0",
+            centralised_env="bluesky_gym.multiagent.centralised:HorizontalCRCentralisedEnv",
+            scene="bluesky_gym.multiagent.render:horizontal_cr_scene",
+        ),
+    ),
+    EnvEntry(
+        id="SectorCREnv-v0",
+        task="bluesky_gym.tasks.sector_cr:SectorCRTask",
+        env="bluesky_gym.envs.sector_cr_env:SectorCREnv",
+        vector_env="bluesky_gym.envs.sector_cr_env:SectorCRVectorEnv",
+        scene="bluesky_gym.render.scenes.sector_cr:sector_cr_scene",
+        multiagent=MultiAgentEntry(
+            name="sector_cr_v0",
+            task="bluesky_gym.multiagent.sector_cr:SectorCRMultiAgentTask",
+            parallel_env="bluesky_gym.multiagent.parallel:SectorCRParallelEnv",
+            centralised_id="SectorCRCentralised-v0",
+            centralised_env="bluesky_gym.multiagent.centralised:SectorCRCentralisedEnv",
+            scene="bluesky_gym.multiagent.render:sector_cr_scene",
+        ),
+    ),
+    EnvEntry(
+        id="StaticObstacleEnv-v0",
+        task="bluesky_gym.tasks.static_obstacle:StaticObstacleTask",
+        env="bluesky_gym.envs.static_obstacle_env:StaticObstacleEnv",
+        vector_env="bluesky_gym.envs.static_obstacle_env:StaticObstacleVectorEnv",
+        scene="bluesky_gym.render.scenes.static_obstacle:static_obstacle_scene",
+    ),
+    EnvEntry(
+        id="MergeEnv-v0",
+        task="bluesky_gym.tasks.merge:MergeTask",
+        env="bluesky_gym.envs.merge_env:MergeEnv",
+        vector_env="bluesky_gym.envs.merge_env:MergeVectorEnv",
+        scene="bluesky_gym.render.scenes.merge:merge_scene",
+        multiagent=MultiAgentEntry(
+            name="merge_v0",
+            task="bluesky_gym.multiagent.merge:MergeMultiAgentTask",
+            parallel_env="bluesky_gym.multiagent.parallel:MergeParallelEnv",
+            centralised_id="MergeCentralised-v0",
+            centralised_env="bluesky_gym.multiagent.centralised:MergeCentralisedEnv",
+            scene="bluesky_gym.multiagent.render:merge_scene",
+        ),
+    ),
+)
+
+
+def env_ids() -> list[str]:
+    """Ids of the environments whose modules are present, in table order."""
+    return [e.id for e in ENVIRONMENTS if e.is_available()]
+
+
+def entry(env_id: str) -> EnvEntry:
+    """The row of ``env_id`` (``ValueError`` naming the known ids if there is none)."""
+    for e in ENVIRONMENTS:
+        if e.id == env_id:
+            return e
+    raise ValueError(f"unknown environment {env_id!r}; available: {', '.join(e.id for e in ENVIRONMENTS)}")
+
+
+def multiagent_entries() -> list[MultiAgentEntry]:
+    """The multi-agent forms, in table order."""
+    return [e.multiagent for e in ENVIRONMENTS if e.multiagent is not None]
+
+
+def multiagent_entry(name: str) -> MultiAgentEntry:
+    """The multi-agent form named ``name`` (PettingZoo name such as ``"sector_cr_v0"``, or its centralised id)."""
+    for m in multiagent_entries():
+        if name in (m.name, m.centralised_id):
+            return m
+    raise ValueError(f"unknown multi-agent environment {name!r}; available: {', '.join(m.name for m in multiagent_entries())}")
+
+
+def single_agent_entry(multiagent_name: str) -> EnvEntry:
+    """The single-agent row whose multi-agent form is ``multiagent_name``."""
+    for e in ENVIRONMENTS:
+        if e.multiagent is not None and multiagent_name in (e.multiagent.name, e.multiagent.centralised_id):
+            return e
+    raise ValueError(f"unknown multi-agent environment {multiagent_name!r}")
+
+
+def scene_builder(env_id: str) -> Callable[[Any, int], Any]:
+    """The scene builder of ``env_id``; the generic plan view for an id without a row."""
+    for e in ENVIRONMENTS:
+        if e.id == env_id:
+            return e.scene_builder()
+    return resolve(GENERIC_SCENE)  # type: ignore[no-any-return]
