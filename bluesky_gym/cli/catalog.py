@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 import inspect
 import json
 import re
@@ -22,6 +21,8 @@ import sys
 from typing import Any
 
 import numpy as np
+
+from bluesky_gym.envs.registry import entry
 
 
 def add_parser(subparsers: Any) -> None:
@@ -41,19 +42,8 @@ def add_parser(subparsers: Any) -> None:
 
 
 def env_class(env_id: str) -> type:
-    """Return the single-environment class registered for ``env_id``."""
-    import gymnasium as gym
-
-    import bluesky_gym
-
-    bluesky_gym.register_envs()
-    if env_id not in gym.registry:
-        raise ValueError(f"unknown environment {env_id!r}; available: {', '.join(bluesky_gym.available_envs())}")
-    entry = gym.registry[env_id].entry_point
-    if not isinstance(entry, str):
-        return entry  # type: ignore[return-value]
-    module, _, name = entry.partition(":")
-    return getattr(importlib.import_module(module), name)
+    """Return the single-environment class of ``env_id`` (from the environment table)."""
+    return entry(env_id).env_class()
 
 
 def _box(space: Any) -> dict[str, Any]:
@@ -88,8 +78,9 @@ def describe(env_id: str) -> dict[str, Any]:
     """Return everything ``info`` shows about an environment, as plain data."""
     import gymnasium as gym
 
-    cls = env_class(env_id)
-    task_class = cls.task_class
+    row = entry(env_id)
+    cls = row.env_class()
+    task_class = row.task_class()
     env = gym.make(env_id)
     try:
         obs_space = env.observation_space
@@ -114,7 +105,7 @@ def describe(env_id: str) -> dict[str, Any]:
         "id": env_id,
         "summary": summary,
         "class": f"{cls.__module__}.{cls.__name__}",
-        "max_episode_steps": gym.registry[env_id].max_episode_steps,
+        "max_episode_steps": row.max_episode_steps,
         "dt_s": float(task_class.dt),
         "substeps_per_action": int(task_class.action_frequency),
         "seconds_per_step": float(task_class.dt * task_class.action_frequency),

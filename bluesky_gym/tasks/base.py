@@ -361,11 +361,10 @@ class Task(abc.ABC):
             envs: Episodes to observe (all when None); rows follow ``envs``.
         """
         obs = self.observe() if envs is None else self.observe_envs(envs)
-        if self.observation_terms:
-            rows = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
-            for name, term in self.observation_terms.items():
-                obs[name] = term.value(self, rows)
-        return obs
+        if not self.observation_terms:
+            return obs
+        rows = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        return {**obs, **{name: term.value(self, rows) for name, term in self.observation_terms.items()}}
 
     # --- the episode loop ------------------------------------------------------------------------
     def seed(self, envs: NDArray[np.int64], generators: list[np.random.Generator]) -> None:

@@ -295,6 +295,36 @@ def test_missing_pygame_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None
         make_renderer(env.unwrapped.task, "rgb_array")
 
 
+def test_the_renderer_draws_the_scene_it_is_given() -> None:
+    from bluesky_gym.envs.registry import entry, multiagent_entry
+    from bluesky_gym.render.scene import MapScene
+    from bluesky_gym.render.scenes.generic import generic_scene
+
+    env = gym.make("MergeEnv-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    env.render()
+    assert env.unwrapped._renderer.scene is entry("MergeEnv-v0").scene_builder()
+    drawn: list[int] = []
+
+    def scene(task, i: int) -> MapScene:
+        drawn.append(i)
+        return generic_scene(task, i)
+
+    renderer = make_renderer(env.unwrapped.task, "rgb_array", scene=scene)
+    _check_frame(renderer.render(0), min_colors=10)
+    assert drawn == [0]
+    assert make_renderer(env.unwrapped.task, "rgb_array").scene is generic_scene
+    with pytest.raises(TypeError, match="scene builder"):
+        make_renderer(env.unwrapped.task, "rgb_array", scene="merge")  # type: ignore[arg-type]
+
+    from bluesky_gym.multiagent.centralised import MergeCentralisedEnv
+
+    ma_env = MergeCentralisedEnv(render_mode="rgb_array")
+    ma_env.reset(seed=0)
+    _check_frame(ma_env.render())
+    assert ma_env._renderer.scene is multiagent_entry("merge_v0").scene_builder()
+
+
 def test_unknown_render_mode_is_rejected() -> None:
     env = gym.make(IDS[0])
     with pytest.raises(ValueError):

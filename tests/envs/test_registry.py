@@ -1,0 +1,62 @@
+"""The environment table is the one list of environments: registration, rendering and the multi-agent package read it."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import gymnasium as gym
+import pytest
+
+import bluesky_gym
+from bluesky_gym.envs import registry
+from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
+from bluesky_gym.tasks.base import Task
+
+from .expected_spaces import MAX_EPISODE_STEPS
+
+
+def test_rows_resolve_to_consistent_classes() -> None:
+    assert [e.id for e in registry.ENVIRONMENTS] == list(MAX_EPISODE_STEPS)
+    assert bluesky_gym.ENVIRONMENTS is registry.ENVIRONMENTS
+    for e in registry.ENVIRONMENTS:
+        task, env, venv = e.task_class(), e.env_class(), e.vector_env_class()
+        assert issubclass(task, Task) and task.env_id == e.id
+        assert issubclass(env, BlueSkyEnv) and env.task_class is task
+        assert issubclass(venv, BlueSkyVectorEnv) and venv.task_class is task
+        assert callable(e.scene_builder())
+        assert e.max_episode_steps == MAX_EPISODE_STEPS[e.id]
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            e.id = "x"  # type: ignore[misc]
+
+
+def test_gymnasium_registration_is_the_table() -> None:
+    for e in registry.ENVIRONMENTS:
+        spec = gym.spec(e.id)
+        assert (spec.entry_point, spec.vector_entry_point, spec.max_episode_steps) == (e.env, e.vector_env, None)
+    for m in registry.multiagent_entries():
+        spec = gym.spec(m.centralised_id)
+        assert (spec.entry_point, spec.max_episode_steps) == (m.centralised_env, None)
+
+
+def test_multiagent_forms() -> None:
+    import bluesky_gym.multiagent as ma
+
+    assert sorted(ma.names()) == ["horizontal_cr_v0", "merge_v0", "sector_cr_v0"]
+    for m in registry.multiagent_entries():
+        task = m.task_class()
+        assert task.name == m.name and ma.task_class(m.name) is task
+        assert registry.multiagent_entry(m.centralised_id) is m
+        assert registry.single_agent_entry(m.name).multiagent is m
+        assert registry.resolve(m.parallel_env).task_class is task
+        assert registry.resolve(m.centralised_env).task_class is task
+        assert callable(m.scene_builder())
+    with pytest.raises(ValueError, match="unknown multi-agent environment"):
+        registry.multiagent_entry("nope_v0")
+
+
+def test_unknown_ids() -> None:
+    with pytest.raises(ValueError, match="unknown environment 'Nope-v0'; available: DescentEnv-v0"):
+        registry.entry("Nope-v0")
+    assert registry.scene_builder("Nope-v0") is registry.resolve(registry.GENERIC_SCENE)
+    with pytest.raises(ValueError, match="module:attribute"):
+        registry.resolve("bluesky_gym.envs.registry")
