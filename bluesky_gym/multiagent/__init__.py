@@ -37,7 +37,6 @@ MULTIAGENT_EXTRA_HINT = 'pip install "bluesky-gym[multiagent]"'
 
 _PARALLEL_NAMES = (
     "parallel_env",
-    "PARALLEL_ENVS",
     "BlueSkyParallelEnv",
     "SectorCRParallelEnv",
     "MergeParallelEnv",

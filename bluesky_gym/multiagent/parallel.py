@@ -31,6 +31,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
+from bluesky_gym.envs.registry import multiagent_entry, resolve
 from bluesky_gym.multiagent import require_pettingzoo
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
@@ -214,19 +215,13 @@ class HorizontalCRParallelEnv(BlueSkyParallelEnv):
     metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}
 
 
-PARALLEL_ENVS: dict[str, type[BlueSkyParallelEnv]] = {
-    cls.task_class.name: cls for cls in (SectorCRParallelEnv, MergeParallelEnv, HorizontalCRParallelEnv)
-}
-
-
 def parallel_env(name: str, **kwargs: Any) -> BlueSkyParallelEnv:
     """Create a multi-agent environment by name (``"sector_cr_v0"``, ``"merge_v0"``, ``"horizontal_cr_v0"``).
 
     Args:
-        name: Environment name.
+        name: Environment name (the multi-agent names of the environment table).
         **kwargs: ``render_mode``, ``max_episode_steps`` and scenario options.
 
     """
-    if name not in PARALLEL_ENVS:
-        raise ValueError(f"unknown multi-agent environment {name!r}; available: {', '.join(PARALLEL_ENVS)}")
-    return PARALLEL_ENVS[name](**kwargs)
+    cls: type[BlueSkyParallelEnv] = resolve(multiagent_entry(name).parallel_env)
+    return cls(**kwargs)

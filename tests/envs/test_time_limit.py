@@ -85,3 +85,17 @@ def test_centralised_limit_from_gym_make() -> None:
         _, _, te, tr, info = env.step(np.zeros(env.action_space.shape))
     assert (te, tr) == (False, True)
     _assert_ended_with_kpis_and_refuses_more(env, info)
+
+
+def test_sync_make_vec_limit_reaches_every_copy() -> None:
+    venv = gym.make_vec("PlanWaypointEnv-v0", num_envs=2, vectorization_mode="sync", max_episode_steps=5)
+    venv.reset(seed=1)
+    for _ in range(5):
+        _, _, te, tr, info = venv.step(np.zeros((2, *venv.single_action_space.shape)))
+    assert tr.all() and not te.any()
+    assert info["_kpi_success"].all()
+
+
+def test_gym_make_without_time_limit_keeps_the_task_limit() -> None:
+    env = gym.make("MergeEnv-v0", max_episode_steps=-1)  # Gymnasium: no TimeLimit wrapper
+    assert env.unwrapped.task.time_limit == MAX_EPISODE_STEPS["MergeEnv-v0"]

@@ -13,12 +13,12 @@ pytest.importorskip("pettingzoo")
 from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
 
 from bluesky_gym.core import geo  # noqa: E402
-from bluesky_gym.multiagent import PARALLEL_ENVS, parallel_env, require_pettingzoo  # noqa: E402
+from bluesky_gym.multiagent import names, parallel_env, require_pettingzoo  # noqa: E402
 from bluesky_gym.multiagent.base import STATE_FEATURES  # noqa: E402
 from bluesky_gym.tasks import merge as mg  # noqa: E402
 from bluesky_gym.tasks.geometry import point_at_distance  # noqa: E402
 
-NAMES = list(PARALLEL_ENVS)
+NAMES = names()
 
 
 @pytest.mark.parametrize("name", NAMES)
