@@ -54,11 +54,13 @@ class MultiAgentEntry:
 
     def task_class(self) -> type[Any]:
         """The batched multi-agent task class."""
-        return resolve(self.task)  # type: ignore[no-any-return]
+        cls: type[Any] = resolve(self.task)
+        return cls
 
     def scene_builder(self) -> Callable[[Any, int], Any]:
         """The scene builder of the multi-agent picture."""
-        return resolve(self.scene)  # type: ignore[no-any-return]
+        builder: Callable[[Any, int], Any] = resolve(self.scene)
+        return builder
 
 
 @dataclass(frozen=True)
@@ -83,19 +85,23 @@ class EnvEntry:
 
     def task_class(self) -> type[Any]:
         """The batched task class."""
-        return resolve(self.task)  # type: ignore[no-any-return]
+        cls: type[Any] = resolve(self.task)
+        return cls
 
     def env_class(self) -> type[Any]:
         """The single-environment class."""
-        return resolve(self.env)  # type: ignore[no-any-return]
+        cls: type[Any] = resolve(self.env)
+        return cls
 
     def vector_env_class(self) -> type[Any]:
         """The natively batched environment class."""
-        return resolve(self.vector_env)  # type: ignore[no-any-return]
+        cls: type[Any] = resolve(self.vector_env)
+        return cls
 
     def scene_builder(self) -> Callable[[Any, int], Any]:
         """The scene builder the renderer draws this environment with."""
-        return resolve(self.scene)  # type: ignore[no-any-return]
+        builder: Callable[[Any, int], Any] = resolve(self.scene)
+        return builder
 
     @property
     def max_episode_steps(self) -> int:
@@ -224,4 +230,5 @@ def scene_builder(env_id: str) -> Callable[[Any, int], Any]:
     for e in ENVIRONMENTS:
         if e.id == env_id:
             return e.scene_builder()
-    return resolve(GENERIC_SCENE)  # type: ignore[no-any-return]
+    generic: Callable[[Any, int], Any] = resolve(GENERIC_SCENE)
+    return generic

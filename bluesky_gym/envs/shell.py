@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+from types import FrameType
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -66,9 +67,9 @@ def time_limit(max_episode_steps: int | None) -> int | None:
     """
     if max_episode_steps is not None:
         return max_episode_steps
-    frame = sys._getframe(1)
+    frame: FrameType | None = sys._getframe(1)
     while frame is not None and frame.f_code.co_name == "__init__":  # the constructor chain
-        frame = frame.f_back  # type: ignore[assignment]
+        frame = frame.f_back
     if frame is not None and frame.f_code is gym.make.__code__:
         requested = frame.f_locals.get("max_episode_steps")
         if isinstance(requested, int) and not isinstance(requested, bool) and requested > 0:
@@ -245,7 +246,11 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         if not 0 <= self.render_env < self.num_envs:
             raise ValueError(f"render_env must be in [0, {self.num_envs}), got {render_env}")
         single = observation_space(self.task)
-        self._observation_spaces = (self.task.observation_spec, single, batch_space(single, self.num_envs))
+        self._observation_spaces: tuple[dict[str, BoxSpec], spaces.Dict, gym.Space[Any]] = (
+            self.task.observation_spec,
+            single,
+            batch_space(single, self.num_envs),
+        )
         self.single_action_space = _box(self.task.action_spec)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._renderer: Any = None
@@ -258,7 +263,7 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         """The task configuration (frozen dataclass)."""
         return self.task.config
 
-    def _spaces(self) -> tuple[spaces.Dict, spaces.Dict]:
+    def _spaces(self) -> tuple[spaces.Dict, gym.Space[Any]]:
         spec, single, batched = self._observation_spaces
         if spec is not self.task.observation_spec:
             single = observation_space(self.task)
@@ -272,7 +277,7 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         return self._spaces()[0]
 
     @property
-    def observation_space(self) -> spaces.Dict:  # type: ignore[override]
+    def observation_space(self) -> gym.Space[Any]:  # type: ignore[override]
         """The batched observation space."""
         return self._spaces()[1]
 
