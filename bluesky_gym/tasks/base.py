@@ -361,6 +361,10 @@ class Task(abc.ABC):
             envs: Episodes to observe (all when None); rows follow ``envs``.
         """
         obs = self.observe() if envs is None else self.observe_envs(envs)
+        return self.with_observation_terms(obs, envs)
+
+    def with_observation_terms(self, obs: dict[str, Array], envs: NDArray[np.int64] | None = None) -> dict[str, Array]:
+        """``obs`` (the task's own entries for ``envs``, all when None) followed by the extra terms' current values."""
         if not self.observation_terms:
             return obs
         rows = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
@@ -402,6 +406,7 @@ class Task(abc.ABC):
         a = self.clip_action(action)
         self.apply_action(a)
         reward, terminated, components, obs = self.transition()
+        obs = self.with_observation_terms(obs)
         self.stats.steps += 1
         self.stats.total_reward += reward
         self._track_separation(slice(None), count_steps=True)
@@ -430,7 +435,7 @@ class Task(abc.ABC):
             Reward, termination, reward components and the observation.
         """
         self.sim.run(self.action_frequency)
-        obs = self.observation()
+        obs = self.observe()
         reward, terminated, components = self.evaluate()
         return reward, terminated, components, obs
 

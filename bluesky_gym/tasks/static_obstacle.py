@@ -376,7 +376,7 @@ class StaticObstacleTask(Task):
         intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
         reward = reach + drift + intrusion
         terminated = done_anyway | (count > 0)
-        obs = self.observation()
+        obs = self.observe()
         return reward, terminated, {"reach": reach, "drift": drift, "intrusion": intrusion}, obs
 
     # --- info and KPIs --------------------------------------------------------------------------

@@ -190,3 +190,17 @@ def test_vector_wind_final_obs_is_the_ended_state() -> None:
     for k in ("wind_u", "wind_v"):
         assert np.isfinite(info["final_obs"][k][ended]).all()
     assert np.all(info["final_obs"]["altitude"][ended] != obs["altitude"][ended])
+
+
+def test_wind_terms_with_a_task_of_its_own_sub_step_loop() -> None:
+    base = gym.make_vec("StaticObstacleEnv-v0", num_envs=4, vectorization_mode="vector_entry_point")
+    venv = VectorWindFieldWrapper(base, lat=[52.0], lon=[4.0], vnorth=[-10.0], veast=[15.0], augment_obs=True)
+    venv.reset(seed=0)
+    ended = False
+    for _ in range(100):
+        obs, _, te, tr, info = venv.step(np.zeros((4, 2)))
+        assert obs in venv.observation_space
+        if (te | tr).any():
+            ended = True
+            assert {"wind_u", "wind_v"} <= set(info["final_obs"])
+    assert ended
