@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from bluesky_gym.cli.train import algorithm, non_negative_int, positive_int
-from bluesky_gym.extras import MissingDependencyError
+from bluesky_gym.core.extras import MissingDependencyError
 
 
 def add_parser(subparsers: Any) -> None:

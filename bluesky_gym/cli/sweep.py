@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from bluesky_gym.cli.train import add_run_options, load_config, non_negative_int, positive_int, run_overrides
-from bluesky_gym.extras import MissingDependencyError
+from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.training import ALGORITHMS
 
 

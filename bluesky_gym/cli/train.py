@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from bluesky_gym.cli.arguments import non_negative_int, positive_int
-from bluesky_gym.extras import MissingDependencyError
+from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.training import ALGORITHMS
 
 

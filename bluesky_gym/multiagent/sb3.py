@@ -48,8 +48,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
+from bluesky_gym.core.extras import require_sb3
 from bluesky_gym.envs.seeds import train_env_seeds
-from bluesky_gym.extras import require_sb3
 from bluesky_gym.multiagent import task_class
 from bluesky_gym.multiagent.base import MultiAgentTask
 

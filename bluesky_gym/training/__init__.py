@@ -1,7 +1,7 @@
 """The benchmark: train, evaluate, compare and plot Stable-Baselines3 agents on BlueSky-Gym.
 
 Stable-Baselines3 and PyTorch are optional (the ``train`` extra). Modules of this package that
-need them import them lazily through :func:`bluesky_gym.extras.require_sb3`, so ``import bluesky_gym.training`` and
+need them import them lazily through :func:`bluesky_gym.core.extras.require_sb3`, so ``import bluesky_gym.training`` and
 the reference policies, evaluation and plotting of stored runs work without them.
 
 Modules:
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from bluesky_gym.extras import require_sb3
+from bluesky_gym.core.extras import require_sb3
 
 ALGORITHMS = ("PPO", "SAC", "TD3", "DDPG")
 OFF_POLICY = ("SAC", "TD3", "DDPG")

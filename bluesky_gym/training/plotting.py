@@ -169,7 +169,7 @@ def _pyplot() -> Any:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError as exc:
-        from bluesky_gym.extras import TRAIN_EXTRA_HINT, MissingDependencyError
+        from bluesky_gym.core.extras import TRAIN_EXTRA_HINT, MissingDependencyError
 
         raise MissingDependencyError(f"plotting needs matplotlib: {TRAIN_EXTRA_HINT}") from exc
     return plt

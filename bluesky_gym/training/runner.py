@@ -42,8 +42,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from bluesky_gym.core.extras import require_sb3
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, train_env_seeds
-from bluesky_gym.extras import require_sb3
 from bluesky_gym.training import algorithm_class
 from bluesky_gym.training.hyperparams import POLICY, adapt_to_n_envs, resolve, sb3_kwargs
 from bluesky_gym.training.io import AppendCSV, atomic_path, atomic_write_csv, atomic_write_json, latest_checkpoint, read_csv_rows, read_json

@@ -34,8 +34,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from bluesky_gym.core.extras import require_sb3
 from bluesky_gym.envs.seeds import train_env_seeds
-from bluesky_gym.extras import require_sb3
 from bluesky_gym.training import make_vector_env
 
 require_sb3()

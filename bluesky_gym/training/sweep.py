@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from bluesky_gym.extras import require_ray
+from bluesky_gym.core.extras import require_ray
 from bluesky_gym.training.io import atomic_write_json
 from bluesky_gym.training.runner import RunSpec, make_run_spec, run_dir_for, run_status, run_training
 

@@ -1,6 +1,6 @@
 """Optional dependencies: import them on demand, or fail with the extra that installs them.
 
-This module imports nothing from the package, so every layer may use it.
+This module imports nothing else from the package, so every layer may use it.
 """
 
 from __future__ import annotations
