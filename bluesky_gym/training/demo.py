@@ -126,8 +126,10 @@ def run_demo(
 
 def render_gif(env_id: str, model: Path, path: Path) -> Path | None:
     """Render one held-out episode of a trained model to a GIF, if the renderer is available."""
-    from bluesky_gym.training.recording import record
-
+    try:
+        from bluesky_gym.training.recording import record
+    except ImportError:
+        return None
     try:
         written, _ = record(env_id, policy=str(model), episodes=1, out=path, seed=EVAL_SEED_BASE, algo="ppo", fps=10.0)
     except ImportError:

@@ -1,8 +1,8 @@
-"""Fly episodes of an environment with a policy and record them to a GIF or MP4 (or show them).
+"""Fly episodes of an environment with a policy and film them (the ``render`` command and the demo).
 
 The policy is ``random`` (uniform actions, seeded), ``classical`` (the benchmark's hand-written
-controller) or the path of a Stable-Baselines3 model ``.zip``. This is what ``bluesky-gym render``
-and the demo's GIF run.
+controller) or the path of a Stable-Baselines3 model ``.zip`` (its algorithm is read from the
+file, or given).
 """
 
 from __future__ import annotations
