@@ -204,3 +204,35 @@ def test_wind_terms_with_a_task_of_its_own_sub_step_loop() -> None:
             ended = True
             assert {"wind_u", "wind_v"} <= set(info["final_obs"])
     assert ended
+
+
+def test_task_effects_and_observation_terms() -> None:
+    from bluesky_gym.tasks.base import BoxSpec, ObservationTerm
+
+    venv = gym.make_vec("DescentEnv-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    task = venv.unwrapped.task
+    started: list[list[int]] = []
+
+    class Count:
+        def on_reset(self, t, envs) -> None:
+            assert t is task
+            started.append(sorted(int(e) for e in envs))
+
+    task.add_effect(Count())
+    task.add_observation_terms({"env_index": ObservationTerm(BoxSpec((1,)), lambda t, envs: envs[:, None].astype(np.float64))})
+    assert venv.single_observation_space["env_index"].shape == (1,)
+    obs, _ = venv.reset(seed=0)
+    assert started == [[0, 1, 2]]
+    np.testing.assert_array_equal(obs["env_index"][:, 0], [0, 1, 2])
+    while True:
+        obs, _, te, tr, info = venv.step(np.full((3, 1), -1.0))
+        np.testing.assert_array_equal(obs["env_index"][:, 0], [0, 1, 2])
+        if (te | tr).any():
+            break
+    ended = np.flatnonzero(te | tr)
+    assert started[-1] == ended.tolist()
+    np.testing.assert_array_equal(info["final_obs"]["env_index"][ended, 0], ended)
+    with pytest.raises(ValueError, match="already has"):
+        task.add_observation_terms({"altitude": ObservationTerm(BoxSpec((1,)), lambda t, envs: envs[:, None])})
+    with pytest.raises(TypeError, match="on_reset"):
+        task.add_effect(lambda t, envs: None)
