@@ -49,7 +49,7 @@ def _check_render_mode(render_mode: str | None) -> None:
         raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
 
 
-def time_limit(max_episode_steps: int | None) -> int | None:
+def requested_time_limit(max_episode_steps: int | None) -> int | None:
     """The time limit an environment constructor should give its task.
 
     Its own ``max_episode_steps`` argument if given, else the ``max_episode_steps`` of the
@@ -112,7 +112,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
         _check_render_mode(render_mode)
         self.render_mode = render_mode
         self.backend = backend
-        limit = time_limit(max_episode_steps)
+        limit = requested_time_limit(max_episode_steps)
         self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
         self._observation_space = (self.task.observation_spec, observation_space(self.task))
         self.action_space = _box(self.task.action_spec)
@@ -241,7 +241,7 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         self.render_mode = render_mode
         self.render_env = int(render_env)
         self.render_grid = int(render_grid)
-        limit = time_limit(max_episode_steps)
+        limit = requested_time_limit(max_episode_steps)
         self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
         if not 0 <= self.render_env < self.num_envs:
             raise ValueError(f"render_env must be in [0, {self.num_envs}), got {render_env}")

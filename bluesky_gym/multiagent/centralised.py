@@ -28,7 +28,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bluesky_gym.envs.shell import TaskSpecMixin, time_limit
+from bluesky_gym.envs.shell import TaskSpecMixin, requested_time_limit
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, flatten_observation
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
@@ -62,7 +62,7 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
         self.render_mode = render_mode
-        self.task = self.task_class(1, self.task_class.make_config(options), max_episode_steps=time_limit(max_episode_steps))
+        self.task = self.task_class(1, self.task_class.make_config(options), max_episode_steps=requested_time_limit(max_episode_steps))
         m = self.task.n_agents
         low, high = local_bounds(self.task)
         self.observation_space = spaces.Dict(
