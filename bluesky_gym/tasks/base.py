@@ -142,16 +142,17 @@ class Effect(Protocol):
 
 
 @dataclass(frozen=True)
-class ObservationTerm:
-    """An extra observation entry of a task (see :meth:`Task.add_observation_terms`).
+class ObservationTerms:
+    """Extra observation entries of a task, computed together (see :meth:`Task.add_observation_terms`).
 
     Attributes:
-        spec: Its Box (shape of one episode's value, declared bounds).
-        value: ``value(task, envs) -> (len(envs), *spec.shape)`` float64, from the current state.
+        spec: Entry name -> its Box (shape of one episode's value, declared bounds).
+        value: ``value(task, envs) -> {name: (len(envs), *shape) float64}`` for every name of
+            ``spec``, from the current state of episodes ``envs``.
     """
 
-    spec: BoxSpec
-    value: Callable[[Task, NDArray[np.int64]], Array]
+    spec: Mapping[str, BoxSpec]
+    value: Callable[[Task, NDArray[np.int64]], Mapping[str, Array]]
 
 
 @dataclass
@@ -226,7 +227,7 @@ class Task(abc.ABC):
         self.action_spec = self.build_action_spec()
         #: Per-episode effects (:meth:`add_effect`) and extra observation entries (:meth:`add_observation_terms`).
         self.effects: list[Effect] = []
-        self.observation_terms: dict[str, ObservationTerm] = {}
+        self.observation_terms: list[ObservationTerms] = []
         self.allocate()
 
     # --- what a task defines --------------------------------------------------------------------
@@ -339,7 +340,7 @@ class Task(abc.ABC):
             raise TypeError(f"an effect needs an on_reset(task, envs) method, got {type(effect).__name__}")
         self.effects.append(effect)
 
-    def add_observation_terms(self, terms: Mapping[str, ObservationTerm]) -> None:
+    def add_observation_terms(self, terms: ObservationTerms) -> None:
         """Add entries to the observation (and to :attr:`observation_spec`), after the task's own.
 
         Every observation the task gives from then on (:meth:`observation`, the step's, the final
@@ -348,11 +349,11 @@ class Task(abc.ABC):
         Raises:
             ValueError: If a name is already an observation key.
         """
-        clash = sorted(set(terms) & set(self.observation_spec))
+        clash = sorted(set(terms.spec) & set(self.observation_spec))
         if clash:
             raise ValueError(f"observation already has the key(s) {clash}")
-        self.observation_terms = {**self.observation_terms, **terms}
-        self.observation_spec = {**self.observation_spec, **{k: t.spec for k, t in terms.items()}}
+        self.observation_terms = [*self.observation_terms, terms]
+        self.observation_spec = {**self.observation_spec, **terms.spec}
 
     def observation(self, envs: NDArray[np.int64] | None = None) -> dict[str, Array]:
         """The observation the environments return: :meth:`observe` (or :meth:`observe_envs`) and the extra terms.
@@ -368,7 +369,11 @@ class Task(abc.ABC):
         if not self.observation_terms:
             return obs
         rows = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
-        return {**obs, **{name: term.value(self, rows) for name, term in self.observation_terms.items()}}
+        obs = dict(obs)
+        for terms in self.observation_terms:
+            values = terms.value(self, rows)
+            obs.update((name, values[name]) for name in terms.spec)
+        return obs
 
     # --- the episode loop ------------------------------------------------------------------------
     def seed(self, envs: NDArray[np.int64], generators: list[np.random.Generator]) -> None:

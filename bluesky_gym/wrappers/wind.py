@@ -28,7 +28,7 @@ import numpy as np
 from gymnasium.vector import VectorEnv, VectorWrapper
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.tasks.base import Array, BoxSpec, ObservationTerm, Task
+from bluesky_gym.tasks.base import Array, BoxSpec, ObservationTerms, Task
 
 MAX_WIND = 50.0  # m/s, normalisation of the wind observation
 WIND_KEYS = ("wind_u", "wind_v")
@@ -67,23 +67,18 @@ class WindEffect:
             task.sim.wind.add_points(int(e), self.lat, self.lon, self.vnorth, self.veast)
 
 
-def wind_at_ownship(task: Task, envs: NDArray[np.int64]) -> tuple[Array, Array]:
-    """Wind at the ownship in its heading frame, normalised: (along-heading, cross) / 50, (len(envs), 1) each."""
+def wind_at_ownship(task: Task, envs: NDArray[np.int64]) -> dict[str, Array]:
+    """``wind_u``, ``wind_v``: the wind at the ownship in its heading frame / 50, (len(envs), 1) each."""
     sim = task.sim
     wn, we = sim.wind.at(envs, sim.lat[envs, 0], sim.lon[envs, 0])
     h = np.deg2rad(sim.hdg[envs, 0])
     u = (wn * np.cos(h) + we * np.sin(h)) / MAX_WIND
     v = (-wn * np.sin(h) + we * np.cos(h)) / MAX_WIND
-    return u[:, None], v[:, None]
+    return {"wind_u": u[:, None], "wind_v": v[:, None]}
 
 
-def wind_observation_terms() -> dict[str, ObservationTerm]:
-    """The ``wind_u`` and ``wind_v`` observation terms."""
-    box = BoxSpec((1,))
-    return {
-        "wind_u": ObservationTerm(box, lambda task, envs: wind_at_ownship(task, envs)[0]),
-        "wind_v": ObservationTerm(box, lambda task, envs: wind_at_ownship(task, envs)[1]),
-    }
+#: The ``wind_u`` and ``wind_v`` observation entries.
+WIND_OBSERVATION = ObservationTerms(spec={k: BoxSpec((1,)) for k in WIND_KEYS}, value=wind_at_ownship)
 
 
 def add_wind(task: Task, wind: WindEffect, augment_obs: bool) -> None:
@@ -92,7 +87,7 @@ def add_wind(task: Task, wind: WindEffect, augment_obs: bool) -> None:
         raise ValueError("the environment already observes the wind (wind_u, wind_v); wrap it with augment_obs=True only once")
     task.add_effect(wind)
     if augment_obs:
-        task.add_observation_terms(wind_observation_terms())
+        task.add_observation_terms(WIND_OBSERVATION)
 
 
 class WindFieldWrapper(gym.Wrapper):

@@ -207,7 +207,7 @@ def test_wind_terms_with_a_task_of_its_own_sub_step_loop() -> None:
 
 
 def test_task_effects_and_observation_terms() -> None:
-    from bluesky_gym.tasks.base import BoxSpec, ObservationTerm
+    from bluesky_gym.tasks.base import BoxSpec, ObservationTerms
 
     venv = gym.make_vec("DescentEnv-v0", num_envs=3, vectorization_mode="vector_entry_point")
     task = venv.unwrapped.task
@@ -219,7 +219,7 @@ def test_task_effects_and_observation_terms() -> None:
             started.append(sorted(int(e) for e in envs))
 
     task.add_effect(Count())
-    task.add_observation_terms({"env_index": ObservationTerm(BoxSpec((1,)), lambda t, envs: envs[:, None].astype(np.float64))})
+    task.add_observation_terms(ObservationTerms({"env_index": BoxSpec((1,))}, lambda t, envs: {"env_index": envs[:, None].astype(np.float64)}))
     assert venv.single_observation_space["env_index"].shape == (1,)
     obs, _ = venv.reset(seed=0)
     assert started == [[0, 1, 2]]
@@ -233,6 +233,6 @@ def test_task_effects_and_observation_terms() -> None:
     assert started[-1] == ended.tolist()
     np.testing.assert_array_equal(info["final_obs"]["env_index"][ended, 0], ended)
     with pytest.raises(ValueError, match="already has"):
-        task.add_observation_terms({"altitude": ObservationTerm(BoxSpec((1,)), lambda t, envs: envs[:, None])})
+        task.add_observation_terms(ObservationTerms({"altitude": BoxSpec((1,))}, lambda t, envs: {"altitude": envs[:, None]}))
     with pytest.raises(TypeError, match="on_reset"):
         task.add_effect(lambda t, envs: None)
