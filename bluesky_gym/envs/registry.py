@@ -1,7 +1,7 @@
 """The table of environments: one row per environment, read by every part of the package.
 
 Registration with Gymnasium, rendering, the CLI, the benchmarks and the multi-agent package all
-look environments up here; nothing else lists ids, classes or scenes. A row names its task, its
+look environments up here; no other module keeps a list of ids, classes or scenes. A row names its task, its
 single and vector environment classes, its render scene and its multi-agent form (if any) by
 import path (``"module:attribute"``), resolved on first use: reading the table imports no
 environment, so ``import bluesky_gym`` stays cheap and the table sits below every reader.
