@@ -99,3 +99,15 @@ def test_bench_repeat_reports_medians_of_runs(tmp_path: Path, capsys: pytest.Cap
     assert len(data["core"]["native"]) == 1 and len(data["core"]["native"][0]["runs"]) == 2
     row = data["envs"]["rows"][0]
     assert len(row["single"]["runs"]) == 2 and len(row["batched"]["2"]["runs"]) == 2
+
+
+def test_env_profile_splits_physics_from_task_layer() -> None:
+    from bluesky_gym.benchmarks.env_profile import profile_env
+    from bluesky_gym.benchmarks.report import format_env_profile
+
+    prof = profile_env("SectorCREnv-v0", num_envs=8, steps=4, top=5)
+    assert prof["physics_s"] > 0.0 and prof["task_s"] > 0.0
+    assert abs(prof["physics_s"] + prof["task_s"] - prof["profiled_step_s"]) < 1e-9
+    assert 0.0 < prof["task_share"] < 1.0
+    assert all("bluesky_gym/core/" not in f["function"] for f in prof["functions"])
+    assert "SectorCREnv-v0 x 8" in format_env_profile(prof)
