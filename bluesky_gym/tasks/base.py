@@ -192,7 +192,7 @@ class Task(abc.ABC):
             raise ValueError(f"physics backend has {self.sim.n_envs} airspaces, the task {self.n_envs}")
         #: Whether observation and reward geometry run compiled (:mod:`bluesky_gym.tasks.compiled`):
         #: with the physics' fused kernel, i.e. when numba is installed and not switched off.
-        self.compiled = getattr(self.sim, "kernel", None) == "fused"
+        self.compiled = True  # the compiled kernels are the production path (plain Python without numba)
         #: The compiled functions (the module :mod:`bluesky_gym.tasks.compiled`), or None.
         self.kernels: Any = None
         if self.compiled:
