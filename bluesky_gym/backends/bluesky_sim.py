@@ -91,6 +91,8 @@ TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("swlastwp", "actwp", "swlastwp"),
 )
 
+_TRAFFIC_SOURCE = {name: (owner, attr) for name, owner, attr in TRAFFIC_FIELDS}
+
 _owner: weakref.ReferenceType[BlueSkyPhysics] | None = None
 
 
@@ -516,23 +518,30 @@ class BlueSkyPhysics:
         Each argument left None stays unchanged; values broadcast over ``(env, slot)``.
         """
         env, slot = self._begin(env, slot)
-        traf = self._bs.traf
-        self._write(slot, (traf, "selalt", selalt), (traf, "selvs", selvs), (traf, "swvnav", swvnav), (traf.ap, "trk", ap_trk))
+        self._write(slot, selalt=selalt, selvs=selvs, swvnav=swvnav, ap_trk=ap_trk)
 
     def set_state(self, env: ArrayLike, slot: ArrayLike, *, alt: ArrayLike | None = None, hdg: ArrayLike | None = None) -> None:
         """Write ``traf.alt`` [m] and ``traf.hdg`` [deg] directly (None = unchanged)."""
         env, slot = self._begin(env, slot)
-        traf = self._bs.traf
-        self._write(slot, (traf, "alt", alt), (traf, "hdg", hdg))
+        self._write(slot, alt=alt, hdg=hdg)
 
-    def _write(self, slot: NDArray[np.int64], *writes: tuple[Any, str, ArrayLike | None]) -> None:
-        """Assign values into BlueSky's arrays for the aircraft in ``slot``, then refresh the state."""
+    def _write(self, slot: NDArray[np.int64], **values: ArrayLike | None) -> None:
+        """Assign values into BlueSky's arrays (``TRAFFIC_FIELDS`` names) for the aircraft in ``slot``.
+
+        Only the written arrays are read back. (BlueSky may alias arrays: after a step without
+        wind ``traf.trk`` is ``traf.hdg``, so a heading write also moves the track until the next
+        step recomputes it; the state arrays show that from the next command or step on.)
+        """
         idx = np.array([self._tidx_of(s) for s in slot], dtype=np.int64)
-        for owner, attr, value in writes:
-            if value is not None:
-                arr = getattr(owner, attr)
-                arr[idx] = np.broadcast_to(np.asarray(value, dtype=arr.dtype), idx.shape)
-        self._sync_out(routes=False)
+        traf = self._bs.traf
+        parents = {"": traf, "ap": traf.ap}
+        for name, value in values.items():
+            if value is None:
+                continue
+            owner, attr = _TRAFFIC_SOURCE[name]
+            arr = getattr(parents[owner], attr)
+            arr[idx] = np.broadcast_to(np.asarray(value, dtype=arr.dtype), idx.shape)
+            self._data[name][0, slot] = arr[idx]
 
     def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """Stack ``ADDWPT acid lat lon``: a fly-by waypoint (before the destination); LNAV on."""
