@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from bluesky_gym.core import Simulator, atmosphere, geo, performance
 from bluesky_gym.core.jit import python_form
@@ -97,6 +98,31 @@ def test_performance_kernel_equals_the_oracle() -> None:
         assert ph == phase[k], k
         _same_bits([vn, vx, ax], [vmin[k], vmax[k], axmax[k]])
     assert set(np.unique(phase)) >= {performance.PHASE_GD, performance.PHASE_CL, performance.PHASE_CR, performance.PHASE_DE}
+
+
+@pytest.mark.parametrize("wind", [False, True])
+def test_creconfs_equals_the_oracle(wind: bool) -> None:
+    """Intruders placed by the conflict-geometry kernel equal the numpy oracle's, bit for bit."""
+    from tests.oracle.simulator import OracleSimulator
+
+    n = 300
+    rng = np.random.default_rng(6)
+    args = (np.arange(n), 0, 1, rng.uniform(0, 360, n), rng.choice([0.0, 1.0, 2.5, 7.0], n), rng.uniform(60, 900, n))
+    options = [{}, {"dh": rng.uniform(-1500, 1500, n)}, {"dh": rng.uniform(-1500, 1500, n), "tlosv": rng.uniform(60, 900, n)},
+               {"spd": rng.choice([0.78, 130.0, 160.0], n)}, {"dh": 500.0, "spd": 150.0}]  # fmt: skip
+    for opts in options:
+        sims = [cls(n, 2, dt=1.0) for cls in (Simulator, OracleSimulator)]
+        start = (rng.uniform(-60, 60, n), rng.uniform(-170, 170, n), rng.uniform(0, 360, n))
+        for sim in sims:
+            sim.create(np.arange(n), 0, *start, 5000.0, 140.0)
+            if wind:
+                for e in range(0, n, 3):
+                    sim.wind.add_points(e, [0.0, 10.0][: 1 + e % 2], [0.0, 5.0][: 1 + e % 2], [5.0, -3.0][: 1 + e % 2], [2.0, 7.0][: 1 + e % 2])
+            sim.step()
+        for sim in sims:
+            sim.creconfs(*args, **opts)
+        for f in ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "mach", "gs", "gsnorth", "gseast", "vs", "selalt", "selvs", "selspd"):
+            _same_bits(getattr(sims[0], f)[:, 1], getattr(sims[1], f)[:, 1])
 
 
 def _run_uncompiled(sim: Simulator, n: int) -> None:
