@@ -248,6 +248,7 @@ class BlueSkyPhysics:
         RuntimeError: Another :class:`BlueSkyPhysics` is open in this process.
     """
 
+    closed: bool
     # The read-only state arrays (see bluesky_gym.core.physics.Physics), (1, max_aircraft).
     active: NDArray[np.bool_]
     lat: Array

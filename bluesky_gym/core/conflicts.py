@@ -194,7 +194,7 @@ class Conflicts:
     @property
     def in_conflict(self) -> NDArray[np.bool_]:
         """(n_envs, n_aircraft) aircraft with at least one conflict."""
-        return self.conflict.any(axis=-1)
+        return np.asarray(self.conflict.any(axis=-1))
 
 
 def detect(
