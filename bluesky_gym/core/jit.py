@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
@@ -27,6 +28,40 @@ except ImportError:  # pragma: no cover - exercised only without numba
 #: How to get the compiled kernels.
 INSTALL_HINT = "pip install numba"
 _warned = False
+
+_PACKAGE_DIR = Path(__file__).resolve().parent.parent
+#: The folders whose modules define kernels; a change to any of them invalidates every cached kernel.
+_KERNEL_DIRS = (_PACKAGE_DIR / "core", _PACKAGE_DIR / "tasks")
+
+
+def _kernel_sources_stamp() -> tuple[tuple[str, float, int], ...]:
+    """Name, modification time and size of every kernel-defining module."""
+    return tuple((str(p), p.stat().st_mtime, p.stat().st_size) for d in _KERNEL_DIRS for p in sorted(d.glob("*.py")))
+
+
+if numba is not None:
+    from numba.core.caching import CacheImpl, InTreeCacheLocator
+
+    class _KernelCacheLocator(InTreeCacheLocator):  # type: ignore[misc]
+        """numba's in-tree cache, invalidated by a change to ANY kernel module.
+
+        numba stamps a cached function with its own file only, but kernels inline and call
+        kernels of other modules: after an edit of, say, the atmosphere, a cached step kernel
+        would otherwise keep the old atmosphere.
+        """
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            if not any(Path(py_file).resolve().is_relative_to(d) for d in _KERNEL_DIRS):
+                return None
+            return super().from_function(py_func, py_file)
+
+        def get_source_stamp(self) -> Any:
+            return _kernel_sources_stamp()
+
+    if _KernelCacheLocator not in CacheImpl._locator_classes:
+        # After numba's NUMBA_CACHE_DIR locator, before its default in-tree one.
+        CacheImpl._locator_classes.insert(1, _KernelCacheLocator)
 
 
 def _warn_uncompiled() -> None:
