@@ -203,3 +203,14 @@ def format_profile(prof: dict[str, Any]) -> str:
         for f in prof["functions"]
     ]
     return head + "\n\n" + table(["function", "calls/step", "own/step", "own %", "cum/step", "cum %"], rows)
+
+
+def format_env_profile(prof: dict[str, Any]) -> str:
+    """Format a profile of a batched environment step (physics against task layer) as text."""
+    head = (
+        f"Profile of {prof['env_id']} x {prof['num_envs']}, {prof['steps']} batched steps: {fmt_time(prof['step_s'])} per step; "
+        f"under the profiler {fmt_time(prof['profiled_step_s'])}: physics {fmt_time(prof['physics_s'])}, "
+        f"task layer and shell {fmt_time(prof['task_s'])} ({100.0 * prof['task_share']:.1f}% of the step, an upper bound)"
+    )
+    rows = [[f["function"], f"{f['calls']:.3g}", fmt_time(f["own_s"]), f"{f['own_pct']:.1f}%"] for f in prof["functions"]]
+    return head + "\n\n" + table(["function outside the core", "calls/step", "own/step", "own %"], rows)

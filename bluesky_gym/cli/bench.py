@@ -121,6 +121,12 @@ def add_parser(subparsers: Any) -> None:
     prof.add_argument("--kernel", action="append", metavar="NAME", help="kernel to profile (repeatable; default: every available one)")
     prof.add_argument("--steps", type=positive_int, default=30, help="profiled steps")
     prof.add_argument("--top", type=positive_int, default=15, help="functions listed")
+    prof.add_argument(
+        "--env",
+        action="append",
+        metavar="ID",
+        help="profile a batched environment step instead (physics against task layer; repeatable); --envs is then the batch size",
+    )
     _add_common(prof)
     prof.set_defaults(func=run_profile_command)
 
@@ -224,6 +230,8 @@ def run_profile_command(args: argparse.Namespace) -> int:
     from bluesky_gym.benchmarks.profiling import profile_core
     from bluesky_gym.benchmarks.report import format_profile
 
+    if args.env:
+        return _run_env_profiles(args)
     _check_kernels(args.kernel)
     profiles = []
     say = _progress(args)
@@ -234,3 +242,23 @@ def run_profile_command(args: argparse.Namespace) -> int:
         profiles.append(prof)
         print(format_profile(prof), end="\n\n", flush=True)
     return _finish(args, {"profile": profiles}, False)
+
+
+def _run_env_profiles(args: argparse.Namespace) -> int:
+    """``bench profile --env ID``: physics against task layer in a batched step."""
+    from bluesky_gym.benchmarks.env_profile import profile_env
+    from bluesky_gym.benchmarks.report import format_env_profile
+    from bluesky_gym.registration import available_envs
+
+    unknown = [i for i in args.env if i not in available_envs()]
+    if unknown:
+        raise SystemExit(f"bluesky-gym bench: unknown or unavailable id(s) {unknown}; available: {', '.join(available_envs())}")
+    say = _progress(args)
+    profiles = []
+    for env_id in args.env:
+        if say is not None:
+            say(f"profile: {env_id} x {args.envs}")
+        prof = profile_env(env_id, args.envs, args.steps, args.top)
+        profiles.append(prof)
+        print(format_env_profile(prof), end="\n\n", flush=True)
+    return _finish(args, {"env_profile": profiles}, False)

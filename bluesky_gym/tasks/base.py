@@ -212,8 +212,8 @@ class Task(abc.ABC):
         if self.sim.n_envs != self.n_envs:
             raise ValueError(f"physics backend has {self.sim.n_envs} airspaces, the task {self.n_envs}")
         #: Whether observation and reward geometry run compiled (:mod:`bluesky_gym.tasks.compiled`):
-        #: with the physics' fused kernel, i.e. when numba is installed and not switched off.
-        self.compiled = getattr(self.sim, "kernel", None) == "fused"
+        #: always, the compiled kernels are the production path (plain Python without numba).
+        self.compiled = True
         #: The compiled functions (the module :mod:`bluesky_gym.tasks.compiled`), or None.
         self.kernels: Any = None
         if self.compiled:

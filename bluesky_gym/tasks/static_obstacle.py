@@ -174,8 +174,8 @@ class StaticObstacleTask(Task):
             )
         # The aircraft starts pointing at the waypoint: hdg and the autopilot track (spec 6).
         qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
-        self.sim.hdg[envs, 0] = qdr
-        self.sim.ap_trk[envs, 0] = qdr
+        self.sim.set_state(envs, 0, hdg=qdr)
+        self.sim.set_autopilot(envs, 0, ap_trk=qdr)
         self.start_wpt_km[envs] = dist * NM2KM
         self.wpt_reached[envs] = False
         self.crashed[envs] = False
@@ -319,45 +319,35 @@ class StaticObstacleTask(Task):
                 break
             if ended.any() and k < self.action_frequency - 1:
                 envs = np.flatnonzero(ended)
-                frozen.append((envs, self.sim.snapshot(envs)))
+                frozen.append((envs, self.sim._snapshot(envs)))  # native core only (one airspace never gets here)
         for envs, state in frozen:
-            self.sim.restore(state, envs)
+            self.sim._restore(state, envs)
         return self._finish_transition(reached, done_anyway, drift_rad, count)
 
     def _transition_traced(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
         """:meth:`transition` from one traced run of all sub-steps (compiled physics and geometry).
 
         The obstacle test needs only the ownship's position after each sub-step, so all sub-steps
-        run in one call that records the positions; the episodes that ended before the last
-        sub-step are then put back to the state they had when they ended by re-running them from
-        a snapshot.
+        run in one call that records the positions; the physics leaves the episodes that ended
+        before the last sub-step in the state they had when they ended (``run(stop=...)``).
         """
         sim, n, steps = self.sim, self.n_envs, self.action_frequency
         reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
         done_anyway = self.wpt_reached | reached
         drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        start = sim.snapshot()
-        track = sim.run(steps, trace=True)
-        counts = np.empty((steps, n), np.int64)
-        self.kernels.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts)
-        hit = done_anyway | (counts > 0)  # (steps, n): the episode ends at this sub-step
-        ends = hit.any(axis=0)
-        last = np.where(ends, hit.argmax(axis=0), steps - 1)  # last evaluated sub-step
+        counts = np.zeros((steps, n), np.int64)
+        ended = np.zeros(n, np.int64)
+
+        def stop(track: Array) -> NDArray[np.int64]:
+            k = track.shape[0]
+            self.kernels.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts[:k])
+            hit = done_anyway | (counts[:k] > 0)  # (k, n): the episode ends at this sub-step
+            ended[...] = np.where(hit.any(axis=0), hit.argmax(axis=0) + 1, 0)
+            return ended
+
+        sim.run(steps, stop=stop)
+        last = np.where(ended > 0, ended - 1, steps - 1)  # last evaluated sub-step
         count = counts[last, self.all_envs]
-        early = np.flatnonzero(last < steps - 1)
-        if early.size:
-            end = sim.snapshot()
-            sim.restore(start)
-            stopped = []
-            for k in range(int(last[early].max()) + 1):
-                sim.step()
-                group = early[last[early] == k]
-                if group.size:
-                    stopped.append((group, sim.snapshot(group)))
-            if early.size < n:  # when every episode ended early, the clocks stop there too
-                sim.restore(end)
-            for group, state in stopped:
-                sim.restore(state, group)
         for k in range(int(last.max()) + 1):
             evaluated = last >= k
             self.drift_sum_rad += np.where(evaluated, drift_rad, 0.0)

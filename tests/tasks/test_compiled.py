@@ -16,6 +16,7 @@ from bluesky_gym.tasks.merge import MergeTask
 from bluesky_gym.tasks.sector_cr import SectorCRTask
 from bluesky_gym.tasks.static_obstacle import StaticObstacleTask
 from bluesky_gym.tasks.vertical_cr import VerticalCRTask
+from tests.oracle.simulator import OracleSimulator
 
 pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason="numba (extra 'fast') not installed")
 
@@ -23,9 +24,13 @@ N_ENVS = 6
 
 
 def _task(task_class: type, kernel: str, seed: int) -> object:
+    """The task on the compiled core ("fused"), or its numpy path on the numpy oracle of the core ("numpy")."""
     probe = task_class(N_ENVS)
-    sim = Simulator(N_ENVS, probe.sim.max_aircraft, dt=task_class.dt, max_waypoints=probe.sim.max_waypoints, kernel=kernel)
+    cls = OracleSimulator if kernel == "numpy" else Simulator
+    sim = cls(N_ENVS, probe.sim.max_aircraft, dt=task_class.dt, max_waypoints=probe.sim.max_waypoints)
     task = task_class(N_ENVS, backend=sim)
+    if kernel == "numpy":
+        task.compiled, task.kernels = False, None
     task.seed(task.all_envs, [np.random.default_rng(seed + i) for i in range(N_ENVS)])
     task.reset()
     return task
