@@ -125,8 +125,8 @@ def populate(sim: Simulator, scenario: CoreScenario) -> tuple[NDArray[np.int64],
 
     """
     n_envs, n_aircraft = scenario.lat.shape
-    env, slot = np.meshgrid(np.arange(n_envs), np.arange(n_aircraft), indexing="ij")
-    env, slot = env.ravel(), slot.ravel()
+    env_grid, slot_grid = np.meshgrid(np.arange(n_envs), np.arange(n_aircraft), indexing="ij")
+    env, slot = env_grid.ravel(), slot_grid.ravel()
     sim.create(env, slot, scenario.lat.ravel(), scenario.lon.ravel(), scenario.hdg.ravel(), scenario.alt.ravel(), scenario.cas.ravel())
     turning = scenario.turn.ravel() != 0.0
     turns = (env[turning], slot[turning], scenario.turn.ravel()[turning])

@@ -19,9 +19,12 @@ import inspect
 import json
 import re
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from bluesky_gym.envs.shell import BlueSkyEnv
 
 
 def add_parser(subparsers: Any) -> None:
@@ -40,7 +43,7 @@ def add_parser(subparsers: Any) -> None:
     q.set_defaults(func=run_info)
 
 
-def env_class(env_id: str) -> type:
+def env_class(env_id: str) -> type[BlueSkyEnv]:
     """Return the single-environment class registered for ``env_id``."""
     import gymnasium as gym
 
@@ -53,7 +56,8 @@ def env_class(env_id: str) -> type:
     if not isinstance(entry, str):
         return entry  # type: ignore[return-value]
     module, _, name = entry.partition(":")
-    return getattr(importlib.import_module(module), name)
+    cls: type[BlueSkyEnv] = getattr(importlib.import_module(module), name)
+    return cls
 
 
 def _box(space: Any) -> dict[str, Any]:
@@ -94,7 +98,9 @@ def describe(env_id: str) -> dict[str, Any]:
     try:
         obs_space = env.observation_space
         act_space = env.action_space
-        config = env.unwrapped.config
+        unwrapped = env.unwrapped
+        assert isinstance(unwrapped, cls) and isinstance(obs_space, gym.spaces.Dict)
+        config = unwrapped.config
     finally:
         env.close()
     docs = _attribute_docs(type(config))
