@@ -19,17 +19,11 @@ from __future__ import annotations
 import argparse
 import ast
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from bluesky_gym.cli.arguments import positive_float, positive_int
-
-Actor = Callable[[dict[str, np.ndarray]], np.ndarray]
-NAMED_POLICIES = ("random", "classical")
-SB3_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "a2c": "A2C"}
+from bluesky_gym.training.recording import SB3_ALGORITHMS, record
 
 
 def _option(text: str) -> tuple[str, Any]:
@@ -68,142 +62,6 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--human", action="store_true", help="show the episodes in a window instead of writing a file")
     p.add_argument("--option", type=_option, action="append", default=[], metavar="KEY=VALUE", help="scenario option (repeatable)")
     p.set_defaults(func=run)
-
-
-def _algo_from_zip(path: Path) -> str:
-    """The algorithm of a Stable-Baselines3 model file, from its stored settings."""
-    from bluesky_gym.training.evaluation import algorithm_of_zip
-
-    name = algorithm_of_zip(path)
-    if name is None:
-        raise ValueError(f"cannot tell the algorithm of {path}; pass --algo (one of {', '.join(sorted(SB3_ALGORITHMS))})")
-    return name.lower()
-
-
-def make_actor(policy: str, env_id: str, action_space: Any, seed: int, algo: str | None = None, deterministic: bool = True) -> Actor:
-    """A function from a batched observation dict to a batch of actions.
-
-    Args:
-        policy: ``random``, ``classical`` or the path of a Stable-Baselines3 model ``.zip``.
-        env_id: Environment id (selects the classical controller).
-        action_space: Action space of one environment.
-        seed: Seed of the random actions.
-        algo: Algorithm of the model file (default: read from it).
-        deterministic: Deterministic model actions.
-    """
-    low = np.asarray(action_space.low, dtype=np.float64)
-    high = np.asarray(action_space.high, dtype=np.float64)
-    if policy == "random":
-        rng = np.random.default_rng(seed)
-        return lambda obs: rng.uniform(low, high, size=(next(iter(obs.values())).shape[0], *low.shape))
-    if policy == "classical":
-        from bluesky_gym.training.policies import reference_policy
-
-        controller = reference_policy("classical", env_id, low, high)
-        return controller.act
-    path = Path(policy)
-    if not path.is_file():
-        raise ValueError(f"--policy must be one of {', '.join(NAMED_POLICIES)} or an existing model .zip file, got {policy!r}")
-    try:
-        import stable_baselines3 as sb3
-    except ImportError as exc:
-        raise ImportError('loading a model needs Stable-Baselines3: pip install "bluesky-gym[train]"') from exc
-    name = algo or _algo_from_zip(path)
-    model = getattr(sb3, SB3_ALGORITHMS[name]).load(path, device="cpu")
-
-    def act(obs: dict[str, np.ndarray]) -> np.ndarray:
-        action, _ = model.predict(obs, deterministic=deterministic)
-        return np.asarray(action, dtype=np.float64).reshape(-1, *low.shape)
-
-    return act
-
-
-def record(
-    env_id: str,
-    policy: str = "random",
-    episodes: int = 1,
-    out: Path | None = None,
-    seed: int = 0,
-    max_steps: int | None = None,
-    every: int = 1,
-    max_frames: int | None = None,
-    fps: float = 10.0,
-    scale: float = 1.0,
-    colors: int = 192,
-    grid: int = 1,
-    human: bool = False,
-    algo: str | None = None,
-    deterministic: bool = True,
-    options: dict[str, Any] | None = None,
-    log: Callable[[str], None] | None = None,
-) -> tuple[Path | None, int]:
-    """Fly ``episodes`` episodes of ``env_id`` and write their frames (or show them).
-
-    Returns:
-        The file written (None with ``human``) and the number of frames.
-    """
-    import gymnasium as gym
-
-    import bluesky_gym
-    from bluesky_gym.render import VideoWriter
-
-    bluesky_gym.register_envs()
-    if env_id not in gym.registry:
-        raise ValueError(f"unknown environment {env_id!r}; available: {', '.join(bluesky_gym.available_envs())}")
-    mode = "human" if human else "rgb_array"
-    kwargs: dict[str, Any] = dict(options or {})
-    if max_steps is not None:
-        kwargs["max_episode_steps"] = max_steps
-    writer = None if human else VideoWriter(out or Path(f"{env_id}.gif"), fps=fps, scale=scale, colors=colors)
-    n_frames = 0
-
-    def emit(env: Any) -> bool:
-        """Record (or, in a window, count: the environment draws itself) the current frame."""
-        nonlocal n_frames
-        if writer is not None:
-            writer.append(env.render())
-        n_frames += 1
-        return max_frames is not None and n_frames >= max_frames
-
-    if grid > 1:
-        env: Any = gym.make_vec(env_id, num_envs=grid, vectorization_mode="vector_entry_point", render_mode=mode, render_grid=grid, **kwargs)
-        actor = make_actor(policy, env_id, env.single_action_space, seed, algo, deterministic)
-        obs, _ = env.reset(seed=seed)
-        ended = np.zeros(grid, int)
-        step = 0
-        stop = emit(env)
-        while not stop and ended.min() < episodes:
-            obs, _, te, tr, _ = env.step(actor(obs))
-            ended += np.asarray(te | tr, int)
-            step += 1
-            if step % every == 0 or ended.min() >= episodes:
-                stop = emit(env)
-    else:
-        if "max_episode_steps" in kwargs:
-            env = gym.make(env_id, render_mode=mode, max_episode_steps=kwargs.pop("max_episode_steps"), **kwargs)
-        else:
-            env = gym.make(env_id, render_mode=mode, **kwargs)
-        actor = make_actor(policy, env_id, env.action_space, seed, algo, deterministic)
-        stop = False
-        for k in range(episodes):
-            obs, _ = env.reset(seed=seed if k == 0 else None)
-            stop = emit(env)
-            step = 0
-            done = False
-            while not (done or stop):
-                action = actor({key: v[None] for key, v in obs.items()})[0]
-                obs, reward, te, tr, _ = env.step(action)
-                done = te or tr
-                step += 1
-                if step % every == 0 or done:
-                    stop = emit(env)
-            if log is not None:
-                log(f"episode {k + 1}: {step} steps, return {float(env.unwrapped.task.stats.total_reward[0]):+.2f}")
-            if stop:
-                break
-    env.close()
-    path = writer.close() if writer is not None else None
-    return path, n_frames
 
 
 def run(args: argparse.Namespace) -> int:

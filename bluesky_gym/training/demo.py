@@ -127,7 +127,7 @@ def run_demo(
 def render_gif(env_id: str, model: Path, path: Path) -> Path | None:
     """Render one held-out episode of a trained model to a GIF, if the renderer is available."""
     try:
-        from bluesky_gym.cli.render import record
+        from bluesky_gym.training.recording import record
     except ImportError:
         return None
     try:

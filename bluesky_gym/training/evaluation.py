@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.training import algorithm_class, make_vector_env
-from bluesky_gym.training.io import atomic_write_csv, atomic_write_json, read_json
+from bluesky_gym.training.io import atomic_write_csv, atomic_write_json, latest_checkpoint, read_json
 from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_policy
 from bluesky_gym.training.seeds import EVAL_SEED_BASE, eval_seeds
 
@@ -273,8 +273,6 @@ def find_model(path: str | Path) -> tuple[Path, str | None]:
         if (p / "model.zip").exists():
             p = p / "model.zip"
         else:
-            from bluesky_gym.training.runner import latest_checkpoint
-
             ckpt = latest_checkpoint(p)
             if ckpt is None:
                 raise FileNotFoundError(f"{path} holds neither model.zip nor a checkpoint")

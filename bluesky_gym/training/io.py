@@ -69,6 +69,21 @@ def read_json(path: str | os.PathLike[str]) -> Any:
         return json.load(f)
 
 
+def latest_checkpoint(run_dir: str | Path) -> tuple[dict[str, Any], Path] | None:
+    """Return the committed checkpoint of a run directory: its record and directory (None if there is none).
+
+    ``checkpoint.json`` is written last, atomically, so it only ever names a complete checkpoint.
+    """
+    p = Path(run_dir) / "checkpoint.json"
+    if not p.exists():
+        return None
+    info = read_json(p)
+    d = Path(run_dir) / info["dir"]
+    if not (d / "model.zip").exists():
+        return None
+    return info, d
+
+
 def json_safe(obj: Any) -> Any:
     """Return a copy of ``obj`` that :func:`json.dumps` accepts.
 

@@ -44,7 +44,7 @@ from typing import Any
 
 from bluesky_gym.training import algorithm_class, require_sb3
 from bluesky_gym.training.hyperparams import POLICY, adapt_to_n_envs, resolve, sb3_kwargs
-from bluesky_gym.training.io import AppendCSV, atomic_path, atomic_write_csv, atomic_write_json, read_csv_rows, read_json
+from bluesky_gym.training.io import AppendCSV, atomic_path, atomic_write_csv, atomic_write_json, latest_checkpoint, read_csv_rows, read_json
 from bluesky_gym.training.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, train_env_seeds
 
 EPISODE_LOG = "episodes.csv"
@@ -244,18 +244,6 @@ class RunLock:
 
 
 # --- checkpoints -------------------------------------------------------------------------------------
-def latest_checkpoint(run_dir: str | Path) -> tuple[dict[str, Any], Path] | None:
-    """Return the committed checkpoint of a run: its record and directory (None if there is none)."""
-    p = Path(run_dir) / "checkpoint.json"
-    if not p.exists():
-        return None
-    info = read_json(p)
-    d = Path(run_dir) / info["dir"]
-    if not (d / "model.zip").exists():
-        return None
-    return info, d
-
-
 def save_checkpoint(model: Any, run_dir: Path, episodes_logged: int, wall_time_s: float) -> dict[str, Any]:
     """Save model (and replay buffer) into a new step directory, then commit ``checkpoint.json``."""
     step = int(model.num_timesteps)
