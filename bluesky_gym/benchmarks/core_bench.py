@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.benchmarks.external import run_worker
 from bluesky_gym.benchmarks.timing import combine, measure
-from bluesky_gym.core import Simulator
+from bluesky_gym.core import Simulator, jit
 
 BATCH_SIZES: tuple[int, ...] = (1, 256, 4096)
 AIRCRAFT_COUNTS: tuple[int, ...] = (1, 6, 20)
@@ -94,22 +94,29 @@ def simulator_accepts_kernel() -> bool:
 
 def make_simulator(n_envs: int, n_aircraft: int, kernel: str | None = None) -> Simulator:
     """Create a simulator of the benchmark size; ``kernel`` None means the simulator's default."""
-    if kernel is None:
-        return Simulator(n_envs, n_aircraft, dt=DT)
-    if not simulator_accepts_kernel():
-        if kernel != kernel_of(Simulator(1, 1, dt=DT)):
-            raise ValueError(f"this Simulator has only the {kernel_of(Simulator(1, 1, dt=DT))} kernel, cannot use {kernel!r}")
-        return Simulator(n_envs, n_aircraft, dt=DT)
-    return Simulator(n_envs, n_aircraft, dt=DT, kernel=kernel)  # type: ignore[call-arg]
+    if kernel is not None and simulator_accepts_kernel():
+        choice: dict[str, Any] = {"kernel": kernel}  # a Simulator with a choice of step kernels
+        return Simulator(n_envs, n_aircraft, dt=DT, **choice)
+    sim = Simulator(n_envs, n_aircraft, dt=DT)
+    if kernel is not None and kernel != kernel_of(sim):
+        raise ValueError(f"this Simulator has only the {kernel_of(sim)!r} kernel, cannot use {kernel!r}")
+    return sim
 
 
 def kernel_of(sim: Any) -> str:
-    """Return the step kernel a simulator uses (``"compiled"`` for simulators without a choice)."""
-    return str(getattr(sim, "kernel", "compiled"))
+    """Return the step kernel a simulator uses.
+
+    A simulator with a choice names it (``sim.kernel``); one without runs its single step
+    implementation, compiled with numba (``"compiled"``) or as plain Python without it (``"python"``).
+    """
+    kernel = getattr(sim, "kernel", None)
+    if kernel is not None:
+        return str(kernel)
+    return "compiled" if jit.AVAILABLE else "python"
 
 
 def available_kernels() -> list[str]:
-    """List the kernels to benchmark: ``"numpy"``, and the simulator's default when it is another one."""
+    """List the kernels to benchmark: ``"numpy"`` where the simulator offers it, and the simulator's default."""
     default = kernel_of(Simulator(1, 1, dt=DT))
     kernels = ["numpy"] if simulator_accepts_kernel() else [default]
     if default not in kernels:
@@ -125,8 +132,8 @@ def populate(sim: Simulator, scenario: CoreScenario) -> tuple[NDArray[np.int64],
 
     """
     n_envs, n_aircraft = scenario.lat.shape
-    env, slot = np.meshgrid(np.arange(n_envs), np.arange(n_aircraft), indexing="ij")
-    env, slot = env.ravel(), slot.ravel()
+    env_grid, slot_grid = np.meshgrid(np.arange(n_envs), np.arange(n_aircraft), indexing="ij")
+    env, slot = env_grid.ravel(), slot_grid.ravel()
     sim.create(env, slot, scenario.lat.ravel(), scenario.lon.ravel(), scenario.hdg.ravel(), scenario.alt.ravel(), scenario.cas.ravel())
     turning = scenario.turn.ravel() != 0.0
     turns = (env[turning], slot[turning], scenario.turn.ravel()[turning])

@@ -34,7 +34,7 @@ from typing import Any
 if __package__:
     from bluesky_gym.benchmarks.timing import env_step_rate, measure
 else:  # run as a script: timing.py is in this script's folder (sys.path[0])
-    from timing import env_step_rate, measure  # type: ignore[no-redef]
+    from timing import env_step_rate, measure  # type: ignore[no-redef,import-not-found]
 
 REFERENCE_VERSION = "0.2.0"
 

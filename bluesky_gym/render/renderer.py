@@ -169,15 +169,15 @@ class Renderer:
             return mem
         mem.trail_step = steps
         if isinstance(scene, MapScene):
-            for ac in scene.aircraft:
-                mem.trails.setdefault(ac.key, deque(maxlen=MAP_TRAIL)).append((ac.lat, ac.lon))
+            for mac in scene.aircraft:
+                mem.trails.setdefault(mac.key, deque(maxlen=MAP_TRAIL)).append((mac.lat, mac.lon))
         else:
             for ac in scene.aircraft:
                 n = SIDE_TRAIL if ac.role == "own" else MAP_TRAIL
                 mem.trails.setdefault(ac.key, deque(maxlen=n)).append((ac.x_km, ac.alt))
             if scene.inset is not None:
-                for ac in scene.inset.aircraft:
-                    mem.trails.setdefault(-1 - ac.key, deque(maxlen=MAP_TRAIL)).append((ac.lat, ac.lon))
+                for mac in scene.inset.aircraft:
+                    mem.trails.setdefault(-1 - mac.key, deque(maxlen=MAP_TRAIL)).append((mac.lat, mac.lon))
         return mem
 
     def _map_view(self, scene: MapScene, mem: _EpisodeMemory, rect: tuple[int, int, int, int]) -> MapView:

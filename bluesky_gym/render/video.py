@@ -40,7 +40,7 @@ def _gif_palette(first: np.ndarray, colors: int) -> Any:
     extra: list[int] = []
     if free > 0:
         q = Image.fromarray(first).quantize(colors=free, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
-        extra = q.getpalette()[: 3 * free]
+        extra = (q.getpalette() or [])[: 3 * free]
     flat = [v for c in fixed for v in c] + extra
     flat += flat[:3] * (256 - len(flat) // 3)  # pad with a used colour
     img = Image.new("P", (1, 1))

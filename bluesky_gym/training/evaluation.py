@@ -134,9 +134,9 @@ def _play_once(venv: Any, policy: Policy, seeds: list[int]) -> list[dict[str, An
         ended = (np.asarray(terminated) | np.asarray(truncated)) & live
         if ended.any():
             fin = info.get("final_info", info)
-            for i in np.flatnonzero(ended):
-                final[i] = {k: _item(v[i]) for k, v in fin.items() if isinstance(v, np.ndarray) and v.ndim == 1 and v.shape[0] == n}
-                final[i]["terminated"] = bool(terminated[i])
+            for e in np.flatnonzero(ended).tolist():
+                final[e] = {k: _item(v[e]) for k, v in fin.items() if isinstance(v, np.ndarray) and v.ndim == 1 and v.shape[0] == n}
+                final[e]["terminated"] = bool(terminated[e])
             done |= ended
         policy.reset(np.asarray(terminated) | np.asarray(truncated))
     out = []

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import copy
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -114,12 +115,12 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
     p = Path(path)
     if p.suffix.lower() == ".toml":
         try:
-            import tomllib
-        except ModuleNotFoundError:  # Python 3.10
-            try:
-                import tomli as tomllib  # type: ignore[no-redef]
-            except ModuleNotFoundError as exc:
-                raise ValueError(f"reading {p} needs Python >= 3.11 or the 'tomli' package; or use a .json config") from exc
+            if sys.version_info >= (3, 11):
+                import tomllib
+            else:
+                import tomli as tomllib
+        except ModuleNotFoundError as exc:  # Python 3.10 without tomli
+            raise ValueError(f"reading {p} needs Python >= 3.11 or the 'tomli' package; or use a .json config") from exc
         with open(p, "rb") as f:
             data = tomllib.load(f)
     elif p.suffix.lower() == ".json":

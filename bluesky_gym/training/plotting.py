@@ -143,7 +143,7 @@ def iqm(x: Array, axis: int = -1) -> Array:
     return np.take(x, np.arange(k, n - k), axis=axis).mean(axis=axis)
 
 
-def stratified_bootstrap_iqm(scores: dict[str, Array], rng: np.random.Generator, n_boot: int = BOOTSTRAP) -> tuple[float, float, float]:
+def stratified_bootstrap_iqm(scores: dict[str, Array], rng: np.random.Generator, n_boot: int = BOOTSTRAP) -> tuple[Array, Array, Array]:
     """IQM of pooled scores and its 95% CI, resampling runs within each environment.
 
     Args:
@@ -313,8 +313,8 @@ def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed
             "runs": sum(map(len, by_env.values())),
             "envs": sorted(by_env),
         }
-    for algo, by_env in sorted(curve.items()):
-        point, lo, hi = stratified_bootstrap_iqm({k: np.asarray(v) for k, v in by_env.items()}, rng, n_boot=500)
+    for algo, curves in sorted(curve.items()):
+        point, lo, hi = stratified_bootstrap_iqm({k: np.asarray(v) for k, v in curves.items()}, rng, n_boot=500)
         out["curve"][algo] = {"x": grid.tolist(), "iqm": point.tolist(), "ci_low": lo.tolist(), "ci_high": hi.tolist()}
     return out
 

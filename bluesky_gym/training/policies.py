@@ -307,7 +307,7 @@ def _cpa_turn(rn: Array, re: Array, vn: Array, ve: Array, pz: float, lookahead: 
     wn, we = -vn[rows, k], -ve[rows, k]
     cross = wn * (-me[rows, k]) - we * (-mn[rows, k])
     turn = np.where(cross >= 0.0, 1.0, -1.0)
-    return alert.any(axis=1), turn
+    return np.any(alert, axis=1), turn
 
 
 class _SteerAndAvoid(Policy):
@@ -382,7 +382,7 @@ class StaticObstacleController(Policy):
         length = np.minimum(goal_km, OBSTACLE_LOOKAHEAD_KM)[:, None, None]
         inside = (d < r)[:, None, :]  # already within an enclosing circle: that circle is ignored
         blocked = ~inside & (across < r[:, None, :]) & (along > 0.0) & (along < length + r[:, None, :])
-        clear = ~blocked.any(axis=2)
+        clear = ~np.any(blocked, axis=2)
         off_goal = np.abs((cand - goal_rel[:, None] + 180.0) % 360.0 - 180.0)
         best = np.argmin(np.where(clear, off_goal, np.inf), axis=1)
         turn = np.where(clear.any(axis=1), CANDIDATE_TURNS[best], goal_rel)

@@ -65,16 +65,15 @@ class SB3VecEnv(VecEnv):
     """
 
     def __init__(self, env: gym.vector.VectorEnv | str, num_envs: int = 1, **env_kwargs: Any) -> None:
-        if isinstance(env, str):
-            env = make_vector_env(env, num_envs, **env_kwargs)
-        elif env_kwargs:
+        if not isinstance(env, str) and env_kwargs:
             raise TypeError("env_kwargs are only accepted together with an environment id")
-        autoreset = env.metadata.get("autoreset_mode")
+        venv = make_vector_env(env, num_envs, **env_kwargs) if isinstance(env, str) else env
+        autoreset = venv.metadata.get("autoreset_mode")
         if autoreset is not None and autoreset != gym.vector.AutoresetMode.SAME_STEP:
             raise ValueError(f"SB3VecEnv needs a SAME_STEP autoreset vector environment, got {autoreset}")
-        self.venv = env
-        self.env_id = env.spec.id if env.spec is not None else type(env).__name__
-        super().__init__(env.num_envs, env.single_observation_space, env.single_action_space)
+        self.venv: gym.vector.VectorEnv = venv
+        self.env_id = venv.spec.id if venv.spec is not None else type(venv).__name__
+        super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
         self._actions: np.ndarray | None = None
         self._returns = np.zeros(self.num_envs)
         self._lengths = np.zeros(self.num_envs, dtype=np.int64)
@@ -89,7 +88,8 @@ class SB3VecEnv(VecEnv):
         seeds: list[int | None] | None = None if all(s is None for s in self._seeds) else list(self._seeds)
         if any(self._options):
             raise ValueError("reset options are not supported by BlueSky-Gym environments (pass scenario options at creation)")
-        obs, info = self.venv.reset(seed=seeds)
+        # Gymnasium's VectorEnv annotates an int seed only; its vector envs, like ours, take one per environment.
+        obs, info = self.venv.reset(seed=seeds)  # type: ignore[arg-type]
         self.reset_infos = _split_info(info, self.num_envs)
         self._reset_seeds()
         self._reset_options()
@@ -121,7 +121,7 @@ class SB3VecEnv(VecEnv):
         """Step every environment; ended episodes restart in the same call."""
         if self._actions is None:
             raise RuntimeError("step_wait() called without step_async()")
-        actions = self._actions.reshape((self.num_envs, *self.action_space.shape))
+        actions = self._actions.reshape((self.num_envs, *(self.action_space.shape or ())))
         self._actions = None
         obs, reward, terminated, truncated, info = self.venv.step(actions)
         reward = np.asarray(reward, dtype=np.float64)
@@ -187,14 +187,15 @@ class SB3VecEnv(VecEnv):
         """One RGB frame per environment (``render_mode="rgb_array"``)."""
         if self.render_mode != "rgb_array":
             return [None for _ in range(self.num_envs)]
-        keep = self.venv.render_env
+        venv: Any = self.venv  # a BlueSky-Gym vector env: it renders the episode ``render_env``
+        keep = venv.render_env
         try:
-            frames = []
+            frames: list[np.ndarray | None] = []
             for i in range(self.num_envs):
-                self.venv.render_env = i
-                frames.append(self.venv.render())
+                venv.render_env = i
+                frames.append(venv.render())
         finally:
-            self.venv.render_env = keep
+            venv.render_env = keep
         return frames
 
     def _get_indices(self, indices: VecEnvIndices) -> Iterable[int]:

@@ -75,7 +75,8 @@ class VectorNoisyObservationWrapper(VectorWrapper):
         """Reset every episode; an int seed also seeds the noise."""
         if isinstance(seed, (int, np.integer)):
             self._rng = _generator(int(seed))
-        obs, info = self.env.reset(seed=seed, options=options)
+        # Gymnasium's VectorEnv annotates an int seed only; BlueSky-Gym's vector envs also take one per environment.
+        obs, info = self.env.reset(seed=seed, options=options)  # type: ignore[arg-type]
         return _noisy(obs, self._rng, self.noise_level), info
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:

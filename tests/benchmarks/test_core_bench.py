@@ -10,6 +10,7 @@ from bluesky_gym.benchmarks.core_bench import (
     available_kernels,
     bluesky_core_rates,
     core_scenario,
+    kernel_of,
     make_simulator,
     native_core_rate,
     populate,
@@ -32,7 +33,7 @@ def test_scenario_mixed_altitudes_and_every_third_aircraft_turning() -> None:
 
 
 def test_populated_simulator_turns_the_turning_aircraft() -> None:
-    sim = make_simulator(3, 4, "compiled")
+    sim = make_simulator(3, 4, available_kernels()[0])
     env, slot, _turn = populate(sim, core_scenario(3, 4))
     assert np.all(sim.active)
     hdg0 = sim.hdg.copy()
@@ -45,9 +46,15 @@ def test_populated_simulator_turns_the_turning_aircraft() -> None:
     assert np.all(dh[~turning] < 1e-9)
 
 
-def test_available_kernels_are_the_compiled_one() -> None:
+def test_available_kernels_are_distinct_and_include_the_default() -> None:
     kernels = available_kernels()
-    assert kernels == ["compiled"]
+    assert len(set(kernels)) == len(kernels)
+    assert kernel_of(make_simulator(1, 1)) in kernels
+
+
+def test_a_kernel_the_simulator_lacks_is_refused() -> None:
+    with pytest.raises(ValueError, match="no-such-kernel"):
+        make_simulator(1, 1, "no-such-kernel")
 
 
 @pytest.mark.parametrize("kernel", available_kernels())
@@ -59,7 +66,7 @@ def test_native_rate_reports_kernel_and_size(kernel: str) -> None:
 
 
 def test_run_core_without_bluesky_has_no_ratio() -> None:
-    out = run_core([1, 2], [1, 2], ["compiled"], 0.02, None)
+    out = run_core([1, 2], [1, 2], available_kernels()[:1], 0.02, None)
     assert [(r["envs"], r["aircraft"]) for r in out["native"]] == [(1, 1), (1, 2), (2, 1), (2, 2)]
     assert out["bluesky"] is None
     assert all(r["vs_bluesky"] is None for r in out["native"])
@@ -82,13 +89,13 @@ def test_bluesky_core_rates(bluesky_interpreter: str) -> None:
 
 @pytest.mark.bluesky
 def test_run_core_with_bluesky_gives_ratios(bluesky_interpreter: str) -> None:
-    out = run_core([2], [1], ["compiled"], 0.02, bluesky_interpreter)
+    out = run_core([2], [1], available_kernels()[:1], 0.02, bluesky_interpreter)
     assert out["native"][0]["vs_bluesky"] > 0
 
 
 @pytest.mark.bluesky
 def test_run_core_repeat_with_bluesky_uses_same_run_ratios(bluesky_interpreter: str) -> None:
-    out = run_core([2], [1], ["compiled"], 0.02, bluesky_interpreter, repeats=2)
+    out = run_core([2], [1], available_kernels()[:1], 0.02, bluesky_interpreter, repeats=2)
     row = out["native"][0]
     assert len(row["vs_bluesky_runs"]) == 2
     assert min(row["vs_bluesky_runs"]) <= row["vs_bluesky"] <= max(row["vs_bluesky_runs"])

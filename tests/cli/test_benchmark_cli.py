@@ -18,7 +18,7 @@ from bluesky_gym.cli import main
 from bluesky_gym.registration import available_envs
 from bluesky_gym.training.io import read_json
 
-from .conftest import ROOT
+from .conftest import ROOT, needs_sb3
 
 ENV = "DescentEnv-v0"
 
@@ -42,6 +42,7 @@ def test_list_and_info(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["info", "NoSuchEnv-v0"]) == 2
 
 
+@needs_sb3
 def test_train_eval_plot(tmp_path: Path, tiny_config: Path, capsys: pytest.CaptureFixture[str]) -> None:
     args = [
         "train",
@@ -86,6 +87,7 @@ def test_train_eval_plot(tmp_path: Path, tiny_config: Path, capsys: pytest.Captu
     assert main(["eval", ENV, "--model", str(tmp_path / "missing.zip")]) == 2
 
 
+@needs_sb3
 def test_sweep_local_is_resumable(tmp_path: Path, tiny_config: Path, capsys: pytest.CaptureFixture[str]) -> None:
     envs = [ENV] + [e for e in available_envs() if e == "MergeEnv-v0"]
     out = tmp_path / "sweep"
@@ -119,6 +121,7 @@ def test_sweep_local_is_resumable(tmp_path: Path, tiny_config: Path, capsys: pyt
     assert all(r["skipped"] for r in read_json(out / "sweep.json")["runs"])
 
 
+@needs_sb3
 def test_sweep_killed_mid_run_resumes_with_nothing_lost_or_repeated(tmp_path: Path, tiny_config: Path) -> None:
     out = tmp_path / "sweep"
     cmd = [
@@ -190,6 +193,7 @@ def test_sweep_killed_mid_run_resumes_with_nothing_lost_or_repeated(tmp_path: Pa
 
 
 @pytest.mark.slow
+@needs_sb3
 def test_sweep_on_ray(tmp_path: Path, tiny_config: Path) -> None:
     pytest.importorskip("ray")
     out = tmp_path / "sweep"
@@ -224,6 +228,7 @@ def test_sweep_on_ray(tmp_path: Path, tiny_config: Path) -> None:
     assert read_json(out / ENV / "DDPG" / "seed_0" / "config.json")["hyperparams"]["train_freq"] == 1
 
 
+@needs_sb3
 def test_demo(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "demo"
     assert main(["demo", "--steps", "2048", "--n-envs", "8", "--episodes", "6", "--out", str(out), "--no-progress"]) == 0
@@ -253,7 +258,10 @@ def test_missing_optional_dependencies_are_named(monkeypatch: pytest.MonkeyPatch
     (tmp_path / "model.zip").write_bytes(b"")
     assert main(["eval", ENV, "--model", str(tmp_path / "model.zip"), "--algo", "PPO", "--episodes", "2"]) == 2
     assert 'pip install "bluesky-gym[train]"' in capsys.readouterr().err
-    monkeypatch.undo()
+
+
+@needs_sb3
+def test_missing_ray_is_named(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.setitem(sys.modules, "ray", None)
     assert main(["sweep", "--envs", ENV, "--algos", "PPO", "--steps", "10", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err

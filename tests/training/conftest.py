@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import importlib.util
+
 import pytest
 
-pytest.importorskip("stable_baselines3")
+#: For the tests that train or load models (the reference policies, evaluation, seeds and configs need no SB3).
+needs_sb3 = pytest.mark.skipif(importlib.util.find_spec("stable_baselines3") is None, reason="needs Stable-Baselines3 (the 'train' extra)")
 
 
 @pytest.fixture(autouse=True)
 def _one_torch_thread() -> None:
     """Keep PyTorch to one thread: the test machines have few cores."""
-    import torch
-
+    try:
+        import torch
+    except ImportError:
+        return
     torch.set_num_threads(1)

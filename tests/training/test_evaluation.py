@@ -23,6 +23,8 @@ from bluesky_gym.training.evaluation import (
 )
 from bluesky_gym.training.policies import DescentController
 
+from .conftest import needs_sb3
+
 ENV = "DescentEnv-v0"
 
 
@@ -102,6 +104,7 @@ def test_reference_scores_are_cached(tmp_path: Path) -> None:
     assert reference_scores(ENV, 5, tmp_path)["random"]["episodes"] == 5  # other size: recomputed
 
 
+@needs_sb3
 def test_trained_model_is_found_in_a_run_directory(tmp_path: Path) -> None:
     from stable_baselines3 import DDPG, PPO, SAC, TD3
 

@@ -10,6 +10,10 @@ from bluesky_gym.training.evaluation import evaluate, load_result, make_policy, 
 from bluesky_gym.training.hyperparams import DEMO, PAPER, merge
 from bluesky_gym.training.runner import make_run_spec, run_training
 
+from .conftest import needs_sb3
+
+pytestmark = needs_sb3
+
 ENV = "DescentEnv-v0"
 EPISODES = 50
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
+from .conftest import needs_sb3
+
 
 def test_listing_manual_loop() -> None:
     import bluesky_gym
@@ -25,6 +27,7 @@ def test_listing_manual_loop() -> None:
     env.close()
 
 
+@needs_sb3
 def test_listing_sb3_ddpg_train_save_load_evaluate(tmp_path) -> None:
     from stable_baselines3 import DDPG
 

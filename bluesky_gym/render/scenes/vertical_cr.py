@@ -39,8 +39,7 @@ def vertical_cr_scene(task: Any, i: int) -> SideScene:
     dim = np.zeros(sim.max_aircraft, bool)
     if sim.active[i, 0]:
         own_lat, own_lon, own_hdg = float(sim.lat[i, 0]), float(sim.lon[i, 0]), float(sim.hdg[i, 0])
-        for s in np.flatnonzero(sim.active[i, 1:]) + 1:
-            s = int(s)
+        for s in (np.flatnonzero(sim.active[i, 1:]) + 1).tolist():
             qdr, d_nm = geo.kwikqdrdist(own_lat, own_lon, float(sim.lat[i, s]), float(sim.lon[i, s]))
             rel = math.radians(float(qdr) - own_hdg)  # bearing of the intruder relative to the route
             along_km = float(d_nm) * NM2KM * math.cos(rel)

@@ -1,0 +1,95 @@
+"""Project hygiene: the license file, the one place of the version, and the documents the code cites."""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import bluesky_gym
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: A citation of a project document: ``docs/dynamics.md §2.3``, ``docs/environments-v0.md §3-4``.
+CITATION = re.compile(r"docs/([\w-]+\.md)(?: §(\d+(?:\.\d+)*)(?:-(\d+(?:\.\d+)*))?)?")
+#: Citation forms that name no file of the repository.
+STALE_CITATION = re.compile(r"(?<![\w/])dynamics\.md|\bspec (?:sections?\b|§|\d|conventions)|\benvs-v0 sections?\b")
+#: A numbered heading: ``## 2. What one step does``, ``### 2.3 Autopilot``.
+NUMBERED_HEADING = re.compile(r"^#+\s+(\d+(?:\.\d+)*)\.?\s", re.MULTILINE)
+#: A relative Markdown link target: ``[text](docs/backends.md)``.
+MARKDOWN_LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)]*)?\)")
+
+
+def _pyproject() -> dict[str, Any]:
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:
+        tomllib = pytest.importorskip("tomli", reason="reading pyproject.toml on Python 3.10 needs tomli")
+    with open(ROOT / "pyproject.toml", "rb") as f:
+        return tomllib.load(f)
+
+
+def _citing_files() -> list[Path]:
+    """The package and test sources, and the Markdown files next to the code."""
+    sources = [p for d in ("bluesky_gym", "tests") for p in sorted((ROOT / d).rglob("*.py")) if p != Path(__file__).resolve()]
+    return sources + [ROOT / "README.md", *sorted((ROOT / "tests").rglob("*.md"))]
+
+
+def _sections(document: Path) -> set[str]:
+    return set(NUMBERED_HEADING.findall(document.read_text(encoding="utf-8")))
+
+
+def test_license_file_is_the_declared_license() -> None:
+    assert _pyproject()["project"]["license"] == "GPL-3.0-or-later"
+    text = (ROOT / "LICENSE").read_text(encoding="utf-8")
+    assert text.split()[:6] == ["GNU", "GENERAL", "PUBLIC", "LICENSE", "Version", "3,"]
+    assert "END OF TERMS AND CONDITIONS" in text  # the full text, not a notice
+
+
+def test_version_is_written_once_and_has_a_changelog_entry() -> None:
+    project = _pyproject()
+    assert "version" not in project["project"] and "version" in project["project"]["dynamic"]
+    assert project["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "bluesky_gym.__version__"}
+    assert re.fullmatch(r"\d+\.\d+\.\d+\S*", bluesky_gym.__version__)
+    assert f"## [{bluesky_gym.__version__}]" in (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
+
+
+def test_citations_name_existing_documents_and_sections() -> None:
+    problems = []
+    for path in _citing_files():
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            where = f"{path.relative_to(ROOT)}:{n}"
+            if STALE_CITATION.search(line):
+                problems.append(f"{where}: cite as docs/<page>.md §N: {line.strip()}")
+            for name, first, last in CITATION.findall(line):
+                document = ROOT / "docs" / name
+                if not document.is_file():
+                    problems.append(f"{where}: no docs/{name}")
+                    continue
+                missing = [s for s in (first, last) if s and s not in _sections(document)]
+                if missing:
+                    problems.append(f"{where}: docs/{name} has no section {', '.join(missing)}")
+    assert not problems, "\n".join(problems)
+
+
+def test_markdown_links_point_to_existing_files() -> None:
+    broken = []
+    for page in [ROOT / "README.md", ROOT / "CHANGELOG.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        for target in MARKDOWN_LINK.findall(page.read_text(encoding="utf-8")):
+            if "://" not in target and not (page.parent / target).exists():
+                broken.append(f"{page.relative_to(ROOT)}: {target}")
+    assert not broken, "\n".join(broken)
+
+
+def test_citation_patterns() -> None:
+    assert CITATION.findall("[docs/dynamics.md §2.2 steps 6-8]") == [("dynamics.md", "2.2", "")]
+    assert CITATION.findall("(docs/environments-v0.md §3-4, one-step lag)") == [("environments-v0.md", "3", "4")]
+    assert CITATION.findall("see docs/backends.md") == [("backends.md", "", "")]
+    for stale in ("[dynamics.md 2.3]", "(spec section 5)", "(kept, spec 6)", "spec sections 2 and 3", "(spec conventions)", "envs-v0 sections 1"):
+        assert STALE_CITATION.search(stale), stale
+    for fine in ("[docs/dynamics.md §2.3]", "self.observation_spec", "build_action_spec()", "a spec of the run"):
+        assert not STALE_CITATION.search(fine), fine
+    assert _sections(ROOT / "docs" / "dynamics.md") >= {"1", "1.6", "2.2", "9"}
