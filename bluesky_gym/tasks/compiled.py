@@ -324,3 +324,53 @@ def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scal
             intruder_out[r, 4, i] = math.cos(trk)
             intruder_out[r, 5, i] = math.sin(trk)
             intruder_out[r, 6, i] = key[j - 1] / d_scale
+
+
+# --- array forms of the scenario and kwik geometry (tasks/geometry.py wraps these) -------------
+@jit_inline
+def _point_at_distance(lat, lon, d_km, bearing, radius_km):
+    """Great-circle destination (lat, lon) [deg] at ``d_km`` along ``bearing`` [deg] (spherical)."""
+    lat1 = lat * _RAD
+    lon1 = lon * _RAD
+    a = bearing * _RAD
+    dr = d_km / radius_km
+    lat2 = math.asin(math.sin(lat1) * math.cos(dr) + math.cos(lat1) * math.sin(dr) * math.cos(a))
+    lon2 = lon1 + math.atan2(math.sin(a) * math.sin(dr) * math.cos(lat1), math.cos(dr) - math.sin(lat1) * math.sin(lat2))
+    return lat2 * _DEG, lon2 * _DEG
+
+
+@jit
+def point_at_distance(lat, lon, d_km, bearing, radius_km, lat_out, lon_out):
+    """:func:`bluesky_gym.tasks.geometry.point_at_distance` over flat arrays of equal length."""
+    for i in range(lat.shape[0]):
+        lat_out[i], lon_out[i] = _point_at_distance(lat[i], lon[i], d_km[i], bearing[i], radius_km)
+
+
+@jit
+def kwikdist(lata, lona, latb, lonb, dist_out):
+    """:func:`bluesky_gym.tasks.geometry.ref_kwikdist` over flat arrays of equal length."""
+    for i in range(lata.shape[0]):
+        dist_out[i] = _kwikdist(lata[i], lona[i], latb[i], lonb[i])
+
+
+@jit
+def kwikqdrdist(lata, lona, latb, lonb, qdr_out, dist_out):
+    """:func:`bluesky_gym.tasks.geometry.ref_kwikqdrdist` over flat arrays of equal length."""
+    for i in range(lata.shape[0]):
+        qdr_out[i], dist_out[i] = _kwikqdrdist(lata[i], lona[i], latb[i], lonb[i])
+
+
+@jit
+def kwikdist_matrix(lata, lona, latb, lonb, dist_out):
+    """:func:`bluesky_gym.tasks.geometry.ref_kwikdist_matrix` over flat arrays of equal length."""
+    for i in range(lata.shape[0]):
+        dist_out[i] = _kwikdist_matrix(lata[i], lona[i], latb[i], lonb[i])
+
+
+@jit
+def points_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
+    """Even-odd test of points (B, P) against polygons (B, K, V) with ``n_vertices`` (B, K) into ``out`` (B, P, K)."""
+    for b in range(lat.shape[0]):
+        for p in range(lat.shape[1]):
+            for k in range(poly_lat.shape[1]):
+                out[b, p, k] = _polygon_contains(lat[b, p], lon[b, p], poly_lat[b, k], poly_lon[b, k], n_vertices[b, k])

@@ -168,7 +168,7 @@ class HorizontalCRTask(Task):
         """Observation of every episode: key -> (n_envs, *shape), float64."""
         s = self.sim
         self.ac_hdg = s.hdg[:, 0].copy()
-        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs, self.kernels)
+        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
         wpt_dist_km, drift = self.waypoint_geometry()
         return {
             # Intruders in creation order (slots 1..n), no sorting (spec section 3).

@@ -11,13 +11,11 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
+from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import (
-    PolygonSet,
     nm_to_latlon,
     point_at_distance,
-    point_at_distance_scalar,
-    points_in_polygons,
     polygon_area,
     random_convex_polygon,
     ref_kwikqdrdist,
@@ -118,7 +116,6 @@ class StaticObstacleTask(Task):
     # --- generator ------------------------------------------------------------------------------
     def allocate(self) -> None:
         """Obstacle polygons, waypoint, stale observation values and episode counters."""
-        self._obstacle_cache: tuple[tuple[NDArray, ...], PolygonSet] | None = None
         n, k = self.n_envs, self.config.num_obstacles
         self.obstacle_centre_lat = np.zeros((n, k))  # deg
         self.obstacle_centre_lon = np.zeros((n, k))  # deg
@@ -170,7 +167,7 @@ class StaticObstacleTask(Task):
             self._store_polygons(e, clat, clon, polys)
             self.wpt_lat[e], self.wpt_lon[e] = sample_waypoint(
                 rng, lat0[j], lon0[j], self.obstacle_lat[e], self.obstacle_lon[e], self.obstacle_nv[e],
-                c.waypoint_distance_min, c.waypoint_distance_max, self.kernels,
+                c.waypoint_distance_min, c.waypoint_distance_max,
             )
         # The aircraft starts pointing at the waypoint: hdg and the autopilot track (spec 6).
         qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
@@ -219,16 +216,9 @@ class StaticObstacleTask(Task):
 
     def inside_obstacles(self) -> NDArray[np.bool_]:
         """(n_envs, num_obstacles) whether each obstacle polygon contains the aircraft now."""
-        if self.compiled:
-            out = np.empty(self.obstacle_nv.shape, bool)
-            self.kernels.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
-            return out
-        key = (self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
-        cached = self._obstacle_cache
-        if cached is None or not all(np.array_equal(a, b) for a, b in zip(key, cached[0])):
-            # Prepared once per set of scenarios; any change to the polygons rebuilds it.
-            cached = self._obstacle_cache = (tuple(a.copy() for a in key), PolygonSet(*key))
-        return cached[1].contains(self.sim.lat[:, :1], self.sim.lon[:, :1])[:, 0, :]
+        out = np.empty(self.obstacle_nv.shape, bool)
+        compiled.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
+        return out
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self) -> dict[str, Array]:
@@ -252,124 +242,52 @@ class StaticObstacleTask(Task):
 
     # --- reward ---------------------------------------------------------------------------------
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """One sub-step's reward of every episode (see :meth:`evaluate_substep`)."""
-        return self.evaluate_substep(np.ones(self.n_envs, bool))
-
-    def evaluate_substep(self, running: BoolArray) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Evaluate one sub-step as the reference does, with side effects only where ``running``.
+        """One sub-step's reward of every episode at the current position (the reference's per-sub-step reward).
 
         Waypoint distance and drift are the stale values of the last observation; the obstacle
         test uses the live position (spec 6).
-
-        Args:
-            running: (n_envs,) episodes still being stepped in this decision step.
 
         Returns:
             Reward, done flags and the components ``reach``, ``drift``, ``intrusion``.
 
         """
-        new = running & (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
-        self.wpt_reached |= new
-        reach = np.where(new, REACH_REWARD, 0.0)
-        drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        drift = drift_rad * DRIFT_PENALTY
-        self.drift_sum_rad += np.where(running, drift_rad, 0.0)
-        self.drift_count += running
-        count = self.inside_obstacles().sum(axis=1)
-        intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
-        hit = running & (count > 0)
-        self.crashed |= hit
-        self.intrusions += np.where(running, count, 0)
-        reward = reach + drift + intrusion
-        return reward, self.wpt_reached | (count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
+        reached, done_anyway, drift_rad = self._stale_terms()
+        self.drift_sum_rad += drift_rad
+        self.drift_count += 1
+        return self._reward(reached, done_anyway, drift_rad, self.inside_obstacles().sum(axis=1))
 
     def transition(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
         """Sub-steps with the reward evaluated after each; an episode stops at the sub-step it ends.
 
         The reference returns at once when an episode ends at sub-step k, with the observation of
-        sub-step k. In a batch the other episodes keep stepping; the ended ones are stepped too
-        (the physics is batched) and then put back to their state at sub-step k. Only the reward
-        of the last evaluated sub-step is returned (spec 6).
-
-        This is :meth:`evaluate_substep` after every sub-step, with the work that does not change
-        between sub-steps done once: the waypoint distance and drift are the stale values of the
-        last observation, so a waypoint is reached (and the episode ends) at the first sub-step
-        or not at all, and only the obstacle test needs the live position.
+        sub-step k; in a batch the physics leaves every ended episode in its state after its last
+        sub-step (``run``'s ``stop``). Only the reward of the last evaluated sub-step is returned
+        (spec 6). The waypoint distance and drift are the stale values of the last observation, so
+        a waypoint is reached (and the episode ends) at the first sub-step or not at all, and only
+        the obstacle test needs the positions after each sub-step.
         """
-        if self.compiled and not self.substep_hooks:
-            return self._transition_traced()
-        n = self.n_envs
-        running = np.ones(n, bool)
-        last = np.zeros(n, np.int64)  # last evaluated sub-step of each episode
-        count = np.zeros(n, np.int64)  # obstacles containing the aircraft at that sub-step
-        reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
-        done_anyway = self.wpt_reached | reached  # ends at the first sub-step, obstacles or not
-        drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        frozen: list[tuple[NDArray[np.int64], dict[str, Any]]] = []
-        for k in range(self.action_frequency):
-            self.sim.step()
-            self.drift_sum_rad += np.where(running, drift_rad, 0.0)
-            self.drift_count += running
-            c = self.inside_obstacles().sum(axis=1)
-            ended = running & (done_anyway | (c > 0))
-            last[running] = k
-            count[running] = c[running]
-            running &= ~ended
-            for hook in self.substep_hooks:
-                hook(self, k)
-            if not running.any():
-                break
-            if ended.any() and k < self.action_frequency - 1:
-                envs = np.flatnonzero(ended)
-                frozen.append((envs, self.sim.snapshot(envs)))
-        for envs, state in frozen:
-            self.sim.restore(state, envs)
-        return self._finish_transition(reached, done_anyway, drift_rad, count)
-
-    def _transition_traced(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """:meth:`transition` from one traced run of all sub-steps (compiled physics and geometry).
-
-        The obstacle test needs only the ownship's position after each sub-step, so all sub-steps
-        run in one call that records the positions; the episodes that ended before the last
-        sub-step are then put back to the state they had when they ended by re-running them from
-        a snapshot.
-        """
-        sim, n, steps = self.sim, self.n_envs, self.action_frequency
-        reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
-        done_anyway = self.wpt_reached | reached
-        drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        start = sim.snapshot()
-        track = sim.run(steps, trace=True)
-        counts = np.empty((steps, n), np.int64)
-        self.kernels.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts)
-        hit = done_anyway | (counts > 0)  # (steps, n): the episode ends at this sub-step
-        ends = hit.any(axis=0)
-        last = np.where(ends, hit.argmax(axis=0), steps - 1)  # last evaluated sub-step
-        count = counts[last, self.all_envs]
-        early = np.flatnonzero(last < steps - 1)
-        if early.size:
-            end = sim.snapshot()
-            sim.restore(start)
-            stopped = []
-            for k in range(int(last[early].max()) + 1):
-                sim.step()
-                group = early[last[early] == k]
-                if group.size:
-                    stopped.append((group, sim.snapshot(group)))
-            if early.size < n:  # when every episode ended early, the clocks stop there too
-                sim.restore(end)
-            for group, state in stopped:
-                sim.restore(state, group)
-        for k in range(int(last.max()) + 1):
+        reached, done_anyway, drift_rad = self._stale_terms()
+        end = SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, done_anyway)
+        run_until(self.sim, self.action_frequency, end)
+        ended = end.ended_at > 0
+        last = np.where(ended, end.ended_at - 1, self.action_frequency - 1)  # last evaluated sub-step
+        count = end.counts[last, self.all_envs]
+        for k in range(int(last.max()) + 1):  # one |drift| sample per evaluated sub-step
             evaluated = last >= k
             self.drift_sum_rad += np.where(evaluated, drift_rad, 0.0)
             self.drift_count += evaluated
-        return self._finish_transition(reached, done_anyway, drift_rad, count)
+        reward, terminated, components = self._reward(reached, done_anyway, drift_rad, count)
+        return reward, terminated, components, self.observe()
 
-    def _finish_transition(
+    def _stale_terms(self) -> tuple[BoolArray, BoolArray, Array]:
+        """Newly reached waypoints, episodes ending at the first sub-step anyway, |drift| [rad] (stale values)."""
+        reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
+        return reached, self.wpt_reached | reached, np.abs(np.deg2rad(self.obs_drift))
+
+    def _reward(
         self, reached: BoolArray, done_anyway: BoolArray, drift_rad: Array, count: NDArray[np.int64]
-    ) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """Flags, counters, the last evaluated sub-step's reward, and the observation."""
+    ) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Flags and counters of one evaluated sub-step with ``count`` obstacles around the aircraft, and its reward."""
         self.wpt_reached |= reached
         self.crashed |= count > 0
         self.intrusions += count
@@ -377,9 +295,7 @@ class StaticObstacleTask(Task):
         drift = drift_rad * DRIFT_PENALTY
         intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
         reward = reach + drift + intrusion
-        terminated = done_anyway | (count > 0)
-        obs = self.observe()
-        return reward, terminated, {"reach": reach, "drift": drift, "intrusion": intrusion}, obs
+        return reward, done_anyway | (count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
 
     # --- info and KPIs --------------------------------------------------------------------------
     def average_drift(self) -> Array:
@@ -426,7 +342,6 @@ def sample_waypoint(
     n_vertices: NDArray[np.int64],
     d_min: int,
     d_max: int,
-    kernels: Any = None,
 ) -> tuple[float, float]:
     """Rejection-sample a waypoint outside every obstacle, as the reference does.
 
@@ -443,7 +358,6 @@ def sample_waypoint(
         n_vertices: (K,) vertex counts.
         d_min: Lower bound of the distance draw [km].
         d_max: Exclusive upper bound of the distance draw [km].
-        kernels: A task's compiled functions for the inside test, or None for numpy.
 
     Returns:
         The waypoint (lat, lon) [deg].
@@ -457,12 +371,9 @@ def sample_waypoint(
         tries += 1
         d = rng.integers(d_min, d_max)
         b = rng.integers(0, BEARING_END)
-        wlat, wlon = point_at_distance_scalar(lat, lon, d, b)
-        if kernels is not None:
-            inside = np.empty((1, len(n_vertices)), bool)
-            kernels.ownship_in_polygons(np.array([[wlat]]), np.array([[wlon]]), poly_lat[None], poly_lon[None], n_vertices[None], inside)
-        else:
-            inside = points_in_polygons(np.atleast_1d(wlat), np.atleast_1d(wlon), poly_lat, poly_lon, n_vertices)
+        wlat, wlon = point_at_distance(lat, lon, d, b)
+        inside = np.empty((1, len(n_vertices)), bool)
+        compiled.ownship_in_polygons(np.array([[wlat]]), np.array([[wlon]]), poly_lat[None], poly_lon[None], n_vertices[None], inside)
         if tries > MAX_WAYPOINT_TRIES:
             raise RuntimeError(
                 f"no waypoint outside the obstacles after {MAX_WAYPOINT_TRIES} tries; the obstacles cover the waypoint "
@@ -470,3 +381,66 @@ def sample_waypoint(
             )
         if not inside.any():
             return float(wlat), float(wlon)
+
+
+class SubstepEnd:
+    """The ``stop`` of a decision step's sub-steps: when each episode ends, and the obstacle counts seen.
+
+    An episode ends at the first sub-step after which its aircraft is inside an obstacle, or at
+    the first sub-step when it ends anyway (its waypoint was reached).
+
+    Args:
+        poly_lat: (n_envs, K, V) obstacle vertex latitudes [deg].
+        poly_lon: (n_envs, K, V) obstacle vertex longitudes [deg].
+        n_vertices: (n_envs, K) vertex counts.
+        done_anyway: (n_envs,) episodes that end at the first sub-step whatever happens.
+    """
+
+    def __init__(self, poly_lat: Array, poly_lon: Array, n_vertices: NDArray[np.int64], done_anyway: BoolArray) -> None:
+        self.poly_lat, self.poly_lon, self.n_vertices, self.done_anyway = poly_lat, poly_lon, n_vertices, done_anyway
+        #: (k, n_envs) obstacles containing each aircraft after each sub-step of the last track seen.
+        self.counts = np.zeros((0, len(done_anyway)), np.int64)
+        #: (n_envs,) sub-steps after which each episode ended (1..k), 0 if it did not.
+        self.ended_at = np.zeros(len(done_anyway), np.int64)
+
+    def __call__(self, track: Array) -> NDArray[np.int64]:
+        """``ended_at`` of the positions ``track`` (k, 2, n_envs, max_aircraft) after k sub-steps."""
+        counts = np.empty((track.shape[0], len(self.done_anyway)), np.int64)
+        compiled.ownship_polygon_counts(track, self.poly_lat, self.poly_lon, self.n_vertices, counts)
+        hit = self.done_anyway | (counts > 0)  # (k, n_envs): the episode ends at this sub-step
+        self.counts = counts
+        self.ended_at = np.where(hit.any(axis=0), hit.argmax(axis=0) + 1, 0)
+        return self.ended_at
+
+
+def run_until(sim: Any, n_steps: int, stop: SubstepEnd) -> None:
+    """``sim.run(n_steps, trace=True, stop=stop)`` for physics that do not take ``stop`` yet.
+
+    Every airspace is left in its state after the sub-step its episode ended at; when all ended,
+    the shared clock stops at the latest of those sub-steps.
+    """
+    if getattr(sim, "kernel", None) != "fused" and sim.n_envs == 1:  # e.g. BlueSky: step until the episode ends
+        track = np.empty((n_steps, 2, sim.n_envs, sim.max_aircraft))
+        for k in range(n_steps):
+            sim.step()
+            track[k, 0], track[k, 1] = sim.lat, sim.lon
+            if (stop(track[: k + 1]) > 0).all():
+                return
+        return
+    start = sim.snapshot()
+    ended_at = stop(sim.run(n_steps, trace=True))
+    early = np.flatnonzero((ended_at > 0) & (ended_at < n_steps))
+    if early.size == 0:
+        return
+    end = sim.snapshot()
+    sim.restore(start)
+    stopped = []
+    for k in range(1, int(ended_at[early].max()) + 1):
+        sim.step()
+        group = early[ended_at[early] == k]
+        if group.size:
+            stopped.append((group, sim.snapshot(group)))
+    if not (ended_at > 0).all() or ended_at.max() == n_steps:
+        sim.restore(end)
+    for group, state in stopped:
+        sim.restore(state, group)
