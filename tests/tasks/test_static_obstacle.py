@@ -11,6 +11,7 @@ from matplotlib.path import Path
 
 import bluesky_gym
 from bluesky_gym.tasks.static_obstacle import StaticObstacleConfig, StaticObstacleTask, sample_waypoint
+from tests.oracle.static_obstacle import reference_substeps
 
 bluesky_gym.register_envs()
 
@@ -391,3 +392,45 @@ def test_vector_env_resets_a_crashed_episode_and_keeps_the_others() -> None:
     assert info["final_info"]["crashed"][1] == 1 and r[1] < -4.9
     assert obs["destination_waypoint_cos_drift"][1, 0] == pytest.approx(1.0)  # a fresh episode
     assert task.sim.lat[1, 0] == 52.0 and task.drift_count[1] == 0
+
+
+# --- the batched sub-step path against the reference's one-airspace loop ---------------------------
+class _ReferenceLoopTask(StaticObstacleTask):
+    """One airspace stepped sub-step by sub-step as the reference does (tests.oracle.static_obstacle)."""
+
+    def transition(self):  # noqa: ANN201
+        reward, terminated, components = reference_substeps(self)
+        return reward, terminated, components, self.observe()
+
+
+def test_batched_substeps_equal_the_reference_loop_of_each_episode() -> None:
+    seeds = [70, 71, 72, 73, 74, 75]
+    options = {"num_obstacles": 14, "obstacle_area_max": 1500}  # crowded: crashes at every sub-step index
+    batch = seeded_task(seeds, **options)
+    alone = []
+    for s in seeds:
+        t = _ReferenceLoopTask(1, StaticObstacleTask.make_config(options))
+        t.seed(t.all_envs, [np.random.default_rng(s)])
+        t.reset()
+        alone.append(t)
+    rng = np.random.default_rng(5)
+    ended_at, ends = set(), 0
+    for step in range(120):
+        action = rng.uniform(-1, 1, (len(seeds), 2))
+        res = batch.step(action)
+        for e, t in enumerate(alone):
+            t0 = t.sim.simt
+            s = t.step(action[e : e + 1])
+            assert res.reward[e] == s.reward[0] and res.terminated[e] == s.terminated[0] and res.truncated[e] == s.truncated[0]
+            for key in s.observation:
+                np.testing.assert_array_equal(res.observation[key][e], s.observation[key][0], err_msg=f"step {step} episode {e} {key}")
+            assert s.info.keys() <= res.info.keys()
+            for key in s.info:
+                np.testing.assert_array_equal(res.info[key][e], s.info[key][0], err_msg=f"step {step} episode {e} info {key}")
+            if s.terminated[0] or s.truncated[0]:
+                ended_at.add(round(t.sim.simt - t0))
+                ends += 1
+                t.reset()
+        done = np.flatnonzero(res.terminated | res.truncated)
+        batch.reset(done)
+    assert ends > 10 and len(ended_at) >= 5  # episodes ended after many different sub-step counts

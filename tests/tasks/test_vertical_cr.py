@@ -250,3 +250,19 @@ def test_ownship_separation_uses_the_intrusion_cylinder() -> None:
     assert dist.shape == (1, 6) and dist[0, 0] == np.inf and dist[0, 5] == np.inf
     np.testing.assert_allclose(dist[0, 1:3], [4.0, 2.0], rtol=1e-9)
     assert los[0].tolist() == [False, True, False, False, False, False]
+
+
+def test_intruder_relative_state_equals_the_numpy_oracle() -> None:
+    from bluesky_gym.tasks.vertical_cr import intruder_relative_state
+    from tests.oracle.vertical_cr import intruder_relative_state as oracle
+
+    rng = np.random.default_rng(12)
+    n, m = 40, 7
+    lat = 52.0 + rng.normal(0, 0.5, (n, m))
+    lon = rng.uniform(-180, 180, (n, m))  # the longitude difference wraps too
+    hdg = rng.uniform(-200, 400, (n, m))  # bearings beyond the single wrap
+    gs = rng.uniform(80, 260, (n, m))
+    got, want = intruder_relative_state(lat, lon, hdg, gs), oracle(lat, lon, hdg, gs)
+    assert got.keys() == want.keys()
+    for k in want:
+        np.testing.assert_array_equal(got[k], want[k], err_msg=k, strict=True)
