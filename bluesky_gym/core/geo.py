@@ -1,16 +1,26 @@
-"""Batched geodesy, reproducing BlueSky 1.1.1's compiled ``_cgeo`` module and ``geo.kwikpos``.
+"""Geodesy, reproducing BlueSky 1.1.1's compiled ``_cgeo`` module, its Python ``geo`` module and ``geo.kwikpos``.
 
-All functions broadcast over numpy arrays of any shape. Angles are degrees, distances NM, as in
-BlueSky [dynamics.md 4]. The arithmetic follows the compiled C++ code operation by operation
-(convert to radians first, then difference), so results are bit-identical to BlueSky's.
+Angles are degrees, distances NM, as in BlueSky [dynamics.md 4]. The arithmetic follows BlueSky's
+code operation by operation, so results are bit-identical to BlueSky's.
+
+The geometry is written once, as scalar kernels (:func:`qdrdist_compiled`, :func:`qdrdist_py`,
+:func:`kwikdist_s`, :func:`kwikqdrdist_s`, :func:`kwikpos_s`, ...); the array functions
+(:func:`qdrdist`, :func:`qdrdist_python`, :func:`kwikdist`, :func:`kwikqdrdist`, :func:`kwikpos`)
+broadcast their arguments like numpy and loop over the kernels.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.core.units import DEG2RAD, M2NM, R_EARTH, RAD2DEG, WGS84_A, WGS84_B
+from bluesky_gym.core.jit import flat_float_args, jit, shaped
+from bluesky_gym.core.scalar import RAD
+from bluesky_gym.core.scalar import maximum as _maximum
+from bluesky_gym.core.scalar import mod as _mod
+from bluesky_gym.core.units import DEG2RAD, M2NM, NM, R_EARTH, RAD2DEG, WGS84_A, WGS84_B
 
 Array = NDArray[np.float64]
 
@@ -18,93 +28,132 @@ _A2 = WGS84_A * WGS84_A
 _B2 = WGS84_B * WGS84_B
 _A4 = _A2 * _A2
 _B4 = _B2 * _B2
+_DEG = 180.0 / np.pi  # numpy's rad2deg factor (BlueSky's Python module uses np.degrees)
+KWIKPOS_NM_PER_DEG = 60.0  # NM per degree of latitude in BlueSky's Python kwikpos
+KWIKPOS_MIN_COS = 0.01  # floor of 60 cos(lat) in kwikpos
 
 
-def rwgs84_sc(sinlat: ArrayLike, coslat: ArrayLike) -> Array:
+# --- Scalar kernels: BlueSky's compiled geo module ------------------------------------------------
+@jit
+def rwgs84_sc(sinlat: float, coslat: float) -> float:
     """WGS-84 geocentric radius [m] from sin and cos of the latitude."""
-    sinlat2 = sinlat * sinlat
-    coslat2 = coslat * coslat
-    return np.sqrt((_A4 * coslat2 + _B4 * sinlat2) / (_A2 * coslat2 + _B2 * sinlat2))
+    s2 = sinlat * sinlat
+    c2 = coslat * coslat
+    return math.sqrt((_A4 * c2 + _B4 * s2) / (_A2 * c2 + _B2 * s2))
 
 
-def rwgs84(latd: ArrayLike) -> Array:
-    """WGS-84 geocentric radius [m] at latitude ``latd`` [deg]."""
-    lat = DEG2RAD * np.asarray(latd, dtype=np.float64)
-    return rwgs84_sc(np.sin(lat), np.cos(lat))
-
-
-def qdrdist(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> tuple[Array, Array]:
-    """Great-circle initial bearing [deg, (-180, 180]] and haversine distance [NM].
+@jit
+def qdrdist_compiled(latd1: float, lond1: float, latd2: float, lond2: float) -> tuple[float, float]:
+    """Great-circle initial bearing [deg, (-180, 180]] and haversine distance [NM] (compiled ``qdrdist``).
 
     The distance uses the WGS-84 radius at the mean latitude, or BlueSky's latitude-weighted mix
     when the points lie in opposite hemispheres [dynamics.md 4].
     """
-    lat1 = DEG2RAD * np.asarray(latd1, dtype=np.float64)
-    lon1 = DEG2RAD * np.asarray(lond1, dtype=np.float64)
-    lat2 = DEG2RAD * np.asarray(latd2, dtype=np.float64)
-    lon2 = DEG2RAD * np.asarray(lond2, dtype=np.float64)
-    sinlat1, coslat1 = np.sin(lat1), np.cos(lat1)
-    sinlat2, coslat2 = np.sin(lat2), np.cos(lat2)
+    lat1 = DEG2RAD * latd1
+    lon1 = DEG2RAD * lond1
+    lat2 = DEG2RAD * latd2
+    lon2 = DEG2RAD * lond2
+    sinlat1, coslat1 = math.sin(lat1), math.cos(lat1)
+    sinlat2, coslat2 = math.sin(lat2), math.cos(lat2)
     dlon = lon2 - lon1
-    qdr = RAD2DEG * np.arctan2(np.sin(dlon) * coslat2, sinlat2 * coslat1 - sinlat1 * coslat2 * np.cos(dlon))
-
-    sindlat2 = np.sin(0.5 * (lat2 - lat1))
-    sindlon2 = np.sin(0.5 * dlon)
-    mid = 0.5 * (lat1 + lat2)
-    r_same = rwgs84_sc(np.sin(mid), np.cos(mid))
-    same = lat1 * lat2 >= 0.0
-    if np.all(same):
-        r = r_same
+    qdr = RAD2DEG * math.atan2(math.sin(dlon) * coslat2, sinlat2 * coslat1 - sinlat1 * coslat2 * math.cos(dlon))
+    sindlat2 = math.sin(0.5 * (lat2 - lat1))
+    sindlon2 = math.sin(0.5 * dlon)
+    if lat1 * lat2 >= 0.0:
+        mid = 0.5 * (lat1 + lat2)
+        r = rwgs84_sc(math.sin(mid), math.cos(mid))
     else:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r_mix = (
-                0.5
-                * (np.abs(lat1) * (rwgs84_sc(sinlat1, coslat1) + WGS84_A) + np.abs(lat2) * (rwgs84_sc(sinlat2, coslat2) + WGS84_A))
-                / (np.abs(lat1) + np.abs(lat2))
-            )
-        r = np.where(same, r_same, r_mix)
+        r = (
+            0.5
+            * (abs(lat1) * (rwgs84_sc(sinlat1, coslat1) + WGS84_A) + abs(lat2) * (rwgs84_sc(sinlat2, coslat2) + WGS84_A))
+            / (abs(lat1) + abs(lat2))
+        )
     root = sindlat2 * sindlat2 + coslat1 * coslat2 * sindlon2 * sindlon2
-    dist = 2.0 * r * np.arctan2(np.sqrt(root), np.sqrt(1.0 - root))
+    dist = 2.0 * r * math.atan2(math.sqrt(root), math.sqrt(1.0 - root))
     return qdr, M2NM * dist
 
 
-def qdrpos(latd1: ArrayLike, lond1: ArrayLike, qdr: ArrayLike, dist: ArrayLike) -> tuple[Array, Array]:
-    """Position [deg] at bearing ``qdr`` [deg] and distance ``dist`` [NM] on the WGS-84 sphere."""
-    lat1 = DEG2RAD * np.asarray(latd1, dtype=np.float64)
-    lon1 = DEG2RAD * np.asarray(lond1, dtype=np.float64)
-    q = DEG2RAD * np.asarray(qdr, dtype=np.float64)
-    sinlat, coslat = np.sin(lat1), np.cos(lat1)
-    r = rwgs84_sc(sinlat, coslat)
-    d = np.asarray(dist, dtype=np.float64) * 1852.0
-    sdr, cdr = np.sin(d / r), np.cos(d / r)
-    lat2 = np.arcsin(sinlat * cdr + coslat * sdr * np.cos(q))
-    lon2 = lon1 + np.arctan2(np.sin(q) * sdr * coslat, cdr - sinlat * np.sin(lat2))
-    return RAD2DEG * lat2, RAD2DEG * lon2
+# --- Scalar kernels: BlueSky's Python geo module (``bluesky.tools.geo._geo``) ----------------------
+# BlueSky uses these instead of the compiled ones when ``bluesky.tools.geo`` is imported before
+# the ``prefer_compiled`` setting is read, which is the case in the reference gym environments.
+@jit
+def rwgs84_py(latd: float) -> float:
+    """WGS-84 geocentric radius [m] at ``latd`` [deg] (Python form, its own operation order)."""
+    lat = latd * RAD
+    coslat = math.cos(lat)
+    sinlat = math.sin(lat)
+    an = WGS84_A * WGS84_A * coslat
+    bn = WGS84_B * WGS84_B * sinlat
+    ad = WGS84_A * coslat
+    bd = WGS84_B * sinlat
+    return math.sqrt((an * an + bn * bn) / (ad * ad + bd * bd))
 
 
-def _kwik(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> tuple[Array, Array, Array]:
-    lat1 = DEG2RAD * np.asarray(latd1, dtype=np.float64)
-    lon1 = DEG2RAD * np.asarray(lond1, dtype=np.float64)
-    lat2 = DEG2RAD * np.asarray(latd2, dtype=np.float64)
-    lon2 = DEG2RAD * np.asarray(lond2, dtype=np.float64)
-    return lat2 - lat1, lon2 - lon1, np.cos(0.5 * (lat1 + lat2))
+@jit
+def qdrdist_py(latd1: float, lond1: float, latd2: float, lond2: float) -> tuple[float, float]:
+    """Bearing [deg, (-180, 180]] and distance [NM] as BlueSky's Python ``qdrdist``.
+
+    Spherical law of cosines for the distance (the compiled form uses haversine), WGS-84 radius
+    at the mean latitude, or a latitude-weighted mix across the equator.
+    """
+    res1 = rwgs84_py(0.5 * (latd1 + latd2))
+    if latd1 * latd2 >= 0.0:
+        r = res1
+    else:
+        r1 = rwgs84_py(latd1)
+        r2 = rwgs84_py(latd2)
+        res2 = 0.5 * (abs(latd1) * (r1 + WGS84_A) + abs(latd2) * (r2 + WGS84_A)) / _maximum(0.000001, abs(latd1) + abs(latd2))
+        r = 0.0 * res1 + 1.0 * res2  # BlueSky's sw * res1 + (1 - sw) * res2
+    lat1 = latd1 * RAD
+    lon1 = lond1 * RAD
+    lat2 = latd2 * RAD
+    lon2 = lond2 * RAD
+    d = r * math.acos(math.cos(lat1) * math.cos(lat2) * math.cos(lon2 - lon1) + math.sin(lat1) * math.sin(lat2))
+    coslat1 = math.cos(lat1)
+    coslat2 = math.cos(lat2)
+    qdr = math.atan2(math.sin(lon2 - lon1) * coslat2, coslat1 * math.sin(lat2) - math.sin(lat1) * coslat2 * math.cos(lon2 - lon1)) * _DEG
+    return qdr, d / NM
 
 
-def kwikdist(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> Array:
-    """Flat-earth (equirectangular) distance [NM], no longitude wrap (compiled 1.1.1)."""
-    dlat, dlon, cavelat = _kwik(latd1, lond1, latd2, lond2)
-    return M2NM * (R_EARTH * np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat))
+@jit
+def qdrdist_s(python_geo: bool, latd1: float, lond1: float, latd2: float, lond2: float) -> tuple[float, float]:
+    """:func:`qdrdist_py` when ``python_geo``, else :func:`qdrdist_compiled`."""
+    if python_geo:
+        return qdrdist_py(latd1, lond1, latd2, lond2)
+    return qdrdist_compiled(latd1, lond1, latd2, lond2)
 
 
-def kwikqdrdist(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> tuple[Array, Array]:
-    """Flat-earth bearing [deg, (-180, 180]] and distance [NM], as the compiled scalar form."""
-    dlat, dlon, cavelat = _kwik(latd1, lond1, latd2, lond2)
-    dist = M2NM * (R_EARTH * np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat))
-    qdr = RAD2DEG * np.fmod(np.arctan2(dlon * cavelat, dlat), 360.0)
+# --- Scalar kernels: flat-earth forms ------------------------------------------------------------
+@jit
+def kwikqdrdist_s(latd1: float, lond1: float, latd2: float, lond2: float) -> tuple[float, float]:
+    """Flat-earth bearing [deg, (-180, 180]] and distance [NM], no longitude wrap (compiled 1.1.1)."""
+    lat1 = DEG2RAD * latd1
+    lon1 = DEG2RAD * lond1
+    lat2 = DEG2RAD * latd2
+    lon2 = DEG2RAD * lond2
+    dlat = lat2 - lat1
+    dlon = lon2 - lon1
+    cavelat = math.cos(0.5 * (lat1 + lat2))
+    dist = M2NM * (R_EARTH * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat))
+    qdr = RAD2DEG * np.fmod(math.atan2(dlon * cavelat, dlat), 360.0)
     return qdr, dist
 
 
-def kwikpos(latd1: ArrayLike, lond1: ArrayLike, qdr: ArrayLike, dist: ArrayLike) -> tuple[Array, Array]:
+@jit
+def kwikdist_s(latd1: float, lond1: float, latd2: float, lond2: float) -> float:
+    """Flat-earth (equirectangular) distance [NM], no longitude wrap (compiled 1.1.1)."""
+    lat1 = DEG2RAD * latd1
+    lon1 = DEG2RAD * lond1
+    lat2 = DEG2RAD * latd2
+    lon2 = DEG2RAD * lond2
+    dlat = lat2 - lat1
+    dlon = lon2 - lon1
+    cavelat = math.cos(0.5 * (lat1 + lat2))
+    return M2NM * (R_EARTH * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat))
+
+
+@jit
+def kwikpos_s(latd1: float, lond1: float, qdr: float, dist: float) -> tuple[float, float]:
     """BlueSky's Python ``geo.kwikpos``: flat earth, 60 NM per degree of latitude.
 
     Args:
@@ -116,61 +165,65 @@ def kwikpos(latd1: ArrayLike, lond1: ArrayLike, qdr: ArrayLike, dist: ArrayLike)
     Returns:
         Latitude and longitude [deg]; the longitude is wrapped to [-180, 180).
     """
-    dx = dist * np.sin(np.radians(qdr))
-    dy = dist * np.cos(np.radians(qdr))
-    dlat = dy / 60.0
-    dlon = dx / (np.maximum(0.01, 60.0 * np.cos(np.radians(latd1))))
-    return latd1 + dlat, ((lond1 + dlon) + 180) % 360 - 180
+    dx = dist * math.sin(qdr * RAD)
+    dy = dist * math.cos(qdr * RAD)
+    dlat = dy / KWIKPOS_NM_PER_DEG
+    dlon = dx / _maximum(KWIKPOS_MIN_COS, KWIKPOS_NM_PER_DEG * math.cos(latd1 * RAD))
+    return latd1 + dlat, _mod((lond1 + dlon) + 180.0, 360.0) - 180.0
 
 
-def degto180(angle: ArrayLike) -> Array:
+@jit
+def degto180(angle: float) -> float:
     """Wrap an angle [deg] to [-180, 180) (BlueSky ``misc.degto180``)."""
-    return (angle + 180.0) % 360 - 180.0
+    return _mod(angle + 180.0, 360.0) - 180.0
 
 
-# --- BlueSky's Python geo module (``bluesky.tools.geo._geo``) -------------------------------------
-# BlueSky uses these instead of the compiled ones when ``bluesky.tools.geo`` is imported before
-# the ``prefer_compiled`` setting is read, which is the case in the reference gym environments.
+# --- Array functions (loops over the kernels) ----------------------------------------------------
+@jit
+def _pair_loop(which, a, b, c, d, out1, out2):
+    for i in range(a.shape[0]):
+        if which == 0:
+            out1[i], out2[i] = qdrdist_compiled(a[i], b[i], c[i], d[i])
+        elif which == 1:
+            out1[i], out2[i] = qdrdist_py(a[i], b[i], c[i], d[i])
+        elif which == 2:
+            out1[i], out2[i] = kwikqdrdist_s(a[i], b[i], c[i], d[i])
+        elif which == 3:
+            out1[i] = kwikdist_s(a[i], b[i], c[i], d[i])
+        else:
+            out1[i], out2[i] = kwikpos_s(a[i], b[i], c[i], d[i])
 
 
-def rwgs84_python(latd: ArrayLike) -> Array:
-    """WGS-84 geocentric radius [m] (Python form, its own operation order)."""
-    lat = np.radians(latd)
-    coslat = np.cos(lat)
-    sinlat = np.sin(lat)
-    an = WGS84_A * WGS84_A * coslat
-    bn = WGS84_B * WGS84_B * sinlat
-    ad = WGS84_A * coslat
-    bd = WGS84_B * sinlat
-    return np.sqrt((an * an + bn * bn) / (ad * ad + bd * bd))
+def _pairs(which: int, *args: ArrayLike, two: bool = True) -> tuple[Array, Array] | Array:
+    shape, (a, b, c, d) = flat_float_args(*args)
+    out1 = np.empty(a.size)
+    out2 = np.empty(a.size) if two else out1
+    _pair_loop(which, a, b, c, d, out1, out2)
+    if two:
+        return shaped(out1, shape), shaped(out2, shape)
+    return shaped(out1, shape)  # type: ignore[no-any-return]
+
+
+def qdrdist(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> tuple[Array, Array]:
+    """Great-circle bearing [deg, (-180, 180]] and distance [NM] (BlueSky's compiled ``qdrdist``), broadcast."""
+    return _pairs(0, latd1, lond1, latd2, lond2)  # type: ignore[return-value]
 
 
 def qdrdist_python(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> tuple[Array, Array]:
-    """Bearing [deg, (-180, 180]] and distance [NM] as BlueSky's Python ``qdrdist``.
-
-    Spherical law of cosines for the distance (the compiled form uses haversine), WGS-84 radius
-    at the mean latitude, or a latitude-weighted mix across the equator.
-    """
-    latd1 = np.asarray(latd1, dtype=np.float64)
-    latd2 = np.asarray(latd2, dtype=np.float64)
-    res1 = rwgs84_python(0.5 * (latd1 + latd2))
-    if np.all(latd1 * latd2 >= 0.0):
-        r = res1
-    else:
-        r1 = rwgs84_python(latd1)
-        r2 = rwgs84_python(latd2)
-        res2 = 0.5 * (np.abs(latd1) * (r1 + WGS84_A) + np.abs(latd2) * (r2 + WGS84_A)) / np.maximum(0.000001, np.abs(latd1) + np.abs(latd2))
-        sw = latd1 * latd2 >= 0.0
-        r = sw * res1 + (1 - sw) * res2
-    lat1 = np.radians(latd1)
-    lon1 = np.radians(lond1)
-    lat2 = np.radians(latd2)
-    lon2 = np.radians(lond2)
-    d = r * np.arccos(np.cos(lat1) * np.cos(lat2) * np.cos(lon2 - lon1) + np.sin(lat1) * np.sin(lat2))
-    coslat1 = np.cos(lat1)
-    coslat2 = np.cos(lat2)
-    qdr = np.degrees(np.arctan2(np.sin(lon2 - lon1) * coslat2, coslat1 * np.sin(lat2) - np.sin(lat1) * coslat2 * np.cos(lon2 - lon1)))
-    return qdr, d / NM_M
+    """Bearing [deg] and distance [NM] as BlueSky's Python ``qdrdist``, broadcast."""
+    return _pairs(1, latd1, lond1, latd2, lond2)  # type: ignore[return-value]
 
 
-NM_M = 1852.0  # m per NM, as the Python geo module divides
+def kwikqdrdist(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> tuple[Array, Array]:
+    """Flat-earth bearing [deg, (-180, 180]] and distance [NM] (compiled scalar form), broadcast."""
+    return _pairs(2, latd1, lond1, latd2, lond2)  # type: ignore[return-value]
+
+
+def kwikdist(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLike) -> Array:
+    """Flat-earth (equirectangular) distance [NM], no longitude wrap (compiled 1.1.1), broadcast."""
+    return _pairs(3, latd1, lond1, latd2, lond2, two=False)  # type: ignore[return-value]
+
+
+def kwikpos(latd1: ArrayLike, lond1: ArrayLike, qdr: ArrayLike, dist: ArrayLike) -> tuple[Array, Array]:
+    """BlueSky's Python ``geo.kwikpos`` (see :func:`kwikpos_s`), broadcast: (lat, lon) [deg]."""
+    return _pairs(4, latd1, lond1, qdr, dist)  # type: ignore[return-value]

@@ -12,6 +12,8 @@ import warnings
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+import numpy as np
+
 F = TypeVar("F", bound=Callable[..., Any])
 
 try:
@@ -52,3 +54,31 @@ def jit_inline(fn: F) -> F:
         _warn_uncompiled()
         return fn
     return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)  # type: ignore[no-any-return]
+
+
+def python_form(fn: F) -> F:
+    """The plain-Python source of a kernel (numba's ``py_func``; the function itself without numba).
+
+    Used to evaluate constants at import time without compiling, and by the tests that run the
+    kernels uncompiled.
+    """
+    return getattr(fn, "py_func", fn)  # type: ignore[no-any-return]
+
+
+def flat_float_args(*args: Any) -> tuple[tuple[int, ...], list[np.ndarray]]:
+    """Broadcast array-likes to one shape and give each as a flat, contiguous float64 array.
+
+    The array-facing functions of the core are thin wrappers: a jitted loop over these flat
+    arrays calling a scalar kernel.
+
+    Returns:
+        The broadcast shape and the flattened arrays (views where no copy is needed).
+    """
+    arrays = [np.asarray(a, dtype=np.float64) for a in args]
+    shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    return shape, [np.ascontiguousarray(np.broadcast_to(a, shape)).reshape(-1) for a in arrays]
+
+
+def shaped(out: np.ndarray, shape: tuple[int, ...]) -> Any:
+    """A flat result in the broadcast ``shape``; a numpy scalar for scalar inputs, as numpy gives."""
+    return out.reshape(shape) if shape else out[0]

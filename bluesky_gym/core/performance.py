@@ -2,20 +2,18 @@
 
 The model supplies three things to the kinematics: the flight phase, the speed envelope of that
 phase, and the maximum longitudinal acceleration ``axmax`` from maximum thrust and drag. It is
-evaluated from the state at the *start* of a simulation step, before the autopilot runs.
+evaluated from the state at the *start* of a simulation step, before the autopilot runs
+(:func:`performance`, a scalar kernel called by the step kernel).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-import numpy as np
-from numpy.typing import NDArray
-
-from bluesky_gym.core import atmosphere as isa
-from bluesky_gym.core.units import FPM, FT, G0
-
-Array = NDArray[np.float64]
+from bluesky_gym.core.atmosphere import GAMMA_R, isa, tas2cas_at
+from bluesky_gym.core.jit import jit, python_form
+from bluesky_gym.core.units import FPM, FT, G0, P0
 
 # OpenAP flight phases.
 PHASE_NA, PHASE_GD, PHASE_IC, PHASE_CL, PHASE_CR, PHASE_DE, PHASE_AP = range(7)
@@ -58,116 +56,162 @@ class AircraftPerformance:
 
 A320 = AircraftPerformance()
 
-_FT_10000 = 10000 * FT
-_FT_35000 = 35000 * FT
-_P10 = isa.vpressure(np.float64(_FT_10000))
-_P35 = isa.vpressure(np.float64(_FT_35000))
-_VCAS_REF = isa.vtas2cas(isa.vmach2tas(np.float64(0.8), np.float64(_FT_35000)), np.float64(_FT_35000))
+
+def perf_tuple(perf: AircraftPerformance) -> tuple[float, ...]:
+    """The performance constants in the argument order of :func:`performance`."""
+    return (
+        perf.mass,
+        perf.wing_area,
+        float(perf.engine_count),
+        perf.engine_max_thrust,
+        perf.bypass_ratio,
+        perf.cd0_clean,
+        perf.k_clean,
+        perf.cd0_takeoff,
+        perf.k_takeoff,
+        perf.cd0_gear,
+        perf.cd0_landing,
+        perf.k_landing,
+        perf.vmin_enroute,
+        perf.vmax_enroute,
+        perf.vmin_approach,
+        perf.vmax_approach,
+        perf.vmax_ground,
+        perf.axmax_ground,
+        perf.axmax_floor,
+    )
 
 
-def flight_phase(tas: Array, vs: Array, alt: Array) -> NDArray[np.int64]:
+def limit_tuple(perf: AircraftPerformance) -> tuple[float, float, float, float]:
+    """The envelope limits (hmax, vsmax, mmo, v_rotate) as the step kernel takes them."""
+    return (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate)
+
+
+# Thrust-model reference points: pressure at 10000 ft and 35000 ft, CAS of Mach 0.8 at 35000 ft.
+H_10000FT = 10000 * FT  # m
+H_35000FT = 35000 * FT  # m
+P_10000FT = python_form(isa)(H_10000FT)[0]  # Pa
+P_35000FT, _RHO35, _T35 = python_form(isa)(H_35000FT)
+VCAS_REF = python_form(tas2cas_at)(0.8 * math.sqrt(GAMMA_R * _T35), P_35000FT, _RHO35)  # m/s
+ROC_FPM = 0.00508  # m/s per ft/min, OpenAP's literal (== FPM)
+LBF = 4.448  # N per pound-force, OpenAP's literal
+
+
+@jit
+def flight_phase(tas: float, vs: float, alt: float) -> int:
     """OpenAP phase from TAS [m/s], vertical speed [m/s] and altitude [m] [dynamics.md 1.3]."""
-    roc = vs / 0.00508
-    a = alt / 0.3048
-    ph = np.zeros(np.shape(alt), dtype=np.int64)
-    ph[a <= 75] = PHASE_GD
-    low = (a >= 75) & (a <= 1000)
-    ph[low & (roc >= 150)] = PHASE_IC
-    ph[low & (roc <= -150)] = PHASE_AP
-    high = a >= 1000
-    ph[high & (roc >= 150)] = PHASE_CL
-    ph[high & (roc <= -150)] = PHASE_DE
-    ph[(a >= 10000) & (roc <= 150) & (roc >= -150)] = PHASE_CR
+    roc = vs / ROC_FPM
+    a = alt / FT
+    ph = PHASE_NA
+    if a <= 75:
+        ph = PHASE_GD
+    if a >= 75 and a <= 1000 and roc >= 150:
+        ph = PHASE_IC
+    if a >= 75 and a <= 1000 and roc <= -150:
+        ph = PHASE_AP
+    if a >= 1000 and roc >= 150:
+        ph = PHASE_CL
+    if a >= 1000 and roc <= -150:
+        ph = PHASE_DE
+    if a >= 10000 and roc <= 150 and roc >= -150:
+        ph = PHASE_CR
     return ph
 
 
-def speed_envelope(phase: NDArray[np.int64], perf: AircraftPerformance = A320) -> tuple[Array, Array]:
-    """CAS envelope [m/s] per phase, including BlueSky's always-true en-route test (quirk 9.1)."""
-    gd = phase == PHASE_GD
-    ap = phase == PHASE_AP
-    vmin = np.where(gd, 0.0, np.where(ap, perf.vmin_approach, perf.vmin_enroute))
-    vmax = np.where(gd, perf.vmax_ground, np.where(ap, perf.vmax_approach, perf.vmax_enroute))
-    return vmin, vmax
+@jit
+def performance(tas: float, vs: float, alt: float, perf: tuple[float, ...]) -> tuple[int, float, float, float]:
+    """OpenAP phase, CAS envelope [m/s] and axmax [m/s^2] [dynamics.md 1.3-1.4].
 
+    Includes BlueSky's always-true en-route envelope test (quirk 9.1).
 
-def max_thrust_ratio(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array, perf: AircraftPerformance = A320) -> Array:
-    """Maximum-thrust ratio of OpenAP's thrust model (take-off on ground, in-flight otherwise)."""
-    thr0 = perf.static_thrust
-    bpr = perf.bypass_ratio
-    # Take-off ratio.
-    mach_to = isa.vtas2mach(tas, alt)
-    pp = isa.vpressure(alt) / isa.P0
-    a_ = -0.4327 * pp**2 + 1.3855 * pp + 0.0472
-    z_ = 0.9106 * pp**3 - 1.7736 * pp**2 + 1.8697 * pp
-    x_ = 0.1377 * pp**3 - 0.4374 * pp**2 + 1.3003 * pp
-    ratio_to = (
-        a_ - 0.377 * (1 + bpr) / np.sqrt((1 + 0.82 * bpr) * (0.0606 * bpr + 0.6337)) * z_ * mach_to + (0.23 + 0.19 * np.sqrt(bpr)) * x_ * mach_to**2
-    )
-    # In-flight ratio.
-    roc = np.abs(np.asarray(vs / FPM))
-    v = np.where(tas < 10, 10, tas)
-    p, rho, _ = isa.vatmos(alt)
-    mach = isa.vtas2mach(v, alt)
-    vcas = isa.tas2cas_from_atmos(v, p, rho)
-    f35 = (200 + 0.2 * thr0 / 4.448) * 4.448
-    d = -0.4204 * (mach / 0.8) + 1.0824
-    b = (mach / 0.8) ** (-0.11)
-    ratio_seg3 = d * np.log(p / _P35) + b
-    vratio = vcas / _VCAS_REF
-    a = vratio ** (-0.1)
-    n = 2.667e-05 * roc + 0.8633
-    ratio_seg2 = a * (p / _P35) ** (-0.355 * vratio + n)
-    f10 = f35 * a * (_P10 / _P35) ** (-0.355 * vratio + n)
-    m = -1.2043e-1 * vratio - 8.8889e-9 * roc**2 + 2.4444e-5 * roc + 4.7379e-1
-    ratio_seg1 = m * (p / _P35) + (f10 / f35 - m * (_P10 / _P35))
-    ratio = np.where(alt > _FT_35000, ratio_seg3, np.where(alt > _FT_10000, ratio_seg2, ratio_seg1))
-    ratio_inflight = ratio * f35 / thr0
-    return np.where(phase == PHASE_GD, ratio_to, ratio_inflight)
-
-
-def max_acceleration(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array, perf: AircraftPerformance = A320) -> Array:
-    """Maximum longitudinal acceleration ``axmax`` [m/s^2] = (Tmax - D) / m [dynamics.md 1.4]."""
-    gd = phase == PHASE_GD
-    ap = phase == PHASE_AP
-    ic = phase == PHASE_IC
-    cd0 = np.where(gd, perf.cd0_takeoff + perf.cd0_gear, np.where(ic, perf.cd0_takeoff, np.where(ap, perf.cd0_landing, perf.cd0_clean)))
-    k = np.where(gd | ic, perf.k_takeoff, np.where(ap, perf.k_landing, perf.k_clean))
-    rho = isa.vdensity(alt)
-    rhovs = 0.5 * rho * tas**2 * perf.wing_area
-    cl = perf.mass * G0 / rhovs
-    drag = rhovs * (cd0 + k * cl**2)
-    max_thrust = max_thrust_ratio(phase, tas, alt, vs, perf) * perf.engine_count * perf.engine_max_thrust
-    axmax = (max_thrust - drag) / perf.mass
-    axmax = np.where(gd, perf.axmax_ground, axmax)
-    return np.where(axmax < perf.axmax_floor, perf.axmax_floor, axmax)
-
-
-def apply_limits(
-    tas_target: Array,
-    vs_target: Array,
-    alt_target: Array,
-    ax: Array,
-    tas: Array,
-    phase: NDArray[np.int64],
-    vmin: Array,
-    vmax: Array,
-    axmax: Array,
-    perf: AircraftPerformance = A320,
-) -> tuple[Array, Array, Array]:
-    """Clip autopilot targets to the envelope, evaluated at the *target* altitude (quirk 9.3).
+    Args:
+        tas: True airspeed [m/s].
+        vs: Vertical speed [m/s].
+        alt: Altitude [m].
+        perf: The aircraft's :func:`perf_tuple`.
 
     Returns:
-        Allowed TAS [m/s], allowed vertical-speed magnitude [m/s] and allowed altitude [m].
+        (phase, vmin, vmax, axmax).
     """
-    allow_h = np.where(alt_target > perf.hmax, perf.hmax, alt_target)
-    p, rho, t = isa.vatmos(allow_h)
-    intent_cas = isa.tas2cas_from_atmos(tas_target, p, rho)
-    allow_cas = np.where(intent_cas < vmin, vmin, intent_cas)
-    allow_cas = np.where(intent_cas > vmax, vmax, allow_cas)
-    allow_tas = isa.cas2tas_from_atmos(allow_cas, p, rho)
-    sound = np.sqrt(isa.GAMMA * isa.R_AIR * t)
-    allow_tas = np.where(allow_tas / sound > perf.mmo, perf.mmo * sound, allow_tas)
-    vs_max_with_acc = (1 - ax / axmax) * perf.vsmax
-    allow_vs = np.where((vs_target > 0) & (vs_target > perf.vsmax), vs_max_with_acc, vs_target)
-    allow_vs = np.where((phase == PHASE_GD) & (tas < perf.v_rotate), 0, allow_vs)
-    return allow_tas, allow_vs, allow_h
+    (
+        mass,
+        wing_area,
+        n_eng,
+        eng_thr,
+        bpr,
+        cd0_clean,
+        k_clean,
+        cd0_to,
+        k_to,
+        cd0_gear,
+        cd0_ld,
+        k_ld,
+        vmin_er,
+        vmax_er,
+        vmin_ap,
+        vmax_ap,
+        vmax_gd,
+        ax_gd,
+        ax_floor,
+    ) = perf
+    ph = flight_phase(tas, vs, alt)
+    if ph == PHASE_GD:
+        vmin, vmax = 0.0, vmax_gd
+    elif ph == PHASE_AP:
+        vmin, vmax = vmin_ap, vmax_ap
+    else:
+        vmin, vmax = vmin_er, vmax_er
+
+    if ph == PHASE_GD:
+        cd0, k = cd0_to + cd0_gear, k_to
+    elif ph == PHASE_IC:
+        cd0, k = cd0_to, k_to
+    elif ph == PHASE_AP:
+        cd0, k = cd0_ld, k_ld
+    else:
+        cd0, k = cd0_clean, k_clean
+    p, rho, t = isa(alt)
+    rhovs = 0.5 * rho * (tas * tas) * wing_area
+    cl = mass * G0 / rhovs
+    drag = rhovs * (cd0 + k * (cl * cl))
+
+    thr0 = n_eng * eng_thr
+    if ph == PHASE_GD:  # take-off thrust ratio
+        mach_to = tas / math.sqrt(GAMMA_R * t)
+        pp = p / P0
+        a_ = -0.4327 * (pp * pp) + 1.3855 * pp + 0.0472
+        z_ = 0.9106 * math.pow(pp, 3.0) - 1.7736 * (pp * pp) + 1.8697 * pp
+        x_ = 0.1377 * math.pow(pp, 3.0) - 0.4374 * (pp * pp) + 1.3003 * pp
+        ratio = (
+            a_
+            - 0.377 * (1 + bpr) / math.sqrt((1 + 0.82 * bpr) * (0.0606 * bpr + 0.6337)) * z_ * mach_to
+            + (0.23 + 0.19 * math.sqrt(bpr)) * x_ * (mach_to * mach_to)
+        )
+    else:  # in-flight thrust ratio
+        roc_fpm = abs(vs / FPM)
+        v = 10.0 if tas < 10 else tas
+        mach = v / math.sqrt(GAMMA_R * t)
+        vcas = tas2cas_at(v, p, rho)
+        f35 = (200 + 0.2 * thr0 / LBF) * LBF
+        if alt > H_35000FT:
+            d = -0.4204 * (mach / 0.8) + 1.0824
+            b = math.pow(mach / 0.8, -0.11)
+            ratio = d * math.log(p / P_35000FT) + b
+        else:
+            vratio = vcas / VCAS_REF
+            a2 = math.pow(vratio, -0.1)
+            n = 2.667e-05 * roc_fpm + 0.8633
+            if alt > H_10000FT:
+                ratio = a2 * math.pow(p / P_35000FT, -0.355 * vratio + n)
+            else:
+                f10 = f35 * a2 * math.pow(P_10000FT / P_35000FT, -0.355 * vratio + n)
+                m = -1.2043e-1 * vratio - 8.8889e-9 * (roc_fpm * roc_fpm) + 2.4444e-5 * roc_fpm + 4.7379e-1
+                ratio = m * (p / P_35000FT) + (f10 / f35 - m * (P_10000FT / P_35000FT))
+        ratio = ratio * f35 / thr0
+    max_thrust = ratio * n_eng * eng_thr
+    axmax = (max_thrust - drag) / mass
+    if ph == PHASE_GD:
+        axmax = ax_gd
+    if axmax < ax_floor:
+        axmax = ax_floor
+    return ph, vmin, vmax, axmax

@@ -3,95 +3,33 @@
 One :class:`Simulator` holds ``n_envs`` independent airspaces with room for ``max_aircraft``
 aircraft each. Every state array is shaped ``(n_envs, max_aircraft)`` and an ``active`` mask says
 which slots hold an aircraft. Creating and deleting aircraft writes into preallocated slots, and
-one :meth:`Simulator.step` advances every airspace by ``dt`` seconds with whole-array numpy
-operations, in BlueSky 1.1.1's update order [dynamics.md 2].
+one :meth:`Simulator.step` advances every airspace by ``dt`` seconds with the compiled step
+kernel (:mod:`bluesky_gym.core.step`), in BlueSky 1.1.1's update order [dynamics.md 2].
 
-The numpy path still computes inactive slots (cheaper than masking), the compiled path skips
-them; either way their values are meaningless and readers must use the ``active`` mask.
+The kernel skips inactive slots; their values are meaningless and readers must use the
+``active`` mask. :class:`Simulator` implements :class:`~bluesky_gym.core.physics.Physics`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
-from bluesky_gym.core.units import FPM, FT, G0, NM, R_EARTH
+from bluesky_gym.core.atmosphere import vcasormach
+from bluesky_gym.core.conflicts import create_conflicts
+from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
+from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS
+from bluesky_gym.core.step import MEMO_COLUMNS, run_kernel, step_kernel
+from bluesky_gym.core.units import NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-
-BANK_DEFAULT = np.float64(0.4363323129985824)  # rad, 25 deg: BlueSky's default bank angle
-# ``turnphi`` after a waypoint activation: deg2rad(rad2deg(bankdef)), which may differ by one ulp.
-BANK_LNAV = np.deg2rad(np.rad2deg(BANK_DEFAULT))
-VS_DEFAULT = 1500 * FPM  # m/s (7.62): used when |selvs| <= 0.1 [dynamics.md 2.3]
-VS_SELECT_EPS = 0.1  # m/s
-VS_RAMP = 300 * FPM  # m/s per s: vertical acceleration, threshold NOT scaled by dt (quirk 9.6)
-WIND_MIN_ALT = 50.0 * FT  # m: wind only acts above this altitude [dynamics.md 1.7]
-TAS_EPS = 0.01  # m/s, BlueSky's traf.eps: floor of TAS in the turn-rate formula
-PERFORMANCE_INTERVAL = 1.0  # s, BlueSky's performance_dt timer
-NO_VALUE = -999.0  # BlueSky's marker for "not set"
-
-# (name, dtype, value of an empty slot)
-_STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
-    ("active", np.bool_, False),
-    ("lat", np.float64, 0.0),  # deg
-    ("lon", np.float64, 0.0),  # deg
-    ("alt", np.float64, 0.0),  # m
-    ("hdg", np.float64, 0.0),  # deg true
-    ("trk", np.float64, 0.0),  # deg true
-    ("tas", np.float64, 0.0),  # m/s
-    ("cas", np.float64, 0.0),  # m/s
-    ("mach", np.float64, 0.0),  # -
-    ("gs", np.float64, 0.0),  # m/s
-    ("gsnorth", np.float64, 0.0),  # m/s
-    ("gseast", np.float64, 0.0),  # m/s
-    ("vs", np.float64, 0.0),  # m/s
-    ("ax", np.float64, 0.0),  # m/s^2, longitudinal acceleration of the last step
-    ("windnorth", np.float64, 0.0),  # m/s, wind at the aircraft
-    ("windeast", np.float64, 0.0),  # m/s
-    ("distflown", np.float64, 0.0),  # m
-    # Selected (MCP) values.
-    ("selspd", np.float64, 0.0),  # m/s CAS, or Mach when 0.1 < v < 2
-    ("selalt", np.float64, 0.0),  # m
-    ("selvs", np.float64, 0.0),  # m/s
-    ("swlnav", np.bool_, False),
-    ("swvnav", np.bool_, False),
-    ("swvnavspd", np.bool_, False),
-    # Autopilot outputs, before the performance limits.
-    ("ap_trk", np.float64, 0.0),  # deg
-    ("ap_tas", np.float64, 0.0),  # m/s
-    ("ap_vs", np.float64, NO_VALUE),  # m/s
-    ("ap_alt", np.float64, 0.0),  # m
-    ("turnphi", np.float64, 0.0),  # rad; 0 means "use the default bank"
-    # Performance model.
-    ("phase", np.int64, 0),
-    ("vmin", np.float64, 67.0),  # m/s CAS
-    ("vmax", np.float64, 163.0),  # m/s CAS
-    ("axmax", np.float64, 2.37),  # m/s^2
-    # Active waypoint (LNAV) [dynamics.md 2.6].
-    ("iactwp", np.int64, -1),
-    ("nwp", np.int64, 0),
-    ("actwp_lat", np.float64, 0.0),  # deg
-    ("actwp_lon", np.float64, 0.0),  # deg
-    ("curlegdir", np.float64, NO_VALUE),  # deg
-    ("turndist", np.float64, 1.0),  # m
-    ("next_qdr", np.float64, NO_VALUE),  # deg
-    ("swlastwp", np.bool_, False),
-    ("route_has_dest", np.bool_, False),
-)
-
-
-FLOAT_FIELDS = tuple(name for name, dtype, _ in _STATE_FIELDS if dtype is np.float64)
-FIELD_INDEX = {name: i for i, name in enumerate(FLOAT_FIELDS)}
-#: Per-aircraft arrays outside the float block (snapshots copy these and the block).
-_NON_FLOAT_STATE = (*(name for name, dtype, _ in _STATE_FIELDS if dtype is not np.float64), "route_lat", "route_lon")
 
 
 def _route_position(lat: ArrayLike, lon: ArrayLike) -> tuple[Array, Array]:
@@ -118,7 +56,7 @@ class _Field:
     def __get__(self, obj: Simulator | None, owner: type) -> Array:
         if obj is None:
             return self  # type: ignore[return-value]
-        return getattr(obj, self.block)[self.index]
+        return getattr(obj, self.block)[self.index]  # type: ignore[no-any-return]
 
     def __set__(self, obj: Simulator, value: ArrayLike) -> None:
         getattr(obj, self.block)[self.index][...] = value
@@ -136,9 +74,6 @@ class Simulator:
         geo: ``"compiled"`` (BlueSky's compiled geo functions, as a plain BlueSky run uses them)
             or ``"python"`` (BlueSky's Python geo module, which the reference gym environments end up
             with). Only LNAV uses them; they differ in the last bits.
-        kernel: ``"numpy"`` (the reference implementation), ``"fused"`` (the same arithmetic
-            compiled into one loop with numba, bit-identical and much faster; needs the ``fast``
-            extra) or ``"auto"`` (fused when numba is installed).
     """
 
     def __init__(
@@ -148,24 +83,14 @@ class Simulator:
         dt: float = 1.0,
         max_waypoints: int = 4,
         perf: pf.AircraftPerformance = pf.A320,
-        kernel: str = "auto",
         geo: str = "compiled",
     ) -> None:
-        from bluesky_gym.core import fused
-
         if geo not in ("compiled", "python"):
             raise ValueError(f"geo must be 'compiled' or 'python', got {geo!r}")
         self.geo = geo
         self._qdrdist = _geo.qdrdist if geo == "compiled" else _geo.qdrdist_python
-
-        if kernel not in ("auto", "numpy", "fused"):
-            raise ValueError(f"kernel must be 'auto', 'numpy' or 'fused', got {kernel!r}")
-        if kernel == "fused" and not fused.AVAILABLE:
-            raise ImportError('the fused kernel needs numba: pip install "bluesky-gym[fast]"')
-        #: The step implementation in use: "numpy" or "fused".
-        self.kernel = "fused" if kernel == "fused" or (kernel == "auto" and fused.AVAILABLE) else "numpy"
-        self._perf_args = fused.perf_tuple(perf)
-        self._limit_args = (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate)
+        self._perf_args = pf.perf_tuple(perf)
+        self._limit_args = pf.limit_tuple(perf)
         if n_envs < 1 or max_aircraft < 1:
             raise ValueError(f"n_envs and max_aircraft must be >= 1, got {n_envs} and {max_aircraft}")
         if not dt > 0:
@@ -187,7 +112,7 @@ class Simulator:
         self._float_raw = np.empty((len(FLOAT_FIELDS), n_slots + pad))
         self._float_flat = self._float_raw[:, :n_slots]  # (fields, aircraft) view, padded rows
         self._float_block = self._float_flat.reshape(len(FLOAT_FIELDS), *shape)  # a view as well
-        for name, dtype, value in _STATE_FIELDS:
+        for name, dtype, value in STATE_FIELDS:
             if dtype is np.float64:
                 self._float_block[FIELD_INDEX[name]] = value
             else:
@@ -199,9 +124,8 @@ class Simulator:
         self._empty = np.zeros(0)
         self._phase_flat = self.phase.reshape(-1)  # a view
         self._active_flat = self.active.reshape(-1)  # a view
-        self._kernel = fused.step_kernel if self.kernel == "fused" else None
-        # Memo table of the fused kernel: (n_envs * max_aircraft, columns), NaN = nothing cached.
-        self._memo = np.full((self.n_envs * self.max_aircraft, fused.MEMO_COLUMNS), np.nan)
+        # Memo table of the step kernel: (n_envs * max_aircraft, columns), NaN = nothing cached.
+        self._memo = np.full((self.n_envs * self.max_aircraft, MEMO_COLUMNS), np.nan)
         self._empty_bool = np.zeros(0, dtype=np.bool_)
 
     # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
@@ -301,7 +225,7 @@ class Simulator:
         self.alt[env, slot] = alt
         self.hdg[env, slot] = hdg
         self.trk[env, slot] = hdg
-        tas, cas, mach = isa.vcasormach(spd, alt)
+        tas, cas, mach = vcasormach(spd, alt)
         self.tas[env, slot] = tas
         self.cas[env, slot] = cas
         self.mach[env, slot] = mach
@@ -385,6 +309,54 @@ class Simulator:
         self.selvs[env, slot] = vs
         self.swvnav[env, slot] = False
 
+    def set_autopilot(
+        self,
+        env: ArrayLike,
+        slot: ArrayLike,
+        *,
+        selalt: ArrayLike | None = None,
+        selvs: ArrayLike | None = None,
+        swvnav: ArrayLike | None = None,
+        ap_trk: ArrayLike | None = None,
+    ) -> None:
+        """Write autopilot values directly, as the reference gym code writes BlueSky's arrays.
+
+        Unlike the commands, nothing else changes (no LNAV or VNAV switching, no vertical-speed
+        logic). Each argument left None stays unchanged; values broadcast over ``(env, slot)``.
+
+        Args:
+            env: Airspace indices.
+            slot: Aircraft slots.
+            selalt: Selected altitude [m].
+            selvs: Selected vertical speed [m/s].
+            swvnav: VNAV switch.
+            ap_trk: Autopilot track [deg].
+        """
+        env, slot = self._index(env, slot)
+        if selalt is not None:
+            self.selalt[env, slot] = selalt
+        if selvs is not None:
+            self.selvs[env, slot] = selvs
+        if swvnav is not None:
+            self.swvnav[env, slot] = swvnav
+        if ap_trk is not None:
+            self.ap_trk[env, slot] = ap_trk
+
+    def set_state(self, env: ArrayLike, slot: ArrayLike, *, alt: ArrayLike | None = None, hdg: ArrayLike | None = None) -> None:
+        """Write aircraft state directly (the reference gym code's ``traf.alt[i] = ...``, ``traf.hdg[i] = ...``).
+
+        Args:
+            env: Airspace indices.
+            slot: Aircraft slots.
+            alt: Altitude [m], or None to leave it.
+            hdg: Heading [deg], or None to leave it.
+        """
+        env, slot = self._index(env, slot)
+        if alt is not None:
+            self.alt[env, slot] = alt
+        if hdg is not None:
+            self.hdg[env, slot] = hdg
+
     def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """``ADDWPT acid lat lon``: append a fly-by waypoint (before the destination).
 
@@ -440,13 +412,6 @@ class Simulator:
         )
         return np.where(nxt, qdr, NO_VALUE)
 
-    def _turn_distance(self, tas: Array, qdr: Array, next_qdr: Array) -> Array:
-        """Fly-by turn anticipation distance [m] (``actwp.calcturn`` with default turn data)."""
-        local_next = np.where(next_qdr < -900.0, qdr, next_qdr)
-        turnbank = np.rad2deg(BANK_DEFAULT)
-        turnrad = tas**2 / (G0 * np.tan(np.deg2rad(turnbank)))
-        return np.abs(turnrad * np.tan(np.radians(0.5 * np.abs(_geo.degto180(qdr % 360.0 - local_next % 360.0)))))
-
     def _direct(self, env: IntArray, slot: IntArray) -> None:
         """``DIRECT`` to the active waypoint: activate it from the current position; LNAV on."""
         i = self.iactwp[env, slot]
@@ -456,7 +421,7 @@ class Simulator:
         self.actwp_lon[env, slot] = wlon
         qdr, _ = self._qdrdist(self.lat[env, slot], self.lon[env, slot], wlat, wlon)
         self.curlegdir[env, slot] = qdr
-        self.turndist[env, slot] = self._turn_distance(self.tas[env, slot], qdr, self.next_qdr[env, slot])
+        self.turndist[env, slot] = turn_distances(self.tas[env, slot], qdr, self.next_qdr[env, slot])
         self.turnphi[env, slot] = BANK_LNAV
         self.swlnav[env, slot] = True
 
@@ -476,8 +441,6 @@ class Simulator:
 
         See :func:`bluesky_gym.core.conflicts.create_conflicts` for the arguments.
         """
-        from bluesky_gym.core.conflicts import create_conflicts
-
         create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
 
     # ------------------------------------------------------------------------------------------
@@ -485,72 +448,93 @@ class Simulator:
     # ------------------------------------------------------------------------------------------
     def step(self) -> None:
         """Advance every airspace by ``dt`` seconds."""
-        dt = self.dt
-        if self.kernel == "fused":
-            self._step_fused()
-            return
-        with np.errstate(all="ignore"):
-            if self._performance_due():
-                self._update_performance()
-            self.simt += dt
-            self._update_autopilot()
-            trk_t, tas_t, alt_t, vs_t = self.ap_trk, self.ap_tas, self.ap_alt, np.abs(self.ap_vs)
-            any_wind = self.wind.any
-            if any_wind:
-                wn, we = self.wind.at_all(self.lat, self.lon)
-                vw = np.sqrt(wn * wn + we * we)
-                winddir = np.arctan2(we, wn)
-                drift = np.radians(trk_t) - winddir
-                steer = np.arcsin(np.minimum(1.0, np.maximum(-1.0, vw * np.sin(drift) / np.maximum(0.001, self.tas))))
-                hdg_t = (trk_t + np.degrees(steer)) % 360.0
-            else:
-                hdg_t = trk_t % 360.0
-            tas_t, vs_t, alt_t = pf.apply_limits(tas_t, vs_t, alt_t, self.ax, self.tas, self.phase, self.vmin, self.vmax, self.axmax, self.perf)
-            self._update_airspeed(tas_t, hdg_t, alt_t, vs_t)
-            self._update_groundspeed(any_wind)
-            self._update_position(alt_t)
+        do_perf = self._performance_due()
+        self.simt += self.dt
+        if self.swlnav.any():
+            lnav_kernel(self._float_flat, *self._lnav_args())
+        wn, we, haswind, any_wind = self._wind_args()
+        step_kernel(
+            self._float_flat,
+            self._phase_flat,
+            wn,
+            we,
+            haswind,
+            any_wind,
+            do_perf,
+            self.dt,
+            self._perf_args,
+            self._limit_args,
+            self._memo,
+            self._active_flat,
+        )
 
-    def run(self, n_steps: int, trace: bool = False) -> Array | None:
+    def run(self, n_steps: int, trace: bool = False, stop: Callable[[Array], ArrayLike] | None = None) -> Array | None:
         """Advance every airspace by ``n_steps`` steps (same result as calling :meth:`step` n times).
 
-        With the fused kernel, and while any wind is uniform, the aircraft do not influence each
-        other between steps (LNAV included), so each one is advanced through all ``n_steps`` at
-        once while it sits in the CPU cache.
+        While any wind is uniform, the aircraft do not influence each other between steps (LNAV
+        included), so each one is advanced through all ``n_steps`` at once while it sits in the
+        CPU cache.
 
         Args:
             n_steps: Number of steps.
             trace: Also return every aircraft's position after each step.
+            stop: Optional ``stop(track) -> ended_at``: given the positions
+                ``(k, 2, n_envs, max_aircraft)`` of the first ``k <= n_steps`` steps, an int array
+                ``(n_envs,)`` with the number of steps after which each airspace's episode ended
+                (``1..k``), or 0 where it did not end within the track. An airspace that ended after
+                ``j < n_steps`` steps is left in its state after ``j`` steps; when every airspace
+                ended, the shared clock stops at the largest ``j``. Implies ``trace``. (Here ``stop``
+                is called once, with the whole track, and the ended airspaces are rewound.)
 
         Returns:
-            With ``trace``, an array (n_steps, 2, n_envs, max_aircraft) of latitudes and
-            longitudes [deg] (empty slots hold meaningless values); otherwise None.
+            With ``trace`` or ``stop``, an array (n_steps, 2, n_envs, max_aircraft) of latitudes
+            and longitudes [deg] (empty slots, and airspaces after their end, hold meaningless
+            values); otherwise None.
         """
         if n_steps < 0:
             raise ValueError(f"n_steps must be >= 0, got {n_steps}")
+        if stop is None:
+            return self._run(n_steps, trace)
+        start = self._snapshot()
+        track = self._run(n_steps, True)
+        assert track is not None
+        ended = np.asarray(stop(track), dtype=np.int64).reshape(-1)
+        if ended.shape != (self.n_envs,) or np.any((ended < 0) | (ended > n_steps)):
+            raise ValueError(f"stop must return (n_envs,) = ({self.n_envs},) step counts in [0, {n_steps}]")
+        early = np.flatnonzero((ended > 0) & (ended < n_steps))
+        if early.size:
+            end = self._snapshot()
+            self._restore(start)
+            stopped = []
+            done = 0
+            for j in np.unique(ended[early]):  # rewind and run again to each end, keeping those airspaces
+                self._run(int(j) - done, False)
+                done = int(j)
+                group = early[ended[early] == j]
+                stopped.append((group, self._snapshot(group)))
+            if not np.all(ended > 0) or ended.max() == n_steps:
+                self._restore(end)  # some airspace ran to the end: so do the clocks
+            for group, state in stopped:
+                self._restore(state, group)
+        return track
+
+    def _run(self, n_steps: int, trace: bool) -> Array | None:
+        """:meth:`run` without ``stop``."""
         track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft)) if trace else None
-        wind = self.wind
-        independent = self.kernel == "fused" and n_steps > 1 and not (wind.count > 1).any()
+        independent = n_steps > 1 and not (self.wind.count > 1).any()
         if not independent:
             for k in range(n_steps):
                 self.step()
                 if track is not None:
                     track[k, 0], track[k, 1] = self.lat, self.lon
             return track
-        from bluesky_gym.core.fused import run_kernel
-
         if self.dt >= PERFORMANCE_INTERVAL - 1e-9:  # due at every step (what the timer gives)
             self._since_perf = 0.0
             perf_due = np.ones(n_steps, bool)
         else:
             perf_due = np.array([self._performance_due() for _ in range(n_steps)])
         self.simt += n_steps * self.dt
-        any_wind = wind.any
-        if any_wind:  # uniform: the same wind wherever the aircraft goes
-            wn, we = (np.ascontiguousarray(w).reshape(-1) for w in wind.at_all(self.lat, self.lon))
-            haswind = np.repeat(wind.has_wind, self.max_aircraft)
-        else:
-            wn = we = self._empty
-            haswind = self._empty_bool
+        wn, we, haswind, any_wind = self._wind_args()  # uniform: the same wind wherever the aircraft goes
         run_kernel(
             self._float_flat,
             self._phase_flat,
@@ -569,19 +553,26 @@ class Simulator:
         )
         return track
 
-    def snapshot(self, envs: ArrayLike | None = None) -> dict[str, Any]:
+    def _wind_args(self) -> tuple[Array, Array, NDArray[np.bool_], bool]:
+        """Wind at every aircraft as the kernels take it: (north, east, has wind, any wind)."""
+        if not self.wind.any:
+            return self._empty, self._empty, self._empty_bool, False
+        wn, we = (np.ascontiguousarray(w).reshape(-1) for w in self.wind.at_all(self.lat, self.lon))
+        return wn, we, np.repeat(self.wind.has_wind, self.max_aircraft), True
+
+    def _snapshot(self, envs: ArrayLike | None = None) -> dict[str, Any]:
         """A copy of the aircraft and route state of airspaces ``envs`` (all when None), and the clocks.
 
         The wind definition is not part of it (it does not change while stepping).
         """
         idx = slice(None) if envs is None else _checked_index(envs, self.n_envs, "environment index")
         snap: dict[str, Any] = {"_float_block": self._float_block[:, idx].copy(), "simt": self.simt, "_since_perf": self._since_perf}
-        for name in _NON_FLOAT_STATE:
+        for name in NON_FLOAT_STATE:
             snap[name] = getattr(self, name)[idx].copy()
         return snap
 
-    def restore(self, snap: dict[str, Any], envs: ArrayLike | None = None) -> None:
-        """Put airspaces back to a :meth:`snapshot` of the same airspaces.
+    def _restore(self, snap: dict[str, Any], envs: ArrayLike | None = None) -> None:
+        """Put airspaces back to a :meth:`_snapshot` of the same airspaces.
 
         Args:
             snap: The snapshot.
@@ -591,15 +582,15 @@ class Simulator:
         if envs is None:
             self._float_block[...] = snap["_float_block"]
             self.simt, self._since_perf = snap["simt"], snap["_since_perf"]
-            for name in _NON_FLOAT_STATE:
+            for name in NON_FLOAT_STATE:
                 getattr(self, name)[...] = snap[name]
             return
         idx = _checked_index(envs, self.n_envs, "environment index")
         self._float_block[:, idx] = snap["_float_block"]
-        for name in _NON_FLOAT_STATE:
+        for name in NON_FLOAT_STATE:
             getattr(self, name)[idx] = snap[name]
 
-    def _lnav_args(self) -> tuple:
+    def _lnav_args(self) -> tuple[Any, ...]:
         """The LNAV arrays as the compiled kernels take them (flattened views)."""
         m = self.n_envs * self.max_aircraft
         return (
@@ -623,145 +614,6 @@ class Simulator:
             return True
         return False
 
-    def _step_fused(self) -> None:
-        """The same step through the compiled kernel (see :mod:`bluesky_gym.core.fused`)."""
-        do_perf = self._performance_due()
-        self.simt += self.dt
-        if self.swlnav.any():
-            from bluesky_gym.core.fused import lnav_kernel
-
-            lnav_kernel(self._float_flat, *self._lnav_args())
-        any_wind = self.wind.any
-        if any_wind:
-            wn, we = (np.ascontiguousarray(w).reshape(-1) for w in self.wind.at_all(self.lat, self.lon))
-            haswind = np.repeat(self.wind.has_wind, self.max_aircraft)
-        else:
-            wn = we = self._empty
-            haswind = self._empty_bool
-        self._kernel(
-            self._float_flat,
-            self._phase_flat,
-            wn,
-            we,
-            haswind,
-            any_wind,
-            do_perf,
-            self.dt,
-            self._perf_args,
-            self._limit_args,
-            self._memo,
-            self._active_flat,
-        )
-
-    def _update_performance(self) -> None:
-        """OpenAP update from the start-of-step state [dynamics.md 1.3-1.4]."""
-        self.phase[...] = pf.flight_phase(self.tas, self.vs, self.alt)
-        self.vmin, self.vmax = pf.speed_envelope(self.phase, self.perf)
-        self.axmax = pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, self.perf)
-
-    def _update_autopilot(self) -> None:
-        """Autopilot targets [dynamics.md 2.3]; LNAV waypoint logic [2.6]."""
-        if np.any(self.swlnav):
-            self._update_lnav()
-        self.ap_vs = np.where(np.abs(self.selvs) > VS_SELECT_EPS, self.selvs, VS_DEFAULT)
-        self.ap_alt = self.selalt.copy()
-        self.ap_tas = isa.vcasormach2tas(self.selspd, self.alt)
-
-    def _update_lnav(self) -> None:
-        qdr, distnm = self._qdrdist(self.lat, self.lon, self.actwp_lat, self.actwp_lon)
-        dist = distnm * NM
-        # actwp.reached [dynamics.md 2.6]; all waypoints here are fly-by.
-        close2wp = dist / (np.maximum(0.0001, np.abs(self.gs))) < 4.0
-        tooclose2turn = close2wp * (np.abs(_geo.degto180(self.trk % 360.0 - qdr % 360.0)) > 90.0)
-        awayorpassed = np.logical_or(tooclose2turn, np.abs(_geo.degto180(qdr - self.curlegdir)) > 90.0)
-        reached = self.swlnav & self.active & np.logical_or(awayorpassed, dist < self.turndist)
-        if np.any(reached):
-            env, slot = np.nonzero(reached)
-            last = self.swlastwp[env, slot]
-            if np.any(last):
-                e, s = env[last], slot[last]
-                self.swlnav[e, s] = False
-                self.swvnav[e, s] = False
-                self.swvnavspd[e, s] = False
-            env, slot = env[~last], slot[~last]
-            if env.size:
-                nwp = self.nwp[env, slot]
-                lnavon = self.iactwp[env, slot] < nwp - 1
-                iact = np.where(lnavon, self.iactwp[env, slot] + 1, self.iactwp[env, slot])
-                self.iactwp[env, slot] = iact
-                self.swlastwp[env, slot] = iact == nwp - 1
-                self.next_qdr[env, slot] = self._next_leg_qdr(env, slot, iact)
-                off = ~lnavon & self.swlnav[env, slot]
-                self.swlnav[env[off], slot[off]] = False
-                self.swvnav[env, slot] &= self.swlnav[env, slot]
-                wlat = self.route_lat[env, slot, iact]
-                wlon = self.route_lon[env, slot, iact]
-                self.actwp_lat[env, slot] = wlat
-                self.actwp_lon[env, slot] = wlon
-                q, _ = self._qdrdist(self.lat[env, slot], self.lon[env, slot], wlat, wlon)
-                qdr[env, slot] = q
-                self.curlegdir[env, slot] = q
-                self.turndist[env, slot] = self._turn_distance(self.tas[env, slot], q, self.next_qdr[env, slot])
-                self.turnphi[env, slot] = BANK_LNAV
-        self.ap_trk = np.where(self.swlnav, qdr % 360.0, self.ap_trk)
-
-    def _update_airspeed(self, tas_t: Array, hdg_t: Array, alt_t: Array, vs_t: Array) -> None:
-        """Speed ramp, heading turn and vertical-speed ramp [dynamics.md 2.2 steps 6-8]."""
-        dt = self.dt
-        delta_spd = tas_t - self.tas
-        need_ax = np.abs(delta_spd) > np.abs(dt * self.axmax)
-        self.ax = need_ax * np.sign(delta_spd) * self.axmax
-        self.tas = np.where(need_ax, self.tas + self.ax * dt, tas_t)
-        p, rho, t = isa.vatmos(self.alt)
-        self.cas = isa.tas2cas_from_atmos(self.tas, p, rho)
-        self.mach = self.tas / np.sqrt(isa.GAMMA * isa.R_AIR * t)
-
-        bank = np.where(self.turnphi > TAS_EPS * TAS_EPS, self.turnphi, BANK_DEFAULT)
-        turnrate = np.degrees(G0 * np.tan(bank) / np.maximum(self.tas, TAS_EPS))
-        delhdg = (hdg_t - self.hdg + 180) % 360 - 180
-        swhdgsel = np.abs(delhdg) > np.abs(dt * turnrate)
-        self.hdg = np.where(swhdgsel, self.hdg + dt * turnrate * np.sign(delhdg), hdg_t) % 360.0
-
-        delta_alt = alt_t - self.alt
-        self._swaltsel = np.abs(delta_alt) > 1.05 * np.maximum(np.abs(dt * vs_t), np.abs(dt * self.vs))
-        target_vs = self._swaltsel * np.sign(delta_alt) * np.abs(vs_t)
-        delta_vs = target_vs - self.vs
-        need_az = np.abs(delta_vs) > VS_RAMP
-        az = need_az * np.sign(delta_vs) * VS_RAMP
-        vs = np.where(need_az, self.vs + az * dt, target_vs)
-        self.vs = np.where(np.isfinite(vs), vs, 0)
-
-    def _update_groundspeed(self, any_wind: bool) -> None:
-        """Ground velocity from TAS, heading and wind [dynamics.md 1.7]."""
-        hdgrad = np.radians(self.hdg)
-        if not any_wind:
-            self.gsnorth = self.tas * np.cos(hdgrad)
-            self.gseast = self.tas * np.sin(hdgrad)
-            self.gs = self.tas
-            self.trk = self.hdg
-            self.windnorth[:] = 0.0
-            self.windeast[:] = 0.0
-            return
-        wn, we = self.wind.at_all(self.lat, self.lon)
-        self.windnorth = wn
-        self.windeast = we
-        applywind = self.wind.has_wind[:, None] & (self.alt > WIND_MIN_ALT)
-        self.gsnorth = self.tas * np.cos(hdgrad) + wn * applywind
-        self.gseast = self.tas * np.sin(hdgrad) + we * applywind
-        gs_wind = np.sqrt(self.gsnorth**2 + self.gseast**2)
-        trk_wind = np.degrees(np.arctan2(self.gseast, self.gsnorth)) % 360.0
-        self.gs = np.where(applywind, gs_wind, self.tas)
-        self.trk = np.where(applywind, trk_wind, self.hdg)
-
-    def _update_position(self, alt_t: Array) -> None:
-        """Semi-implicit Euler position update on the sphere [dynamics.md 2.2 step 10]."""
-        dt = self.dt
-        self.alt = np.where(self._swaltsel, np.round(self.alt + self.vs * dt, 6), alt_t)
-        self.lat = self.lat + np.degrees(dt * self.gsnorth / R_EARTH)
-        coslat = np.cos(np.deg2rad(self.lat))
-        self.lon = self.lon + np.degrees(dt * self.gseast / coslat / R_EARTH)
-        self.distflown = self.distflown + self.gs * dt
-
     # ------------------------------------------------------------------------------------------
     def _index(self, env: ArrayLike, slot: ArrayLike) -> tuple[IntArray, IntArray]:
         """Validated, broadcast 1-D (env, slot) index arrays."""
@@ -778,7 +630,7 @@ class Simulator:
 
     def state_fields(self) -> Sequence[str]:
         """Names of the per-aircraft state arrays."""
-        return [name for name, _, _ in _STATE_FIELDS]
+        return [name for name, _, _ in STATE_FIELDS]
 
 
 def _checked_index(index: ArrayLike, bound: int, what: str) -> IntArray:

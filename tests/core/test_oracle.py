@@ -1,16 +1,21 @@
-"""The fused (numba) kernel is bit-identical to the numpy reference implementation."""
+"""The compiled step kernels are bit-identical to the readable numpy oracle (tests/oracle).
+
+Bit equality holds with numpy's AVX-512 math off (NPY_DISABLE_CPU_FEATURES, set by the test
+scripts): numpy then calls the same C library functions as the kernels.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from bluesky_gym.core import Simulator, fused
+from bluesky_gym.core import Simulator
+from tests.oracle.simulator import OracleSimulator
 
 from .reference_scenarios import SCENARIOS, run
 from .test_batch import _random_traffic
 
-pytestmark = pytest.mark.skipif(not fused.AVAILABLE, reason="numba not installed")
+KINDS = {"kernel": Simulator, "oracle": OracleSimulator}
 
 FIELDS = [
     "lat",
@@ -55,23 +60,22 @@ def _bits(a: np.ndarray, active: np.ndarray | None = None) -> np.ndarray:
 def test_reference_scenarios_bitwise(name: str) -> None:
     sc = SCENARIOS[name]
     out = {}
-    for kernel in ("numpy", "fused"):
-        sim = Simulator(1, 4, dt=sc.dt, kernel=kernel)
-        assert sim.kernel == kernel
+    for kind, cls in KINDS.items():
+        sim = cls(1, 4, dt=sc.dt)
         sc.setup(sim, 0)
-        out[kernel] = run(sc, sim, 0)
-    for col in out["numpy"]:
-        np.testing.assert_array_equal(_bits(out["numpy"][col]), _bits(out["fused"][col]), err_msg=col)
+        out[kind] = run(sc, sim, 0)
+    for col in out["oracle"]:
+        np.testing.assert_array_equal(_bits(out["oracle"][col]), _bits(out["kernel"][col]), err_msg=col)
 
 
 @pytest.mark.parametrize("dt", [1.0, 5.0, 0.5])
 def test_random_traffic_bitwise(dt: float) -> None:
     """Climbs, descents, ground phase, Mach speeds, turns, LNAV routes and wind fields."""
     sims = {}
-    for kernel in ("numpy", "fused"):
-        sim = Simulator(200, 4, dt=dt, kernel=kernel)
+    for kind, cls in KINDS.items():
+        sim = cls(200, 4, dt=dt)
         _random_traffic(sim, np.arange(200), np.random.default_rng(3))
-        sims[kernel] = sim
+        sims[kind] = sim
     rng = np.random.default_rng(9)
     for k in range(150):
         if k % 25 == 0:  # new commands on the way, identical for both
@@ -81,28 +85,26 @@ def test_random_traffic_bitwise(dt: float) -> None:
             for sim in sims.values():
                 sim.cmd_heading(e, 0, hdg)
                 sim.cmd_speed(e, 1, spd)
-                sim.selalt[e, 2] = np.where(hdg > 180, 0.0, 1e6)
-                sim.selvs[e, 2] = spd / 20 - 5
+                sim.set_autopilot(e, 2, selalt=np.where(hdg > 180, 0.0, 1e6), selvs=spd / 20 - 5)
         for sim in sims.values():
             sim.step()
         for f in FIELDS:
-            act = sims["numpy"].active
-            np.testing.assert_array_equal(_bits(getattr(sims["numpy"], f), act), _bits(getattr(sims["fused"], f), act), err_msg=f"step {k}: {f}")
+            act = sims["oracle"].active
+            np.testing.assert_array_equal(_bits(getattr(sims["oracle"], f), act), _bits(getattr(sims["kernel"], f), act), err_msg=f"step {k}: {f}")
 
 
 @pytest.mark.parametrize(("wind", "geo"), [(False, "compiled"), (True, "compiled"), (False, "python")])
 def test_run_many_steps_equals_stepping(wind: bool, geo: str) -> None:
-    """Simulator.run(n) (aircraft-major loop, LNAV included) is bit-identical to n numpy steps."""
+    """Simulator.run(n) (aircraft-major loop, LNAV included) is bit-identical to n oracle steps."""
     sims = []
-    for kernel in ("fused", "numpy"):
-        sim = Simulator(50, 3, dt=1.0, kernel=kernel, geo=geo)
+    for cls in (Simulator, OracleSimulator):
+        sim = cls(50, 3, dt=1.0, geo=geo)
         rng = np.random.default_rng(4)
         e = np.repeat(np.arange(50), 3)
         s = np.tile(np.arange(3), 50)
         sim.create(e, s, rng.uniform(40, 60, 150), rng.uniform(0, 10, 150), rng.uniform(0, 360, 150), rng.choice([0.0, 500.0, 5000.0], 150), 150.0)
         sim.cmd_heading(e, s, rng.uniform(0, 360, 150))
-        sim.selalt[:, 1] = 0.0
-        sim.selvs[:, 1] = -12.5
+        sim.set_autopilot(np.arange(50), 1, selalt=0.0, selvs=-12.5)
         if wind:
             for env in range(0, 50, 3):
                 sim.wind.add_points(env, [50.0], [5.0], [rng.normal(0, 10)], [rng.normal(0, 10)])
@@ -120,13 +122,13 @@ def test_run_many_steps_equals_stepping(wind: bool, geo: str) -> None:
     assert (sims[1].iactwp[::2, 2] == 2).all() and not sims[1].swlnav.any()  # every route was flown to its end
 
 
-@pytest.mark.parametrize("kernel", ["fused", "numpy"])
-def test_traced_run_records_the_positions_of_every_step(kernel: str) -> None:
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_traced_run_records_the_positions_of_every_step(kind: str) -> None:
     """run(n, trace=True) gives the positions n single steps pass through, and the same end state."""
-    traced, stepped = (Simulator(40, 4, dt=1.0, kernel=kernel) for _ in range(2))
+    traced, stepped = (KINDS[kind](40, 4, dt=1.0) for _ in range(2))
     for sim in (traced, stepped):
         _random_traffic(sim, np.arange(40), np.random.default_rng(5))
-        sim.wind.clear()  # uniform or no wind: the fused kernel runs aircraft by aircraft
+        sim.wind.clear()  # uniform or no wind: the kernel runs aircraft by aircraft
     track = traced.run(12, trace=True)
     assert track.shape == (12, 2, 40, 4)
     act = stepped.active
@@ -140,27 +142,28 @@ def test_traced_run_records_the_positions_of_every_step(kernel: str) -> None:
 
 
 def test_snapshot_restore_all_and_some_airspaces() -> None:
+    """The native core's private snapshots (behind run(stop=...)) restore all or some airspaces."""
     sim = Simulator(30, 4, dt=1.0)
     _random_traffic(sim, np.arange(30), np.random.default_rng(6))
-    start = sim.snapshot()
+    start = sim._snapshot()
     sim.run(20)
     after = {f: getattr(sim, f).copy() for f in FIELDS}
     clocks = sim.simt
     # Back to the start, then the same 20 steps again: the same state.
-    sim.restore(start)
+    sim._restore(start)
     assert sim.simt == start["simt"] != clocks
     sim.run(20)
     for f in FIELDS:
         np.testing.assert_array_equal(_bits(getattr(sim, f), sim.active), _bits(after[f], sim.active), err_msg=f)
     # A partial restore changes only the given airspaces (and not the shared clocks).
     some = np.array([3, 17])
-    part = sim.snapshot(some)
+    part = sim._snapshot(some)
     sim.run(5)
     moved = sim.lat.copy()
-    sim.restore(part, some)
+    sim._restore(part, some)
     np.testing.assert_array_equal(sim.lat[some], after["lat"][some])
     others = np.setdiff1d(np.arange(30), some)
     np.testing.assert_array_equal(sim.lat[others], moved[others])
     assert sim.simt == clocks + 5.0
     with pytest.raises(IndexError, match="environment index"):
-        sim.snapshot([30])
+        sim._snapshot([30])
