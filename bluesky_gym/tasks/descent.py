@@ -91,14 +91,13 @@ class DescentTask(Task):
             self.target_alt[e] = alt_init[k] + rng.integers(-c.target_alt_dif, c.target_alt_dif)
         self.final_altitude[envs] = 0.0
         self.sim.create(envs, 0, RWY_LAT, RWY_LON, 0.0, alt_init, AC_SPD)
-        self.sim.swvnav[envs, 0] = False
+        self.sim.set_autopilot(envs, 0, swvnav=False)
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """Direct ``selalt``/``selvs`` writes, as the reference."""
         v = action[:, 0] * ACTION_2_MS
-        self.sim.selalt[:, 0] = np.where(v >= 0, CLIMB_TARGET, 0.0)
-        self.sim.selvs[:, 0] = v
+        self.sim.set_autopilot(self.all_envs, 0, selalt=np.where(v >= 0, CLIMB_TARGET, 0.0), selvs=v)
 
     def runway_distance(self) -> Array:
         """(n_envs,) km left to the runway along the 200 km leg."""

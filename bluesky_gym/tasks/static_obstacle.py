@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -171,8 +171,8 @@ class StaticObstacleTask(Task):
             )
         # The aircraft starts pointing at the waypoint: hdg and the autopilot track (spec 6).
         qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
-        self.sim.hdg[envs, 0] = qdr
-        self.sim.ap_trk[envs, 0] = qdr
+        self.sim.set_state(envs, 0, hdg=qdr)
+        self.sim.set_autopilot(envs, 0, ap_trk=qdr)
         self.start_wpt_km[envs] = dist * NM2KM
         self.wpt_reached[envs] = False
         self.crashed[envs] = False
@@ -268,7 +268,7 @@ class StaticObstacleTask(Task):
         """
         reached, done_anyway, drift_rad = self._stale_terms()
         end = SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, done_anyway)
-        run_until(self.sim, self.action_frequency, end)
+        self.sim.run(self.action_frequency, stop=end)
         ended = end.ended_at > 0
         last = np.where(ended, end.ended_at - 1, self.action_frequency - 1)  # last evaluated sub-step
         count = end.counts[last, self.all_envs]
@@ -411,36 +411,3 @@ class SubstepEnd:
         self.counts = counts
         self.ended_at = np.where(hit.any(axis=0), hit.argmax(axis=0) + 1, 0)
         return self.ended_at
-
-
-def run_until(sim: Any, n_steps: int, stop: SubstepEnd) -> None:
-    """``sim.run(n_steps, trace=True, stop=stop)`` for physics that do not take ``stop`` yet.
-
-    Every airspace is left in its state after the sub-step its episode ended at; when all ended,
-    the shared clock stops at the latest of those sub-steps.
-    """
-    if getattr(sim, "kernel", None) != "fused" and sim.n_envs == 1:  # e.g. BlueSky: step until the episode ends
-        track = np.empty((n_steps, 2, sim.n_envs, sim.max_aircraft))
-        for k in range(n_steps):
-            sim.step()
-            track[k, 0], track[k, 1] = sim.lat, sim.lon
-            if (stop(track[: k + 1]) > 0).all():
-                return
-        return
-    start = sim.snapshot()
-    ended_at = stop(sim.run(n_steps, trace=True))
-    early = np.flatnonzero((ended_at > 0) & (ended_at < n_steps))
-    if early.size == 0:
-        return
-    end = sim.snapshot()
-    sim.restore(start)
-    stopped = []
-    for k in range(1, int(ended_at[early].max()) + 1):
-        sim.step()
-        group = early[ended_at[early] == k]
-        if group.size:
-            stopped.append((group, sim.snapshot(group)))
-    if not (ended_at > 0).all() or ended_at.max() == n_steps:
-        sim.restore(end)
-    for group, state in stopped:
-        sim.restore(state, group)

@@ -188,7 +188,7 @@ class VerticalCRTask(DescentTask):
         # forces the intruder to that altitude and selects it, so the intruder holds level.
         self.sim.creconfs(env, 0, slot, dpsi.ravel(), dcpa.ravel(), tlosh.ravel(), dh.ravel(), TLOSV)
         alt = self.sim.alt[env, 0] + dh.ravel()
-        self.sim.alt[env, slot] = alt
+        self.sim.set_state(env, slot, alt=alt)
         self.sim.cmd_altitude(env, slot, alt, 0.0)
         self.total_intrusions[envs] = 0
 
