@@ -29,6 +29,23 @@ CLIMB_TARGET = 1e6  # m: selected altitude for a climb (clipped by the ceiling)
 
 
 @dataclass(frozen=True)
+class DescentMeasurement:
+    """One step's quantities of the descent task (arrays over the batch).
+
+    ``separation_nm``/``los`` (n_envs, max_aircraft), ``drift_deg`` and ``goal_reached`` are
+    the part every task provides for the KPIs.
+    """
+
+    separation_nm: Array  # (n_envs, max_aircraft) NM from the ownship (inf: no traffic)
+    los: BoolArray  # (n_envs, max_aircraft) losses of separation with the ownship
+    drift_deg: Array | None  # no heading goal
+    goal_reached: BoolArray  # (n_envs,) the runway has been reached
+    alt: Array  # (n_envs,) m, ownship altitude
+    vs: Array  # (n_envs,) m/s, ownship vertical speed
+    runway_km: Array  # (n_envs,) km left to the runway
+
+
+@dataclass(frozen=True)
 class DescentConfig(TaskConfig):
     """Scenario options of the descent task (defaults: the paper's).
 
@@ -93,42 +110,58 @@ class DescentTask(Task):
         self.sim.create(envs, 0, RWY_LAT, RWY_LON, 0.0, alt_init, AC_SPD)
         self.sim.set_autopilot(envs, 0, swvnav=False)
 
-    # --- dynamics interface ---------------------------------------------------------------------
+    # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """Direct ``selalt``/``selvs`` writes, as the reference."""
+        """Vertical speed 12.5 a m/s: the reference's direct ``selalt``/``selvs`` writes."""
         v = action[:, 0] * ACTION_2_MS
         self.sim.set_autopilot(self.all_envs, 0, selalt=np.where(v >= 0, CLIMB_TARGET, 0.0), selvs=v)
 
+    # --- measure --------------------------------------------------------------------------------
     def runway_distance(self) -> Array:
         """(n_envs,) km left to the runway along the 200 km leg."""
         d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[:, 0], self.sim.lon[:, 0])
         return self.config.runway_distance_km - d * NM2KM
 
+    def measure(self) -> DescentMeasurement:
+        """This step's altitude, vertical speed and runway distance of every episode."""
+        s = self.sim
+        runway_km = self.runway_distance()
+        n, m = s.lat.shape
+        return DescentMeasurement(
+            separation_nm=np.full((n, m), np.inf),
+            los=np.zeros((n, m), bool),
+            drift_deg=None,
+            goal_reached=runway_km <= 0,
+            alt=s.alt[:, 0].copy(),
+            vs=s.vs[:, 0].copy(),
+            runway_km=runway_km,
+        )
+
     # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
+    def observe(self, g: DescentMeasurement | None = None) -> dict[str, Array]:
         """Normalised altitude, vertical speed, target and runway distance."""
-        alt = self.sim.alt[:, 0]
+        g = self.measure() if g is None else g
         return {
-            "altitude": ((alt - ALT_MEAN) / ALT_STD)[:, None],
-            "vz": ((self.sim.vs[:, 0] - VZ_MEAN) / VZ_STD)[:, None],
+            "altitude": ((g.alt - ALT_MEAN) / ALT_STD)[:, None],
+            "vz": ((g.vs - VZ_MEAN) / VZ_STD)[:, None],
             "target_altitude": ((self.target_alt - ALT_MEAN) / ALT_STD)[:, None],
-            "runway_distance": ((self.runway_distance() - RWY_DIS_MEAN) / RWY_DIS_STD)[:, None],
+            "runway_distance": ((g.runway_km - RWY_DIS_MEAN) / RWY_DIS_STD)[:, None],
         }
 
-    # --- reward ---------------------------------------------------------------------------------
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Altitude tracking, crash or runway term, in the reference order."""
-        alt = self.sim.alt[:, 0]
-        rd = self.runway_distance()
-        flying = (rd > 0) & (alt > 0)
-        crashed = ~flying & (alt <= 0)
-        at_runway = ~flying & ~crashed & (rd <= 0)
-        altitude = np.where(flying, np.abs(self.target_alt - alt) * ALT_DIF_REWARD_SCALE, 0.0)
+    # --- reward and termination -----------------------------------------------------------------
+    def reward(self, g: DescentMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Altitude tracking while flying, else the crash or runway term; records ``final_altitude``."""
+        flying, crashed, at_runway = descent_outcome(g)
+        altitude = np.where(flying, np.abs(self.target_alt - g.alt) * ALT_DIF_REWARD_SCALE, 0.0)
         crash = np.where(crashed, CRASH_PENALTY, 0.0)
-        runway = np.where(at_runway, alt * RWY_ALT_DIF_REWARD_SCALE, 0.0)
-        self.final_altitude = np.where(crashed, -100.0, np.where(at_runway, alt, self.final_altitude))
+        runway = np.where(at_runway, g.alt * RWY_ALT_DIF_REWARD_SCALE, 0.0)
+        self.final_altitude = np.where(crashed, -100.0, np.where(at_runway, g.alt, self.final_altitude))
         reward = np.where(flying, altitude, np.where(crashed, crash, runway))
         return reward, crashed | at_runway, {"altitude": altitude, "crash": crash, "runway": runway}
+
+    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """:meth:`reward` of the current state."""
+        return self.reward(self.measure())
 
     def episode_info(self) -> dict[str, Array]:
         """``total_reward`` and ``final_altitude``."""
@@ -141,3 +174,10 @@ class DescentTask(Task):
     def extra_track_km(self) -> Array:
         """Distance flown beyond the runway leg [km]."""
         return self.sim.distflown[:, 0] / 1000.0 - self.config.runway_distance_km
+
+
+def descent_outcome(g: DescentMeasurement) -> tuple[BoolArray, BoolArray, BoolArray]:
+    """(n_envs,) flags of a step, exactly one set per episode: flying on, crashed (alt <= 0), at the runway."""
+    flying = (g.runway_km > 0) & (g.alt > 0)
+    crashed = ~flying & (g.alt <= 0)
+    return flying, crashed, ~flying & ~crashed & (g.runway_km <= 0)

@@ -27,6 +27,24 @@ TOUR_CHUNK = 1 << 20  # leg lengths evaluated at once by the tour KPI (bounds it
 
 
 @dataclass(frozen=True)
+class PlanWaypointMeasurement:
+    """One step's quantities of the waypoint-planning task (arrays over the batch).
+
+    ``separation_nm``/``los`` (no traffic), ``drift_deg`` and ``goal_reached`` are the part every
+    task provides for the KPIs.
+    """
+
+    separation_nm: Array  # (n_envs, max_aircraft) NM (inf: no traffic)
+    los: BoolArray  # (n_envs, max_aircraft) all False
+    drift_deg: Array | None  # no single heading goal
+    goal_reached: BoolArray  # (n_envs,) every waypoint reached, this step's included
+    dist_km: Array  # (n_envs, num_waypoints) kwik distance to each waypoint
+    drift: Array  # (n_envs, num_waypoints) deg, wrap180(hdg - qdr)
+    reached_before: BoolArray  # (n_envs, num_waypoints) reached in an earlier step
+    newly_reached: BoolArray  # (n_envs, num_waypoints) within the capture radius for the first time
+
+
+@dataclass(frozen=True)
 class PlanWaypointConfig(TaskConfig):
     """Scenario options of the waypoint-planning task (defaults: the paper's).
 
@@ -119,41 +137,60 @@ class PlanWaypointTask(Task):
         length = dist[:, 0, o[:, 0]] + dist[:, o[:, :-1], o[:, 1:]].sum(axis=-1)  # (envs, n!)
         return length.min(axis=1)
 
-    # --- dynamics interface ---------------------------------------------------------------------
+    # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """Heading target hdg + 45 a (the reference's "HDG" command, not wrapped)."""
         self.sim.cmd_heading(self.all_envs, 0, self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
 
+    # --- measure --------------------------------------------------------------------------------
     def waypoint_geometry(self) -> tuple[Array, Array]:
         """(n_envs, num_waypoints) kwik distance [km] and drift wrap180(hdg - qdr) [deg]."""
         qdr, dist = self.kwik_from_ownship(self.wpt_lat, self.wpt_lon)
         return dist * NM2KM, wrap180(self.sim.hdg[:, :1] - qdr)
 
-    # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
-        """Masked distance and drift per waypoint, and the reach flags as floats."""
+    def measure(self) -> PlanWaypointMeasurement:
+        """Distance and drift to every waypoint, and which ones the aircraft is within the capture radius of."""
         dist_km, drift = self.waypoint_geometry()
+        reached_before = self.wpt_reached.copy()
+        new = (dist_km < self.config.distance_margin_km) & ~reached_before
+        n, m = self.sim.lat.shape
+        return PlanWaypointMeasurement(
+            separation_nm=np.full((n, m), np.inf),
+            los=np.zeros((n, m), bool),
+            drift_deg=None,
+            goal_reached=(reached_before | new).all(axis=1),
+            dist_km=dist_km,
+            drift=drift,
+            reached_before=reached_before,
+            newly_reached=new,
+        )
+
+    # --- observation ----------------------------------------------------------------------------
+    def observe(self, g: PlanWaypointMeasurement | None = None) -> dict[str, Array]:
+        """Masked distance and drift per waypoint, and the reach flags as floats."""
+        g = self.measure() if g is None else g
         # The reference masks with the integer (1 - reached), so a masked entry is 0.0 times the
-        # value: -0.0 where the value is negative (spec 4).
-        m = np.where(self.wpt_reached, 0.0, 1.0)
-        rad = np.deg2rad(drift)
+        # value: -0.0 where the value is negative (spec 4). A waypoint reached in this step still
+        # shows as unreached (the one-step lag, spec 4).
+        m = np.where(g.reached_before, 0.0, 1.0)
+        rad = np.deg2rad(g.drift)
         return {
-            "waypoint_distance": m * dist_km / self.config.waypoint_distance_max,
+            "waypoint_distance": m * g.dist_km / self.config.waypoint_distance_max,
             "cos_difference": m * np.cos(rad),
             "sin_difference": m * np.sin(rad),
-            "waypoint_reached": self.wpt_reached.astype(np.float64),
+            "waypoint_reached": g.reached_before.astype(np.float64),
         }
 
-    # --- reward ---------------------------------------------------------------------------------
+    # --- reward and termination -----------------------------------------------------------------
+    def reward(self, g: PlanWaypointMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """+1 per newly reached waypoint (recorded); terminated when all are reached."""
+        self.wpt_reached |= g.newly_reached
+        reach = g.newly_reached.sum(axis=1) * REACH_REWARD
+        return reach, g.goal_reached, {"reach": reach}
+
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """+1 per newly reached waypoint; terminated when all are reached."""
-        # Runs after the observation was built, so a waypoint reached now still shows as
-        # unreached in this step's observation (the one-step lag, spec 4).
-        dist_km, _ = self.waypoint_geometry()
-        new = (dist_km < self.config.distance_margin_km) & ~self.wpt_reached
-        self.wpt_reached |= new
-        reach = new.sum(axis=1) * REACH_REWARD
-        return reach, self.wpt_reached.all(axis=1), {"reach": reach}
+        """:meth:`reward` of the current state."""
+        return self.reward(self.measure())
 
     def episode_info(self) -> dict[str, Array]:
         """``total_reward`` and ``waypoints_completed``."""

@@ -40,6 +40,27 @@ VERTEX_CAPACITY = 16  # initial vertex slots per polygon (grown when a polygon n
 
 
 @dataclass(frozen=True)
+class StaticObstacleMeasurement:
+    """One step's quantities of the static-obstacle task (arrays over the batch).
+
+    ``separation_nm``/``los`` (no traffic), ``drift_deg`` and ``goal_reached`` are the part every
+    task provides for the KPIs.
+    """
+
+    separation_nm: Array  # (n_envs, max_aircraft) NM (inf: no traffic)
+    los: BoolArray  # (n_envs, max_aircraft) all False
+    drift_deg: Array  # (n_envs,) |drift| to the waypoint now
+    goal_reached: BoolArray  # (n_envs,) the waypoint has been reached, this step included
+    wpt_km: Array  # (n_envs,) kwik distance to the waypoint now
+    drift: Array  # (n_envs,) deg, wrap180(hdg - qdr) to the waypoint now
+    centre_km: Array  # (n_envs, num_obstacles) kwik distance to each obstacle centre
+    centre_bearing: Array  # (n_envs, num_obstacles) deg, wrap180(hdg - qdr) to each centre
+    obstacle_count: NDArray[np.int64]  # (n_envs,) obstacles containing the aircraft now
+    newly_reached: BoolArray  # (n_envs,) reached in this step, by the last observation's distance
+    stale_drift_rad: Array  # (n_envs,) |drift| [rad] of the last observation
+
+
+@dataclass(frozen=True)
 class StaticObstacleConfig(TaskConfig):
     """Scenario options of the static-obstacle task (defaults: the paper's).
 
@@ -129,10 +150,10 @@ class StaticObstacleTask(Task):
         self.start_wpt_km = np.zeros(n)  # kwik distance start -> waypoint [km]
         self.view_origin_lat = np.zeros(n)  # deg: top-left corner of the reference's view
         self.view_origin_lon = np.zeros(n)
-        # Waypoint distance [km] and drift [deg] as of the last observation: the per-sub-step
-        # reward uses these stale values (spec 6).
-        self.obs_wpt_km = np.zeros(n)
-        self.obs_drift = np.zeros(n)
+        # Waypoint distance [km] and drift [deg] the last observation showed: the per-sub-step
+        # reward of the next step uses these stale values (spec 6).
+        self.last_wpt_km = np.zeros(n)
+        self.last_drift = np.zeros(n)
         self.wpt_reached = np.zeros(n, bool)
         self.crashed = np.zeros(n, bool)
         self.intrusions = np.zeros(n, np.int64)  # obstacle intrusions counted by the reward
@@ -179,9 +200,7 @@ class StaticObstacleTask(Task):
         self.intrusions[envs] = 0
         self.drift_sum_rad[envs] = 0.0
         self.drift_count[envs] = 0
-        dist_km, drift = self.waypoint_geometry()
-        self.obs_wpt_km[envs] = dist_km[envs]
-        self.obs_drift[envs] = drift[envs]
+        self.remember(self.measure(), envs)
 
     def _store_polygons(self, e: int, clat: Array, clon: Array, polys: list[Array]) -> None:
         """Store episode ``e``'s polygons, (north, east) NM around their centres, as (lat, lon)."""
@@ -200,7 +219,7 @@ class StaticObstacleTask(Task):
         self.obstacle_lon[e][mask] = vertices[:, 1]
         self.obstacle_nv[e] = nv
 
-    # --- dynamics interface ---------------------------------------------------------------------
+    # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """Heading wrap180(hdg + 45 a0) and speed (CAS + 20/3 a1) * 1.94384 kts."""
         hdg = wrap180(self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
@@ -209,6 +228,36 @@ class StaticObstacleTask(Task):
         self.sim.cmd_heading(self.all_envs, 0, hdg)
         self.sim.cmd_speed(self.all_envs, 0, spd_kts * KTS)
 
+    # --- sub-steps ------------------------------------------------------------------------------
+    def advance(self) -> None:
+        """Run the sub-steps; an episode stops at the sub-step it ends (the reference returns there).
+
+        The reference evaluates the reward after every sub-step and returns at once when the
+        episode ends, with the state of that sub-step. Its waypoint terms use the stale values of
+        the last observation, so a waypoint is reached (and the episode ends) at the first sub-step
+        or not at all; only the obstacle test needs the positions after each sub-step, which
+        :class:`SubstepEnd` gets from the physics' traced run. Every evaluated sub-step adds one
+        |drift| sample to ``average_drift``.
+        """
+        reached = self.reached_by_last_observation()
+        end = SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, self.wpt_reached | reached)
+        self.sim.run(self.action_frequency, stop=end)
+        evaluated = np.where(end.ended_at > 0, end.ended_at, self.action_frequency)  # sub-steps per episode
+        drift_rad = np.abs(np.deg2rad(self.last_drift))
+        for k in range(int(evaluated.max())):
+            sampled = evaluated > k
+            self.drift_sum_rad += np.where(sampled, drift_rad, 0.0)
+            self.drift_count += sampled
+
+    def transition(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
+        """Sub-steps, then measure, observe and reward."""
+        self.advance()
+        g = self.measure()
+        obs = self.observe(g)
+        reward, terminated, components = self.reward(g)
+        return reward, terminated, components, obs
+
+    # --- measure --------------------------------------------------------------------------------
     def waypoint_geometry(self) -> tuple[Array, Array]:
         """(n_envs,) live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg]."""
         qdr, dist = ref_kwikqdrdist(self.sim.lat[:, 0], self.sim.lon[:, 0], self.wpt_lat, self.wpt_lon)
@@ -220,82 +269,73 @@ class StaticObstacleTask(Task):
         compiled.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
         return out
 
-    # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
-        """Waypoint and obstacle-centre geometry; stores the waypoint values the reward uses."""
+    def reached_by_last_observation(self) -> BoolArray:
+        """(n_envs,) waypoints not reached before but within the capture radius in the last observation."""
+        return (self.last_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
+
+    def measure(self) -> StaticObstacleMeasurement:
+        """Waypoint and obstacle-centre geometry now, the obstacles around the aircraft, the stale waypoint terms."""
         dist_km, drift = self.waypoint_geometry()
-        self.obs_wpt_km = dist_km
-        self.obs_drift = drift
         qdr_c, dist_c = self.kwik_from_ownship(self.obstacle_centre_lat, self.obstacle_centre_lon)
-        bearing = np.deg2rad(wrap180(self.sim.hdg[:, :1] - qdr_c))
+        reached = self.reached_by_last_observation()
+        n, m = self.sim.lat.shape
+        return StaticObstacleMeasurement(
+            separation_nm=np.full((n, m), np.inf),
+            los=np.zeros((n, m), bool),
+            drift_deg=np.abs(drift),
+            goal_reached=self.wpt_reached | reached,
+            wpt_km=dist_km,
+            drift=drift,
+            centre_km=dist_c * NM2KM,
+            centre_bearing=wrap180(self.sim.hdg[:, :1] - qdr_c),
+            obstacle_count=self.inside_obstacles().sum(axis=1),
+            newly_reached=reached,
+            stale_drift_rad=np.abs(np.deg2rad(self.last_drift)),
+        )
+
+    # --- observation ----------------------------------------------------------------------------
+    def observe(self, g: StaticObstacleMeasurement | None = None) -> dict[str, Array]:
+        """Waypoint distance and drift, then the obstacle radii and the distances and bearings of their centres."""
+        g = self.measure() if g is None else g
         scale = self.config.waypoint_distance_max
-        rad = np.deg2rad(drift)
+        rad = np.deg2rad(g.drift)
+        bearing = np.deg2rad(g.centre_bearing)
         return {
-            "destination_waypoint_distance": (dist_km / scale)[:, None],
+            "destination_waypoint_distance": (g.wpt_km / scale)[:, None],
             "destination_waypoint_cos_drift": np.cos(rad)[:, None],
             "destination_waypoint_sin_drift": np.sin(rad)[:, None],
             "restricted_area_radius": self.obstacle_radius / RADIUS_SCALE_NM,
-            "restricted_area_distance": dist_c * NM2KM / scale,
+            "restricted_area_distance": g.centre_km / scale,
             "cos_difference_restricted_area_pos": np.cos(bearing),
             "sin_difference_restricted_area_pos": np.sin(bearing),
         }
 
-    # --- reward ---------------------------------------------------------------------------------
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """One sub-step's reward of every episode at the current position (the reference's per-sub-step reward).
+    # --- reward and termination -----------------------------------------------------------------
+    def reward(self, g: StaticObstacleMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """The last evaluated sub-step's reward; ends at the waypoint or inside an obstacle (spec 6).
 
-        Waypoint distance and drift are the stale values of the last observation; the obstacle
-        test uses the live position (spec 6).
-
-        Returns:
-            Reward, done flags and the components ``reach``, ``drift``, ``intrusion``.
-
+        +1 for reaching the waypoint and -0.01 per rad of |drift| (both from the stale values of the
+        last observation), -5 per obstacle containing the aircraft. Records the flags and
+        counters, and this step's observation values for the next step.
         """
-        reached, done_anyway, drift_rad = self._stale_terms()
-        self.drift_sum_rad += drift_rad
-        self.drift_count += 1
-        return self._reward(reached, done_anyway, drift_rad, self.inside_obstacles().sum(axis=1))
-
-    def transition(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """Sub-steps with the reward evaluated after each; an episode stops at the sub-step it ends.
-
-        The reference returns at once when an episode ends at sub-step k, with the observation of
-        sub-step k; in a batch the physics leaves every ended episode in its state after its last
-        sub-step (``run``'s ``stop``). Only the reward of the last evaluated sub-step is returned
-        (spec 6). The waypoint distance and drift are the stale values of the last observation, so
-        a waypoint is reached (and the episode ends) at the first sub-step or not at all, and only
-        the obstacle test needs the positions after each sub-step.
-        """
-        reached, done_anyway, drift_rad = self._stale_terms()
-        end = SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, done_anyway)
-        self.sim.run(self.action_frequency, stop=end)
-        ended = end.ended_at > 0
-        last = np.where(ended, end.ended_at - 1, self.action_frequency - 1)  # last evaluated sub-step
-        count = end.counts[last, self.all_envs]
-        for k in range(int(last.max()) + 1):  # one |drift| sample per evaluated sub-step
-            evaluated = last >= k
-            self.drift_sum_rad += np.where(evaluated, drift_rad, 0.0)
-            self.drift_count += evaluated
-        reward, terminated, components = self._reward(reached, done_anyway, drift_rad, count)
-        return reward, terminated, components, self.observe()
-
-    def _stale_terms(self) -> tuple[BoolArray, BoolArray, Array]:
-        """Newly reached waypoints, episodes ending at the first sub-step anyway, |drift| [rad] (stale values)."""
-        reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
-        return reached, self.wpt_reached | reached, np.abs(np.deg2rad(self.obs_drift))
-
-    def _reward(
-        self, reached: BoolArray, done_anyway: BoolArray, drift_rad: Array, count: NDArray[np.int64]
-    ) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Flags and counters of one evaluated sub-step with ``count`` obstacles around the aircraft, and its reward."""
-        self.wpt_reached |= reached
-        self.crashed |= count > 0
-        self.intrusions += count
-        reach = np.where(reached, REACH_REWARD, 0.0)
-        drift = drift_rad * DRIFT_PENALTY
-        intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
+        self.wpt_reached |= g.newly_reached
+        self.crashed |= g.obstacle_count > 0
+        self.intrusions += g.obstacle_count
+        self.remember(g)
+        reach = np.where(g.newly_reached, REACH_REWARD, 0.0)
+        drift = g.stale_drift_rad * DRIFT_PENALTY
+        intrusion = g.obstacle_count * RESTRICTED_AREA_INTRUSION_PENALTY
         reward = reach + drift + intrusion
-        return reward, done_anyway | (count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
+        return reward, g.goal_reached | (g.obstacle_count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
+
+    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """:meth:`reward` of the current state."""
+        return self.reward(self.measure())
+
+    def remember(self, g: StaticObstacleMeasurement, envs: NDArray[np.int64] | slice = slice(None)) -> None:
+        """Keep the waypoint distance and drift of the observation of ``g`` for the next step's reward."""
+        self.last_wpt_km[envs] = g.wpt_km[envs]
+        self.last_drift[envs] = g.drift[envs]
 
     # --- info and KPIs --------------------------------------------------------------------------
     def average_drift(self) -> Array:
@@ -316,7 +356,7 @@ class StaticObstacleTask(Task):
 
     def drift_deg(self) -> Array:
         """|drift| to the waypoint at the last observation [deg]."""
-        return np.abs(self.obs_drift)
+        return np.abs(self.last_drift)
 
     def goal_reached(self) -> BoolArray:
         """Whether the waypoint has been reached."""
@@ -384,7 +424,7 @@ def sample_waypoint(
 
 
 class SubstepEnd:
-    """The ``stop`` of a decision step's sub-steps: when each episode ends, and the obstacle counts seen.
+    """The ``stop`` rule of a decision step's sub-steps (see :meth:`Physics.run`).
 
     An episode ends at the first sub-step after which its aircraft is inside an obstacle, or at
     the first sub-step when it ends anyway (its waypoint was reached).
@@ -398,9 +438,7 @@ class SubstepEnd:
 
     def __init__(self, poly_lat: Array, poly_lon: Array, n_vertices: NDArray[np.int64], done_anyway: BoolArray) -> None:
         self.poly_lat, self.poly_lon, self.n_vertices, self.done_anyway = poly_lat, poly_lon, n_vertices, done_anyway
-        #: (k, n_envs) obstacles containing each aircraft after each sub-step of the last track seen.
-        self.counts = np.zeros((0, len(done_anyway)), np.int64)
-        #: (n_envs,) sub-steps after which each episode ended (1..k), 0 if it did not.
+        #: (n_envs,) sub-steps after which each episode ended (1..k) in the last track seen, 0 if it did not.
         self.ended_at = np.zeros(len(done_anyway), np.int64)
 
     def __call__(self, track: Array) -> NDArray[np.int64]:
@@ -408,6 +446,5 @@ class SubstepEnd:
         counts = np.empty((track.shape[0], len(self.done_anyway)), np.int64)
         compiled.ownship_polygon_counts(track, self.poly_lat, self.poly_lon, self.n_vertices, counts)
         hit = self.done_anyway | (counts > 0)  # (k, n_envs): the episode ends at this sub-step
-        self.counts = counts
         self.ended_at = np.where(hit.any(axis=0), hit.argmax(axis=0) + 1, 0)
         return self.ended_at

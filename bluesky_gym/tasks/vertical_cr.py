@@ -12,7 +12,7 @@ from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core.units import FT
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, TaskConfig, check_int, check_range
-from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentTask
+from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentMeasurement, DescentTask
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
 INTRUSION_DISTANCE = 5.0  # NM, horizontal radius of the intrusion cylinder
@@ -39,6 +39,18 @@ def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Arra
     out = np.empty((5, sim_lat.shape[0], sim_lat.shape[1] - 1))
     compiled.intruder_relative_state(sim_lat, sim_lon, hdg, gs, out)
     return dict(zip(("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif"), out))
+
+
+@dataclass(frozen=True)
+class VerticalCRMeasurement(DescentMeasurement):
+    """One step's quantities of the vertical CR task: the descent ones and the intruders'.
+
+    ``separation_nm``/``los`` are the kwik distances and the 5 NM / 1000 ft intrusion cylinder.
+    """
+
+    intruders: dict[str, Array]  # intruder_relative_state, (n_envs, num_intruders) each
+    alt_difference: Array  # (n_envs, num_intruders) m, intruder minus ownship altitude
+    vs_difference: Array  # (n_envs, num_intruders) m/s, intruder minus ownship vertical speed
 
 
 @dataclass(frozen=True)
@@ -192,31 +204,45 @@ class VerticalCRTask(DescentTask):
         self.sim.cmd_altitude(env, slot, alt, 0.0)
         self.total_intrusions[envs] = 0
 
-    # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
-        """Observation of every episode: key -> (n_envs, *shape), float64."""
-        obs = super().observe()
+    # --- measure --------------------------------------------------------------------------------
+    def measure(self) -> VerticalCRMeasurement:
+        """The descent quantities, the intruders' relative state and the intrusion cylinder test."""
+        d = super().measure()
         s = self.sim
-        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
-        # Intruders in creation order (slots 1..n), no sorting (spec section 2).
+        separation_nm, los = self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)
+        return VerticalCRMeasurement(
+            separation_nm=separation_nm,
+            los=los,
+            drift_deg=None,
+            goal_reached=d.goal_reached,
+            alt=d.alt,
+            vs=d.vs,
+            runway_km=d.runway_km,
+            intruders=intruder_relative_state(s.lat, s.lon, s.hdg, s.gs),
+            alt_difference=s.alt[:, 1:] - s.alt[:, :1],
+            vs_difference=s.vs[:, 1:] - s.vs[:, :1],
+        )
+
+    # --- observation ----------------------------------------------------------------------------
+    def observe(self, g: VerticalCRMeasurement | None = None) -> dict[str, Array]:  # type: ignore[override]
+        """The descent entries, then the intruders in creation order (slots 1..n, no sorting; spec section 2)."""
+        g = self.measure() if g is None else g
+        obs = super().observe(g)
+        rel = g.intruders
         obs["intruder_distance"] = rel["dist_km"] / INTRUDER_DISTANCE_SCALE
         obs["cos_difference_pos"] = rel["cos_bearing"]
         obs["sin_difference_pos"] = rel["sin_bearing"]
-        obs["altitude_difference"] = (s.alt[:, 1:] - s.alt[:, :1]) / ALT_STD
+        obs["altitude_difference"] = g.alt_difference / ALT_STD
         obs["x_difference_speed"] = rel["x_dif"] / SPEED_SCALE
         obs["y_difference_speed"] = rel["y_dif"] / SPEED_SCALE
-        obs["z_difference_speed"] = s.vs[:, 1:] - s.vs[:, :1]  # m/s, not normalised (reference quirk)
+        obs["z_difference_speed"] = g.vs_difference  # m/s, not normalised (reference quirk)
         return obs
 
     # --- reward ---------------------------------------------------------------------------------
-    def intrusions(self) -> BoolArray:
-        """(n_envs, num_intruders) intruders within 5 NM and 1000 ft of the ownship."""
-        return self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)[1][:, 1:]
-
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Descent reward and termination plus the intrusion penalty."""
-        descent_reward, terminated, components = super().evaluate()
-        count = self.intrusions().sum(axis=1)
+    def reward(self, g: VerticalCRMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:  # type: ignore[override]
+        """Descent reward and termination plus -50 per intruder inside the 5 NM / 1000 ft cylinder."""
+        descent_reward, terminated, components = super().reward(g)
+        count = g.los[:, 1:].sum(axis=1)
         intrusion = count * INTRUSION_PENALTY
         self.total_intrusions += count
         components["intrusion"] = intrusion

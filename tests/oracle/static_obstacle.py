@@ -23,10 +23,10 @@ def reference_substeps(task) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarr
     for _ in range(task.action_frequency):
         sim.step()
         # The waypoint terms use the values of the last observation (stale), the obstacles the live position.
-        new = (task.obs_wpt_km < task.config.distance_margin_km) & ~task.wpt_reached
+        new = (task.last_wpt_km < task.config.distance_margin_km) & ~task.wpt_reached
         task.wpt_reached |= new
         reach = np.where(new, REACH_REWARD, 0.0)
-        drift_rad = np.abs(np.deg2rad(task.obs_drift))
+        drift_rad = np.abs(np.deg2rad(task.last_drift))
         drift = drift_rad * DRIFT_PENALTY
         task.drift_sum_rad += drift_rad
         task.drift_count += 1
