@@ -339,32 +339,42 @@ def _point_at_distance(lat, lon, d_km, bearing, radius_km):
     return lat2 * _DEG, lon2 * _DEG
 
 
+@jit_inline
+def _at(a, i, j):
+    """``a[i, j]`` of a 2-D array broadcast against (i, j): a dimension of length 1 repeats."""
+    return a[i if a.shape[0] > 1 else 0, j if a.shape[1] > 1 else 0]
+
+
 @jit
 def point_at_distance(lat, lon, d_km, bearing, radius_km, lat_out, lon_out):
-    """:func:`bluesky_gym.tasks.geometry.point_at_distance` over flat arrays of equal length."""
-    for i in range(lat.shape[0]):
-        lat_out[i], lon_out[i] = _point_at_distance(lat[i], lon[i], d_km[i], bearing[i], radius_km)
+    """:func:`bluesky_gym.tasks.geometry.point_at_distance` of 2-D inputs broadcast to the outputs' shape."""
+    for i in range(lat_out.shape[0]):
+        for j in range(lat_out.shape[1]):
+            lat_out[i, j], lon_out[i, j] = _point_at_distance(_at(lat, i, j), _at(lon, i, j), _at(d_km, i, j), _at(bearing, i, j), radius_km)
 
 
 @jit
 def kwikdist(lata, lona, latb, lonb, dist_out):
-    """:func:`bluesky_gym.tasks.geometry.ref_kwikdist` over flat arrays of equal length."""
-    for i in range(lata.shape[0]):
-        dist_out[i] = _kwikdist(lata[i], lona[i], latb[i], lonb[i])
+    """:func:`bluesky_gym.tasks.geometry.ref_kwikdist` of 2-D inputs broadcast to the output's shape."""
+    for i in range(dist_out.shape[0]):
+        for j in range(dist_out.shape[1]):
+            dist_out[i, j] = _kwikdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
 
 
 @jit
 def kwikqdrdist(lata, lona, latb, lonb, qdr_out, dist_out):
-    """:func:`bluesky_gym.tasks.geometry.ref_kwikqdrdist` over flat arrays of equal length."""
-    for i in range(lata.shape[0]):
-        qdr_out[i], dist_out[i] = _kwikqdrdist(lata[i], lona[i], latb[i], lonb[i])
+    """:func:`bluesky_gym.tasks.geometry.ref_kwikqdrdist` of 2-D inputs broadcast to the outputs' shape."""
+    for i in range(dist_out.shape[0]):
+        for j in range(dist_out.shape[1]):
+            qdr_out[i, j], dist_out[i, j] = _kwikqdrdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
 
 
 @jit
 def kwikdist_matrix(lata, lona, latb, lonb, dist_out):
-    """:func:`bluesky_gym.tasks.geometry.ref_kwikdist_matrix` over flat arrays of equal length."""
-    for i in range(lata.shape[0]):
-        dist_out[i] = _kwikdist_matrix(lata[i], lona[i], latb[i], lonb[i])
+    """:func:`bluesky_gym.tasks.geometry.ref_kwikdist_matrix` of 2-D inputs broadcast to the output's shape."""
+    for i in range(dist_out.shape[0]):
+        for j in range(dist_out.shape[1]):
+            dist_out[i, j] = _kwikdist_matrix(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
 
 
 @jit

@@ -29,10 +29,10 @@ def wrap180(angle: ArrayLike) -> Array:
 
 def point_at_distance(lat: ArrayLike, lon: ArrayLike, d_km: ArrayLike, bearing: ArrayLike, radius_km: float = EARTH_RADIUS_KM) -> tuple[Array, Array]:
     """Great-circle destination [deg] at ``d_km`` along initial ``bearing`` [deg] (spherical; broadcasting)."""
-    shape, (la, lo, d, b) = _flat(lat, lon, d_km, bearing)
-    lat2, lon2 = np.empty(la.size), np.empty(la.size)
+    shape, (la, lo, d, b) = _grid(lat, lon, d_km, bearing)
+    lat2, lon2 = np.empty(shape[1]), np.empty(shape[1])
     compiled.point_at_distance(la, lo, d, b, float(radius_km), lat2, lon2)
-    return lat2.reshape(shape)[()], lon2.reshape(shape)[()]
+    return lat2.reshape(shape[0])[()], lon2.reshape(shape[0])[()]
 
 
 def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: ArrayLike) -> Array:
@@ -156,18 +156,18 @@ def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly
 
 def ref_kwikdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
     """Flat-earth distance [NM] a -> b, as BlueSky's Python ``geo.kwikdist`` (see above; broadcasting)."""
-    shape, (a0, a1, b0, b1) = _flat(lata, lona, latb, lonb)
-    dist = np.empty(a0.size)
+    shape, (a0, a1, b0, b1) = _grid(lata, lona, latb, lonb)
+    dist = np.empty(shape[1])
     compiled.kwikdist(a0, a1, b0, b1, dist)
-    return dist.reshape(shape)[()]
+    return dist.reshape(shape[0])[()]
 
 
 def ref_kwikqdrdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> tuple[Array, Array]:
     """Flat-earth bearing [deg, 0..360) and distance [NM] a -> b, as BlueSky's Python ``geo.kwikqdrdist``."""
-    shape, (a0, a1, b0, b1) = _flat(lata, lona, latb, lonb)
-    qdr, dist = np.empty(a0.size), np.empty(a0.size)
+    shape, (a0, a1, b0, b1) = _grid(lata, lona, latb, lonb)
+    qdr, dist = np.empty(shape[1]), np.empty(shape[1])
     compiled.kwikqdrdist(a0, a1, b0, b1, qdr, dist)
-    return qdr.reshape(shape)[()], dist.reshape(shape)[()]
+    return qdr.reshape(shape[0])[()], dist.reshape(shape[0])[()]
 
 
 def ref_kwikdist_matrix(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
@@ -177,17 +177,49 @@ def ref_kwikdist_matrix(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb:
     dlat^2 + (dlon^2)(cavelat^2), which can differ in the last bit. The reference sorts the
     intruders and fills ``distances`` with it, and ``x_r``/``y_r`` with ``kwikqdrdist``.
     """
-    shape, (a0, a1, b0, b1) = _flat(lata, lona, latb, lonb)
-    dist = np.empty(a0.size)
+    shape, (a0, a1, b0, b1) = _grid(lata, lona, latb, lonb)
+    dist = np.empty(shape[1])
     compiled.kwikdist_matrix(a0, a1, b0, b1, dist)
-    return dist.reshape(shape)[()]
+    return dist.reshape(shape[0])[()]
 
 
-def _flat(*arrays: ArrayLike) -> tuple[tuple[int, ...], list[Array]]:
-    """The broadcast shape of ``arrays`` and each of them broadcast to it, flat, contiguous float64."""
+def _grid(*arrays: ArrayLike) -> tuple[tuple[tuple[int, ...], tuple[int, int]], list[Array]]:
+    """Broadcast ``arrays`` for the 2-D kernels: ((result shape, its 2-D form), the arrays as 2-D float64).
+
+    Arrays of up to two dimensions are passed as they are (a length-1 dimension repeats in the
+    kernel); higher dimensions are broadcast and flattened to (1, size).
+    """
+    out = []
+    rows = cols = 1
+    ndim = 0
+    for a in arrays:
+        x = a if type(a) is np.ndarray and a.dtype == np.float64 else np.asarray(a, dtype=np.float64)
+        if x.ndim != 2:
+            if x.ndim > 2:
+                return _grid_nd(arrays)
+            ndim = max(ndim, x.ndim)
+            x = x.reshape((1, x.size) if x.ndim == 1 else (1, 1))
+        else:
+            ndim = 2
+        r, c = x.shape
+        if r != 1:
+            if rows not in (1, r):
+                raise ValueError(f"shapes {[np.shape(a) for a in arrays]} do not broadcast")
+            rows = r
+        if c != 1:
+            if cols not in (1, c):
+                raise ValueError(f"shapes {[np.shape(a) for a in arrays]} do not broadcast")
+            cols = c
+        out.append(x)
+    return ((rows, cols)[2 - ndim :], (rows, cols)), out
+
+
+def _grid_nd(arrays: tuple[ArrayLike, ...]) -> tuple[tuple[tuple[int, ...], tuple[int, int]], list[Array]]:
+    """:func:`_grid` with an array of more than two dimensions: broadcast and flattened to (1, size)."""
     b = [np.asarray(a, dtype=np.float64) for a in arrays]
     shape = np.broadcast_shapes(*(x.shape for x in b))
-    return shape, [_broadcast(x, shape).reshape(-1) for x in b]
+    flat = [_broadcast(x, shape).reshape(1, -1) for x in b]
+    return (shape, flat[0].shape), flat
 
 
 def _broadcast(a: NDArray, shape: tuple[int, ...]) -> NDArray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from bluesky_gym.tasks import geometry
 from bluesky_gym.tasks.geometry import polygon_area, random_convex_polygon
@@ -54,6 +55,11 @@ def test_kwik_forms_equal_the_numpy_forms() -> None:
     np.testing.assert_array_equal(dist, want_dist, strict=True)
     got = geometry.ref_kwikdist_matrix(lata, lona, latb, lonb)
     np.testing.assert_array_equal(got, oracle.ref_kwikdist_matrix(lata, lona, latb, lonb), strict=True)
+    # More than two dimensions, and a shape mismatch.
+    a3, b3 = lata.reshape(5, 6, 1), latb.reshape(5, 6, 12)
+    np.testing.assert_array_equal(geometry.ref_kwikdist(a3, 4.0, b3, 5.0), oracle.ref_kwikdist(a3, 4.0, b3, 5.0), strict=True)
+    with pytest.raises(ValueError, match="broadcast"):
+        geometry.ref_kwikdist(lata[:4], lona, latb, lonb)
     # Scalars in, scalars out.
     assert float(geometry.ref_kwikdist(52.0, 4.0, 52.5, 4.5)) == float(oracle.ref_kwikdist(52.0, 4.0, 52.5, 4.5))
 
