@@ -30,19 +30,20 @@ CLIMB_TARGET = 1e6  # m: selected altitude for a climb (clipped by the ceiling)
 
 @dataclass(frozen=True)
 class DescentMeasurement:
-    """One step's quantities of the descent task (arrays over the batch).
+    """One step's quantities of the descent task, for the rows (episodes) ``envs``.
 
-    ``separation_nm``/``los`` (n_envs, max_aircraft), ``drift_deg`` and ``goal_reached`` are
-    the part every task provides for the KPIs.
+    ``envs``, ``separation_nm``/``los`` (rows, max_aircraft), ``drift_deg`` and ``goal_reached``
+    are the part every task provides for the KPIs.
     """
 
-    separation_nm: Array  # (n_envs, max_aircraft) NM from the ownship (inf: no traffic)
-    los: BoolArray  # (n_envs, max_aircraft) losses of separation with the ownship
+    envs: NDArray[np.int64]  # (rows,) the episodes of the rows
+    separation_nm: Array  # (rows, max_aircraft) NM from the ownship (inf: no traffic)
+    los: BoolArray  # (rows, max_aircraft) losses of separation with the ownship
     drift_deg: Array | None  # no heading goal
-    goal_reached: BoolArray  # (n_envs,) the runway has been reached
-    alt: Array  # (n_envs,) m, ownship altitude
-    vs: Array  # (n_envs,) m/s, ownship vertical speed
-    runway_km: Array  # (n_envs,) km left to the runway
+    goal_reached: BoolArray  # (rows,) the runway has been reached
+    alt: Array  # (rows,) m, ownship altitude
+    vs: Array  # (rows,) m/s, ownship vertical speed
+    runway_km: Array  # (rows,) km left to the runway
 
 
 @dataclass(frozen=True)
@@ -117,40 +118,43 @@ class DescentTask(Task):
         self.sim.set_autopilot(self.all_envs, 0, selalt=np.where(v >= 0, CLIMB_TARGET, 0.0), selvs=v)
 
     # --- measure --------------------------------------------------------------------------------
-    def runway_distance(self) -> Array:
-        """(n_envs,) km left to the runway along the 200 km leg."""
-        d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[:, 0], self.sim.lon[:, 0])
+    def runway_distance(self, envs: NDArray[np.int64] | None = None) -> Array:
+        """Km left to the runway along the 200 km leg, of episodes ``envs`` (all when None)."""
+        envs = self.all_envs if envs is None else envs
+        d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[envs, 0], self.sim.lon[envs, 0])
         return self.config.runway_distance_km - d * NM2KM
 
-    def measure(self) -> DescentMeasurement:
-        """This step's altitude, vertical speed and runway distance of every episode."""
+    def measure(self, envs: NDArray[np.int64] | None = None) -> DescentMeasurement:
+        """Altitude, vertical speed and runway distance of episodes ``envs`` (all when None)."""
+        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
         s = self.sim
-        runway_km = self.runway_distance()
-        n, m = s.lat.shape
+        runway_km = self.runway_distance(envs)
+        shape = (envs.size, s.max_aircraft)
         return DescentMeasurement(
-            separation_nm=np.full((n, m), np.inf),
-            los=np.zeros((n, m), bool),
+            envs=envs,
+            separation_nm=np.full(shape, np.inf),
+            los=np.zeros(shape, bool),
             drift_deg=None,
             goal_reached=runway_km <= 0,
-            alt=s.alt[:, 0].copy(),
-            vs=s.vs[:, 0].copy(),
+            alt=s.alt[envs, 0],
+            vs=s.vs[envs, 0],
             runway_km=runway_km,
         )
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self, g: DescentMeasurement | None = None) -> dict[str, Array]:
-        """Normalised altitude, vertical speed, target and runway distance."""
+        """Normalised altitude, vertical speed, target and runway distance of the rows ``g.envs``."""
         g = self.measure() if g is None else g
         return {
             "altitude": ((g.alt - ALT_MEAN) / ALT_STD)[:, None],
             "vz": ((g.vs - VZ_MEAN) / VZ_STD)[:, None],
-            "target_altitude": ((self.target_alt - ALT_MEAN) / ALT_STD)[:, None],
+            "target_altitude": ((self.target_alt[g.envs] - ALT_MEAN) / ALT_STD)[:, None],
             "runway_distance": ((g.runway_km - RWY_DIS_MEAN) / RWY_DIS_STD)[:, None],
         }
 
     # --- reward and termination -----------------------------------------------------------------
     def reward(self, g: DescentMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Altitude tracking while flying, else the crash or runway term; records ``final_altitude``."""
+        """Altitude tracking while flying, else the crash or runway term; records ``final_altitude`` (all episodes)."""
         flying, crashed, at_runway = descent_outcome(g)
         altitude = np.where(flying, np.abs(self.target_alt - g.alt) * ALT_DIF_REWARD_SCALE, 0.0)
         crash = np.where(crashed, CRASH_PENALTY, 0.0)

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import NM2KM
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
-from bluesky_gym.tasks.geometry import point_at_distance, wrap180
+from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikqdrdist, wrap180
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 AC_HDG = 0.0  # deg: creation heading (BlueSky's default, north)
@@ -28,20 +28,21 @@ TOUR_CHUNK = 1 << 20  # leg lengths evaluated at once by the tour KPI (bounds it
 
 @dataclass(frozen=True)
 class PlanWaypointMeasurement:
-    """One step's quantities of the waypoint-planning task (arrays over the batch).
+    """One step's quantities of the waypoint-planning task, for the rows (episodes) ``envs``.
 
-    ``separation_nm``/``los`` (no traffic), ``drift_deg`` and ``goal_reached`` are the part every
-    task provides for the KPIs.
+    ``envs``, ``separation_nm``/``los`` (no traffic), ``drift_deg`` and ``goal_reached`` are the
+    part every task provides for the KPIs.
     """
 
-    separation_nm: Array  # (n_envs, max_aircraft) NM (inf: no traffic)
-    los: BoolArray  # (n_envs, max_aircraft) all False
+    envs: NDArray[np.int64]  # (rows,) the episodes of the rows
+    separation_nm: Array  # (rows, max_aircraft) NM (inf: no traffic)
+    los: BoolArray  # (rows, max_aircraft) all False
     drift_deg: Array | None  # no single heading goal
-    goal_reached: BoolArray  # (n_envs,) every waypoint reached, this step's included
-    dist_km: Array  # (n_envs, num_waypoints) kwik distance to each waypoint
-    drift: Array  # (n_envs, num_waypoints) deg, wrap180(hdg - qdr)
-    reached_before: BoolArray  # (n_envs, num_waypoints) reached in an earlier step
-    newly_reached: BoolArray  # (n_envs, num_waypoints) within the capture radius for the first time
+    goal_reached: BoolArray  # (rows,) every waypoint reached, this step's included
+    dist_km: Array  # (rows, num_waypoints) kwik distance to each waypoint
+    drift: Array  # (rows, num_waypoints) deg, wrap180(hdg - qdr)
+    reached_before: BoolArray  # (rows, num_waypoints) reached in an earlier step
+    newly_reached: BoolArray  # (rows, num_waypoints) within the capture radius for the first time
 
 
 @dataclass(frozen=True)
@@ -143,20 +144,24 @@ class PlanWaypointTask(Task):
         self.sim.cmd_heading(self.all_envs, 0, self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
 
     # --- measure --------------------------------------------------------------------------------
-    def waypoint_geometry(self) -> tuple[Array, Array]:
-        """(n_envs, num_waypoints) kwik distance [km] and drift wrap180(hdg - qdr) [deg]."""
-        qdr, dist = self.kwik_from_ownship(self.wpt_lat, self.wpt_lon)
-        return dist * NM2KM, wrap180(self.sim.hdg[:, :1] - qdr)
+    def waypoint_geometry(self, envs: NDArray[np.int64] | None = None) -> tuple[Array, Array]:
+        """(rows, num_waypoints) kwik distance [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
+        envs = self.all_envs if envs is None else envs
+        s = self.sim
+        qdr, dist = ref_kwikqdrdist(s.lat[envs, :1], s.lon[envs, :1], self.wpt_lat[envs], self.wpt_lon[envs])
+        return dist * NM2KM, wrap180(s.hdg[envs, :1] - qdr)
 
-    def measure(self) -> PlanWaypointMeasurement:
-        """Distance and drift to every waypoint, and which ones the aircraft is within the capture radius of."""
-        dist_km, drift = self.waypoint_geometry()
-        reached_before = self.wpt_reached.copy()
+    def measure(self, envs: NDArray[np.int64] | None = None) -> PlanWaypointMeasurement:
+        """Distance and drift to every waypoint, and which ones the aircraft is within the capture radius of, for episodes ``envs``."""
+        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        dist_km, drift = self.waypoint_geometry(envs)
+        reached_before = self.wpt_reached[envs]
         new = (dist_km < self.config.distance_margin_km) & ~reached_before
-        n, m = self.sim.lat.shape
+        shape = (envs.size, self.sim.max_aircraft)
         return PlanWaypointMeasurement(
-            separation_nm=np.full((n, m), np.inf),
-            los=np.zeros((n, m), bool),
+            envs=envs,
+            separation_nm=np.full(shape, np.inf),
+            los=np.zeros(shape, bool),
             drift_deg=None,
             goal_reached=(reached_before | new).all(axis=1),
             dist_km=dist_km,
@@ -167,7 +172,7 @@ class PlanWaypointTask(Task):
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self, g: PlanWaypointMeasurement | None = None) -> dict[str, Array]:
-        """Masked distance and drift per waypoint, and the reach flags as floats."""
+        """Masked distance and drift per waypoint, and the reach flags as floats, of the rows ``g.envs``."""
         g = self.measure() if g is None else g
         # The reference masks with the integer (1 - reached), so a masked entry is 0.0 times the
         # value: -0.0 where the value is negative (spec 4). A waypoint reached in this step still
@@ -183,7 +188,7 @@ class PlanWaypointTask(Task):
 
     # --- reward and termination -----------------------------------------------------------------
     def reward(self, g: PlanWaypointMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """+1 per newly reached waypoint (recorded); terminated when all are reached."""
+        """+1 per newly reached waypoint (recorded); terminated when all are reached (all episodes)."""
         self.wpt_reached |= g.newly_reached
         reach = g.newly_reached.sum(axis=1) * REACH_REWARD
         return reach, g.goal_reached, {"reach": reach}

@@ -41,23 +41,24 @@ VERTEX_CAPACITY = 16  # initial vertex slots per polygon (grown when a polygon n
 
 @dataclass(frozen=True)
 class StaticObstacleMeasurement:
-    """One step's quantities of the static-obstacle task (arrays over the batch).
+    """One step's quantities of the static-obstacle task, for the rows (episodes) ``envs``.
 
-    ``separation_nm``/``los`` (no traffic), ``drift_deg`` and ``goal_reached`` are the part every
-    task provides for the KPIs.
+    ``envs``, ``separation_nm``/``los`` (no traffic), ``drift_deg`` and ``goal_reached`` are the
+    part every task provides for the KPIs.
     """
 
-    separation_nm: Array  # (n_envs, max_aircraft) NM (inf: no traffic)
-    los: BoolArray  # (n_envs, max_aircraft) all False
-    drift_deg: Array  # (n_envs,) |drift| to the waypoint now
-    goal_reached: BoolArray  # (n_envs,) the waypoint has been reached, this step included
-    wpt_km: Array  # (n_envs,) kwik distance to the waypoint now
-    drift: Array  # (n_envs,) deg, wrap180(hdg - qdr) to the waypoint now
-    centre_km: Array  # (n_envs, num_obstacles) kwik distance to each obstacle centre
-    centre_bearing: Array  # (n_envs, num_obstacles) deg, wrap180(hdg - qdr) to each centre
-    obstacle_count: NDArray[np.int64]  # (n_envs,) obstacles containing the aircraft now
-    newly_reached: BoolArray  # (n_envs,) reached in this step, by the last observation's distance
-    stale_drift_rad: Array  # (n_envs,) |drift| [rad] of the last observation
+    envs: NDArray[np.int64]  # (rows,) the episodes of the rows
+    separation_nm: Array  # (rows, max_aircraft) NM (inf: no traffic)
+    los: BoolArray  # (rows, max_aircraft) all False
+    drift_deg: Array  # (rows,) |drift| to the waypoint now
+    goal_reached: BoolArray  # (rows,) the waypoint has been reached, this step included
+    wpt_km: Array  # (rows,) kwik distance to the waypoint now
+    drift: Array  # (rows,) deg, wrap180(hdg - qdr) to the waypoint now
+    centre_km: Array  # (rows, num_obstacles) kwik distance to each obstacle centre
+    centre_bearing: Array  # (rows, num_obstacles) deg, wrap180(hdg - qdr) to each centre
+    obstacle_count: NDArray[np.int64]  # (rows,) obstacles containing the aircraft now
+    newly_reached: BoolArray  # (rows,) reached in this step, by the last observation's distance
+    stale_drift_rad: Array  # (rows,) |drift| [rad] of the last observation
 
 
 @dataclass(frozen=True)
@@ -200,7 +201,7 @@ class StaticObstacleTask(Task):
         self.intrusions[envs] = 0
         self.drift_sum_rad[envs] = 0.0
         self.drift_count[envs] = 0
-        self.remember(self.measure(), envs)
+        self.remember(self.measure(envs))
 
     def _store_polygons(self, e: int, clat: Array, clon: Array, polys: list[Array]) -> None:
         """Store episode ``e``'s polygons, (north, east) NM around their centres, as (lat, lon)."""
@@ -258,44 +259,55 @@ class StaticObstacleTask(Task):
         return reward, terminated, components, obs
 
     # --- measure --------------------------------------------------------------------------------
-    def waypoint_geometry(self) -> tuple[Array, Array]:
-        """(n_envs,) live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg]."""
-        qdr, dist = ref_kwikqdrdist(self.sim.lat[:, 0], self.sim.lon[:, 0], self.wpt_lat, self.wpt_lon)
-        return dist * NM2KM, wrap180(self.sim.hdg[:, 0] - qdr)
+    def waypoint_geometry(self, envs: NDArray[np.int64] | None = None) -> tuple[Array, Array]:
+        """Live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
+        envs = self.all_envs if envs is None else envs
+        s = self.sim
+        qdr, dist = ref_kwikqdrdist(s.lat[envs, 0], s.lon[envs, 0], self.wpt_lat[envs], self.wpt_lon[envs])
+        return dist * NM2KM, wrap180(s.hdg[envs, 0] - qdr)
 
-    def inside_obstacles(self) -> NDArray[np.bool_]:
-        """(n_envs, num_obstacles) whether each obstacle polygon contains the aircraft now."""
-        out = np.empty(self.obstacle_nv.shape, bool)
-        compiled.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
+    def inside_obstacles(self, envs: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:
+        """(rows, num_obstacles) whether each obstacle polygon of episodes ``envs`` (all when None) contains the aircraft now."""
+        s = self.sim
+        if envs is None:
+            lat, lon, poly_lat, poly_lon, nv = s.lat, s.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv
+        else:
+            lat, lon, poly_lat, poly_lon, nv = s.lat[envs], s.lon[envs], self.obstacle_lat[envs], self.obstacle_lon[envs], self.obstacle_nv[envs]
+        out = np.empty(nv.shape, bool)
+        compiled.ownship_in_polygons(lat, lon, poly_lat, poly_lon, nv, out)
         return out
 
-    def reached_by_last_observation(self) -> BoolArray:
-        """(n_envs,) waypoints not reached before but within the capture radius in the last observation."""
-        return (self.last_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
+    def reached_by_last_observation(self, envs: NDArray[np.int64] | None = None) -> BoolArray:
+        """Waypoints not reached before but within the capture radius in the last observation, of episodes ``envs``."""
+        envs = self.all_envs if envs is None else envs
+        return (self.last_wpt_km[envs] < self.config.distance_margin_km) & ~self.wpt_reached[envs]
 
-    def measure(self) -> StaticObstacleMeasurement:
-        """Waypoint and obstacle-centre geometry now, the obstacles around the aircraft, the stale waypoint terms."""
-        dist_km, drift = self.waypoint_geometry()
-        qdr_c, dist_c = self.kwik_from_ownship(self.obstacle_centre_lat, self.obstacle_centre_lon)
-        reached = self.reached_by_last_observation()
-        n, m = self.sim.lat.shape
+    def measure(self, envs: NDArray[np.int64] | None = None) -> StaticObstacleMeasurement:
+        """Waypoint and obstacle-centre geometry now, the obstacles around the aircraft, the stale waypoint terms, of episodes ``envs``."""
+        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        s = self.sim
+        dist_km, drift = self.waypoint_geometry(envs)
+        qdr_c, dist_c = ref_kwikqdrdist(s.lat[envs, :1], s.lon[envs, :1], self.obstacle_centre_lat[envs], self.obstacle_centre_lon[envs])
+        reached = self.reached_by_last_observation(envs)
+        shape = (envs.size, s.max_aircraft)
         return StaticObstacleMeasurement(
-            separation_nm=np.full((n, m), np.inf),
-            los=np.zeros((n, m), bool),
+            envs=envs,
+            separation_nm=np.full(shape, np.inf),
+            los=np.zeros(shape, bool),
             drift_deg=np.abs(drift),
-            goal_reached=self.wpt_reached | reached,
+            goal_reached=self.wpt_reached[envs] | reached,
             wpt_km=dist_km,
             drift=drift,
             centre_km=dist_c * NM2KM,
-            centre_bearing=wrap180(self.sim.hdg[:, :1] - qdr_c),
-            obstacle_count=self.inside_obstacles().sum(axis=1),
+            centre_bearing=wrap180(s.hdg[envs, :1] - qdr_c),
+            obstacle_count=self.inside_obstacles(envs).sum(axis=1),
             newly_reached=reached,
-            stale_drift_rad=np.abs(np.deg2rad(self.last_drift)),
+            stale_drift_rad=np.abs(np.deg2rad(self.last_drift[envs])),
         )
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self, g: StaticObstacleMeasurement | None = None) -> dict[str, Array]:
-        """Waypoint distance and drift, then the obstacle radii and the distances and bearings of their centres."""
+        """Waypoint distance and drift, then the obstacle radii and the distances and bearings of their centres, of the rows ``g.envs``."""
         g = self.measure() if g is None else g
         scale = self.config.waypoint_distance_max
         rad = np.deg2rad(g.drift)
@@ -304,7 +316,7 @@ class StaticObstacleTask(Task):
             "destination_waypoint_distance": (g.wpt_km / scale)[:, None],
             "destination_waypoint_cos_drift": np.cos(rad)[:, None],
             "destination_waypoint_sin_drift": np.sin(rad)[:, None],
-            "restricted_area_radius": self.obstacle_radius / RADIUS_SCALE_NM,
+            "restricted_area_radius": self.obstacle_radius[g.envs] / RADIUS_SCALE_NM,
             "restricted_area_distance": g.centre_km / scale,
             "cos_difference_restricted_area_pos": np.cos(bearing),
             "sin_difference_restricted_area_pos": np.sin(bearing),
@@ -312,7 +324,7 @@ class StaticObstacleTask(Task):
 
     # --- reward and termination -----------------------------------------------------------------
     def reward(self, g: StaticObstacleMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """The last evaluated sub-step's reward; ends at the waypoint or inside an obstacle (spec 6).
+        """The last evaluated sub-step's reward of all episodes; ends at the waypoint or inside an obstacle (spec 6).
 
         +1 for reaching the waypoint and -0.01 per rad of |drift| (both from the stale values of the
         last observation), -5 per obstacle containing the aircraft. Records the flags and
@@ -332,10 +344,10 @@ class StaticObstacleTask(Task):
         """:meth:`reward` of the current state."""
         return self.reward(self.measure())
 
-    def remember(self, g: StaticObstacleMeasurement, envs: NDArray[np.int64] | slice = slice(None)) -> None:
-        """Keep the waypoint distance and drift of the observation of ``g`` for the next step's reward."""
-        self.last_wpt_km[envs] = g.wpt_km[envs]
-        self.last_drift[envs] = g.drift[envs]
+    def remember(self, g: StaticObstacleMeasurement) -> None:
+        """Keep the waypoint distance and drift of the observation of ``g`` (rows ``g.envs``) for the next step's reward."""
+        self.last_wpt_km[g.envs] = g.wpt_km
+        self.last_drift[g.envs] = g.drift
 
     # --- info and KPIs --------------------------------------------------------------------------
     def average_drift(self) -> Array:

@@ -48,9 +48,9 @@ class VerticalCRMeasurement(DescentMeasurement):
     ``separation_nm``/``los`` are the kwik distances and the 5 NM / 1000 ft intrusion cylinder.
     """
 
-    intruders: dict[str, Array]  # intruder_relative_state, (n_envs, num_intruders) each
-    alt_difference: Array  # (n_envs, num_intruders) m, intruder minus ownship altitude
-    vs_difference: Array  # (n_envs, num_intruders) m/s, intruder minus ownship vertical speed
+    intruders: dict[str, Array]  # intruder_relative_state, (rows, num_intruders) each
+    alt_difference: Array  # (rows, num_intruders) m, intruder minus ownship altitude
+    vs_difference: Array  # (rows, num_intruders) m/s, intruder minus ownship vertical speed
 
 
 @dataclass(frozen=True)
@@ -205,22 +205,25 @@ class VerticalCRTask(DescentTask):
         self.total_intrusions[envs] = 0
 
     # --- measure --------------------------------------------------------------------------------
-    def measure(self) -> VerticalCRMeasurement:
-        """The descent quantities, the intruders' relative state and the intrusion cylinder test."""
-        d = super().measure()
+    def measure(self, envs: NDArray[np.int64] | None = None) -> VerticalCRMeasurement:
+        """The descent quantities, the intruders' relative state and the intrusion cylinder test, of episodes ``envs``."""
+        d = super().measure(envs)
+        envs = d.envs
         s = self.sim
         separation_nm, los = self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)
+        lat, lon, alt, vs = s.lat[envs], s.lon[envs], s.alt[envs], s.vs[envs]
         return VerticalCRMeasurement(
-            separation_nm=separation_nm,
-            los=los,
+            envs=envs,
+            separation_nm=separation_nm[envs],
+            los=los[envs],
             drift_deg=None,
             goal_reached=d.goal_reached,
             alt=d.alt,
             vs=d.vs,
             runway_km=d.runway_km,
-            intruders=intruder_relative_state(s.lat, s.lon, s.hdg, s.gs),
-            alt_difference=s.alt[:, 1:] - s.alt[:, :1],
-            vs_difference=s.vs[:, 1:] - s.vs[:, :1],
+            intruders=intruder_relative_state(lat, lon, s.hdg[envs], s.gs[envs]),
+            alt_difference=alt[:, 1:] - alt[:, :1],
+            vs_difference=vs[:, 1:] - vs[:, :1],
         )
 
     # --- observation ----------------------------------------------------------------------------
