@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -9,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.units import NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import ref_kwikdist
 
 ALT_MEAN = 1500.0  # m
@@ -106,7 +107,7 @@ class DescentTask(Task):
         return self.config.runway_distance_km - d * NM2KM
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Normalised altitude, vertical speed, target and runway distance."""
         alt = self.sim.alt[:, 0]
         return {
@@ -138,6 +139,20 @@ class DescentTask(Task):
     def goal_reached(self) -> BoolArray:
         """The runway has been reached."""
         return self.runway_distance() <= 0
+
+    # --- transitional adapter to the explicit step (Task.measure / observe(g) / reward(g)) -------
+    def measure(self, envs: NDArray[np.int64] | None = None) -> StepGeometry:
+        """This step's common geometry (KPIs) of episodes ``envs`` (all when None)."""
+        g = super().measure(envs)
+        return dataclasses.replace(g, goal_reached=self.goal_reached()[g.envs])
+
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Reward, termination and components: :meth:`evaluate`."""
+        return self.evaluate()
+
+    def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
+        """Observation of episodes ``envs`` only: the rows of the full observation."""
+        return {k: v[envs] for k, v in self.observe().items()}
 
     def extra_track_km(self) -> Array:
         """Distance flown beyond the runway leg [km]."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass
 from typing import ClassVar
@@ -11,7 +12,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import point_at_distance, wrap180
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
@@ -130,7 +131,7 @@ class PlanWaypointTask(Task):
         return dist * NM2KM, wrap180(self.sim.hdg[:, :1] - qdr)
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Masked distance and drift per waypoint, and the reach flags as floats."""
         dist_km, drift = self.waypoint_geometry()
         # The reference masks with the integer (1 - reached), so a masked entry is 0.0 times the
@@ -162,6 +163,21 @@ class PlanWaypointTask(Task):
     def goal_reached(self) -> BoolArray:
         """All waypoints reached."""
         return self.wpt_reached.all(axis=1)
+
+    # --- transitional adapter to the explicit step (Task.measure / observe(g) / reward(g)) -------
+    def measure(self, envs: NDArray[np.int64] | None = None) -> StepGeometry:
+        """This step's common geometry (KPIs) of episodes ``envs`` (all when None)."""
+        g = super().measure(envs)
+        reached = self.wpt_reached | (self.waypoint_geometry()[0] < self.config.distance_margin_km)
+        return dataclasses.replace(g, goal_reached=reached.all(axis=1)[g.envs])
+
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Reward, termination and components: :meth:`evaluate`."""
+        return self.evaluate()
+
+    def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
+        """Observation of episodes ``envs`` only: the rows of the full observation."""
+        return {k: v[envs] for k, v in self.observe().items()}
 
     def extra_track_km(self) -> Array:
         """Distance flown minus the shortest polyline from the start through all waypoint centres.

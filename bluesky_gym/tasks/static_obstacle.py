@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -11,7 +12,8 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import (
     PolygonSet,
     nm_to_latlon,
@@ -170,7 +172,7 @@ class StaticObstacleTask(Task):
             self._store_polygons(e, clat, clon, polys)
             self.wpt_lat[e], self.wpt_lon[e] = sample_waypoint(
                 rng, lat0[j], lon0[j], self.obstacle_lat[e], self.obstacle_lon[e], self.obstacle_nv[e],
-                c.waypoint_distance_min, c.waypoint_distance_max, self.kernels,
+                c.waypoint_distance_min, c.waypoint_distance_max, compiled,
             )
         # The aircraft starts pointing at the waypoint: hdg and the autopilot track (spec 6).
         qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
@@ -219,19 +221,12 @@ class StaticObstacleTask(Task):
 
     def inside_obstacles(self) -> NDArray[np.bool_]:
         """(n_envs, num_obstacles) whether each obstacle polygon contains the aircraft now."""
-        if self.compiled:
-            out = np.empty(self.obstacle_nv.shape, bool)
-            self.kernels.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
-            return out
-        key = (self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
-        cached = self._obstacle_cache
-        if cached is None or not all(np.array_equal(a, b) for a, b in zip(key, cached[0])):
-            # Prepared once per set of scenarios; any change to the polygons rebuilds it.
-            cached = self._obstacle_cache = (tuple(a.copy() for a in key), PolygonSet(*key))
-        return cached[1].contains(self.sim.lat[:, :1], self.sim.lon[:, :1])[:, 0, :]
+        out = np.empty(self.obstacle_nv.shape, bool)
+        compiled.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
+        return out
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Waypoint and obstacle-centre geometry; stores the waypoint values the reward uses."""
         dist_km, drift = self.waypoint_geometry()
         self.obs_wpt_km = dist_km
@@ -283,7 +278,24 @@ class StaticObstacleTask(Task):
         reward = reach + drift + intrusion
         return reward, self.wpt_reached | (count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
 
-    def transition(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
+    def advance(self) -> None:
+        """The sub-steps and their rewards (:meth:`transition`), kept for :meth:`reward` (transitional)."""
+        self._outcome = self.transition()
+
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """The reward of the last evaluated sub-step, computed by :meth:`advance`."""
+        return self._outcome
+
+    def measure(self, envs: NDArray[np.int64] | None = None) -> StepGeometry:
+        """Common geometry (KPIs): drift to the waypoint now, whether it was reached."""
+        g = super().measure(envs)
+        return dataclasses.replace(g, drift_deg=self.waypoint_geometry()[1][g.envs], goal_reached=self.wpt_reached[g.envs].copy())
+
+    def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
+        """Observation of episodes ``envs`` only: the rows of the full observation."""
+        return {k: v[envs] for k, v in self.observe().items()}
+
+    def transition(self) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Sub-steps with the reward evaluated after each; an episode stops at the sub-step it ends.
 
         The reference returns at once when an episode ends at sub-step k, with the observation of
@@ -296,7 +308,7 @@ class StaticObstacleTask(Task):
         last observation, so a waypoint is reached (and the episode ends) at the first sub-step
         or not at all, and only the obstacle test needs the live position.
         """
-        if self.compiled and not self.substep_hooks:
+        if not self.substep_hooks:
             return self._transition_traced()
         n = self.n_envs
         running = np.ones(n, bool)
@@ -326,7 +338,7 @@ class StaticObstacleTask(Task):
             self.sim.restore(state, envs)
         return self._finish_transition(reached, done_anyway, drift_rad, count)
 
-    def _transition_traced(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
+    def _transition_traced(self) -> tuple[Array, BoolArray, dict[str, Array]]:
         """:meth:`transition` from one traced run of all sub-steps (compiled physics and geometry).
 
         The obstacle test needs only the ownship's position after each sub-step, so all sub-steps
@@ -341,7 +353,7 @@ class StaticObstacleTask(Task):
         start = sim.snapshot()
         track = sim.run(steps, trace=True)
         counts = np.empty((steps, n), np.int64)
-        self.kernels.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts)
+        compiled.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts)
         hit = done_anyway | (counts > 0)  # (steps, n): the episode ends at this sub-step
         ends = hit.any(axis=0)
         last = np.where(ends, hit.argmax(axis=0), steps - 1)  # last evaluated sub-step
@@ -368,8 +380,8 @@ class StaticObstacleTask(Task):
 
     def _finish_transition(
         self, reached: BoolArray, done_anyway: BoolArray, drift_rad: Array, count: NDArray[np.int64]
-    ) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """Flags, counters, the last evaluated sub-step's reward, and the observation."""
+    ) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Flags, counters and the last evaluated sub-step's reward."""
         self.wpt_reached |= reached
         self.crashed |= count > 0
         self.intrusions += count
@@ -378,8 +390,7 @@ class StaticObstacleTask(Task):
         intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
         reward = reach + drift + intrusion
         terminated = done_anyway | (count > 0)
-        obs = self.observe()
-        return reward, terminated, {"reach": reach, "drift": drift, "intrusion": intrusion}, obs
+        return reward, terminated, {"reach": reach, "drift": drift, "intrusion": intrusion}
 
     # --- info and KPIs --------------------------------------------------------------------------
     def average_drift(self) -> Array:

@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import atmosphere as isa
-from bluesky_gym.core.units import FT, NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, TaskConfig, check_int, check_range, wrap180
+from bluesky_gym.core.units import FT
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, TaskConfig, check_int, check_range, kwik_separation
 from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentTask
-from bluesky_gym.tasks.geometry import ref_kwikqdrdist
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
 INTRUSION_DISTANCE = 5.0  # NM, horizontal radius of the intrusion cylinder
@@ -23,13 +24,12 @@ TLOSV = 1e11  # s: vertical time to loss of separation given to creconfs (intrud
 KM = 1000.0  # m per km
 
 
-def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array, kernels: Any = None) -> dict[str, Array]:
+def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array) -> dict[str, Array]:
     """Ownship-relative geometry of the intruders (slots 1..) shared by the CR tasks.
 
     All inputs are (n_envs, max_aircraft) simulator arrays with the ownship in slot 0. The
-    expressions and their operation order are the reference's (spec sections 2 and 3).
-    ``kernels`` is a task's compiled functions (:attr:`~bluesky_gym.tasks.base.Task.kernels`), or
-    None for numpy.
+    expressions and their operation order are the reference's (spec sections 2 and 3), computed
+    by :func:`bluesky_gym.tasks.compiled.intruder_relative_state`.
 
     Returns:
         ``dist_km`` kwik distance [km]; ``cos_bearing``/``sin_bearing`` of
@@ -37,23 +37,11 @@ def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Arra
         the reference's ownship frame (not yet normalised). Each (n_envs, max_aircraft - 1).
 
     """
-    if kernels is not None:  # the same numbers from the compiled form (Task.kernels)
-        out = np.empty((5, sim_lat.shape[0], sim_lat.shape[1] - 1))
-        kernels.intruder_relative_state(sim_lat, sim_lon, hdg, gs, out)
-        return dict(zip(("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif"), out))
-    qdr, dist = ref_kwikqdrdist(sim_lat[:, :1], sim_lon[:, :1], sim_lat[:, 1:], sim_lon[:, 1:])
-    own_hdg = hdg[:, :1]
-    bearing = wrap180(own_hdg - qdr)
-    heading_difference = own_hdg - hdg[:, 1:]
-    x_dif = -np.cos(np.deg2rad(heading_difference)) * gs[:, 1:]
-    y_dif = gs[:, :1] - np.sin(np.deg2rad(heading_difference)) * gs[:, 1:]
-    return {
-        "dist_km": dist * NM2KM,
-        "cos_bearing": np.cos(np.deg2rad(bearing)),
-        "sin_bearing": np.sin(np.deg2rad(bearing)),
-        "x_dif": x_dif,
-        "y_dif": y_dif,
-    }
+    n, m = sim_lat.shape
+    out = np.empty((5, n, m - 1))
+    count = np.empty(n, np.int64)
+    compiled.intruder_relative_state(np.arange(n), np.zeros(n, np.int64), sim_lat, sim_lon, hdg, gs, np.ones((n, m), bool), False, out, count)
+    return dict(zip(("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif"), out))
 
 
 @dataclass(frozen=True)
@@ -208,11 +196,11 @@ class VerticalCRTask(DescentTask):
         self.total_intrusions[envs] = 0
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Observation of every episode: key -> (n_envs, *shape), float64."""
         obs = super().observe()
         s = self.sim
-        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs, self.kernels)
+        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
         # Intruders in creation order (slots 1..n), no sorting (spec section 2).
         obs["intruder_distance"] = rel["dist_km"] / INTRUDER_DISTANCE_SCALE
         obs["cos_difference_pos"] = rel["cos_bearing"]
@@ -226,7 +214,7 @@ class VerticalCRTask(DescentTask):
     # --- reward ---------------------------------------------------------------------------------
     def intrusions(self) -> BoolArray:
         """(n_envs, num_intruders) intruders within 5 NM and 1000 ft of the ownship."""
-        return self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)[1][:, 1:]
+        return kwik_separation(self.sim, self.all_envs, self.ownship, INTRUSION_DISTANCE, VERTICAL_MARGIN)[1][:, 1:]
 
     def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Descent reward and termination plus the intrusion penalty."""
@@ -246,6 +234,8 @@ class VerticalCRTask(DescentTask):
         }
 
     # --- KPIs -----------------------------------------------------------------------------------
-    def ownship_separation(self) -> tuple[Array, BoolArray]:
-        """Kwik distance [NM] from the ownship to every other aircraft and the 5 NM / 1000 ft intrusion flags."""
-        return self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)
+    def measure(self, envs: NDArray[np.int64] | None = None) -> StepGeometry:
+        """The descent's geometry with the kwik distances and 5 NM / 1000 ft intrusion flags of the intruders."""
+        g = super().measure(envs)
+        dist, los = kwik_separation(self.sim, g.envs, self.ownship[: len(g.envs)], INTRUSION_DISTANCE, VERTICAL_MARGIN)
+        return dataclasses.replace(g, separation_nm=dist, los=los)
