@@ -1,16 +1,18 @@
-"""Optional compiled observation and reward geometry of the traffic tasks.
+"""The compiled observation and reward geometry of the traffic tasks (the only implementation).
 
-The numpy code in the task modules is the reference. At one episode a step of SectorCR, Merge or
+At one episode a step of SectorCR, Merge or
 StaticObstacle issues a hundred small numpy calls (kwik geometry, sorting the intruders, polygon
 tests), which cost far more than the physics; at large batches the same code makes a dozen passes
 over (episodes, aircraft) arrays. The functions here compute the same quantities in one loop per
 episode with numba.
 
-They are bit-identical to the numpy path: the same operations in the same order (numpy's
-``deg2rad``/``rad2deg`` factors, its float remainder, left-to-right products), no floating-point
-contraction, and the tests compare both paths to the last bit. A task uses them when its physics
-runs the fused kernel (numba installed, the ``fast`` extra); ``Simulator(kernel="numpy")`` keeps
-the whole task on numpy.
+They are bit-identical to the readable numpy forms kept as test oracles (``tests/oracle``): the
+same operations in the same order (numpy's ``deg2rad``/``rad2deg`` factors, its float remainder,
+left-to-right products), no floating-point contraction, and the tests compare both to the last
+bit. Without numba they run as plain Python (see :mod:`bluesky_gym.core.jit`).
+
+The observation functions work on rows (episode ``envs[r]``, ownship slot ``own[r]``): the
+single-agent tasks pass ownship slot 0 of every episode, the multi-agent tasks every active slot.
 """
 
 from __future__ import annotations
@@ -118,26 +120,27 @@ def _polygon_contains(y, x, py, px, nv):
 
 # --- shared by the tasks -----------------------------------------------------------------------
 @jit
-def kwik_separation(lat, lon, alt, active, intrusion_nm, vertical_m, dist_out, los_out):
-    """:meth:`bluesky_gym.tasks.base.Task.kwik_separation` into ``dist_out``/``los_out`` (n, m).
+def kwik_separation(envs, own, lat, lon, alt, active, intrusion_nm, vertical_m, dist_out, los_out):
+    """Kwik distance [NM] from ownship slot ``own[r]`` of episode ``envs[r]`` to every slot, and the intrusion flags.
 
+    Row ``r`` of ``dist_out``/``los_out`` (p, m): inf / False for the ownship and empty slots.
     ``vertical_m`` NaN means a purely horizontal intrusion test.
     """
-    for e in range(lat.shape[0]):
-        lat0, lon0, alt0 = lat[e, 0], lon[e, 0], alt[e, 0]
-        dist_out[e, 0] = np.inf
-        los_out[e, 0] = False
-        for j in range(1, lat.shape[1]):
-            if active[e, j]:
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        lat0, lon0, alt0 = lat[e, o], lon[e, o], alt[e, o]
+        for j in range(lat.shape[1]):
+            if active[e, j] and j != o:
                 d = _kwikdist(lat0, lon0, lat[e, j], lon[e, j])
-                dist_out[e, j] = d
+                dist_out[r, j] = d
                 los = d < intrusion_nm
                 if los and not math.isnan(vertical_m):
                     los = abs(alt0 - alt[e, j]) < vertical_m
-                los_out[e, j] = los
+                los_out[r, j] = los
             else:
-                dist_out[e, j] = np.inf
-                los_out[e, j] = False
+                dist_out[r, j] = np.inf
+                los_out[r, j] = False
 
 
 @jit
@@ -188,58 +191,107 @@ def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
                     out[k, e] += 1
 
 
-@jit
-def intruder_relative_state(lat, lon, hdg, gs, out):
-    """:func:`bluesky_gym.tasks.vertical_cr.intruder_relative_state` into ``out`` (5, n, m - 1).
-
-    Rows: dist_km, cos_bearing, sin_bearing, x_dif, y_dif.
-    """
-    for e in range(lat.shape[0]):
-        lat0, lon0, hdg0, gs0 = lat[e, 0], lon[e, 0], hdg[e, 0], gs[e, 0]
-        for j in range(1, lat.shape[1]):
-            qdr, dist = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
-            bearing = _wrap180(hdg0 - qdr) * _RAD
-            difference = (hdg0 - hdg[e, j]) * _RAD
-            out[0, e, j - 1] = dist * NM2KM
-            out[1, e, j - 1] = math.cos(bearing)
-            out[2, e, j - 1] = math.sin(bearing)
-            out[3, e, j - 1] = -math.cos(difference) * gs[e, j]
-            out[4, e, j - 1] = gs0 - math.sin(difference) * gs[e, j]
+@jit_inline
+def _other_slots(active, o, slots, act):
+    """The slots other than the ownship ``o`` in slot order into ``slots`` (m - 1), their activity into ``act``."""
+    i = 0
+    for j in range(active.shape[0]):
+        if j != o:
+            slots[i] = j
+            act[i] = active[j]
+            i += 1
 
 
 @jit_inline
-def _relative_velocity(hdg, tas, e, j):
-    """(vx_r, vy_r) of intruder slot ``j`` (:func:`bluesky_gym.tasks.sector_cr.relative_velocity`)."""
-    vx = math.cos(hdg[e, j] * _RAD) * tas[e, j] - math.cos(hdg[e, 0] * _RAD) * tas[e, 0]
-    vy = math.sin(hdg[e, j] * _RAD) * tas[e, j] - math.sin(hdg[e, 0] * _RAD) * tas[e, 0]
+def _count_active(act):
+    c = 0
+    for i in range(act.shape[0]):
+        if act[i]:
+            c += 1
+    return c
+
+
+@jit
+def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, count_out):
+    """Ownship-relative geometry of the other aircraft, per (episode, ownship) row, into ``out`` (5, p, k).
+
+    Rows: dist_km, cos_bearing, sin_bearing, x_dif, y_dif (the expressions of
+    :func:`bluesky_gym.tasks.vertical_cr.intruder_relative_state`). Row ``r`` is ownship slot
+    ``own[r]`` of episode ``envs[r]``. With ``nearest`` False the other slots follow in slot
+    order (the first k; the single-agent tasks' creation order); with ``nearest`` True they are
+    the k nearest active ones by kwik distance (ties: lower slot first; empty slots last).
+    ``count_out`` (p,) receives the number of other active aircraft.
+    """
+    m = lat.shape[1]
+    k = out.shape[2]
+    slots = np.empty(m - 1, np.int64)
+    act = np.empty(m - 1, np.bool_)
+    key = np.empty(m - 1)
+    order = np.empty(k, np.int64)
+    best = np.empty(k)
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        lat0, lon0, hdg0, gs0 = lat[e, o], lon[e, o], hdg[e, o], gs[e, o]
+        _other_slots(active[e], o, slots, act)
+        count_out[r] = _count_active(act)
+        if nearest:
+            for i in range(m - 1):
+                key[i] = _kwikdist(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+            _closest(key, act, order, best)
+        else:
+            for i in range(k):
+                order[i] = i
+        for i in range(k):
+            j = slots[order[i]]
+            qdr, dist = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
+            bearing = _wrap180(hdg0 - qdr) * _RAD
+            difference = (hdg0 - hdg[e, j]) * _RAD
+            out[0, r, i] = dist * NM2KM
+            out[1, r, i] = math.cos(bearing)
+            out[2, r, i] = math.sin(bearing)
+            out[3, r, i] = -math.cos(difference) * gs[e, j]
+            out[4, r, i] = gs0 - math.sin(difference) * gs[e, j]
+
+
+@jit_inline
+def _relative_velocity(hdg, tas, e, o, j):
+    """(vx_r, vy_r): the TAS vector of slot ``j`` minus the ownship's (slot ``o``), north / east [m/s]."""
+    vx = math.cos(hdg[e, j] * _RAD) * tas[e, j] - math.cos(hdg[e, o] * _RAD) * tas[e, o]
+    vy = math.sin(hdg[e, j] * _RAD) * tas[e, j] - math.sin(hdg[e, o] * _RAD) * tas[e, o]
     return vx, vy
 
 
 # --- SectorCR ----------------------------------------------------------------------------------
 @jit
-def sector_observe(envs, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out):
-    """:meth:`bluesky_gym.tasks.sector_cr.SectorCRTask.observe` of episodes ``envs``.
+def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out, count_out):
+    """SectorCR's observation geometry of (episode ``envs[r]``, ownship slot ``own[r]``) rows.
 
     Args:
-        envs: (p,) the episodes to observe; output row i belongs to episode ``envs[i]``.
+        envs: (p,) the episode of each row.
+        own: (p,) the ownship slot of each row.
         lat: (n, m) latitudes [deg].
         lon: (n, m) longitudes [deg].
         hdg: (n, m) headings [deg].
         tas: (n, m) true airspeeds [m/s].
         active: (n, m) occupied slots.
-        wpt_lat: (n,) latitude of the agent's waypoint [deg].
-        wpt_lon: (n,) its longitude [deg].
+        wpt_lat: (p,) latitude of each row's ownship waypoint [deg].
+        wpt_lon: (p,) its longitude [deg].
         center: (lat, lon, cos(radians(lat))) of the flat projection.
         scales: (airspeed mean, airspeed std, position, vx, vy, distance mean, distance std).
         drift_out: (p,) drift [deg].
         own_out: (p, 3) cos(drift), sin(drift), airspeed.
         intruder_out: (p, 7, k) x_r, y_r, vx_r, vy_r, cos(track), sin(track), distances of the
-            k closest intruders.
+            k closest other aircraft by flat distance (ties: lower slot first; when fewer are
+            active, empty slots follow in slot order).
+        count_out: (p,) number of other active aircraft.
     """
     spd_mean, spd_std, pos_scale, vx_scale, vy_scale, d_mean, d_std = scales
     clat, clon, ccos = center
     m = lat.shape[1]
     k = intruder_out.shape[2]
+    slots = np.empty(m - 1, np.int64)
+    act = np.empty(m - 1, np.bool_)
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
     best = np.empty(k)
@@ -247,75 +299,99 @@ def sector_observe(envs, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, s
     ry = np.empty(m - 1)
     for r in range(envs.shape[0]):
         e = envs[r]
-        qdr, _ = _kwikqdrdist(lat[e, 0], lon[e, 0], wpt_lat[e], wpt_lon[e])
-        drift = _wrap180(hdg[e, 0] - qdr)
+        o = own[r]
+        qdr, _ = _kwikqdrdist(lat[e, o], lon[e, o], wpt_lat[r], wpt_lon[r])
+        drift = _wrap180(hdg[e, o] - qdr)
         drift_out[r] = drift
         own_out[r, 0] = math.cos(drift * _RAD)
         own_out[r, 1] = math.sin(drift * _RAD)
-        own_out[r, 2] = (tas[e, 0] - spd_mean) / spd_std
+        own_out[r, 2] = (tas[e, o] - spd_mean) / spd_std
         # Flat positions [m] around the sector centre (geometry.latlon_to_nm * 1852).
-        x0 = (lat[e, 0] - clat) * 60.0 * NM2KM * _M_PER_KM
-        y0 = (lon[e, 0] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM
-        for j in range(1, m):
-            rx[j - 1] = (lat[e, j] - clat) * 60.0 * NM2KM * _M_PER_KM - x0
-            ry[j - 1] = (lon[e, j] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM - y0
-            key[j - 1] = math.sqrt(rx[j - 1] * rx[j - 1] + ry[j - 1] * ry[j - 1])
-        _closest(key, active[e, 1:], order, best)
+        x0 = (lat[e, o] - clat) * 60.0 * NM2KM * _M_PER_KM
+        y0 = (lon[e, o] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM
+        _other_slots(active[e], o, slots, act)
+        count_out[r] = _count_active(act)
+        for i in range(m - 1):
+            j = slots[i]
+            rx[i] = (lat[e, j] - clat) * 60.0 * NM2KM * _M_PER_KM - x0
+            ry[i] = (lon[e, j] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM - y0
+            key[i] = math.sqrt(rx[i] * rx[i] + ry[i] * ry[i])
+        _closest(key, act, order, best)
         for i in range(k):
-            j = order[i]
-            vx, vy = _relative_velocity(hdg, tas, e, j + 1)
+            q = order[i]
+            vx, vy = _relative_velocity(hdg, tas, e, o, slots[q])
             trk = math.atan2(vy, vx)
-            intruder_out[r, 0, i] = rx[j] / pos_scale
-            intruder_out[r, 1, i] = ry[j] / pos_scale
+            intruder_out[r, 0, i] = rx[q] / pos_scale
+            intruder_out[r, 1, i] = ry[q] / pos_scale
             intruder_out[r, 2, i] = vx / vx_scale
             intruder_out[r, 3, i] = vy / vy_scale
             intruder_out[r, 4, i] = math.cos(trk)
             intruder_out[r, 5, i] = math.sin(trk)
-            intruder_out[r, 6, i] = (key[j] - d_mean) / d_std
+            intruder_out[r, 6, i] = (key[q] - d_mean) / d_std
+
+
+@jit
+def slots_in_polygons(envs, own, lat, lon, poly_lat, poly_lon, n_vertices, out):
+    """Even-odd test of aircraft slot ``own[r]`` of episode ``envs[r]`` against that episode's polygon.
+
+    ``poly_*`` are (n, V), ``n_vertices`` (n,), ``out`` (p,).
+    """
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        out[r] = _polygon_contains(lat[e, own[r]], lon[e, own[r]], poly_lat[e], poly_lon[e], n_vertices[e])
 
 
 # --- Merge -------------------------------------------------------------------------------------
 @jit
-def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out):
-    """:meth:`bluesky_gym.tasks.merge.MergeTask.observe` of episodes ``envs``.
+def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out, count_out):
+    """Merge's observation geometry of (episode ``envs[r]``, ownship slot ``own[r]``) rows.
 
     Args:
-        envs: (p,) the episodes to observe; output row i belongs to episode ``envs[i]``.
+        envs: (p,) the episode of each row.
+        own: (p,) the ownship slot of each row.
         lat: (n, m) latitudes [deg].
         lon: (n, m) longitudes [deg].
         hdg: (n, m) headings [deg].
         tas: (n, m) true airspeeds [m/s].
         active: (n, m) occupied slots.
-        target_lat: (n,) latitude of the ownship's current target [deg].
-        target_lon: (n,) its longitude [deg].
+        target_lat: (p,) latitude of each row's current target [deg].
+        target_lon: (p,) its longitude [deg].
         scales: (position, speed, distance) divisors.
         own_out: (p, 4) drift [deg], target distance [NM], cos(drift), sin(drift).
         intruder_out: (p, 7, k) x_r, y_r, vx_r, vy_r, cos(track), sin(track), distances of the
-            k closest intruders.
+            k closest other aircraft by kwik distance (ties: lower slot first; when fewer are
+            active, empty slots follow in slot order).
+        count_out: (p,) number of other active aircraft.
     """
     pos_scale, spd_scale, d_scale = scales
     m = lat.shape[1]
     k = intruder_out.shape[2]
+    slots = np.empty(m - 1, np.int64)
+    act = np.empty(m - 1, np.bool_)
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
     best = np.empty(k)
     for r in range(envs.shape[0]):
         e = envs[r]
-        lat0, lon0 = lat[e, 0], lon[e, 0]
-        qdr, dist = _kwikqdrdist(lat0, lon0, target_lat[e], target_lon[e])
-        drift = _wrap180(hdg[e, 0] - qdr)
+        o = own[r]
+        lat0, lon0 = lat[e, o], lon[e, o]
+        qdr, dist = _kwikqdrdist(lat0, lon0, target_lat[r], target_lon[r])
+        drift = _wrap180(hdg[e, o] - qdr)
         own_out[r, 0] = drift
         own_out[r, 1] = dist
         own_out[r, 2] = math.cos(drift * _RAD)
         own_out[r, 3] = math.sin(drift * _RAD)
-        for j in range(1, m):
-            key[j - 1] = _kwikdist_matrix(lat0, lon0, lat[e, j], lon[e, j])
-        _closest(key, active[e, 1:], order, best)
+        _other_slots(active[e], o, slots, act)
+        count_out[r] = _count_active(act)
+        for i in range(m - 1):
+            key[i] = _kwikdist_matrix(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+        _closest(key, act, order, best)
         for i in range(k):
-            j = order[i] + 1
+            q = order[i]
+            j = slots[q]
             brg, d_int = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
             d_m = d_int * NM2KM * _M_PER_KM
-            vx, vy = _relative_velocity(hdg, tas, e, j)
+            vx, vy = _relative_velocity(hdg, tas, e, o, j)
             trk = math.atan2(vy, vx)
             intruder_out[r, 0, i] = d_m * math.cos(brg * _RAD) / pos_scale
             intruder_out[r, 1, i] = d_m * math.sin(brg * _RAD) / pos_scale
@@ -323,7 +399,7 @@ def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scal
             intruder_out[r, 3, i] = vy / spd_scale
             intruder_out[r, 4, i] = math.cos(trk)
             intruder_out[r, 5, i] = math.sin(trk)
-            intruder_out[r, 6, i] = key[j - 1] / d_scale
+            intruder_out[r, 6, i] = key[q] / d_scale
 
 
 # --- array forms of the scenario and kwik geometry (tasks/geometry.py wraps these) -------------

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.units import NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import ref_kwikdist
 
 ALT_MEAN = 1500.0  # m
@@ -29,18 +29,12 @@ CLIMB_TARGET = 1e6  # m: selected altitude for a climb (clipped by the ceiling)
 
 
 @dataclass(frozen=True)
-class DescentMeasurement:
+class DescentMeasurement(StepGeometry):
     """One step's quantities of the descent task, for the rows (episodes) ``envs``.
 
-    ``envs``, ``separation_nm``/``los`` (rows, max_aircraft), ``drift_deg`` and ``goal_reached``
-    are the part every task provides for the KPIs.
+    No traffic and no heading goal; ``goal_reached``: the runway has been reached.
     """
 
-    envs: NDArray[np.int64]  # (rows,) the episodes of the rows
-    separation_nm: Array  # (rows, max_aircraft) NM from the ownship (inf: no traffic)
-    los: BoolArray  # (rows, max_aircraft) losses of separation with the ownship
-    drift_deg: Array | None  # no heading goal
-    goal_reached: BoolArray  # (rows,) the runway has been reached
     alt: Array  # (rows,) m, ownship altitude
     vs: Array  # (rows,) m/s, ownship vertical speed
     runway_km: Array  # (rows,) km left to the runway
@@ -163,17 +157,9 @@ class DescentTask(Task):
         reward = np.where(flying, altitude, np.where(crashed, crash, runway))
         return reward, crashed | at_runway, {"altitude": altitude, "crash": crash, "runway": runway}
 
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """:meth:`reward` of the current state."""
-        return self.reward(self.measure())
-
     def episode_info(self) -> dict[str, Array]:
         """``total_reward`` and ``final_altitude``."""
         return {"total_reward": self.stats.total_reward.copy(), "final_altitude": self.final_altitude.copy()}
-
-    def goal_reached(self) -> BoolArray:
-        """The runway has been reached."""
-        return self.runway_distance() <= 0
 
     def extra_track_km(self) -> Array:
         """Distance flown beyond the runway leg [km]."""

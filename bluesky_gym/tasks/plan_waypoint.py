@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikqdrdist, wrap180
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
@@ -27,18 +27,12 @@ TOUR_CHUNK = 1 << 20  # leg lengths evaluated at once by the tour KPI (bounds it
 
 
 @dataclass(frozen=True)
-class PlanWaypointMeasurement:
+class PlanWaypointMeasurement(StepGeometry):
     """One step's quantities of the waypoint-planning task, for the rows (episodes) ``envs``.
 
-    ``envs``, ``separation_nm``/``los`` (no traffic), ``drift_deg`` and ``goal_reached`` are the
-    part every task provides for the KPIs.
+    No traffic and no single heading goal; ``goal_reached``: every waypoint reached, this step's included.
     """
 
-    envs: NDArray[np.int64]  # (rows,) the episodes of the rows
-    separation_nm: Array  # (rows, max_aircraft) NM (inf: no traffic)
-    los: BoolArray  # (rows, max_aircraft) all False
-    drift_deg: Array | None  # no single heading goal
-    goal_reached: BoolArray  # (rows,) every waypoint reached, this step's included
     dist_km: Array  # (rows, num_waypoints) kwik distance to each waypoint
     drift: Array  # (rows, num_waypoints) deg, wrap180(hdg - qdr)
     reached_before: BoolArray  # (rows, num_waypoints) reached in an earlier step
@@ -193,17 +187,9 @@ class PlanWaypointTask(Task):
         reach = g.newly_reached.sum(axis=1) * REACH_REWARD
         return reach, g.goal_reached, {"reach": reach}
 
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """:meth:`reward` of the current state."""
-        return self.reward(self.measure())
-
     def episode_info(self) -> dict[str, Array]:
         """``total_reward`` and ``waypoints_completed``."""
         return {"total_reward": self.stats.total_reward.copy(), "waypoints_completed": self.wpt_reached.sum(axis=1)}
-
-    def goal_reached(self) -> BoolArray:
-        """All waypoints reached."""
-        return self.wpt_reached.all(axis=1)
 
     def extra_track_km(self) -> Array:
         """Distance flown minus the shortest polyline from the start through all waypoint centres.

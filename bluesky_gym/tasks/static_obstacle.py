@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import (
     nm_to_latlon,
     point_at_distance,
@@ -40,18 +40,13 @@ VERTEX_CAPACITY = 16  # initial vertex slots per polygon (grown when a polygon n
 
 
 @dataclass(frozen=True)
-class StaticObstacleMeasurement:
+class StaticObstacleMeasurement(StepGeometry):
     """One step's quantities of the static-obstacle task, for the rows (episodes) ``envs``.
 
-    ``envs``, ``separation_nm``/``los`` (no traffic), ``drift_deg`` and ``goal_reached`` are the
-    part every task provides for the KPIs.
+    No traffic; ``drift_deg``: drift to the waypoint now; ``goal_reached``: the waypoint has been
+    reached, this step included.
     """
 
-    envs: NDArray[np.int64]  # (rows,) the episodes of the rows
-    separation_nm: Array  # (rows, max_aircraft) NM (inf: no traffic)
-    los: BoolArray  # (rows, max_aircraft) all False
-    drift_deg: Array  # (rows,) |drift| to the waypoint now
-    goal_reached: BoolArray  # (rows,) the waypoint has been reached, this step included
     wpt_km: Array  # (rows,) kwik distance to the waypoint now
     drift: Array  # (rows,) deg, wrap180(hdg - qdr) to the waypoint now
     centre_km: Array  # (rows, num_obstacles) kwik distance to each obstacle centre
@@ -250,14 +245,6 @@ class StaticObstacleTask(Task):
             self.drift_sum_rad += np.where(sampled, drift_rad, 0.0)
             self.drift_count += sampled
 
-    def transition(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """Sub-steps, then measure, observe and reward."""
-        self.advance()
-        g = self.measure()
-        obs = self.observe(g)
-        reward, terminated, components = self.reward(g)
-        return reward, terminated, components, obs
-
     # --- measure --------------------------------------------------------------------------------
     def waypoint_geometry(self, envs: NDArray[np.int64] | None = None) -> tuple[Array, Array]:
         """Live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
@@ -294,7 +281,7 @@ class StaticObstacleTask(Task):
             envs=envs,
             separation_nm=np.full(shape, np.inf),
             los=np.zeros(shape, bool),
-            drift_deg=np.abs(drift),
+            drift_deg=drift,
             goal_reached=self.wpt_reached[envs] | reached,
             wpt_km=dist_km,
             drift=drift,
@@ -340,10 +327,6 @@ class StaticObstacleTask(Task):
         reward = reach + drift + intrusion
         return reward, g.goal_reached | (g.obstacle_count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
 
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """:meth:`reward` of the current state."""
-        return self.reward(self.measure())
-
     def remember(self, g: StaticObstacleMeasurement) -> None:
         """Keep the waypoint distance and drift of the observation of ``g`` (rows ``g.envs``) for the next step's reward."""
         self.last_wpt_km[g.envs] = g.wpt_km
@@ -365,14 +348,6 @@ class StaticObstacleTask(Task):
             "crashed": self.crashed.astype(np.int64),
             "average_drift": self.average_drift(),
         }
-
-    def drift_deg(self) -> Array:
-        """|drift| to the waypoint at the last observation [deg]."""
-        return np.abs(self.last_drift)
-
-    def goal_reached(self) -> BoolArray:
-        """Whether the waypoint has been reached."""
-        return self.wpt_reached.copy()
 
     def extra_track_km(self) -> Array:
         """Distance flown minus the start-to-waypoint kwik-distance [km]."""

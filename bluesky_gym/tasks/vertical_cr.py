@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core.units import FT
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, TaskConfig, check_int, check_range, kwik_separation
 from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentMeasurement, DescentTask
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
@@ -26,18 +26,20 @@ KM = 1000.0  # m per km
 def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array) -> dict[str, Array]:
     """Ownship-relative geometry of the intruders (slots 1..) shared by the CR tasks.
 
-    All inputs are (n_envs, max_aircraft) simulator arrays with the ownship in slot 0. The
-    expressions and their operation order are the reference's (spec sections 2 and 3), computed by
-    :func:`bluesky_gym.tasks.compiled.intruder_relative_state`.
+    All inputs are (rows, max_aircraft) simulator arrays with the ownship in slot 0. The
+    expressions and their operation order are the reference's (spec sections 2 and 3), computed
+    by :func:`bluesky_gym.tasks.compiled.intruder_relative_state`.
 
     Returns:
         ``dist_km`` kwik distance [km]; ``cos_bearing``/``sin_bearing`` of
         wrap180(hdg_own - qdr_own->int); ``x_dif``/``y_dif`` [m/s], the intruder velocity seen in
-        the reference's ownship frame (not yet normalised). Each (n_envs, max_aircraft - 1).
+        the reference's ownship frame (not yet normalised). Each (rows, max_aircraft - 1).
 
     """
-    out = np.empty((5, sim_lat.shape[0], sim_lat.shape[1] - 1))
-    compiled.intruder_relative_state(sim_lat, sim_lon, hdg, gs, out)
+    n, m = sim_lat.shape
+    out = np.empty((5, n, m - 1))
+    count = np.empty(n, np.int64)
+    compiled.intruder_relative_state(np.arange(n), np.zeros(n, np.int64), sim_lat, sim_lon, hdg, gs, np.ones((n, m), bool), False, out, count)
     return dict(zip(("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif"), out))
 
 
@@ -45,7 +47,7 @@ def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Arra
 class VerticalCRMeasurement(DescentMeasurement):
     """One step's quantities of the vertical CR task: the descent ones and the intruders'.
 
-    ``separation_nm``/``los`` are the kwik distances and the 5 NM / 1000 ft intrusion cylinder.
+    ``separation_nm``/``los``: the kwik distances and the 5 NM / 1000 ft intrusion cylinder.
     """
 
     intruders: dict[str, Array]  # intruder_relative_state, (rows, num_intruders) each
@@ -210,12 +212,12 @@ class VerticalCRTask(DescentTask):
         d = super().measure(envs)
         envs = d.envs
         s = self.sim
-        separation_nm, los = self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)
+        separation_nm, los = kwik_separation(s, envs, self.ownship[envs], INTRUSION_DISTANCE, VERTICAL_MARGIN)
         lat, lon, alt, vs = s.lat[envs], s.lon[envs], s.alt[envs], s.vs[envs]
         return VerticalCRMeasurement(
             envs=envs,
-            separation_nm=separation_nm[envs],
-            los=los[envs],
+            separation_nm=separation_nm,
+            los=los,
             drift_deg=None,
             goal_reached=d.goal_reached,
             alt=d.alt,
@@ -258,8 +260,3 @@ class VerticalCRTask(DescentTask):
             "total_intrusions": self.total_intrusions.copy(),
             "final_altitude": self.final_altitude.copy(),
         }
-
-    # --- KPIs -----------------------------------------------------------------------------------
-    def ownship_separation(self) -> tuple[Array, BoolArray]:
-        """Kwik distance [NM] from the ownship to every other aircraft and the 5 NM / 1000 ft intrusion flags."""
-        return self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)
