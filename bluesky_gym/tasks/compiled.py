@@ -460,3 +460,12 @@ def points_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
         for p in range(lat.shape[1]):
             for k in range(poly_lat.shape[1]):
                 out[b, p, k] = _polygon_contains(lat[b, p], lon[b, p], poly_lat[b, k], poly_lon[b, k], n_vertices[b, k])
+
+
+@jit
+def add_samples(total, count, value, times):
+    """Add ``value[e]`` to ``total[e]`` ``times[e]`` times, one addition after the other, and ``times[e]`` to ``count[e]``."""
+    for e in range(total.shape[0]):
+        for _ in range(times[e]):
+            total[e] += value[e]
+        count[e] += times[e]

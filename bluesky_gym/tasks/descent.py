@@ -112,17 +112,18 @@ class DescentTask(Task):
         self.sim.set_autopilot(self.all_envs, 0, selalt=np.where(v >= 0, CLIMB_TARGET, 0.0), selvs=v)
 
     # --- measure --------------------------------------------------------------------------------
-    def runway_distance(self, envs: NDArray[np.int64] | None = None) -> Array:
+    def runway_distance(self, envs: NDArray[np.int64] | slice | None = None) -> Array:
         """Km left to the runway along the 200 km leg, of episodes ``envs`` (all when None)."""
-        envs = self.all_envs if envs is None else envs
-        d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[envs, 0], self.sim.lon[envs, 0])
+        rows = slice(None) if envs is None else envs
+        d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[rows, 0], self.sim.lon[rows, 0])
         return self.config.runway_distance_km - d * NM2KM
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> DescentMeasurement:
         """Altitude, vertical speed and runway distance of episodes ``envs`` (all when None)."""
-        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        rows = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)  # a slice: views, no copies
+        envs = self.all_envs if envs is None else rows
         s = self.sim
-        runway_km = self.runway_distance(envs)
+        runway_km = self.runway_distance(rows)
         shape = (envs.size, s.max_aircraft)
         return DescentMeasurement(
             envs=envs,
@@ -130,8 +131,8 @@ class DescentTask(Task):
             los=np.zeros(shape, bool),
             drift_deg=None,
             goal_reached=runway_km <= 0,
-            alt=s.alt[envs, 0],
-            vs=s.vs[envs, 0],
+            alt=s.alt[rows, 0],
+            vs=s.vs[rows, 0],
             runway_km=runway_km,
         )
 

@@ -138,18 +138,19 @@ class PlanWaypointTask(Task):
         self.sim.cmd_heading(self.all_envs, 0, self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
 
     # --- measure --------------------------------------------------------------------------------
-    def waypoint_geometry(self, envs: NDArray[np.int64] | None = None) -> tuple[Array, Array]:
+    def waypoint_geometry(self, envs: NDArray[np.int64] | slice | None = None) -> tuple[Array, Array]:
         """(rows, num_waypoints) kwik distance [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
-        envs = self.all_envs if envs is None else envs
+        rows = slice(None) if envs is None else envs
         s = self.sim
-        qdr, dist = ref_kwikqdrdist(s.lat[envs, :1], s.lon[envs, :1], self.wpt_lat[envs], self.wpt_lon[envs])
-        return dist * NM2KM, wrap180(s.hdg[envs, :1] - qdr)
+        qdr, dist = ref_kwikqdrdist(s.lat[rows, :1], s.lon[rows, :1], self.wpt_lat[rows], self.wpt_lon[rows])
+        return dist * NM2KM, wrap180(s.hdg[rows, :1] - qdr)
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> PlanWaypointMeasurement:
         """Distance and drift to every waypoint, and which ones the aircraft is within the capture radius of, for episodes ``envs``."""
-        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
-        dist_km, drift = self.waypoint_geometry(envs)
-        reached_before = self.wpt_reached[envs]
+        rows = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)  # a slice: views, no copies
+        envs = self.all_envs if envs is None else rows
+        dist_km, drift = self.waypoint_geometry(rows)
+        reached_before = self.wpt_reached[rows].copy()  # the reward updates the flags
         new = (dist_km < self.config.distance_margin_km) & ~reached_before
         shape = (envs.size, self.sim.max_aircraft)
         return PlanWaypointMeasurement(

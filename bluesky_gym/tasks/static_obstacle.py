@@ -43,12 +43,11 @@ VERTEX_CAPACITY = 16  # initial vertex slots per polygon (grown when a polygon n
 class StaticObstacleMeasurement(StepGeometry):
     """One step's quantities of the static-obstacle task, for the rows (episodes) ``envs``.
 
-    No traffic; ``drift_deg``: drift to the waypoint now; ``goal_reached``: the waypoint has been
-    reached, this step included.
+    No traffic; ``drift_deg``: drift wrap180(hdg - qdr) to the waypoint now [deg];
+    ``goal_reached``: the waypoint has been reached, this step included.
     """
 
     wpt_km: Array  # (rows,) kwik distance to the waypoint now
-    drift: Array  # (rows,) deg, wrap180(hdg - qdr) to the waypoint now
     centre_km: Array  # (rows, num_obstacles) kwik distance to each obstacle centre
     centre_bearing: Array  # (rows, num_obstacles) deg, wrap180(hdg - qdr) to each centre
     obstacle_count: NDArray[np.int64]  # (rows,) obstacles containing the aircraft now
@@ -239,57 +238,51 @@ class StaticObstacleTask(Task):
         end = SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, self.wpt_reached | reached)
         self.sim.run(self.action_frequency, stop=end)
         evaluated = np.where(end.ended_at > 0, end.ended_at, self.action_frequency)  # sub-steps per episode
-        drift_rad = np.abs(np.deg2rad(self.last_drift))
-        for k in range(int(evaluated.max())):
-            sampled = evaluated > k
-            self.drift_sum_rad += np.where(sampled, drift_rad, 0.0)
-            self.drift_count += sampled
+        compiled.add_samples(self.drift_sum_rad, self.drift_count, np.abs(np.deg2rad(self.last_drift)), evaluated)
 
     # --- measure --------------------------------------------------------------------------------
-    def waypoint_geometry(self, envs: NDArray[np.int64] | None = None) -> tuple[Array, Array]:
+    def waypoint_geometry(self, envs: NDArray[np.int64] | slice | None = None) -> tuple[Array, Array]:
         """Live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
-        envs = self.all_envs if envs is None else envs
+        rows = slice(None) if envs is None else envs
         s = self.sim
-        qdr, dist = ref_kwikqdrdist(s.lat[envs, 0], s.lon[envs, 0], self.wpt_lat[envs], self.wpt_lon[envs])
-        return dist * NM2KM, wrap180(s.hdg[envs, 0] - qdr)
+        qdr, dist = ref_kwikqdrdist(s.lat[rows, 0], s.lon[rows, 0], self.wpt_lat[rows], self.wpt_lon[rows])
+        return dist * NM2KM, wrap180(s.hdg[rows, 0] - qdr)
 
-    def inside_obstacles(self, envs: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:
+    def inside_obstacles(self, envs: NDArray[np.int64] | slice | None = None) -> NDArray[np.bool_]:
         """(rows, num_obstacles) whether each obstacle polygon of episodes ``envs`` (all when None) contains the aircraft now."""
+        rows = slice(None) if envs is None else envs
         s = self.sim
-        if envs is None:
-            lat, lon, poly_lat, poly_lon, nv = s.lat, s.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv
-        else:
-            lat, lon, poly_lat, poly_lon, nv = s.lat[envs], s.lon[envs], self.obstacle_lat[envs], self.obstacle_lon[envs], self.obstacle_nv[envs]
+        nv = self.obstacle_nv[rows]
         out = np.empty(nv.shape, bool)
-        compiled.ownship_in_polygons(lat, lon, poly_lat, poly_lon, nv, out)
+        compiled.ownship_in_polygons(s.lat[rows], s.lon[rows], self.obstacle_lat[rows], self.obstacle_lon[rows], nv, out)
         return out
 
-    def reached_by_last_observation(self, envs: NDArray[np.int64] | None = None) -> BoolArray:
+    def reached_by_last_observation(self, envs: NDArray[np.int64] | slice | None = None) -> BoolArray:
         """Waypoints not reached before but within the capture radius in the last observation, of episodes ``envs``."""
-        envs = self.all_envs if envs is None else envs
-        return (self.last_wpt_km[envs] < self.config.distance_margin_km) & ~self.wpt_reached[envs]
+        rows = slice(None) if envs is None else envs
+        return (self.last_wpt_km[rows] < self.config.distance_margin_km) & ~self.wpt_reached[rows]
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> StaticObstacleMeasurement:
         """Waypoint and obstacle-centre geometry now, the obstacles around the aircraft, the stale waypoint terms, of episodes ``envs``."""
-        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        rows = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)  # a slice: views, no copies
+        envs = self.all_envs if envs is None else rows
         s = self.sim
-        dist_km, drift = self.waypoint_geometry(envs)
-        qdr_c, dist_c = ref_kwikqdrdist(s.lat[envs, :1], s.lon[envs, :1], self.obstacle_centre_lat[envs], self.obstacle_centre_lon[envs])
-        reached = self.reached_by_last_observation(envs)
+        dist_km, drift = self.waypoint_geometry(rows)
+        qdr_c, dist_c = ref_kwikqdrdist(s.lat[rows, :1], s.lon[rows, :1], self.obstacle_centre_lat[rows], self.obstacle_centre_lon[rows])
+        reached = self.reached_by_last_observation(rows)
         shape = (envs.size, s.max_aircraft)
         return StaticObstacleMeasurement(
             envs=envs,
             separation_nm=np.full(shape, np.inf),
             los=np.zeros(shape, bool),
             drift_deg=drift,
-            goal_reached=self.wpt_reached[envs] | reached,
+            goal_reached=self.wpt_reached[rows] | reached,
             wpt_km=dist_km,
-            drift=drift,
             centre_km=dist_c * NM2KM,
-            centre_bearing=wrap180(s.hdg[envs, :1] - qdr_c),
-            obstacle_count=self.inside_obstacles(envs).sum(axis=1),
+            centre_bearing=wrap180(s.hdg[rows, :1] - qdr_c),
+            obstacle_count=self.inside_obstacles(rows).sum(axis=1),
             newly_reached=reached,
-            stale_drift_rad=np.abs(np.deg2rad(self.last_drift[envs])),
+            stale_drift_rad=np.abs(np.deg2rad(self.last_drift[rows])),
         )
 
     # --- observation ----------------------------------------------------------------------------
@@ -297,7 +290,7 @@ class StaticObstacleTask(Task):
         """Waypoint distance and drift, then the obstacle radii and the distances and bearings of their centres, of the rows ``g.envs``."""
         g = self.measure() if g is None else g
         scale = self.config.waypoint_distance_max
-        rad = np.deg2rad(g.drift)
+        rad = np.deg2rad(g.drift_deg)
         bearing = np.deg2rad(g.centre_bearing)
         return {
             "destination_waypoint_distance": (g.wpt_km / scale)[:, None],
@@ -330,7 +323,7 @@ class StaticObstacleTask(Task):
     def remember(self, g: StaticObstacleMeasurement) -> None:
         """Keep the waypoint distance and drift of the observation of ``g`` (rows ``g.envs``) for the next step's reward."""
         self.last_wpt_km[g.envs] = g.wpt_km
-        self.last_drift[g.envs] = g.drift
+        self.last_drift[g.envs] = g.drift_deg
 
     # --- info and KPIs --------------------------------------------------------------------------
     def average_drift(self) -> Array:

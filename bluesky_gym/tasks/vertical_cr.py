@@ -21,6 +21,7 @@ INTRUDER_DISTANCE_SCALE = DEFAULT_RWY_DIS  # km: intruder_distance is divided by
 SPEED_SCALE = AC_SPD  # m/s: x/y_difference_speed are divided by 150
 TLOSV = 1e11  # s: vertical time to loss of separation given to creconfs (intruder vs ~ 0)
 KM = 1000.0  # m per km
+INTRUDER_STATE = ("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif")  # rows of compiled.intruder_relative_state
 
 
 def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array) -> dict[str, Array]:
@@ -40,7 +41,7 @@ def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Arra
     out = np.empty((5, n, m - 1))
     count = np.empty(n, np.int64)
     compiled.intruder_relative_state(np.arange(n), np.zeros(n, np.int64), sim_lat, sim_lon, hdg, gs, np.ones((n, m), bool), False, out, count)
-    return dict(zip(("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif"), out))
+    return dict(zip(INTRUDER_STATE, out))
 
 
 @dataclass(frozen=True)
@@ -210,10 +211,13 @@ class VerticalCRTask(DescentTask):
     def measure(self, envs: NDArray[np.int64] | None = None) -> VerticalCRMeasurement:
         """The descent quantities, the intruders' relative state and the intrusion cylinder test, of episodes ``envs``."""
         d = super().measure(envs)
-        envs = d.envs
+        rows, envs = (slice(None) if envs is None else d.envs), d.envs
         s = self.sim
-        separation_nm, los = kwik_separation(s, envs, self.ownship[envs], INTRUSION_DISTANCE, VERTICAL_MARGIN)
-        lat, lon, alt, vs = s.lat[envs], s.lon[envs], s.alt[envs], s.vs[envs]
+        own = self.ownship[rows]
+        separation_nm, los = kwik_separation(s, envs, own, INTRUSION_DISTANCE, VERTICAL_MARGIN)
+        alt, vs = s.alt[rows], s.vs[rows]
+        intruders = np.empty((5, envs.size, s.max_aircraft - 1))
+        compiled.intruder_relative_state(envs, own, s.lat, s.lon, s.hdg, s.gs, s.active, False, intruders, np.empty(envs.size, np.int64))
         return VerticalCRMeasurement(
             envs=envs,
             separation_nm=separation_nm,
@@ -223,7 +227,7 @@ class VerticalCRTask(DescentTask):
             alt=d.alt,
             vs=d.vs,
             runway_km=d.runway_km,
-            intruders=intruder_relative_state(lat, lon, s.hdg[envs], s.gs[envs]),
+            intruders=dict(zip(INTRUDER_STATE, intruders)),
             alt_difference=alt[:, 1:] - alt[:, :1],
             vs_difference=vs[:, 1:] - vs[:, :1],
         )
