@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from bluesky_gym.core import Simulator
+from bluesky_gym.core import Physics, Simulator
 
 if TYPE_CHECKING:
     from bluesky_gym.tasks.base import Task
@@ -12,11 +12,11 @@ if TYPE_CHECKING:
 BACKENDS = ("native", "bluesky")
 
 
-def make_physics(backend: str, task_class: type[Task], n_envs: int, max_aircraft: int, max_waypoints: int) -> Simulator:
+def make_physics(backend: str, task_class: type[Task], n_envs: int, max_aircraft: int, max_waypoints: int) -> Physics:
     """Create the physics provider of a task.
 
     Args:
-        backend: ``"native"`` (batched numpy core) or ``"bluesky"`` (BlueSky 1.1.1 in-process).
+        backend: ``"native"`` (the batched compiled core) or ``"bluesky"`` (BlueSky 1.1.1 in-process).
         task_class: The task the physics is for (gives the time step).
         n_envs: Number of airspaces.
         max_aircraft: Aircraft slots per airspace.

@@ -1,4 +1,4 @@
-"""The real BlueSky 1.1.1 simulator behind the :class:`~bluesky_gym.core.Simulator` interface.
+"""The real BlueSky 1.1.1 simulator behind the :class:`~bluesky_gym.core.physics.Physics` interface.
 
 :class:`BlueSkyPhysics` runs BlueSky in this process, headless (``bs.init(mode='sim',
 detached=True)``, once per process), and exposes it with the same attributes and methods as the
@@ -9,9 +9,11 @@ native batched core, for one airspace (``n_envs == 1``):
   commands ``HDG``, ``SPD``, ``ADDWPT`` and ``DEST`` (parsed and executed by BlueSky's stack at the
   moment of the call, so they act before the next step exactly as stacked text does), and the
   traffic methods ``traf.cre``, ``traf.creconfs``, ``ap.selaltcmd`` and ``ap.selvspdcmd``;
-* values that a task writes directly into the state arrays (``selalt``, ``selvs``, ``hdg``,
-  ``ap_trk``, ...) are written into ``bs.traf`` before the next command or step, and after every
-  step, creation or command the arrays are refreshed from ``bs.traf``;
+* the direct writes of the reference gym code (``selalt``, ``selvs``, ``swvnav``, ``ap_trk``,
+  ``alt``, ``hdg``) go through :meth:`BlueSkyPhysics.set_autopilot` and
+  :meth:`BlueSkyPhysics.set_state`, which write into ``bs.traf`` at once;
+* the state arrays are read-only copies of ``bs.traf``, refreshed after every step, creation or
+  command;
 * ``wind.add_points`` adds BlueSky wind points (``traf.wind.addpointvne``).
 
 BlueSky keeps its simulator in module-level singletons, so a process holds one open
@@ -31,7 +33,7 @@ import io
 import tempfile
 import warnings
 import weakref
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -39,7 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.core.simulator import FIELD_INDEX, Simulator
+from bluesky_gym.core.state import STATE_FIELDS, aircraft_index
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
@@ -48,7 +50,7 @@ ACTYPE = "A320"
 INSTALL_HINT = 'pip install "bluesky-gym[bluesky]"'
 
 # State array -> (object under bs.traf, or "" for bs.traf itself; attribute). These are read
-# after every step and written back when a task has changed them.
+# after every step, creation and command.
 TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("lat", "", "lat"),
     ("lon", "", "lon"),
@@ -88,8 +90,8 @@ TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("next_qdr", "actwp", "next_qdr"),
     ("swlastwp", "actwp", "swlastwp"),
 )
-# Read from the aircraft's Route object; change them only through the route commands.
-ROUTE_FIELDS: tuple[str, ...] = ("iactwp", "nwp", "route_has_dest", "route_lat", "route_lon")
+
+_TRAFFIC_SOURCE = {name: (owner, attr) for name, owner, attr in TRAFFIC_FIELDS}
 
 _owner: weakref.ReferenceType[BlueSkyPhysics] | None = None
 
@@ -216,12 +218,25 @@ class BlueSkyWind(WindField):
         return self._getdata(lat, lon)
 
 
-class BlueSkyPhysics(Simulator):
-    """One airspace simulated by the real BlueSky 1.1.1, with the native core's interface.
+class _ReadOnly:
+    """A state array of :class:`BlueSkyPhysics`: a read-only view of the copy read from ``bs.traf``."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __get__(self, obj: BlueSkyPhysics | None, owner: type) -> Any:
+        if obj is None:
+            return self
+        return obj._views[self.name]
+
+
+class BlueSkyPhysics:
+    """One airspace simulated by the real BlueSky 1.1.1, implementing :class:`~bluesky_gym.core.physics.Physics`.
 
     The state arrays, their shapes (``(1, max_aircraft)``) and meaning are those of
-    :class:`~bluesky_gym.core.Simulator`; only active slots hold BlueSky aircraft. Every aircraft
-    is an A320 (OpenAP performance), as in the native core.
+    :class:`~bluesky_gym.core.Simulator`; only active slots hold BlueSky aircraft. They are
+    read-only: state changes go through the commands. Every aircraft is an A320 (OpenAP
+    performance), as in the native core.
 
     Args:
         max_aircraft: Aircraft slots.
@@ -232,6 +247,52 @@ class BlueSkyPhysics(Simulator):
         ImportError: BlueSky is not installed (``pip install "bluesky-gym[bluesky]"``).
         RuntimeError: Another :class:`BlueSkyPhysics` is open in this process.
     """
+
+    closed: bool
+    # The read-only state arrays (see bluesky_gym.core.physics.Physics), (1, max_aircraft).
+    active: NDArray[np.bool_]
+    lat: Array
+    lon: Array
+    alt: Array
+    hdg: Array
+    trk: Array
+    tas: Array
+    cas: Array
+    mach: Array
+    gs: Array
+    gsnorth: Array
+    gseast: Array
+    vs: Array
+    ax: Array
+    windnorth: Array
+    windeast: Array
+    distflown: Array
+    selspd: Array
+    selalt: Array
+    selvs: Array
+    swlnav: NDArray[np.bool_]
+    swvnav: NDArray[np.bool_]
+    swvnavspd: NDArray[np.bool_]
+    ap_trk: Array
+    ap_tas: Array
+    ap_vs: Array
+    ap_alt: Array
+    turnphi: Array
+    phase: NDArray[np.int64]
+    vmin: Array
+    vmax: Array
+    axmax: Array
+    iactwp: NDArray[np.int64]
+    nwp: NDArray[np.int64]
+    actwp_lat: Array
+    actwp_lon: Array
+    curlegdir: Array
+    turndist: Array
+    next_qdr: Array
+    swlastwp: NDArray[np.bool_]
+    route_has_dest: NDArray[np.bool_]
+    route_lat: Array
+    route_lon: Array
 
     def __init__(self, max_aircraft: int, dt: float = 1.0, max_waypoints: int = 4) -> None:
         global _owner
@@ -245,7 +306,27 @@ class BlueSkyPhysics(Simulator):
                 'gymnasium.make_vec(env_id, num_envs=4, vectorization_mode="async", backend="bluesky") '
                 "(gymnasium.vector.AsyncVectorEnv), or use the native backend, which batches many environments in one process"
             )
-        super().__init__(1, max_aircraft, dt=dt, max_waypoints=max_waypoints, kernel="numpy")
+        if max_aircraft < 1:
+            raise ValueError(f"max_aircraft must be >= 1, got {max_aircraft}")
+        if not dt > 0:
+            raise ValueError(f"dt must be > 0 s, got {dt}")
+        self.n_envs = 1
+        self.max_aircraft = int(max_aircraft)
+        self.max_waypoints = int(max_waypoints)
+        self.dt = float(dt)
+        self.simt = 0.0
+        shape = (1, self.max_aircraft)
+        #: Values of empty slots.
+        self._defaults: dict[str, tuple[type, float]] = {name: (dtype, value) for name, dtype, value in STATE_FIELDS}
+        # The state read from bs.traf (writable here) and the read-only views handed out.
+        self._data: dict[str, np.ndarray] = {name: np.full(shape, value, dtype=dtype) for name, dtype, value in STATE_FIELDS}
+        self._data["route_lat"] = np.zeros((*shape, self.max_waypoints))
+        self._data["route_lon"] = np.zeros((*shape, self.max_waypoints))
+        self._views: dict[str, np.ndarray] = {}
+        for name, arr in self._data.items():
+            view = arr.view()
+            view.flags.writeable = False
+            self._views[name] = view
         self._bs = bluesky
         self.closed = False
         _owner = weakref.ref(self)
@@ -270,15 +351,6 @@ class BlueSkyPhysics(Simulator):
         self._acid = [f"AC{k}" for k in range(self.max_aircraft)]
         self._slots = np.zeros(0, dtype=np.int64)  # active slots, in BlueSky's traffic order
         self._tidx = np.zeros(0, dtype=np.int64)  # their BlueSky traffic indices
-        # Float state: rows of the core's float block (one row per field, see Simulator).
-        self._float_fields = [f for f in TRAFFIC_FIELDS if f[0] in FIELD_INDEX]
-        self._other_fields = [f for f in TRAFFIC_FIELDS if f[0] not in FIELD_INDEX]
-        self._rows = np.array([FIELD_INDEX[name] for name, _, _ in self._float_fields], dtype=np.int64)
-        self._block = self._float_block[:, 0, :]  # (fields, max_aircraft) view
-        # Non-float fields written back when changed, then fields that must not be written.
-        self._watched = [f[0] for f in self._other_fields] + [*ROUTE_FIELDS, "active"]
-        self._float_shadow = self._block[self._rows]
-        self._shadow: dict[str, np.ndarray] = {}
         self.reset_envs()
 
     # ------------------------------------------------------------------------------------------
@@ -300,9 +372,12 @@ class BlueSkyPhysics(Simulator):
         if envs is not None:
             self._index(envs, 0)
         self._bs.traf.reset()
-        super().reset_envs(None)
+        for name, (_dtype, value) in self._defaults.items():
+            self._data[name][...] = value
+        self._data["route_lat"][...] = 0.0
+        self._data["route_lon"][...] = 0.0
+        self.wind.clear()
         self._remap()
-        self._snapshot()
         self.command(f"DT {_number(self.dt)}")
         self.command("FF")  # start the simulation (state OP), as the reference envs' "DT dt;FF"
         self.simt = float(self._bs.sim.simt)  # BlueSky's clock runs on across resets (traf.reset keeps it)
@@ -340,7 +415,7 @@ class BlueSkyPhysics(Simulator):
         if ok is not True:
             raise RuntimeError(f"BlueSky traf.cre failed: {ok}")
         self._defaults_for(slot)
-        self.active[0, slot] = True
+        self._data["active"][0, slot] = True
         self._remap()
         self._sync_out()
 
@@ -352,7 +427,7 @@ class BlueSkyPhysics(Simulator):
             return
         idx = np.array(self._bs.traf.id2idx([self._acid[s] for s in slot]), dtype=np.int64)
         self._bs.traf.delete(idx)
-        self.active[0, slot] = False
+        self._data["active"][0, slot] = False
         self._remap()
         self._sync_out()
 
@@ -363,8 +438,7 @@ class BlueSkyPhysics(Simulator):
         """Execute one BlueSky stack command now, with BlueSky's parser and command objects.
 
         This is what ``bs.sim.step()`` does first with stacked text, so a command acts before the
-        next step exactly as if it had been stacked. Direct array writes made before the call are
-        sent to BlueSky first, and the arrays are refreshed afterwards.
+        next step exactly as if it had been stacked. The arrays are refreshed afterwards.
 
         Args:
             line: The command text, e.g. ``"HDG AC0 90"``.
@@ -373,7 +447,6 @@ class BlueSkyPhysics(Simulator):
             RuntimeError: BlueSky rejected the command.
         """
         self._check_open()
-        self._sync_in()
         cmd, args = self._nextarg(line)
         cmdobj = self._commands.get(cmd.upper())
         if cmdobj is None:
@@ -410,7 +483,6 @@ class BlueSkyPhysics(Simulator):
             if text is not None:
                 self.command(f"SPD {self._acid_of(s)} {text}")
             else:
-                self._sync_in()
                 self._bs.traf.ap.selspdcmd(self._tidx_of(s), float(v))
                 self._sync_out()
 
@@ -419,7 +491,6 @@ class BlueSkyPhysics(Simulator):
         env, slot = self._begin(env, slot)
         alt = np.broadcast_to(np.asarray(alt, dtype=np.float64), slot.shape)
         vs_arr = None if vs is None else np.broadcast_to(np.asarray(vs, dtype=np.float64), slot.shape)
-        self._sync_in()
         for k, s in enumerate(slot):
             v = None if vs_arr is None else float(vs_arr[k])
             self._bs.traf.ap.selaltcmd(self._tidx_of(s), float(alt[k]), v)
@@ -429,10 +500,49 @@ class BlueSkyPhysics(Simulator):
         """``ap.selvspdcmd(idx, vs [m/s])``, the VS command in SI; VNAV off."""
         env, slot = self._begin(env, slot)
         vs = np.broadcast_to(np.asarray(vs, dtype=np.float64), slot.shape)
-        self._sync_in()
         for s, v in zip(slot, vs):
             self._bs.traf.ap.selvspdcmd(self._tidx_of(s), float(v))
         self._sync_out()
+
+    def set_autopilot(
+        self,
+        env: ArrayLike,
+        slot: ArrayLike,
+        *,
+        selalt: ArrayLike | None = None,
+        selvs: ArrayLike | None = None,
+        swvnav: ArrayLike | None = None,
+        ap_trk: ArrayLike | None = None,
+    ) -> None:
+        """Write ``traf.selalt``, ``traf.selvs``, ``traf.swvnav`` and ``traf.ap.trk`` directly, as the reference gym code does.
+
+        Each argument left None stays unchanged; values broadcast over ``(env, slot)``.
+        """
+        env, slot = self._begin(env, slot)
+        self._write(slot, selalt=selalt, selvs=selvs, swvnav=swvnav, ap_trk=ap_trk)
+
+    def set_state(self, env: ArrayLike, slot: ArrayLike, *, alt: ArrayLike | None = None, hdg: ArrayLike | None = None) -> None:
+        """Write ``traf.alt`` [m] and ``traf.hdg`` [deg] directly (None = unchanged)."""
+        env, slot = self._begin(env, slot)
+        self._write(slot, alt=alt, hdg=hdg)
+
+    def _write(self, slot: NDArray[np.int64], **values: ArrayLike | None) -> None:
+        """Assign values into BlueSky's arrays (``TRAFFIC_FIELDS`` names) for the aircraft in ``slot``.
+
+        Only the written arrays are read back. (BlueSky may alias arrays: after a step without
+        wind ``traf.trk`` is ``traf.hdg``, so a heading write also moves the track until the next
+        step recomputes it; the state arrays show that from the next command or step on.)
+        """
+        idx = np.array([self._tidx_of(s) for s in slot], dtype=np.int64)
+        traf = self._bs.traf
+        parents = {"": traf, "ap": traf.ap}
+        for name, value in values.items():
+            if value is None:
+                continue
+            owner, attr = _TRAFFIC_SOURCE[name]
+            arr = getattr(parents[owner], attr)
+            arr[idx] = np.broadcast_to(np.asarray(value, dtype=arr.dtype), idx.shape)
+            self._data[name][0, slot] = arr[idx]
 
     def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """Stack ``ADDWPT acid lat lon``: a fly-by waypoint (before the destination); LNAV on."""
@@ -501,7 +611,7 @@ class BlueSkyPhysics(Simulator):
                 warnings.filterwarnings("ignore", "Conversion of an array with ndim > 0", DeprecationWarning)
                 self._bs.traf.creconfs(self._acid[s], ACTYPE, self._tidx_of(t), a, c, th, h, tv, v)
             self._defaults_for(np.array([s]))
-            self.active[0, s] = True
+            self._data["active"][0, s] = True
             self._remap()
         self._sync_out()
 
@@ -509,45 +619,42 @@ class BlueSkyPhysics(Simulator):
     # Stepping
     # ------------------------------------------------------------------------------------------
     def step(self) -> None:
-        """Send direct array writes to BlueSky, run one ``bs.sim.step()`` and read the state back."""
+        """Run one ``bs.sim.step()`` and read the state back."""
         self._check_open()
-        self._sync_in()
         self._bs.sim.step()
         self.simt = float(self._bs.sim.simt)
         self._sync_out(routes=False)
 
-    def run(self, n_steps: int, trace: bool = False) -> Array | None:
+    def run(self, n_steps: int, trace: bool = False, stop: Callable[[np.ndarray], ArrayLike] | None = None) -> np.ndarray | None:
         """Advance by ``n_steps`` BlueSky steps (same result as calling :meth:`step` n times).
 
-        Direct writes are sent before the first step and the state is read back after the last
-        (after every step with ``trace``, which returns the positions as :meth:`Simulator.run` does).
+        The state is read back after the last step (after every step with ``trace`` or ``stop``).
+        With ``stop``, it is called after every step with the track so far and the run ends at
+        the first step it reports as the end (BlueSky cannot be rewound); the positions of the
+        steps not taken are NaN. See :meth:`bluesky_gym.core.physics.Physics.run`.
         """
         if n_steps < 0:
             raise ValueError(f"n_steps must be >= 0, got {n_steps}")
-        if trace:
-            track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft))
-            for k in range(int(n_steps)):
-                self.step()
-                track[k, 0], track[k, 1] = self.lat, self.lon
-            return track
         self._check_open()
-        self._sync_in()
-        for _ in range(int(n_steps)):
-            self._bs.sim.step()
-        self.simt = float(self._bs.sim.simt)
-        self._sync_out(routes=False)
-        return None
-
-    def snapshot(self, envs: ArrayLike | None = None) -> dict[str, Any]:
-        """Not available: BlueSky's internal state cannot be put back (see :meth:`restore`)."""
-        raise NotImplementedError(
-            "the 'bluesky' backend has no snapshot/restore: BlueSky's traffic, autopilot, route and performance objects "
-            "cannot be rebuilt from the state arrays; use the native backend"
-        )
-
-    def restore(self, snap: dict[str, Any], envs: ArrayLike | None = None) -> None:
-        """Not available (see :meth:`snapshot`)."""
-        self.snapshot(envs)
+        if not (trace or stop is not None):
+            for _ in range(int(n_steps)):
+                self._bs.sim.step()
+            self.simt = float(self._bs.sim.simt)
+            self._sync_out(routes=False)
+            return None
+        track = np.full((int(n_steps), 2, self.n_envs, self.max_aircraft), np.nan)
+        for k in range(int(n_steps)):
+            self.step()
+            track[k, 0], track[k, 1] = self.lat, self.lon
+            if stop is not None:
+                ended = np.asarray(stop(track[: k + 1]), dtype=np.int64).reshape(-1)
+                if ended.shape != (1,) or not 0 <= ended[0] <= k + 1:
+                    raise ValueError(f"stop must return (n_envs,) = (1,) step counts in [0, {k + 1}]")
+                if ended[0] and ended[0] != k + 1:
+                    raise ValueError(f"stop reported an end after {ended[0]} steps only after step {k + 1}; BlueSky cannot be rewound")
+                if ended[0]:
+                    break
+        return track
 
     def close(self) -> None:
         """Delete this backend's traffic and wind and give the process's simulator free for another one.
@@ -558,7 +665,7 @@ class BlueSkyPhysics(Simulator):
         if self.closed:
             return
         self._bs.traf.reset()
-        self.active[:] = False
+        self._data["active"][:] = False
         self.closed = True
         if _owner is not None and _owner() is self:
             _owner = None
@@ -571,10 +678,20 @@ class BlueSkyPhysics(Simulator):
             raise RuntimeError("this BlueSky backend has been closed")
 
     def _begin(self, env: ArrayLike, slot: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-        """Validate indices and send pending direct writes to BlueSky (before anything reads it)."""
+        """Check that the backend is open and validate the indices."""
         self._check_open()
-        self._sync_in()
         return self._index(env, slot)
+
+    def _index(self, env: ArrayLike, slot: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        return aircraft_index(env, slot, self.n_envs, self.max_aircraft)
+
+    def _check_route_room(self, env: NDArray[np.int64], slot: NDArray[np.int64]) -> None:
+        if np.any(self.nwp[env, slot] >= self.max_waypoints):
+            raise ValueError(f"route full: at most {self.max_waypoints} waypoints per aircraft (max_waypoints)")
+
+    def state_fields(self) -> Sequence[str]:
+        """Names of the per-aircraft state arrays."""
+        return [name for name, _, _ in STATE_FIELDS]
 
     def _acid_of(self, slot: int) -> str:
         if not self.active[0, slot]:
@@ -607,9 +724,9 @@ class BlueSkyPhysics(Simulator):
 
     def _defaults_for(self, slot: NDArray[np.int64]) -> None:
         for name, (_dtype, value) in self._defaults.items():
-            getattr(self, name)[0, slot] = value
-        self.route_lat[0, slot] = 0.0
-        self.route_lon[0, slot] = 0.0
+            self._data[name][0, slot] = value
+        self._data["route_lat"][0, slot] = 0.0
+        self._data["route_lon"][0, slot] = 0.0
 
     def _remap(self) -> None:
         """Recompute the BlueSky traffic index of every active slot."""
@@ -628,57 +745,29 @@ class BlueSkyPhysics(Simulator):
                 routes; steps move ``iactwp``).
         """
         slots, idx = self._slots, self._tidx
-        if slots.size:
-            traf = self._bs.traf
-            parents = {"": traf, "ap": traf.ap, "perf": traf.perf, "actwp": traf.actwp}
-            values = np.array([getattr(parents[owner], attr) for _, owner, attr in self._float_fields], dtype=np.float64)
-            self._block[self._rows[:, None], slots[None, :]] = values[:, idx]
-            for name, owner, attr in self._other_fields:
-                getattr(self, name)[0, slots] = getattr(parents[owner], attr)[idx]
-            plans = traf.ap.route
-            self.iactwp[0, slots] = [plans[i].iactwp for i in idx]
-            if routes or np.any(self.nwp[0, slots] != [plans[i].nwp for i in idx]):
-                for s, i in zip(slots, idx):
-                    r = plans[i]
-                    nwp = int(r.nwp)
-                    if nwp > self.max_waypoints:
-                        raise ValueError(f"route full: at most {self.max_waypoints} waypoints per aircraft (max_waypoints)")
-                    self.nwp[0, s] = nwp
-                    self.route_has_dest[0, s] = nwp > 0 and r.wptype[-1] == r.dest
-                    self.route_lat[0, s, :nwp] = r.wplat
-                    self.route_lon[0, s, :nwp] = r.wplon
-                    self.route_lat[0, s, nwp:] = 0.0
-                    self.route_lon[0, s, nwp:] = 0.0
-        self._snapshot()
-
-    def _snapshot(self) -> None:
-        """Remember the values just read, to find the entries a task writes afterwards."""
-        self._float_shadow = self._block[self._rows]
-        self._shadow = {name: getattr(self, name).copy() for name in self._watched}
-
-    def _sync_in(self) -> None:
-        """Write array entries that changed since the last read into ``bs.traf``."""
-        for name in self._watched[len(self._other_fields):]:
-            if not np.array_equal(getattr(self, name), self._shadow[name], equal_nan=True):
-                what = "create() and delete()" if name == "active" else "add_waypoint() and set_destination()"
-                raise RuntimeError(f"'{name}' was written directly; the 'bluesky' backend changes it only through {what}")
-        slots, idx = self._slots, self._tidx
         if not slots.size:
             return
         traf = self._bs.traf
+        data = self._data
         parents = {"": traf, "ap": traf.ap, "perf": traf.perf, "actwp": traf.actwp}
-        new = self._block[self._rows[:, None], slots[None, :]]
-        old = self._float_shadow[:, slots]
-        changed = (new != old) & ~(np.isnan(new) & np.isnan(old))
-        if changed.any():
-            for k in np.flatnonzero(changed.any(axis=1)):
-                _, owner, attr = self._float_fields[k]
-                c = changed[k]
-                getattr(parents[owner], attr)[idx[c]] = new[k, c]
-                self._float_shadow[k, slots[c]] = new[k, c]
-        for name, owner, attr in self._other_fields:
-            cur, old = getattr(self, name)[0, slots], self._shadow[name][0, slots]
-            c = cur != old
-            if c.any():
-                getattr(parents[owner], attr)[idx[c]] = cur[c]
-                self._shadow[name][0, slots[c]] = cur[c]
+        for name, owner, attr in TRAFFIC_FIELDS:
+            data[name][0, slots] = getattr(parents[owner], attr)[idx]
+        plans = traf.ap.route
+        data["iactwp"][0, slots] = [plans[i].iactwp for i in idx]
+        if routes or np.any(data["nwp"][0, slots] != [plans[i].nwp for i in idx]):
+            for s, i in zip(slots, idx):
+                r = plans[i]
+                nwp = int(r.nwp)
+                if nwp > self.max_waypoints:
+                    raise ValueError(f"route full: at most {self.max_waypoints} waypoints per aircraft (max_waypoints)")
+                data["nwp"][0, s] = nwp
+                data["route_has_dest"][0, s] = nwp > 0 and r.wptype[-1] == r.dest
+                data["route_lat"][0, s, :nwp] = r.wplat
+                data["route_lon"][0, s, :nwp] = r.wplon
+                data["route_lat"][0, s, nwp:] = 0.0
+                data["route_lon"][0, s, nwp:] = 0.0
+
+
+for _name in (*(name for name, _, _ in STATE_FIELDS), "route_lat", "route_lon"):
+    setattr(BlueSkyPhysics, _name, _ReadOnly(_name))
+del _name

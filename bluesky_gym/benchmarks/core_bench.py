@@ -97,15 +97,15 @@ def make_simulator(n_envs: int, n_aircraft: int, kernel: str | None = None) -> S
     if kernel is None:
         return Simulator(n_envs, n_aircraft, dt=DT)
     if not simulator_accepts_kernel():
-        if kernel != "numpy":
-            raise ValueError(f"this Simulator has only the numpy kernel, cannot use {kernel!r}")
+        if kernel != kernel_of(Simulator(1, 1, dt=DT)):
+            raise ValueError(f"this Simulator has only the {kernel_of(Simulator(1, 1, dt=DT))} kernel, cannot use {kernel!r}")
         return Simulator(n_envs, n_aircraft, dt=DT)
     return Simulator(n_envs, n_aircraft, dt=DT, kernel=kernel)  # type: ignore[call-arg]
 
 
 def kernel_of(sim: Any) -> str:
-    """Return the step kernel a simulator uses (``"numpy"`` for simulators without a choice)."""
-    return str(getattr(sim, "kernel", "numpy"))
+    """Return the step kernel a simulator uses (``"compiled"`` for simulators without a choice)."""
+    return str(getattr(sim, "kernel", "compiled"))
 
 
 def available_kernels() -> list[str]:

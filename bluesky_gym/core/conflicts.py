@@ -7,14 +7,18 @@ symmetric, correct geometry of BlueSky's compiled CSTATEBASED detector [dynamics
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core import geo
+from bluesky_gym.core.atmosphere import casormach2tas, isa_layered, tas2cas_at
+from bluesky_gym.core.geo import kwikpos_s
+from bluesky_gym.core.jit import jit
+from bluesky_gym.core.scalar import DEG, RAD, maximum, sign
 from bluesky_gym.core.units import DEG2RAD, FT, M2NM, NM, R_EARTH, RAD2DEG
 
 if TYPE_CHECKING:
@@ -25,6 +29,90 @@ Array = NDArray[np.float64]
 PZ_RADIUS = 5.0 * NM  # m, BlueSky's default horizontal protected-zone radius (asas_pzr)
 PZ_HEIGHT = 1000.0 * FT  # m, default protected-zone half height (asas_pzh)
 LOOKAHEAD = 300.0  # s, default look-ahead time (asas_dtlookahead)
+
+
+@jit
+def conflict_geometry(
+    latref: float,
+    lonref: float,
+    altref: float,
+    trkref_deg: float,
+    gsref: float,
+    vsref: float,
+    dpsi: float,
+    dcpa: float,
+    tlosh: float,
+    dh: float,
+    tlosv: float,
+    tas: float,
+    wn_ref: float,
+    we_ref: float,
+    rpz: float,
+    hpz: float,
+) -> tuple[float, float, float, float, float, float]:
+    """Position, altitude, vertical speed and ground velocity of one ``creconfs`` intruder [dynamics.md 3].
+
+    Args:
+        latref: Target latitude [deg].
+        lonref: Target longitude [deg].
+        altref: Target altitude [m].
+        trkref_deg: Target track [deg].
+        gsref: Target ground speed [m/s].
+        vsref: Target vertical speed [m/s].
+        dpsi: Track difference intruder - target [deg].
+        dcpa: Distance at the closest point of approach [NM].
+        tlosh: Time to horizontal loss of separation [s].
+        dh: Altitude offset [m], NaN for none.
+        tlosv: Time to vertical loss of separation [s] (used with ``dh``).
+        tas: Intruder TAS [m/s], NaN for "the target's ground speed".
+        wn_ref: Wind north at the target [m/s] (used with ``tas``).
+        we_ref: Wind east at the target [m/s].
+        rpz: Protected-zone radius [m].
+        hpz: Protected-zone half height [m].
+
+    Returns:
+        (lat [deg], lon [deg], alt [m], vs [m/s], ground speed north, east [m/s]).
+    """
+    trkref = trkref_deg * RAD
+    cpa = dcpa * NM
+    trk = trkref + dpsi * RAD
+    if dh != dh:
+        acalt = altref
+        acvs = 0.0
+    else:
+        acalt = altref + dh
+        acvs = vsref - sign(dh) * (abs(dh) - hpz) / tlosv
+    if tas == tas:
+        gsn, gse = tas * math.cos(trk) + wn_ref, tas * math.sin(trk) + we_ref
+    else:
+        gsn, gse = gsref * math.cos(trk), gsref * math.sin(trk)
+    vreln, vrele = gsref * math.cos(trkref) - gsn, gsref * math.sin(trkref) - gse
+    vrel = math.sqrt(vreln * vreln + vrele * vrele)
+    drelcpa = tlosh * vrel + (0.0 if cpa > rpz else math.sqrt(maximum(rpz * rpz - cpa * cpa, 0.0)))
+    dist = math.sqrt(drelcpa * drelcpa + cpa * cpa)
+    rd = drelcpa / dist
+    rx = cpa / dist
+    brn = math.atan2(-rx * vreln + rd * vrele, rd * vreln + rx * vrele) * DEG
+    aclat, aclon = kwikpos_s(latref, lonref, brn, dist / NM)
+    return aclat, aclon, acalt, acvs, gsn, gse
+
+
+@jit
+def _geometry_loop(latref, lonref, altref, trkref, gsref, vsref, dpsi, dcpa, tlosh, dh, tlosv, tas, wn, we, rpz, hpz, out):  # noqa: ANN001, ANN202
+    for i in range(latref.shape[0]):
+        r = conflict_geometry(latref[i], lonref[i], altref[i], trkref[i], gsref[i], vsref[i],
+                              dpsi[i], dcpa[i], tlosh[i], dh[i], tlosv[i], tas[i], wn[i], we[i], rpz, hpz)  # fmt: skip
+        for k in range(6):
+            out[k, i] = r[k]
+
+
+@jit
+def _speed_loop(gsn, gse, wn, we, acalt, cas, hdg):  # noqa: ANN001, ANN202
+    for i in range(gsn.shape[0]):
+        tasn, tase = gsn[i] - wn[i], gse[i] - we[i]
+        p, rho, _ = isa_layered(acalt[i])
+        cas[i] = tas2cas_at(math.sqrt(tasn * tasn + tase * tase), p, rho)
+        hdg[i] = math.atan2(tase, tasn) * DEG
 
 
 def create_conflicts(
@@ -43,6 +131,8 @@ def create_conflicts(
 ) -> None:
     """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``) [dynamics.md 3].
 
+    The geometry is :func:`conflict_geometry`; the intruder's CAS comes from BlueSky's layered ISA.
+
     Args:
         sim: The simulator.
         env: Airspace of each intruder.
@@ -60,47 +150,27 @@ def create_conflicts(
     env, target = sim._index(env, target)
     _, slot = sim._index(env, slot)
     n = env.size
-    bc = lambda x: np.broadcast_to(np.asarray(x, dtype=np.float64), (n,))  # noqa: E731
+
+    def bc(x: ArrayLike) -> Array:
+        return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)))
+
     dpsi, dcpa, tlosh = bc(dpsi), bc(dcpa), bc(tlosh)
-    latref = sim.lat[env, target]
-    lonref = sim.lon[env, target]
-    altref = sim.alt[env, target]
-    trkref = np.radians(sim.trk[env, target])
-    gsref = sim.gs[env, target]
-    vsref = sim.vs[env, target]
-    cpa = dcpa * NM
-    trk = trkref + np.radians(dpsi)
-
-    if dh is None:
-        acalt = altref.copy()
-        acvs = np.zeros(n)
+    latref, lonref, altref = sim.lat[env, target], sim.lon[env, target], sim.alt[env, target]
+    dh_a = np.full(n, np.nan) if dh is None else bc(dh)
+    tlosv_a = tlosh if tlosv is None else bc(tlosv)
+    if spd is None:
+        tas = wn = we = np.full(n, np.nan)
     else:
-        dh = bc(dh)
-        tv = tlosh if tlosv is None else bc(tlosv)
-        acalt = altref + dh
-        acvs = vsref - np.sign(dh) * (np.abs(dh) - hpz) / tv
-
-    if spd is not None:
-        spd = bc(spd)
-        tas = isa.casormach2tas(spd, acalt)
-        wn, we = sim.wind.at(env, latref, lonref)
-        gsn, gse = tas * np.cos(trk) + wn, tas * np.sin(trk) + we
-    else:
-        gsn, gse = gsref * np.cos(trk), gsref * np.sin(trk)
-
-    vreln, vrele = gsref * np.cos(trkref) - gsn, gsref * np.sin(trkref) - gse
-    vrel = np.sqrt(vreln * vreln + vrele * vrele)
-    drelcpa = tlosh * vrel + np.where(cpa > rpz, 0.0, np.sqrt(np.maximum(rpz * rpz - cpa * cpa, 0.0)))
-    dist = np.sqrt(drelcpa * drelcpa + cpa * cpa)
-    rd = drelcpa / dist
-    rx = cpa / dist
-    brn = np.degrees(np.arctan2(-rx * vreln + rd * vrele, rd * vreln + rx * vrele))
-    aclat, aclon = geo.kwikpos(latref, lonref, brn, dist / NM)
-    wn, we = sim.wind.at(env, aclat, aclon)
-    tasn, tase = gsn - wn, gse - we
-    acspd = isa.tas2cas(np.sqrt(tasn * tasn + tase * tase), acalt)
-    achdg = np.degrees(np.arctan2(tase, tasn))
-
+        acalt = altref if dh is None else altref + dh_a
+        tas = casormach2tas(bc(spd), acalt)
+        wn, we = (np.ascontiguousarray(w, dtype=np.float64) for w in sim.wind.at(env, latref, lonref))
+    out = np.empty((6, n))
+    _geometry_loop(latref, lonref, altref, sim.trk[env, target], sim.gs[env, target], sim.vs[env, target],
+                   dpsi, dcpa, tlosh, dh_a, tlosv_a, tas, wn, we, float(rpz), float(hpz), out)  # fmt: skip
+    aclat, aclon, acalt, acvs, gsn, gse = out
+    wn2, we2 = (np.ascontiguousarray(w, dtype=np.float64) for w in sim.wind.at(env, aclat, aclon))
+    acspd, achdg = np.empty(n), np.empty(n)
+    _speed_loop(gsn, gse, wn2, we2, acalt, acspd, achdg)
     sim.create(env, slot, aclat, aclon, achdg, acalt, acspd)
     sim.cmd_altitude(env, slot, altref, acvs)
     sim.vs[env, slot] = acvs
@@ -124,7 +194,7 @@ class Conflicts:
     @property
     def in_conflict(self) -> NDArray[np.bool_]:
         """(n_envs, n_aircraft) aircraft with at least one conflict."""
-        return self.conflict.any(axis=-1)
+        return np.asarray(self.conflict.any(axis=-1))
 
 
 def detect(

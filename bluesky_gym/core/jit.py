@@ -21,7 +21,7 @@ try:
 
     AVAILABLE = True
 except ImportError:  # pragma: no cover - exercised only without numba
-    numba = None
+    numba = None  # type: ignore[assignment]
     AVAILABLE = False
 
 #: How to get the compiled kernels.
@@ -45,7 +45,7 @@ def jit(fn: F) -> F:
     if numba is None:  # pragma: no cover
         _warn_uncompiled()
         return fn
-    return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)  # type: ignore[no-any-return]
+    return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)  # type: ignore[return-value]
 
 
 def jit_inline(fn: F) -> F:
@@ -53,7 +53,7 @@ def jit_inline(fn: F) -> F:
     if numba is None:  # pragma: no cover
         _warn_uncompiled()
         return fn
-    return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)  # type: ignore[no-any-return]
+    return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)  # type: ignore[return-value]
 
 
 def python_form(fn: F) -> F:

@@ -36,7 +36,11 @@ class Physics(Protocol):
     dt: float  # s, time step
     simt: float  # s, simulation clock (shared by all airspaces)
     geo: str  # "compiled" or "python": the geo function set LNAV uses
-    wind: WindField
+
+    @property
+    def wind(self) -> WindField:
+        """The wind of every airspace (add points with ``wind.add_points``)."""
+        ...
 
     # Read-only state, (n_envs, max_aircraft); see bluesky_gym.core.state for units.
     active: BoolArray

@@ -23,7 +23,7 @@ from bluesky_gym.core import performance as pf
 from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
-from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS
+from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, aircraft_index, checked_index
 from bluesky_gym.core.step import MEMO_COLUMNS, run_kernel, step_kernel
 from bluesky_gym.core.units import NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
 from bluesky_gym.core.wind import WindField
@@ -565,7 +565,7 @@ class Simulator:
 
         The wind definition is not part of it (it does not change while stepping).
         """
-        idx = slice(None) if envs is None else _checked_index(envs, self.n_envs, "environment index")
+        idx = slice(None) if envs is None else checked_index(envs, self.n_envs, "environment index")
         snap: dict[str, Any] = {"_float_block": self._float_block[:, idx].copy(), "simt": self.simt, "_since_perf": self._since_perf}
         for name in NON_FLOAT_STATE:
             snap[name] = getattr(self, name)[idx].copy()
@@ -585,7 +585,7 @@ class Simulator:
             for name in NON_FLOAT_STATE:
                 getattr(self, name)[...] = snap[name]
             return
-        idx = _checked_index(envs, self.n_envs, "environment index")
+        idx = checked_index(envs, self.n_envs, "environment index")
         self._float_block[:, idx] = snap["_float_block"]
         for name in NON_FLOAT_STATE:
             getattr(self, name)[idx] = snap[name]
@@ -617,35 +617,11 @@ class Simulator:
     # ------------------------------------------------------------------------------------------
     def _index(self, env: ArrayLike, slot: ArrayLike) -> tuple[IntArray, IntArray]:
         """Validated, broadcast 1-D (env, slot) index arrays."""
-        env_a = _checked_index(env, self.n_envs, "environment index")
-        slot_a = _checked_index(slot, self.max_aircraft, "aircraft slot")
-        if env_a.shape != slot_a.shape:
-            if slot_a.size == 1:
-                slot_a = np.full(env_a.shape, slot_a[0])
-            elif env_a.size == 1:
-                env_a = np.full(slot_a.shape, env_a[0])
-            else:
-                env_a, slot_a = (a.ravel() for a in np.broadcast_arrays(env_a, slot_a))
-        return env_a, slot_a
+        return aircraft_index(env, slot, self.n_envs, self.max_aircraft)
 
     def state_fields(self) -> Sequence[str]:
         """Names of the per-aircraft state arrays."""
         return [name for name, _, _ in STATE_FIELDS]
-
-
-def _checked_index(index: ArrayLike, bound: int, what: str) -> IntArray:
-    """``index`` as a 1-D int64 array, every entry in [0, bound), else ``IndexError``."""
-    if isinstance(index, (int, np.integer)) and not isinstance(index, (bool, np.bool_)):
-        if not 0 <= index < bound:
-            raise IndexError(f"{what} out of range [0, {bound}): {index}")
-        return np.array([index], dtype=np.int64)
-    a = np.asarray(index, dtype=np.int64)
-    if a.ndim != 1:
-        a = a.reshape(-1)
-    # One reduction checks both ends: negative indices are huge as unsigned integers.
-    if a.size and a.view(np.uint64).max() >= bound:
-        raise IndexError(f"{what} out of range [0, {bound})")
-    return a
 
 
 for _name, _i in FIELD_INDEX.items():

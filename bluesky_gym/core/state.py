@@ -8,6 +8,7 @@ All float64 fields of a :class:`~bluesky_gym.core.Simulator` live in one contigu
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.units import NO_VALUE
 
@@ -100,3 +101,32 @@ I_ACTWP_LON = FIELD_INDEX["actwp_lon"]
 I_CURLEGDIR = FIELD_INDEX["curlegdir"]
 I_TURNDIST = FIELD_INDEX["turndist"]
 I_NEXT_QDR = FIELD_INDEX["next_qdr"]
+
+
+def checked_index(index: ArrayLike, bound: int, what: str) -> NDArray[np.int64]:
+    """``index`` as a 1-D int64 array, every entry in [0, bound), else ``IndexError``."""
+    if isinstance(index, (int, np.integer)) and not isinstance(index, (bool, np.bool_)):
+        if not 0 <= index < bound:
+            raise IndexError(f"{what} out of range [0, {bound}): {index}")
+        return np.array([index], dtype=np.int64)
+    a = np.asarray(index, dtype=np.int64)
+    if a.ndim != 1:
+        a = a.reshape(-1)
+    # One reduction checks both ends: negative indices are huge as unsigned integers.
+    if a.size and a.view(np.uint64).max() >= bound:
+        raise IndexError(f"{what} out of range [0, {bound})")
+    return a
+
+
+def aircraft_index(env: ArrayLike, slot: ArrayLike, n_envs: int, max_aircraft: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Validated, broadcast 1-D (env, slot) index arrays, as every command takes them."""
+    env_a = checked_index(env, n_envs, "environment index")
+    slot_a = checked_index(slot, max_aircraft, "aircraft slot")
+    if env_a.shape != slot_a.shape:
+        if slot_a.size == 1:
+            slot_a = np.full(env_a.shape, slot_a[0])
+        elif env_a.size == 1:
+            env_a = np.full(slot_a.shape, env_a[0])
+        else:
+            env_a, slot_a = (a.ravel() for a in np.broadcast_arrays(env_a, slot_a))
+    return env_a, slot_a

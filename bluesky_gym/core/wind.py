@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -41,7 +43,7 @@ class WindField:
 
     def clear(self, envs: ArrayLike | slice | None = None) -> None:
         """Remove the wind of the given airspaces (all when None)."""
-        idx = slice(None) if envs is None else envs
+        idx: Any = slice(None) if envs is None else envs
         self.count[idx] = 0
         if not self.count.any():
             for name in ("lat", "lon", "vnorth", "veast"):

@@ -18,7 +18,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from bluesky_gym.core import Simulator
+from bluesky_gym.core import Physics
 from bluesky_gym.core.units import FT, KTS
 
 ANGLE_FIELDS = frozenset({"hdg", "trk", "ap_trk", "curlegdir", "next_qdr"})
@@ -60,7 +60,7 @@ class Deviation:
         return ", ".join(f"{k}={e:.2e} ({w})" for k, (e, w) in items if e > 0) or "bit-identical"
 
 
-def compare_states(native: Simulator, other: Simulator, where: str, tol: float, dev: Deviation | None = None) -> None:
+def compare_states(native: Physics, other: Physics, where: str, tol: float, dev: Deviation | None = None) -> None:
     """Assert that two single-airspace simulators hold the same aircraft in the same state.
 
     Every per-aircraft state array (and the active part of each route) of the active slots is
@@ -103,7 +103,7 @@ def compare_states(native: Simulator, other: Simulator, where: str, tol: float, 
 # ----------------------------------------------------------------------------------------------
 # Random core scenarios
 # ----------------------------------------------------------------------------------------------
-Event = Callable[[Simulator], None]
+Event = Callable[[Physics], None]
 
 
 @dataclass
@@ -155,12 +155,12 @@ def random_core_scenario(seed: int, steps: int = 240, max_aircraft: int = 6) -> 
     return CoreScenario(seed, dt, steps, max_aircraft, events)
 
 
-def _pick(sim: Simulator, rng: np.random.Generator) -> int | None:
+def _pick(sim: Physics, rng: np.random.Generator) -> int | None:
     active = np.flatnonzero(sim.active[0])
     return int(rng.choice(active)) if active.size else None
 
 
-def _free(sim: Simulator, rng: np.random.Generator) -> int | None:
+def _free(sim: Physics, rng: np.random.Generator) -> int | None:
     free = np.flatnonzero(~sim.active[0])
     return int(rng.choice(free)) if free.size else None
 
@@ -182,7 +182,7 @@ def _event(kind: str, rng: np.random.Generator, max_aircraft: int) -> Event:
             memo[key] = draw()
         return memo[key]
 
-    def ev(sim: Simulator) -> None:
+    def ev(sim: Physics) -> None:
         slot = once("slot", lambda: _pick(sim, rng))
         if kind == "create":
             free = once("free", lambda: _free(sim, rng))
@@ -210,12 +210,11 @@ def _event(kind: str, rng: np.random.Generator, max_aircraft: int) -> Event:
             sim.cmd_vertical_speed(0, slot, once("v", lambda: float(rng.uniform(-20, 20))))
         elif kind == "write_v":  # gym style: selalt 0 or 1e6 and a selvs (exactly 0 sometimes)
             v = once("v", lambda: 0.0 if rng.random() < 0.15 else float(rng.uniform(-12.5, 12.5)))
-            sim.selalt[0, slot] = 1e6 if v >= 0 else 0.0
-            sim.selvs[0, slot] = v
+            sim.set_autopilot(0, slot, selalt=1e6 if v >= 0 else 0.0, selvs=v)
         elif kind == "write_h":  # static-obstacle style: heading and autopilot track written directly
             h = once("v", lambda: float(rng.uniform(0, 360)))
-            sim.hdg[0, slot] = h
-            sim.ap_trk[0, slot] = h
+            sim.set_state(0, slot, hdg=h)
+            sim.set_autopilot(0, slot, ap_trk=h)
         elif kind == "creconfs":
             free = once("free", lambda: _free(sim, rng))
             if free is None:
@@ -257,7 +256,7 @@ def _event(kind: str, rng: np.random.Generator, max_aircraft: int) -> Event:
     return ev
 
 
-def ulp_sources(sim: Simulator) -> list[str]:
+def ulp_sources(sim: Physics) -> list[str]:
     """The known sources of last-bit differences present in a simulator's airspace (see test_parity.py)."""
     out = []
     if np.any(sim.active[0] & (sim.nwp[0] > 0)):
@@ -267,7 +266,7 @@ def ulp_sources(sim: Simulator) -> list[str]:
     return out
 
 
-def run_core_scenario(sc: CoreScenario, natives: dict[str, Simulator], bluesky: Simulator, tol: float = CORE_TOL) -> Deviation:
+def run_core_scenario(sc: CoreScenario, natives: dict[str, Physics], bluesky: Physics, tol: float = CORE_TOL) -> Deviation:
     """Replay a scenario on each native simulator and on BlueSky, comparing after every event and step.
 
     The event's random draws are taken from the first native simulator and replayed on the others.

@@ -33,19 +33,18 @@ def test_numpy_too_new_raises_install_hint(monkeypatch: pytest.MonkeyPatch) -> N
         load_bluesky()
 
 
-def test_every_state_changing_method_is_bluesky_s_own() -> None:
-    """BlueSkyPhysics reuses the core's state layout, so it must override every method that simulates."""
-    from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
-    from bluesky_gym.core import Simulator
+def test_backend_implements_physics_without_the_native_core() -> None:
+    """BlueSkyPhysics is not a Simulator: it implements every command of the Physics protocol itself."""
+    from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics, BlueSkyWind
+    from bluesky_gym.core import Physics, Simulator, WindField
 
-    pure = {"state_fields"}
-    public = {n for n in vars(Simulator) if not n.startswith("_") and callable(getattr(Simulator, n))}
-    assert {"step", "run", "create", "creconfs", "cmd_heading"} <= public
-    inherited = {n for n in public - pure if n not in vars(BlueSkyPhysics)}
-    assert not inherited, f"Simulator methods that BlueSkyPhysics would run natively: {sorted(inherited)}"
-    from bluesky_gym.backends.bluesky_sim import BlueSkyWind
-    from bluesky_gym.core import WindField
-
+    assert not issubclass(BlueSkyPhysics, Simulator)
+    commands = {n for n in vars(Physics) if not n.startswith("_") and callable(getattr(Physics, n))}
+    assert {"step", "run", "create", "creconfs", "cmd_heading", "set_autopilot", "set_state"} <= commands
+    missing = {n for n in commands if n not in vars(BlueSkyPhysics)}
+    assert not missing, f"Physics commands BlueSkyPhysics lacks: {sorted(missing)}"
+    arrays = set(Physics.__annotations__) - {"n_envs", "max_aircraft", "max_waypoints", "dt", "simt", "geo", "wind"}
+    assert arrays and arrays <= set(vars(BlueSkyPhysics))
     public = {n for n in vars(WindField) if not n.startswith("_") and callable(getattr(WindField, n))}
     assert public and not {n for n in public if n not in vars(BlueSkyWind)}
 
@@ -104,17 +103,29 @@ def test_close_releases_traffic_and_refuses_use(physics) -> None:
 
 
 @needs_bluesky
-def test_traced_run_and_no_snapshots(physics) -> None:
+def test_traced_run_and_run_with_stop(physics) -> None:
+    bs = _bs()
     physics.create(0, [0, 1], [52.0, 52.5], 4.0, [0.0, 90.0], 3000.0, 150.0)
     track = physics.run(3, trace=True)
     assert track.shape == (3, 2, 1, 3)
     np.testing.assert_array_equal(track[-1, 0], physics.lat)
     np.testing.assert_array_equal(track[-1, 1], physics.lon)
     assert (np.diff(track[:, 0, 0, 0]) > 0).all() and (np.diff(track[:, 1, 0, 1]) > 0).all()  # north, east
-    with pytest.raises(NotImplementedError, match="native backend"):
-        physics.snapshot()
-    with pytest.raises(NotImplementedError, match="native backend"):
-        physics.restore({})
+    assert not hasattr(physics, "snapshot") and not hasattr(physics, "restore")
+    # stop: called after every step with the track so far; BlueSky stops at the reported end.
+    seen = []
+
+    def stop(tr: np.ndarray) -> np.ndarray:
+        seen.append(tr.shape[0])
+        return np.array([tr.shape[0] if tr.shape[0] == 2 else 0])
+
+    t0 = bs.sim.simt
+    track = physics.run(5, stop=stop)
+    assert seen == [1, 2] and bs.sim.simt == t0 + 2 * physics.dt == physics.simt
+    assert np.isfinite(track[:2]).all() and np.isnan(track[2:]).all()
+    np.testing.assert_array_equal(track[1, 0], physics.lat)
+    with pytest.raises(ValueError, match="cannot be rewound"):
+        physics.run(3, stop=lambda tr: np.array([1 if tr.shape[0] == 2 else 0]))
 
 
 @needs_bluesky
@@ -157,31 +168,30 @@ def test_slots_map_to_aircraft_after_deletion(physics) -> None:
 def test_direct_writes_reach_bluesky_before_the_step(physics) -> None:
     bs = _bs()
     physics.create(0, [0, 1], 52.0, [4.0, 5.0], 0.0, 3000.0, 150.0)
-    physics.selalt[0, 1] = 0.0
-    physics.selvs[0, 1] = -12.5
-    physics.hdg[0, 0] = 33.0
-    physics.ap_trk[0, 0] = 33.0
+    physics.set_autopilot(0, 1, selalt=0.0, selvs=-12.5)
+    physics.set_state(0, 0, hdg=33.0)
+    physics.set_autopilot(0, 0, ap_trk=33.0)
     physics.step()
     i0, i1 = bs.traf.id2idx(physics.acid(0)), bs.traf.id2idx(physics.acid(1))
     assert bs.traf.selvs[i1] == -12.5 and bs.traf.selalt[i1] == 0.0
     assert physics.vs[0, 1] == pytest.approx(-1.524) and physics.vs[0, 0] == 0.0  # the ramp started
     assert bs.traf.ap.trk[i0] == 33.0 and physics.hdg[0, 0] == 33.0
     # A command reads the written state: ALT without vs resets an opposite selvs.
-    physics.selvs[0, 0] = 5.0
+    physics.set_autopilot(0, 0, selvs=5.0)
+    assert bs.traf.selvs[i0] == 5.0 and physics.selvs[0, 0] == 5.0  # written at once
     physics.cmd_altitude(0, 0, 1000.0)
     assert bs.traf.selvs[i0] == 0.0 and physics.selvs[0, 0] == 0.0
 
 
 @needs_bluesky
-def test_structural_writes_are_refused(physics) -> None:
+def test_state_arrays_are_read_only(physics) -> None:
+    """State changes go through the commands: writing the arrays (which would not reach BlueSky) is refused."""
     physics.create(0, 0, 52.0, 4.0, 0.0, 3000.0, 150.0)
-    physics.active[0, 1] = True
-    with pytest.raises(RuntimeError, match="'active' was written directly"):
-        physics.step()
-    physics.active[0, 1] = False
-    physics.nwp[0, 0] = 2
-    with pytest.raises(RuntimeError, match="add_waypoint"):
-        physics.step()
+    for name in ("active", "nwp", "selalt", "hdg", "lat", "route_lat"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(physics, name)[0, 0] = 1
+    physics.set_state(0, 0, alt=1000.0)
+    assert physics.alt[0, 0] == 1000.0
 
 
 @needs_bluesky

@@ -4,7 +4,7 @@ Needs the ``bluesky`` extra (numpy < 2.4); skipped when BlueSky cannot be import
 
 Core level: random scenarios (creation states, HDG/SPD/ALT/VS commands, gym-style selalt/selvs and
 heading writes, creconfs, LNAV routes with destinations, constant and 2-D wind, deletions) are
-stepped on :class:`~bluesky_gym.core.Simulator` (every available kernel) and on
+stepped on :class:`~bluesky_gym.core.Simulator` (and on the numpy oracle of its step) and on
 :class:`~bluesky_gym.backends.bluesky_sim.BlueSkyPhysics` side by side. Every state array of every
 aircraft must be bit-identical after every event and every step until a route or a multi-point
 wind field appears (the known sources of last-bit differences below), and agree within 1e-9
@@ -38,20 +38,21 @@ import pytest
 pytest.importorskip("bluesky")
 
 from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics  # noqa: E402
-from bluesky_gym.core import Simulator, fused  # noqa: E402
+from bluesky_gym.core import Simulator  # noqa: E402
 from bluesky_gym.registration import available_envs  # noqa: E402
+from tests.oracle.simulator import OracleSimulator  # noqa: E402
 
 from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run_core_scenario, run_env_episodes  # noqa: E402
 
 pytestmark = pytest.mark.bluesky
 
-KERNELS = ["numpy", "fused"] if fused.AVAILABLE else ["numpy"]
+KERNELS = {"kernel": Simulator, "oracle": OracleSimulator}
 CORE_SEEDS = list(range(20))
 
 
 def _natives(max_aircraft: int, dt: float, geo: str, max_waypoints: int = 4) -> dict[str, Simulator]:
-    """The native core with every available kernel, using the geo functions BlueSky uses here."""
-    return {k: Simulator(1, max_aircraft, dt=dt, max_waypoints=max_waypoints, kernel=k, geo=geo) for k in KERNELS}
+    """The native core and its numpy oracle, using the geo functions BlueSky uses here."""
+    return {k: cls(1, max_aircraft, dt=dt, max_waypoints=max_waypoints, geo=geo) for k, cls in KERNELS.items()}
 
 
 @pytest.mark.parametrize("seed", CORE_SEEDS)
@@ -83,8 +84,7 @@ def test_core_reference_like_scenario_is_bit_identical_without_routes() -> None:
             s.creconfs(0, 0, 4, 300.0, 2.0, 100.0, dh=500.0, tlosv=90.0)
             s.cmd_heading(0, 0, 90.0)
             s.cmd_speed(0, 1, 250 * 0.514444)
-            s.selalt[0, 1] = 0.0
-            s.selvs[0, 1] = -12.5
+            s.set_autopilot(0, 1, selalt=0.0, selvs=-12.5)
         for t in range(400):
             if t == 100:
                 for s in sims:

@@ -23,4 +23,4 @@ def test_qdrdist_python_is_bitwise_bluesky(hemispheres: str) -> None:
     q, d = geo.qdrdist_python(lat1, lon1, lat2, lon2)
     np.testing.assert_array_equal(q, q_ref)
     np.testing.assert_array_equal(d, d_ref)
-    np.testing.assert_array_equal(geo.rwgs84_python(lat1), _geo.rwgs84(lat1))
+    np.testing.assert_array_equal([geo.rwgs84_py(x) for x in lat1], _geo.rwgs84(lat1))

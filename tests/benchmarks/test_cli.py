@@ -30,10 +30,10 @@ def test_bench_core_table_and_json(tmp_path: Path, capsys: pytest.CaptureFixture
 
 def test_bench_core_prints_the_target_next_to_its_cell(capsys: pytest.CaptureFixture[str]) -> None:
     # The target cell is 4096 x 20; a one-kernel run of only that cell on a tiny budget.
-    assert main(["bench", "core", "--envs", "4096", "--aircraft", "20", "--kernel", "numpy", "--seconds", "0.01", "--no-bluesky"]) == 0
+    assert main(["bench", "core", "--envs", "4096", "--aircraft", "20", "--kernel", "compiled", "--seconds", "0.01", "--no-bluesky"]) == 0
     text = capsys.readouterr().out
     target_line = next(line for line in text.splitlines() if "target >=" in line)
-    assert target_line.startswith("numpy") and "4096" in target_line
+    assert target_line.startswith("compiled") and "4096" in target_line
     assert target_line.endswith(": met") or target_line.endswith(": NOT MET")
 
 
@@ -72,7 +72,7 @@ def test_bench_envs_unknown_id_exits() -> None:
 
 def test_bench_all(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out_json = tmp_path / "all.json"
-    args = "bench all --envs 1 --aircraft 2 --kernel numpy --core-seconds 0.02 --ids DescentEnv-v0 --batch 2 --env-seconds 0.02"
+    args = "bench all --envs 1 --aircraft 2 --kernel compiled --core-seconds 0.02 --ids DescentEnv-v0 --batch 2 --env-seconds 0.02"
     code = main([*args.split(), "--no-bluesky", "--quiet", "--json", str(out_json)])
     assert code == 0
     text = capsys.readouterr().out
@@ -81,9 +81,9 @@ def test_bench_all(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_bench_profile(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["bench", "profile", "--envs", "8", "--aircraft", "2", "--kernel", "numpy", "--steps", "2", "--top", "5", "--quiet"]) == 0
+    assert main(["bench", "profile", "--envs", "8", "--aircraft", "2", "--kernel", "compiled", "--steps", "2", "--top", "5", "--quiet"]) == 0
     text = capsys.readouterr().out
-    assert "Profile of Simulator.step, numpy kernel, 8 airspaces x 2 aircraft" in text
+    assert "Profile of Simulator.step, compiled kernel, 8 airspaces x 2 aircraft" in text
     table = text.split("\n\n")[1].splitlines()
     assert table[0].split()[:2] == ["function", "calls/step"]
     assert len(table) == 2 + 5
@@ -91,7 +91,7 @@ def test_bench_profile(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_bench_repeat_reports_medians_of_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out_json = tmp_path / "repeat.json"
-    args = "bench all --envs 2 --aircraft 1 --kernel numpy --core-seconds 0.02 --ids DescentEnv-v0 --batch 2 --env-seconds 0.02 --repeat 2"
+    args = "bench all --envs 2 --aircraft 1 --kernel compiled --core-seconds 0.02 --ids DescentEnv-v0 --batch 2 --env-seconds 0.02 --repeat 2"
     assert main([*args.split(), "--no-bluesky", "--quiet", "--json", str(out_json)]) == 0
     text = capsys.readouterr().out
     assert text.count("median over 2 runs") == 2

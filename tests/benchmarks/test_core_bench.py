@@ -32,7 +32,7 @@ def test_scenario_mixed_altitudes_and_every_third_aircraft_turning() -> None:
 
 
 def test_populated_simulator_turns_the_turning_aircraft() -> None:
-    sim = make_simulator(3, 4, "numpy")
+    sim = make_simulator(3, 4, "compiled")
     env, slot, _turn = populate(sim, core_scenario(3, 4))
     assert np.all(sim.active)
     hdg0 = sim.hdg.copy()
@@ -45,9 +45,9 @@ def test_populated_simulator_turns_the_turning_aircraft() -> None:
     assert np.all(dh[~turning] < 1e-9)
 
 
-def test_available_kernels_start_with_numpy() -> None:
+def test_available_kernels_are_the_compiled_one() -> None:
     kernels = available_kernels()
-    assert kernels[0] == "numpy" and len(set(kernels)) == len(kernels)
+    assert kernels == ["compiled"]
 
 
 @pytest.mark.parametrize("kernel", available_kernels())
@@ -59,7 +59,7 @@ def test_native_rate_reports_kernel_and_size(kernel: str) -> None:
 
 
 def test_run_core_without_bluesky_has_no_ratio() -> None:
-    out = run_core([1, 2], [1, 2], ["numpy"], 0.02, None)
+    out = run_core([1, 2], [1, 2], ["compiled"], 0.02, None)
     assert [(r["envs"], r["aircraft"]) for r in out["native"]] == [(1, 1), (1, 2), (2, 1), (2, 2)]
     assert out["bluesky"] is None
     assert all(r["vs_bluesky"] is None for r in out["native"])
@@ -82,13 +82,13 @@ def test_bluesky_core_rates(bluesky_interpreter: str) -> None:
 
 @pytest.mark.bluesky
 def test_run_core_with_bluesky_gives_ratios(bluesky_interpreter: str) -> None:
-    out = run_core([2], [1], ["numpy"], 0.02, bluesky_interpreter)
+    out = run_core([2], [1], ["compiled"], 0.02, bluesky_interpreter)
     assert out["native"][0]["vs_bluesky"] > 0
 
 
 @pytest.mark.bluesky
 def test_run_core_repeat_with_bluesky_uses_same_run_ratios(bluesky_interpreter: str) -> None:
-    out = run_core([2], [1], ["numpy"], 0.02, bluesky_interpreter, repeats=2)
+    out = run_core([2], [1], ["compiled"], 0.02, bluesky_interpreter, repeats=2)
     row = out["native"][0]
     assert len(row["vs_bluesky_runs"]) == 2
     assert min(row["vs_bluesky_runs"]) <= row["vs_bluesky"] <= max(row["vs_bluesky_runs"])

@@ -27,6 +27,7 @@ from bluesky_gym.core.units import (
 )
 
 from . import atmosphere as isa
+from . import conflicts as oconf
 from . import geo as ogeo
 from . import performance as pf
 
@@ -44,6 +45,10 @@ class OracleSimulator(Simulator):
     def __init__(self, *args, **kwargs) -> None:  # noqa: ANN002, ANN003
         super().__init__(*args, **kwargs)
         self._oracle_qdrdist = ogeo.qdrdist if self.geo == "compiled" else ogeo.qdrdist_python
+
+    def creconfs(self, env, target, slot, dpsi, dcpa, tlosh, dh=None, tlosv=None, spd=None) -> None:  # noqa: ANN001
+        """``creconfs`` through the numpy oracle of the conflict geometry."""
+        oconf.create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
 
     def _run(self, n_steps: int, trace: bool) -> Array | None:
         track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft)) if trace else None
