@@ -48,6 +48,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core import Simulator
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.geometry import ref_kwikqdrdist
+from bluesky_gym.tasks.geometry import wrap180 as wrap180  # re-exported for the tasks
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -104,11 +105,6 @@ def check_pair(name: str, value: Any) -> tuple[float, float]:
     for v in value:
         check_range(name, v, -np.inf)
     return float(value[0]), float(value[1])
-
-
-def wrap180(x: Array) -> Array:
-    """The reference's single wrap: x > 180 -> x - 360; x < -180 -> x + 360 (once only)."""
-    return np.where(x > 180, x - 360, np.where(x < -180, x + 360, x))
 
 
 @dataclass

@@ -22,9 +22,9 @@ EARTH_RADIUS_KM = 6371.0
 
 
 def wrap180(angle: ArrayLike) -> Array:
-    """Single wrap into [-180, 180]: x > 180 -> x - 360; x < -180 -> x + 360 (once only)."""
+    """The reference's single wrap: x > 180 -> x - 360; x < -180 -> x + 360 (once only; not into [-180, 180] for |x| > 540)."""
     a = np.asarray(angle, dtype=np.float64)
-    return np.where(a > 180, -(360 - a), np.where(a < -180, 360 + a, a))
+    return np.where(a > 180, a - 360, np.where(a < -180, a + 360, a))
 
 
 def point_at_distance(lat: ArrayLike, lon: ArrayLike, d_km: ArrayLike, bearing: ArrayLike, radius_km: float = EARTH_RADIUS_KM) -> tuple[Array, Array]:
