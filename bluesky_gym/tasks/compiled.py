@@ -107,7 +107,7 @@ def _closest(key, active, out, best):
 def _polygon_contains(y, x, py, px, nv):
     """Even-odd test of point (lat y, lon x) against the first ``nv`` vertices of (py, px).
 
-    :class:`~bluesky_gym.tasks.geometry.PolygonSet` for one point and one polygon.
+    BlueSky's 2-D ``checkInside`` for one point and one polygon.
     """
     inside = False
     for v in range(nv):
