@@ -20,12 +20,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from bluesky_gym.core.jit import AVAILABLE, jit, jit_inline
 from bluesky_gym.core.scalar import mod as _mod
 from bluesky_gym.core.units import NM2KM
 
 __all__ = ["AVAILABLE"]
+
+Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 
 _RAD = np.pi / 180.0  # numpy's deg2rad factor
 _DEG = 180.0 / np.pi  # numpy's rad2deg factor
@@ -404,7 +409,7 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
 
 # --- array forms of the scenario and kwik geometry (tasks/geometry.py wraps these) -------------
 @jit_inline
-def _point_at_distance(lat, lon, d_km, bearing, radius_km):
+def _point_at_distance(lat: float, lon: float, d_km: float, bearing: float, radius_km: float) -> tuple[float, float]:
     """Great-circle destination (lat, lon) [deg] at ``d_km`` along ``bearing`` [deg] (spherical)."""
     lat1 = lat * _RAD
     lon1 = lon * _RAD
@@ -416,13 +421,13 @@ def _point_at_distance(lat, lon, d_km, bearing, radius_km):
 
 
 @jit_inline
-def _at(a, i, j):
+def _at(a: Array, i: int, j: int) -> float:
     """``a[i, j]`` of a 2-D array broadcast against (i, j): a dimension of length 1 repeats."""
-    return a[i if a.shape[0] > 1 else 0, j if a.shape[1] > 1 else 0]
+    return float(a[i if a.shape[0] > 1 else 0, j if a.shape[1] > 1 else 0])
 
 
 @jit
-def point_at_distance(lat, lon, d_km, bearing, radius_km, lat_out, lon_out):
+def point_at_distance(lat: Array, lon: Array, d_km: Array, bearing: Array, radius_km: float, lat_out: Array, lon_out: Array) -> None:
     """:func:`bluesky_gym.tasks.geometry.point_at_distance` of 2-D inputs broadcast to the outputs' shape."""
     for i in range(lat_out.shape[0]):
         for j in range(lat_out.shape[1]):
@@ -430,7 +435,7 @@ def point_at_distance(lat, lon, d_km, bearing, radius_km, lat_out, lon_out):
 
 
 @jit
-def kwikdist(lata, lona, latb, lonb, dist_out):
+def kwikdist(lata: Array, lona: Array, latb: Array, lonb: Array, dist_out: Array) -> None:
     """:func:`bluesky_gym.tasks.geometry.ref_kwikdist` of 2-D inputs broadcast to the output's shape."""
     for i in range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
@@ -438,7 +443,7 @@ def kwikdist(lata, lona, latb, lonb, dist_out):
 
 
 @jit
-def kwikqdrdist(lata, lona, latb, lonb, qdr_out, dist_out):
+def kwikqdrdist(lata: Array, lona: Array, latb: Array, lonb: Array, qdr_out: Array, dist_out: Array) -> None:
     """:func:`bluesky_gym.tasks.geometry.ref_kwikqdrdist` of 2-D inputs broadcast to the outputs' shape."""
     for i in range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
@@ -446,7 +451,7 @@ def kwikqdrdist(lata, lona, latb, lonb, qdr_out, dist_out):
 
 
 @jit
-def kwikdist_matrix(lata, lona, latb, lonb, dist_out):
+def kwikdist_matrix(lata: Array, lona: Array, latb: Array, lonb: Array, dist_out: Array) -> None:
     """:func:`bluesky_gym.tasks.geometry.ref_kwikdist_matrix` of 2-D inputs broadcast to the output's shape."""
     for i in range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
@@ -454,7 +459,7 @@ def kwikdist_matrix(lata, lona, latb, lonb, dist_out):
 
 
 @jit
-def points_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
+def points_in_polygons(lat: Array, lon: Array, poly_lat: Array, poly_lon: Array, n_vertices: IntArray, out: BoolArray) -> None:
     """Even-odd test of points (B, P) against polygons (B, K, V) with ``n_vertices`` (B, K) into ``out`` (B, P, K)."""
     for b in range(lat.shape[0]):
         for p in range(lat.shape[1]):
@@ -463,7 +468,7 @@ def points_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
 
 
 @jit
-def add_samples(total, count, value, times):
+def add_samples(total: Array, count: IntArray, value: Array, times: IntArray) -> None:
     """Add ``value[e]`` to ``total[e]`` ``times[e]`` times, one addition after the other, and ``times[e]`` to ``count[e]``."""
     for e in range(total.shape[0]):
         for _ in range(times[e]):

@@ -120,13 +120,13 @@ class DescentTask(Task):
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> DescentMeasurement:
         """Altitude, vertical speed and runway distance of episodes ``envs`` (all when None)."""
-        rows = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)  # a slice: views, no copies
-        envs = self.all_envs if envs is None else rows
+        ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
         s = self.sim
         runway_km = self.runway_distance(rows)
-        shape = (envs.size, s.max_aircraft)
+        shape = (ids.size, s.max_aircraft)
         return DescentMeasurement(
-            envs=envs,
+            envs=ids,
             separation_nm=np.full(shape, np.inf),
             los=np.zeros(shape, bool),
             drift_deg=None,
@@ -137,9 +137,10 @@ class DescentTask(Task):
         )
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self, g: DescentMeasurement | None = None) -> dict[str, Array]:
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Normalised altitude, vertical speed, target and runway distance of the rows ``g.envs``."""
         g = self.measure() if g is None else g
+        assert isinstance(g, DescentMeasurement)
         return {
             "altitude": ((g.alt - ALT_MEAN) / ALT_STD)[:, None],
             "vz": ((g.vs - VZ_MEAN) / VZ_STD)[:, None],
@@ -148,8 +149,9 @@ class DescentTask(Task):
         }
 
     # --- reward and termination -----------------------------------------------------------------
-    def reward(self, g: DescentMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Altitude tracking while flying, else the crash or runway term; records ``final_altitude`` (all episodes)."""
+        assert isinstance(g, DescentMeasurement)
         flying, crashed, at_runway = descent_outcome(g)
         altitude = np.where(flying, np.abs(self.target_alt - g.alt) * ALT_DIF_REWARD_SCALE, 0.0)
         crash = np.where(crashed, CRASH_PENALTY, 0.0)

@@ -46,7 +46,8 @@ def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: Arr
     delta_lon = l2 - l1
     x = np.sin(delta_lon) * np.cos(p2)
     y = np.cos(p1) * np.sin(p2) - np.sin(p1) * np.cos(p2) * np.cos(delta_lon)
-    return (np.degrees(np.arctan2(x, y)) + 360) % 360
+    bearing: Array = (np.degrees(np.arctan2(x, y)) + 360) % 360
+    return bearing
 
 
 def polygon_area(vertices: ArrayLike) -> float:

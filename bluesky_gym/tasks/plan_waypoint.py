@@ -130,7 +130,8 @@ class PlanWaypointTask(Task):
         dist = geo.kwikdist(lat[:, :, None], lon[:, :, None], lat[:, None, :], lon[:, None, :]) * NM2KM
         o = self._orders
         length = dist[:, 0, o[:, 0]] + dist[:, o[:, :-1], o[:, 1:]].sum(axis=-1)  # (envs, n!)
-        return length.min(axis=1)
+        shortest: Array = length.min(axis=1)
+        return shortest
 
     # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
@@ -147,14 +148,14 @@ class PlanWaypointTask(Task):
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> PlanWaypointMeasurement:
         """Distance and drift to every waypoint, and which ones the aircraft is within the capture radius of, for episodes ``envs``."""
-        rows = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)  # a slice: views, no copies
-        envs = self.all_envs if envs is None else rows
+        ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
         dist_km, drift = self.waypoint_geometry(rows)
         reached_before = self.wpt_reached[rows].copy()  # the reward updates the flags
         new = (dist_km < self.config.distance_margin_km) & ~reached_before
-        shape = (envs.size, self.sim.max_aircraft)
+        shape = (ids.size, self.sim.max_aircraft)
         return PlanWaypointMeasurement(
-            envs=envs,
+            envs=ids,
             separation_nm=np.full(shape, np.inf),
             los=np.zeros(shape, bool),
             drift_deg=None,
@@ -166,9 +167,10 @@ class PlanWaypointTask(Task):
         )
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self, g: PlanWaypointMeasurement | None = None) -> dict[str, Array]:
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Masked distance and drift per waypoint, and the reach flags as floats, of the rows ``g.envs``."""
         g = self.measure() if g is None else g
+        assert isinstance(g, PlanWaypointMeasurement)
         # The reference masks with the integer (1 - reached), so a masked entry is 0.0 times the
         # value: -0.0 where the value is negative (spec 4). A waypoint reached in this step still
         # shows as unreached (the one-step lag, spec 4).
@@ -182,8 +184,9 @@ class PlanWaypointTask(Task):
         }
 
     # --- reward and termination -----------------------------------------------------------------
-    def reward(self, g: PlanWaypointMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """+1 per newly reached waypoint (recorded); terminated when all are reached (all episodes)."""
+        assert isinstance(g, PlanWaypointMeasurement)
         self.wpt_reached |= g.newly_reached
         reach = g.newly_reached.sum(axis=1) * REACH_REWARD
         return reach, g.goal_reached, {"reach": reach}

@@ -264,15 +264,15 @@ class StaticObstacleTask(Task):
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> StaticObstacleMeasurement:
         """Waypoint and obstacle-centre geometry now, the obstacles around the aircraft, the stale waypoint terms, of episodes ``envs``."""
-        rows = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)  # a slice: views, no copies
-        envs = self.all_envs if envs is None else rows
+        ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
         s = self.sim
         dist_km, drift = self.waypoint_geometry(rows)
         qdr_c, dist_c = ref_kwikqdrdist(s.lat[rows, :1], s.lon[rows, :1], self.obstacle_centre_lat[rows], self.obstacle_centre_lon[rows])
         reached = self.reached_by_last_observation(rows)
-        shape = (envs.size, s.max_aircraft)
+        shape = (ids.size, s.max_aircraft)
         return StaticObstacleMeasurement(
-            envs=envs,
+            envs=ids,
             separation_nm=np.full(shape, np.inf),
             los=np.zeros(shape, bool),
             drift_deg=drift,
@@ -286,10 +286,12 @@ class StaticObstacleTask(Task):
         )
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self, g: StaticObstacleMeasurement | None = None) -> dict[str, Array]:
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Waypoint distance and drift, then the obstacle radii and the distances and bearings of their centres, of the rows ``g.envs``."""
         g = self.measure() if g is None else g
+        assert isinstance(g, StaticObstacleMeasurement)
         scale = self.config.waypoint_distance_max
+        assert g.drift_deg is not None
         rad = np.deg2rad(g.drift_deg)
         bearing = np.deg2rad(g.centre_bearing)
         return {
@@ -303,13 +305,14 @@ class StaticObstacleTask(Task):
         }
 
     # --- reward and termination -----------------------------------------------------------------
-    def reward(self, g: StaticObstacleMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """The last evaluated sub-step's reward of all episodes; ends at the waypoint or inside an obstacle (spec 6).
 
         +1 for reaching the waypoint and -0.01 per rad of |drift| (both from the stale values of the
         last observation), -5 per obstacle containing the aircraft. Records the flags and
         counters, and this step's observation values for the next step.
         """
+        assert isinstance(g, StaticObstacleMeasurement)
         self.wpt_reached |= g.newly_reached
         self.crashed |= g.obstacle_count > 0
         self.intrusions += g.obstacle_count
@@ -323,6 +326,7 @@ class StaticObstacleTask(Task):
     def remember(self, g: StaticObstacleMeasurement) -> None:
         """Keep the waypoint distance and drift of the observation of ``g`` (rows ``g.envs``) for the next step's reward."""
         self.last_wpt_km[g.envs] = g.wpt_km
+        assert g.drift_deg is not None
         self.last_drift[g.envs] = g.drift_deg
 
     # --- info and KPIs --------------------------------------------------------------------------

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core.units import FT
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, TaskConfig, check_int, check_range, kwik_separation
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, TaskConfig, check_int, check_range, kwik_separation
 from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentMeasurement, DescentTask
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
@@ -211,15 +211,16 @@ class VerticalCRTask(DescentTask):
     def measure(self, envs: NDArray[np.int64] | None = None) -> VerticalCRMeasurement:
         """The descent quantities, the intruders' relative state and the intrusion cylinder test, of episodes ``envs``."""
         d = super().measure(envs)
-        rows, envs = (slice(None) if envs is None else d.envs), d.envs
+        ids = d.envs
+        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
         s = self.sim
         own = self.ownship[rows]
-        separation_nm, los = kwik_separation(s, envs, own, INTRUSION_DISTANCE, VERTICAL_MARGIN)
+        separation_nm, los = kwik_separation(s, ids, own, INTRUSION_DISTANCE, VERTICAL_MARGIN)
         alt, vs = s.alt[rows], s.vs[rows]
-        intruders = np.empty((5, envs.size, s.max_aircraft - 1))
-        compiled.intruder_relative_state(envs, own, s.lat, s.lon, s.hdg, s.gs, s.active, False, intruders, np.empty(envs.size, np.int64))
+        intruders = np.empty((5, ids.size, s.max_aircraft - 1))
+        compiled.intruder_relative_state(ids, own, s.lat, s.lon, s.hdg, s.gs, s.active, False, intruders, np.empty(ids.size, np.int64))
         return VerticalCRMeasurement(
-            envs=envs,
+            envs=ids,
             separation_nm=separation_nm,
             los=los,
             drift_deg=None,
@@ -233,9 +234,10 @@ class VerticalCRTask(DescentTask):
         )
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self, g: VerticalCRMeasurement | None = None) -> dict[str, Array]:  # type: ignore[override]
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """The descent entries, then the intruders in creation order (slots 1..n, no sorting; spec section 2)."""
         g = self.measure() if g is None else g
+        assert isinstance(g, VerticalCRMeasurement)
         obs = super().observe(g)
         rel = g.intruders
         obs["intruder_distance"] = rel["dist_km"] / INTRUDER_DISTANCE_SCALE
@@ -248,8 +250,9 @@ class VerticalCRTask(DescentTask):
         return obs
 
     # --- reward ---------------------------------------------------------------------------------
-    def reward(self, g: VerticalCRMeasurement) -> tuple[Array, BoolArray, dict[str, Array]]:  # type: ignore[override]
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Descent reward and termination plus -50 per intruder inside the 5 NM / 1000 ft cylinder."""
+        assert isinstance(g, VerticalCRMeasurement)
         descent_reward, terminated, components = super().reward(g)
         count = g.los[:, 1:].sum(axis=1)
         intrusion = count * INTRUSION_PENALTY
