@@ -66,7 +66,7 @@ def _kwikqdrdist(lata, lona, latb, lonb):
 
 @jit_inline
 def _kwikdist_matrix(lata, lona, latb, lonb):
-    """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist_matrix` [NM] (other product grouping)."""
+    """BlueSky's Python ``kwikdist_matrix`` [NM]: the ``_kwikdist`` formula with the products grouped otherwise."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
     return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
 
@@ -448,23 +448,6 @@ def kwikqdrdist(lata: Array, lona: Array, latb: Array, lonb: Array, qdr_out: Arr
     for i in range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
             qdr_out[i, j], dist_out[i, j] = _kwikqdrdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
-
-
-@jit
-def kwikdist_matrix(lata: Array, lona: Array, latb: Array, lonb: Array, dist_out: Array) -> None:
-    """:func:`bluesky_gym.tasks.geometry.ref_kwikdist_matrix` of 2-D inputs broadcast to the output's shape."""
-    for i in range(dist_out.shape[0]):
-        for j in range(dist_out.shape[1]):
-            dist_out[i, j] = _kwikdist_matrix(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
-
-
-@jit
-def points_in_polygons(lat: Array, lon: Array, poly_lat: Array, poly_lon: Array, n_vertices: IntArray, out: BoolArray) -> None:
-    """Even-odd test of points (B, P) against polygons (B, K, V) with ``n_vertices`` (B, K) into ``out`` (B, P, K)."""
-    for b in range(lat.shape[0]):
-        for p in range(lat.shape[1]):
-            for k in range(poly_lat.shape[1]):
-                out[b, p, k] = _polygon_contains(lat[b, p], lon[b, p], poly_lat[b, k], poly_lon[b, k], n_vertices[b, k])
 
 
 @jit

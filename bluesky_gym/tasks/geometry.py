@@ -1,10 +1,9 @@
 """Scenario geometry of the paper's environments (bluesky-gym 0.2.0 ``envs/common/functions``).
 
 Re-implemented from their description in the environment specification, vectorised where the
-tasks need it, with every random draw taken from a generator passed in. The great-circle, kwik and
-point-in-polygon functions are array faces of the scalar kernels in
-:mod:`bluesky_gym.tasks.compiled` (one formula each); the readable numpy forms they are tested
-against live in the test suite's oracles.
+tasks need it, with every random draw taken from a generator passed in. The great-circle and kwik
+functions are array faces of the scalar kernels in :mod:`bluesky_gym.tasks.compiled` (one formula
+each); the readable numpy forms they are tested against live in the test suite's oracles.
 """
 
 from __future__ import annotations
@@ -113,35 +112,6 @@ def latlon_to_nm(center: ArrayLike, points: ArrayLike) -> Array:
     return np.stack([x, y], axis=-1)
 
 
-def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly_lon: ArrayLike, n_vertices: ArrayLike) -> NDArray[np.bool_]:
-    """Even-odd point-in-polygon test on (lat, lon), batched (BlueSky's 2-D ``checkInside``).
-
-    Args:
-        lat: Points, shape (..., P).
-        lon: Points, shape (..., P).
-        poly_lat: Polygon vertices, shape (..., K, V) (padded beyond ``n_vertices``).
-        poly_lon: Same shape as ``poly_lat``.
-        n_vertices: Vertex count of each polygon, shape (..., K); 0 means no polygon.
-
-    Returns:
-        Inside flags, shape (..., P, K) (the leading dimensions broadcast).
-    """
-    y, x = np.asarray(lat, dtype=np.float64), np.asarray(lon, dtype=np.float64)
-    py, px = np.asarray(poly_lat, dtype=np.float64), np.asarray(poly_lon, dtype=np.float64)
-    nv = np.asarray(n_vertices, dtype=np.int64)
-    batch = np.broadcast_shapes(y.shape[:-1], x.shape[:-1], py.shape[:-2], px.shape[:-2], nv.shape[:-1])
-    n_points, (n_polys, n_max) = y.shape[-1], py.shape[-2:]
-
-    def flat(a: NDArray, tail: tuple[int, ...]) -> NDArray:
-        return _broadcast(a, batch + tail).reshape((-1, *tail))
-
-    out = np.empty((math.prod(batch), n_points, n_polys), bool)
-    compiled.points_in_polygons(
-        flat(y, (n_points,)), flat(x, (n_points,)), flat(py, (n_polys, n_max)), flat(px, (n_polys, n_max)), flat(nv, (n_polys,)), out
-    )
-    return out.reshape(batch + (n_points, n_polys))
-
-
 # --- kwik geometry as the reference environments compute it ------------------------------------
 # The reference environment modules import ``bluesky.simulation`` (through their screen dummy)
 # before ``bs.init`` reads the ``prefer_compiled`` setting, so ``bs.tools.geo`` resolves to
@@ -169,19 +139,6 @@ def ref_kwikqdrdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: Arr
     qdr, dist = np.empty(shape[1]), np.empty(shape[1])
     compiled.kwikqdrdist(a0, a1, b0, b1, qdr, dist)
     return qdr.reshape(shape[0])[()], dist.reshape(shape[0])[()]
-
-
-def ref_kwikdist_matrix(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
-    """Flat-earth distance [NM] a -> b as BlueSky's Python ``geo.kwikdist_matrix`` (broadcasting).
-
-    The formula of :func:`ref_kwikdist` with the products grouped as
-    dlat^2 + (dlon^2)(cavelat^2), which can differ in the last bit. The reference sorts the
-    intruders and fills ``distances`` with it, and ``x_r``/``y_r`` with ``kwikqdrdist``.
-    """
-    shape, (a0, a1, b0, b1) = _grid(lata, lona, latb, lonb)
-    dist = np.empty(shape[1])
-    compiled.kwikdist_matrix(a0, a1, b0, b1, dist)
-    return dist.reshape(shape[0])[()]
 
 
 def _grid(*arrays: ArrayLike) -> tuple[tuple[tuple[int, ...], tuple[int, int]], list[Array]]:
