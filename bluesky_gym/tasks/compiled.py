@@ -254,6 +254,20 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
             out[4, r, i] = gs0 - math.sin(difference) * gs[e, j]
 
 
+@jit
+def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_out):
+    """Drift wrap180(heading - kwik bearing to the goal) [deg] and kwik distance [NM] of each row's ownship to its goal.
+
+    Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``, goal (``goal_lat[r]``, ``goal_lon[r]``).
+    """
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        qdr, dist = _kwikqdrdist(lat[e, o], lon[e, o], goal_lat[r], goal_lon[r])
+        drift_out[r] = _wrap180(hdg[e, o] - qdr)
+        dist_out[r] = dist
+
+
 @jit_inline
 def _relative_velocity(hdg, tas, e, o, j):
     """(vx_r, vy_r): the TAS vector of slot ``j`` minus the ownship's (slot ``o``), north / east [m/s]."""
@@ -400,3 +414,46 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
             intruder_out[r, 4, i] = math.cos(trk)
             intruder_out[r, 5, i] = math.sin(trk)
             intruder_out[r, 6, i] = key[q] / d_scale
+
+
+# --- episode statistics -------------------------------------------------------------------------
+@jit
+def record_step(envs, separation, los, stepped, reward, drift, goal, dt, action_frequency, in_los, min_sep, los_count, los_steps, steps, total_reward,
+                drift_sum, drift_n, time_to_goal):
+    """:meth:`bluesky_gym.tasks.base.Task.record`: the episode statistics of rows ``envs`` from a step's geometry.
+
+    Always: the smallest separation, new losses of separation (pairs not in LoS before) and the
+    LoS flags. When ``stepped`` (a decision step, not a reset) also the step count, return, steps
+    in LoS, |drift| (when ``drift`` has a value per row) and the time to the goal of rows that
+    reach it for the first time.
+    """
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        dmin = np.inf
+        new = 0
+        any_los = False
+        for j in range(separation.shape[1]):
+            d = separation[r, j]
+            if d < dmin or d != d:  # NaN propagates as in np.min
+                dmin = d
+            flag = los[r, j]
+            if flag:
+                any_los = True
+                if not in_los[e, j]:
+                    new += 1
+            in_los[e, j] = flag
+        m = min_sep[e]
+        if dmin < m or dmin != dmin:
+            min_sep[e] = dmin
+        los_count[e] += new
+        if not stepped:
+            continue
+        steps[e] += 1
+        total_reward[e] += reward[r]
+        if any_los:
+            los_steps[e] += 1
+        if drift.shape[0] > 0:
+            drift_sum[e] += abs(drift[r])
+            drift_n[e] += 1
+        if goal[r] and time_to_goal[e] != time_to_goal[e]:
+            time_to_goal[e] = steps[e] * dt * action_frequency
