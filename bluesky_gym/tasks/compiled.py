@@ -44,26 +44,39 @@ def _kwik_parts(lata, lona, latb, lonb):
 
 
 @jit_inline
+def _dist_of_parts(dlat, dlon, cavelat):
+    return _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
+
+
+@jit_inline
+def _qdr_of_parts(dlat, dlon, cavelat):
+    return _mod(math.atan2(dlon * cavelat, dlat) * _DEG, 360.0)
+
+
+@jit_inline
+def _matrix_dist_of_parts(dlat, dlon, cavelat):
+    return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
+
+
+@jit_inline
 def _kwikdist(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist` [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    return _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
+    return _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
 def _kwikqdrdist(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikqdrdist`: bearing [deg, 0..360) and distance [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    dist = _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
-    qdr = _mod(math.atan2(dlon * cavelat, dlat) * _DEG, 360.0)
-    return qdr, dist
+    return _qdr_of_parts(dlat, dlon, cavelat), _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
 def _kwikdist_matrix(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist_matrix` [NM] (other product grouping)."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
+    return _matrix_dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
@@ -237,7 +250,8 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
         count_out[r] = _count_active(act)
         if nearest:
             for i in range(m - 1):
-                key[i] = _kwikdist(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+                if act[i]:  # (_closest reads the keys of active slots only)
+                    key[i] = _kwikdist(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
             _closest(key, act, order, best)
         else:
             for i in range(k):
@@ -269,11 +283,21 @@ def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_
 
 
 @jit_inline
-def _relative_velocity(hdg, tas, e, o, j):
+def _velocity(hdg, tas, e, j, vx, vy, stamp):
+    """TAS vector (north, east) [m/s] of slot ``j`` of episode ``e``, memoised per episode in (vx, vy, stamp)."""
+    if stamp[j] != e:
+        vx[j] = math.cos(hdg[e, j] * _RAD) * tas[e, j]
+        vy[j] = math.sin(hdg[e, j] * _RAD) * tas[e, j]
+        stamp[j] = e
+    return vx[j], vy[j]
+
+
+@jit_inline
+def _relative_velocity(hdg, tas, e, o, j, vx, vy, stamp):
     """(vx_r, vy_r): the TAS vector of slot ``j`` minus the ownship's (slot ``o``), north / east [m/s]."""
-    vx = math.cos(hdg[e, j] * _RAD) * tas[e, j] - math.cos(hdg[e, o] * _RAD) * tas[e, o]
-    vy = math.sin(hdg[e, j] * _RAD) * tas[e, j] - math.sin(hdg[e, o] * _RAD) * tas[e, o]
-    return vx, vy
+    vxj, vyj = _velocity(hdg, tas, e, j, vx, vy, stamp)
+    vxo, vyo = _velocity(hdg, tas, e, o, vx, vy, stamp)
+    return vxj - vxo, vyj - vyo
 
 
 # --- SectorCR ----------------------------------------------------------------------------------
@@ -311,6 +335,9 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
     best = np.empty(k)
     rx = np.empty(m - 1)
     ry = np.empty(m - 1)
+    vxs = np.empty(m)
+    vys = np.empty(m)
+    stamp = np.full(m, -1, np.int64)
     for r in range(envs.shape[0]):
         e = envs[r]
         o = own[r]
@@ -333,7 +360,7 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
         _closest(key, act, order, best)
         for i in range(k):
             q = order[i]
-            vx, vy = _relative_velocity(hdg, tas, e, o, slots[q])
+            vx, vy = _relative_velocity(hdg, tas, e, o, slots[q], vxs, vys, stamp)
             trk = math.atan2(vy, vx)
             intruder_out[r, 0, i] = rx[q] / pos_scale
             intruder_out[r, 1, i] = ry[q] / pos_scale
@@ -385,6 +412,12 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
     best = np.empty(k)
+    vxs = np.empty(m)
+    vys = np.empty(m)
+    stamp = np.full(m, -1, np.int64)
+    dlats = np.empty(m - 1)
+    dlons = np.empty(m - 1)
+    cavs = np.empty(m - 1)
     for r in range(envs.shape[0]):
         e = envs[r]
         o = own[r]
@@ -398,14 +431,25 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
         _other_slots(active[e], o, slots, act)
         count_out[r] = _count_active(act)
         for i in range(m - 1):
-            key[i] = _kwikdist_matrix(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+            # The kwik parts of each active pair once: the sort key is kwikdist_matrix's grouping,
+            # the observed distance and bearing kwikqdrdist's.
+            if act[i]:
+                dlat, dlon, cavelat = _kwik_parts(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+                dlats[i], dlons[i], cavs[i] = dlat, dlon, cavelat
+                key[i] = _matrix_dist_of_parts(dlat, dlon, cavelat)
         _closest(key, act, order, best)
         for i in range(k):
             q = order[i]
             j = slots[q]
-            brg, d_int = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
+            if act[q]:
+                dlat, dlon, cavelat = dlats[q], dlons[q], cavs[q]
+            else:  # padding: an empty slot
+                dlat, dlon, cavelat = _kwik_parts(lat0, lon0, lat[e, j], lon[e, j])
+                key[q] = _matrix_dist_of_parts(dlat, dlon, cavelat)
+            d_int = _dist_of_parts(dlat, dlon, cavelat)
+            brg = _qdr_of_parts(dlat, dlon, cavelat)
             d_m = d_int * NM2KM * _M_PER_KM
-            vx, vy = _relative_velocity(hdg, tas, e, o, j)
+            vx, vy = _relative_velocity(hdg, tas, e, o, j, vxs, vys, stamp)
             trk = math.atan2(vy, vx)
             intruder_out[r, 0, i] = d_m * math.cos(brg * _RAD) / pos_scale
             intruder_out[r, 1, i] = d_m * math.sin(brg * _RAD) / pos_scale
