@@ -23,14 +23,14 @@ import numpy as np
 
 from bluesky_gym.core.jit import AVAILABLE, jit, jit_inline
 from bluesky_gym.core.scalar import mod as _mod
-from bluesky_gym.core.units import NM2KM
+from bluesky_gym.core.units import NM, NM2KM, R_EARTH
 
 __all__ = ["AVAILABLE"]
 
 _RAD = np.pi / 180.0  # numpy's deg2rad factor
 _DEG = 180.0 / np.pi  # numpy's rad2deg factor
-_KWIK_R = 6371000.0  # m: Earth radius of BlueSky's Python kwik forms
-_KWIK_NM = 1852.0  # m per NM in those forms
+_KWIK_R = R_EARTH  # m: Earth radius of BlueSky's Python kwik forms
+_KWIK_NM = NM  # m per NM in those forms
 _M_PER_KM = 1000.0
 
 
@@ -77,6 +77,17 @@ def _kwikdist_matrix(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist_matrix` [NM] (other product grouping)."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
     return _matrix_dist_of_parts(dlat, dlon, cavelat)
+
+
+@jit
+def kwik_pairs(lata, lona, latb, lonb, matrix, qdr_out, dist_out):
+    """Kwik distance [NM] (``kwikdist_matrix``'s grouping when ``matrix``) and, if ``qdr_out`` is not empty, bearing of pairs (P,)."""
+    bearing = qdr_out.shape[0] > 0
+    for i in range(lata.shape[0]):
+        dlat, dlon, cavelat = _kwik_parts(lata[i], lona[i], latb[i], lonb[i])
+        dist_out[i] = _matrix_dist_of_parts(dlat, dlon, cavelat) if matrix else _dist_of_parts(dlat, dlon, cavelat)
+        if bearing:
+            qdr_out[i] = _qdr_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline

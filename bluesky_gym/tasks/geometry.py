@@ -187,34 +187,31 @@ def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly
 # ``bluesky_gym.core.geo`` mirrors. They differ in operation order (degrees are subtracted before
 # the conversion to radians, the longitude difference is wrapped, distances are divided by
 # 1852 m, bearings are taken mod 360), i.e. in the last bits. Observations and rewards use these
-# forms so that a state gives the reference's numbers exactly.
-KWIK_EARTH_RADIUS_M = 6371000.0
-KWIK_NM_M = 1852.0
+# forms so that a state gives the reference's numbers exactly. They are computed by the scalar
+# kernels of :mod:`bluesky_gym.tasks.compiled` (the readable numpy forms are test oracles).
 
 
-def _kwik_py(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> tuple[Array, Array, Array]:
-    lata, lona = np.asarray(lata, dtype=np.float64), np.asarray(lona, dtype=np.float64)
-    latb, lonb = np.asarray(latb, dtype=np.float64), np.asarray(lonb, dtype=np.float64)
-    dlat = np.radians(latb - lata)
-    dlon = np.radians(((lonb - lona) + 180) % 360 - 180)
-    cavelat = np.cos(np.radians(lata + latb) * 0.5)
-    return dlat, dlon, cavelat
+def _kwik(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike, bearing: bool, matrix: bool) -> tuple[Array, Array]:
+    """Bearings (when ``bearing``) and distances of broadcast point pairs through :func:`bluesky_gym.tasks.compiled.kwik_pairs`."""
+    from bluesky_gym.tasks import compiled
+
+    arrays = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in (lata, lona, latb, lonb)))
+    shape = arrays[0].shape
+    flat = [np.ascontiguousarray(x).ravel() for x in arrays]
+    dist = np.empty(flat[0].size)
+    qdr = np.empty(dist.size if bearing else 0)
+    compiled.kwik_pairs(flat[0], flat[1], flat[2], flat[3], matrix, qdr, dist)
+    return (qdr.reshape(shape)[()] if bearing else qdr), dist.reshape(shape)[()]
 
 
 def ref_kwikdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
-    """Flat-earth distance [NM] a -> b, as BlueSky's Python ``geo.kwikdist`` (see above)."""
-    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
-    dangle = np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)
-    return KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
+    """Flat-earth distance [NM] a -> b, as BlueSky's Python ``geo.kwikdist`` (see above; broadcasting)."""
+    return _kwik(lata, lona, latb, lonb, False, False)[1]
 
 
 def ref_kwikqdrdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> tuple[Array, Array]:
     """Flat-earth bearing [deg, 0..360) and distance [NM] a -> b, as BlueSky's Python ``geo.kwikqdrdist``."""
-    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
-    dangle = np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)
-    dist = KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
-    qdr = np.degrees(np.arctan2(dlon * cavelat, dlat)) % 360.0
-    return qdr, dist
+    return _kwik(lata, lona, latb, lonb, True, False)
 
 
 def ref_kwikdist_matrix(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
@@ -224,6 +221,4 @@ def ref_kwikdist_matrix(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb:
     dlat^2 + (dlon^2)(cavelat^2), which can differ in the last bit. The reference sorts the
     intruders and fills ``distances`` with it, and ``x_r``/``y_r`` with ``kwikqdrdist``.
     """
-    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
-    dangle = np.sqrt(np.multiply(dlat, dlat) + np.multiply(np.multiply(dlon, dlon), np.multiply(cavelat, cavelat)))
-    return KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
+    return _kwik(lata, lona, latb, lonb, False, True)[1]

@@ -13,7 +13,8 @@ from bluesky_gym.core.units import NM2KM
 from bluesky_gym.tasks import merge as mg
 from bluesky_gym.tasks import sector_cr as sc
 from bluesky_gym.tasks.base import wrap180
-from bluesky_gym.tasks.geometry import latlon_to_nm, ref_kwikdist, ref_kwikdist_matrix, ref_kwikqdrdist
+from bluesky_gym.tasks.geometry import latlon_to_nm
+from tests.oracle.geometry import ref_kwikdist, ref_kwikdist_matrix, ref_kwikqdrdist
 
 Array = np.ndarray
 
