@@ -52,6 +52,7 @@ from bluesky_gym.tasks.geometry import wrap180 as wrap180  # re-exported for the
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
+_EMPTY = np.empty(0)
 
 
 @dataclass(frozen=True)
@@ -392,25 +393,12 @@ class Task(abc.ABC):
     def record(self, g: StepGeometry, reward: Array | None) -> None:
         """Update the episode statistics of rows ``g.envs`` from the geometry (``reward`` None: at a reset, no step)."""
         st = self.stats
-        envs = g.envs
-        full = len(envs) == self.n_envs
-        rows: NDArray[np.int64] | slice = slice(None) if full else envs
-        los = g.los
-        st.min_separation[rows] = np.minimum(st.min_separation[rows], g.separation_nm.min(axis=1))
-        st.los_count[rows] += (los & ~st.in_los[rows]).sum(axis=1)
-        st.in_los[rows] = los
-        if reward is None:
-            return
-        st.steps[rows] += 1
-        st.total_reward[rows] += reward
-        st.los_steps[rows] += los.any(axis=1)
-        if g.drift_deg is not None:
-            st.drift_sum[rows] += np.abs(g.drift_deg)
-            st.drift_n[rows] += 1
-        reached = g.goal_reached & np.isnan(st.time_to_goal[rows])
-        if reached.any():
-            hit = envs[reached]
-            st.time_to_goal[hit] = st.steps[hit] * self.dt * self.action_frequency
+        stepped = reward is not None
+        compiled.record_step(
+            g.envs, g.separation_nm, g.los, stepped, reward if stepped else _EMPTY, _EMPTY if g.drift_deg is None else g.drift_deg,
+            g.goal_reached, self.dt, self.action_frequency, st.in_los, st.min_separation, st.los_count, st.los_steps, st.steps,
+            st.total_reward, st.drift_sum, st.drift_n, st.time_to_goal,
+        )
 
     def kpis(self) -> dict[str, Array]:
         """Air-traffic KPIs of the current episodes, (n_envs,) each."""

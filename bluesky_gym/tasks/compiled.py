@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core.jit import AVAILABLE, jit, jit_inline
 from bluesky_gym.core.scalar import mod as _mod
-from bluesky_gym.core.units import NM2KM
+from bluesky_gym.core.units import NM, NM2KM, R_EARTH
 
 __all__ = ["AVAILABLE"]
 
@@ -34,8 +34,8 @@ BoolArray = NDArray[np.bool_]
 
 _RAD = np.pi / 180.0  # numpy's deg2rad factor
 _DEG = 180.0 / np.pi  # numpy's rad2deg factor
-_KWIK_R = 6371000.0  # m: Earth radius of BlueSky's Python kwik forms
-_KWIK_NM = 1852.0  # m per NM in those forms
+_KWIK_R = R_EARTH  # m: Earth radius of BlueSky's Python kwik forms
+_KWIK_NM = NM  # m per NM in those forms
 _M_PER_KM = 1000.0
 
 
@@ -49,26 +49,39 @@ def _kwik_parts(lata, lona, latb, lonb):
 
 
 @jit_inline
+def _dist_of_parts(dlat, dlon, cavelat):
+    return _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
+
+
+@jit_inline
+def _qdr_of_parts(dlat, dlon, cavelat):
+    return _mod(math.atan2(dlon * cavelat, dlat) * _DEG, 360.0)
+
+
+@jit_inline
+def _matrix_dist_of_parts(dlat, dlon, cavelat):
+    return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
+
+
+@jit_inline
 def _kwikdist(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist` [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    return _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
+    return _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
 def _kwikqdrdist(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikqdrdist`: bearing [deg, 0..360) and distance [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    dist = _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
-    qdr = _mod(math.atan2(dlon * cavelat, dlat) * _DEG, 360.0)
-    return qdr, dist
+    return _qdr_of_parts(dlat, dlon, cavelat), _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
 def _kwikdist_matrix(lata, lona, latb, lonb):
     """BlueSky's Python ``kwikdist_matrix`` [NM]: the ``_kwikdist`` formula with the products grouped otherwise."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
+    return _matrix_dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
@@ -242,7 +255,8 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
         count_out[r] = _count_active(act)
         if nearest:
             for i in range(m - 1):
-                key[i] = _kwikdist(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+                if act[i]:  # (_closest reads the keys of active slots only)
+                    key[i] = _kwikdist(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
             _closest(key, act, order, best)
         else:
             for i in range(k):
@@ -259,12 +273,36 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
             out[4, r, i] = gs0 - math.sin(difference) * gs[e, j]
 
 
+@jit
+def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_out):
+    """Drift wrap180(heading - kwik bearing to the goal) [deg] and kwik distance [NM] of each row's ownship to its goal.
+
+    Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``, goal (``goal_lat[r]``, ``goal_lon[r]``).
+    """
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        qdr, dist = _kwikqdrdist(lat[e, o], lon[e, o], goal_lat[r], goal_lon[r])
+        drift_out[r] = _wrap180(hdg[e, o] - qdr)
+        dist_out[r] = dist
+
+
 @jit_inline
-def _relative_velocity(hdg, tas, e, o, j):
+def _velocity(hdg, tas, e, j, vx, vy, stamp):
+    """TAS vector (north, east) [m/s] of slot ``j`` of episode ``e``, memoised per episode in (vx, vy, stamp)."""
+    if stamp[j] != e:
+        vx[j] = math.cos(hdg[e, j] * _RAD) * tas[e, j]
+        vy[j] = math.sin(hdg[e, j] * _RAD) * tas[e, j]
+        stamp[j] = e
+    return vx[j], vy[j]
+
+
+@jit_inline
+def _relative_velocity(hdg, tas, e, o, j, vx, vy, stamp):
     """(vx_r, vy_r): the TAS vector of slot ``j`` minus the ownship's (slot ``o``), north / east [m/s]."""
-    vx = math.cos(hdg[e, j] * _RAD) * tas[e, j] - math.cos(hdg[e, o] * _RAD) * tas[e, o]
-    vy = math.sin(hdg[e, j] * _RAD) * tas[e, j] - math.sin(hdg[e, o] * _RAD) * tas[e, o]
-    return vx, vy
+    vxj, vyj = _velocity(hdg, tas, e, j, vx, vy, stamp)
+    vxo, vyo = _velocity(hdg, tas, e, o, vx, vy, stamp)
+    return vxj - vxo, vyj - vyo
 
 
 # --- SectorCR ----------------------------------------------------------------------------------
@@ -302,6 +340,9 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
     best = np.empty(k)
     rx = np.empty(m - 1)
     ry = np.empty(m - 1)
+    vxs = np.empty(m)
+    vys = np.empty(m)
+    stamp = np.full(m, -1, np.int64)
     for r in range(envs.shape[0]):
         e = envs[r]
         o = own[r]
@@ -324,7 +365,7 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
         _closest(key, act, order, best)
         for i in range(k):
             q = order[i]
-            vx, vy = _relative_velocity(hdg, tas, e, o, slots[q])
+            vx, vy = _relative_velocity(hdg, tas, e, o, slots[q], vxs, vys, stamp)
             trk = math.atan2(vy, vx)
             intruder_out[r, 0, i] = rx[q] / pos_scale
             intruder_out[r, 1, i] = ry[q] / pos_scale
@@ -376,6 +417,12 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
     best = np.empty(k)
+    vxs = np.empty(m)
+    vys = np.empty(m)
+    stamp = np.full(m, -1, np.int64)
+    dlats = np.empty(m - 1)
+    dlons = np.empty(m - 1)
+    cavs = np.empty(m - 1)
     for r in range(envs.shape[0]):
         e = envs[r]
         o = own[r]
@@ -389,14 +436,25 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
         _other_slots(active[e], o, slots, act)
         count_out[r] = _count_active(act)
         for i in range(m - 1):
-            key[i] = _kwikdist_matrix(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+            # The kwik parts of each active pair once: the sort key is kwikdist_matrix's grouping,
+            # the observed distance and bearing kwikqdrdist's.
+            if act[i]:
+                dlat, dlon, cavelat = _kwik_parts(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+                dlats[i], dlons[i], cavs[i] = dlat, dlon, cavelat
+                key[i] = _matrix_dist_of_parts(dlat, dlon, cavelat)
         _closest(key, act, order, best)
         for i in range(k):
             q = order[i]
             j = slots[q]
-            brg, d_int = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
+            if act[q]:
+                dlat, dlon, cavelat = dlats[q], dlons[q], cavs[q]
+            else:  # padding: an empty slot
+                dlat, dlon, cavelat = _kwik_parts(lat0, lon0, lat[e, j], lon[e, j])
+                key[q] = _matrix_dist_of_parts(dlat, dlon, cavelat)
+            d_int = _dist_of_parts(dlat, dlon, cavelat)
+            brg = _qdr_of_parts(dlat, dlon, cavelat)
             d_m = d_int * NM2KM * _M_PER_KM
-            vx, vy = _relative_velocity(hdg, tas, e, o, j)
+            vx, vy = _relative_velocity(hdg, tas, e, o, j, vxs, vys, stamp)
             trk = math.atan2(vy, vx)
             intruder_out[r, 0, i] = d_m * math.cos(brg * _RAD) / pos_scale
             intruder_out[r, 1, i] = d_m * math.sin(brg * _RAD) / pos_scale
@@ -457,3 +515,46 @@ def add_samples(total: Array, count: IntArray, value: Array, times: IntArray) ->
         for _ in range(times[e]):
             total[e] += value[e]
         count[e] += times[e]
+
+
+# --- episode statistics -------------------------------------------------------------------------
+@jit
+def record_step(envs, separation, los, stepped, reward, drift, goal, dt, action_frequency, in_los, min_sep, los_count, los_steps, steps, total_reward,
+                drift_sum, drift_n, time_to_goal):
+    """:meth:`bluesky_gym.tasks.base.Task.record`: the episode statistics of rows ``envs`` from a step's geometry.
+
+    Always: the smallest separation, new losses of separation (pairs not in LoS before) and the
+    LoS flags. When ``stepped`` (a decision step, not a reset) also the step count, return, steps
+    in LoS, |drift| (when ``drift`` has a value per row) and the time to the goal of rows that
+    reach it for the first time.
+    """
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        dmin = np.inf
+        new = 0
+        any_los = False
+        for j in range(separation.shape[1]):
+            d = separation[r, j]
+            if d < dmin or d != d:  # NaN propagates as in np.min
+                dmin = d
+            flag = los[r, j]
+            if flag:
+                any_los = True
+                if not in_los[e, j]:
+                    new += 1
+            in_los[e, j] = flag
+        m = min_sep[e]
+        if dmin < m or dmin != dmin:
+            min_sep[e] = dmin
+        los_count[e] += new
+        if not stepped:
+            continue
+        steps[e] += 1
+        total_reward[e] += reward[r]
+        if any_los:
+            los_steps[e] += 1
+        if drift.shape[0] > 0:
+            drift_sum[e] += abs(drift[r])
+            drift_n[e] += 1
+        if goal[r] and time_to_goal[e] != time_to_goal[e]:
+            time_to_goal[e] = steps[e] * dt * action_frequency

@@ -121,10 +121,11 @@ def measure(
     intruders = np.empty((5, n, k))
     n_others = np.empty(n, np.int64)
     compiled.intruder_relative_state(envs, own, sim.lat, sim.lon, sim.hdg, sim.gs, sim.active, nearest, intruders, n_others)
-    qdr, dist = ref_kwikqdrdist(sim.lat[envs, own], sim.lon[envs, own], wpt_lat, wpt_lon)
+    drift = np.empty(n)
+    dist = np.empty(n)
+    compiled.goal_geometry(envs, own, sim.lat, sim.lon, sim.hdg, wpt_lat, wpt_lon, drift, dist)
     waypoint_km = dist * NM2KM
     heading = sim.hdg[envs, own]
-    drift = wrap180(heading - qdr)
     separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
     newly = (waypoint_km < DISTANCE_MARGIN) & ~reached
     return HorizontalCRGeometry(envs, separation, los, drift, reached | newly, own, intruders, n_others, heading, waypoint_km, newly)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tests.oracle.task_geometry import points_in_polygons
+from tests.oracle.geometry import points_in_polygons
 
 REACH_REWARD = 1.0
 DRIFT_PENALTY = -0.01  # per rad of |drift|

@@ -14,7 +14,7 @@ from bluesky_gym.tasks import merge as mg
 from bluesky_gym.tasks import sector_cr as sc
 from bluesky_gym.tasks.base import wrap180
 from bluesky_gym.tasks.geometry import latlon_to_nm
-from tests.oracle.task_geometry import ref_kwikdist, ref_kwikdist_matrix, ref_kwikqdrdist
+from tests.oracle.geometry import ref_kwikdist, ref_kwikdist_matrix, ref_kwikqdrdist
 
 Array = np.ndarray
 

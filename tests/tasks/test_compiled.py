@@ -15,7 +15,7 @@ from bluesky_gym.tasks.merge import MergeTask
 from bluesky_gym.tasks.sector_cr import SectorCRTask
 from bluesky_gym.tasks.vertical_cr import VerticalCRTask, intruder_relative_state
 from tests.oracle import tasks as oracle
-from tests.oracle.task_geometry import points_in_polygons, ref_kwikdist, ref_kwikdist_matrix
+from tests.oracle.geometry import points_in_polygons, ref_kwikdist, ref_kwikdist_matrix
 
 N_ENVS = 6
 
@@ -233,3 +233,18 @@ def test_polygon_counts_along_a_track_match_the_numpy_test() -> None:
         inside = points_in_polygons(track[s, 0], track[s, 1], poly_lat, poly_lon, nv)[:, 0, :]
         np.testing.assert_array_equal(counts[s], inside.sum(axis=1), err_msg=f"step {s}")
     assert counts.any() and (counts == 0).any()
+
+
+def test_kwik_functions_equal_the_numpy_oracle_for_scalars_and_broadcast_arrays() -> None:
+    from bluesky_gym.tasks import geometry
+    from tests.oracle import geometry as oracle_geometry
+
+    rng = np.random.default_rng(7)
+    lat_a, lon_a = 52.0 + rng.normal(0, 1.0, (30, 1)), rng.uniform(-190, 190, (30, 1))  # longitudes across the date line too
+    lat_b, lon_b = 52.0 + rng.normal(0, 1.0, (1, 8)), rng.uniform(-190, 190, (1, 8))
+    for args in ((lat_a, lon_a, lat_b, lon_b), (52.1, 4.2, 53.3, 4.9), (lat_a[:, 0], lon_a[:, 0], 54.0, 4.7)):
+        for name in ("ref_kwikdist",):
+            got, want = getattr(geometry, name)(*args), getattr(oracle_geometry, name)(*args)
+            np.testing.assert_array_equal(got, want, strict=True)
+        for got, want in zip(geometry.ref_kwikqdrdist(*args), oracle_geometry.ref_kwikqdrdist(*args), strict=True):
+            np.testing.assert_array_equal(got, want, strict=True)

@@ -7,7 +7,7 @@ import pytest
 
 from bluesky_gym.tasks import geometry
 from bluesky_gym.tasks.geometry import polygon_area, random_convex_polygon
-from tests.oracle import task_geometry as oracle
+from tests.oracle import geometry as oracle
 
 
 def test_scalar_polygon_generator_equals_the_numpy_helpers() -> None:

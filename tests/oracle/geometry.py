@@ -1,4 +1,4 @@
-"""Readable numpy forms of the task-layer geometry (oracles of ``bluesky_gym.tasks.geometry``).
+"""Readable numpy forms of the task-layer geometry (oracles of ``bluesky_gym.tasks.geometry`` and its kernels).
 
 The package computes these quantities with the scalar kernels of ``bluesky_gym.tasks.compiled``;
 the tests compare them with the array formulas below to the last bit (numpy's AVX-512 dispatch
