@@ -8,6 +8,15 @@ initial track, as far beyond its predicted closest point of approach with the fi
 its start is before it (so the designed conflict lies half way), at least
 ``waypoint_distance_min`` km away. These waypoints need no random draws: a seed gives the
 single-agent scenario of the same seed.
+
+Observation and reward are HorizontalCREnv-v0's own functions
+(:func:`bluesky_gym.tasks.horizontal_cr.measure` with the nearest other aircraft,
+:func:`~bluesky_gym.tasks.horizontal_cr.observation`, :func:`~bluesky_gym.tasks.horizontal_cr.reward`)
+applied to every agent's slot.
+
+Version history:
+    * Observations now computed by the single-agent task functions for each agent (the same kwik
+      forms as before: the values are unchanged).
 """
 
 from __future__ import annotations
@@ -18,10 +27,9 @@ import numpy as np
 
 from bluesky_gym.core import Simulator, geo
 from bluesky_gym.core.units import NM, NM2KM, R_EARTH
-from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, nearest_neighbours, of_neighbours
+from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
 from bluesky_gym.tasks import horizontal_cr as hc
-from bluesky_gym.tasks.base import BoxSpec, wrap180
-from bluesky_gym.tasks.geometry import ref_kwikdist, ref_kwikqdrdist
+from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
 M_PER_KM = 1000.0
 
@@ -143,11 +151,6 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
         self.start_lat[envs] = s.lat[envs]
         self.start_lon[envs] = s.lon[envs]
 
-    def pair_distance_nm(self) -> Array:
-        """Pairwise distance [NM] as HorizontalCREnv-v0 measures intrusions (BlueSky's Python kwikdist)."""
-        s = self.sim
-        return self._mask_pairs(ref_kwikdist(s.lat[:, :, None], s.lon[:, :, None], s.lat[:, None, :], s.lon[:, None, :]))
-
     def apply_action(self, action: Array, acting: BoolArray) -> None:
         """HDG = heading at the last observation + 45 a, for every acting agent."""
         e, k = np.nonzero(acting)
@@ -157,49 +160,21 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
         """Each aircraft's waypoint."""
         return self.wpt_lat, self.wpt_lon
 
-    def waypoint_geometry(self) -> tuple[Array, Array]:
-        """(n_envs, n_agents) kwik distance to the own waypoint [km] and drift [deg]."""
-        s = self.sim
-        qdr, dist = ref_kwikqdrdist(s.lat, s.lon, self.wpt_lat, self.wpt_lon)
-        return dist * NM2KM, wrap180(s.hdg - qdr)
+    def measure(self, envs: IntArray, own: IntArray) -> hc.HorizontalCRGeometry:
+        """HorizontalCREnv-v0's geometry of the agents ``own`` of episodes ``envs``, with the nearest other aircraft."""
+        rows = (envs, own)
+        return hc.measure(self.sim, envs, own, self.wpt_lat[rows], self.wpt_lon[rows], self.wpt_reach[rows], nearest=True, k=self.num_neighbours)
 
-    def agent_drift(self) -> Array:
-        """wrap180(heading - bearing to the own waypoint) [deg]."""
-        return self.waypoint_geometry()[1]
+    def observe(self, g: StepGeometry) -> dict[str, Array]:
+        """HorizontalCREnv-v0's observation of each agent; padding entries zeroed, plus ``traffic_mask``.
 
-    def observe(self) -> dict[str, Array]:
-        """Observe the other aircraft, sorted by distance, and the own waypoint."""
-        s = self.sim
-        self.ac_hdg = s.hdg.copy()
-        # Neighbours by distance (the pair distance matrix is HorizontalCREnv-v0's kwik distance).
-        order, valid = nearest_neighbours(self.pair_dist, s.active, self.num_neighbours)
-        qdr, dist = ref_kwikqdrdist(s.lat[..., None], s.lon[..., None], of_neighbours(s.lat, order), of_neighbours(s.lon, order))
-        own_hdg = s.hdg[..., None]
-        bearing = wrap180(own_hdg - qdr)
-        gs_int = of_neighbours(s.gs, order)
-        heading_difference = own_hdg - of_neighbours(s.hdg, order)
-        x_dif = -np.cos(np.deg2rad(heading_difference)) * gs_int
-        y_dif = s.gs[..., None] - np.sin(np.deg2rad(heading_difference)) * gs_int
-        dist_km = dist * NM2KM
-        wpt_km, drift = self.waypoint_geometry()
-        return {
-            "intruder_distance": np.where(valid, dist_km, 0.0) / hc.DISTANCE_SCALE,
-            "cos_difference_pos": np.where(valid, np.cos(np.deg2rad(bearing)), 0.0),
-            "sin_difference_pos": np.where(valid, np.sin(np.deg2rad(bearing)), 0.0),
-            "x_difference_speed": np.where(valid, x_dif, 0.0) / hc.SPEED_SCALE,
-            "y_difference_speed": np.where(valid, y_dif, 0.0) / hc.SPEED_SCALE,
-            "waypoint_distance": (wpt_km / hc.DISTANCE_SCALE)[..., None],
-            "cos_drift": np.cos(np.deg2rad(drift))[..., None],
-            "sin_drift": np.sin(np.deg2rad(drift))[..., None],
-            "traffic_mask": valid.astype(np.float64),
-        }
+        Stores the observed heading: the agent's next action's reference.
+        """
+        self.ac_hdg[g.envs, g.own] = g.heading  # type: ignore[attr-defined]
+        return mask_padding(hc.observation(g), hc.INTRUDER_KEYS, padding_mask(g.n_others, self.num_neighbours))  # type: ignore[arg-type, attr-defined]
 
-    def evaluate(self, acting: BoolArray) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Reach reward (terminates the agent), drift and intrusion penalties."""
-        wpt_km, drift = self.waypoint_geometry()
-        newly = acting & (wpt_km < hc.DISTANCE_MARGIN) & ~self.wpt_reach
-        self.wpt_reach |= newly
-        reach = np.where(newly, hc.REACH_REWARD, 0.0)
-        drift_reward = np.abs(np.deg2rad(drift)) * hc.DRIFT_PENALTY
-        intrusion = self.intrusion_counts * hc.INTRUSION_PENALTY + 0.0
-        return reach + drift_reward + intrusion, newly, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+        r, _, components = hc.reward(g)  # type: ignore[arg-type]
+        self.wpt_reach[g.envs, g.own] = g.goal_reached  # type: ignore[attr-defined]
+        return r, g.newly_reached, components  # type: ignore[attr-defined]

@@ -4,7 +4,16 @@ The scenario is MergeEnv-v0's (:class:`~bluesky_gym.tasks.merge.MergeTask` gener
 aircraft at 10000 m north of the final approach fix, within +-15 deg of the approach radial. In
 the single-agent environment aircraft 0 is controlled and the others fly LNAV via the FAF to the
 runway; here every aircraft is an agent with MergeEnv-v0's observation, action and reward from
-its own point of view (an aircraft's LNAV route is switched off by its first heading command).
+its own point of view (an aircraft's LNAV route is switched off by its first heading command):
+the observation and reward are MergeEnv-v0's own functions (:func:`bluesky_gym.tasks.merge.measure`,
+:func:`~bluesky_gym.tasks.merge.observation`, :func:`~bluesky_gym.tasks.merge.reward`) applied to
+every agent's slot.
+
+Version history:
+    * Observations now computed by the single-agent task functions for each agent: drift, target
+      and intruder distances and bearings use the single-agent (BlueSky Python) kwik forms, and
+      the neighbours are sorted by MergeEnv-v0's ``kwikdist_matrix``, instead of the core's kwik
+      form (values differ in the last bits).
 """
 
 from __future__ import annotations
@@ -13,11 +22,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from bluesky_gym.core import geo
-from bluesky_gym.core.units import NM2KM
-from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, nearest_neighbours, of_neighbours
+from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
 from bluesky_gym.tasks import merge as mg
-from bluesky_gym.tasks.base import BoxSpec, wrap180
+from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
 
 class MergeMultiAgentTask(MultiAgentTask):
@@ -70,16 +77,11 @@ class MergeMultiAgentTask(MultiAgentTask):
         shape = (self.n_envs, self.n_agents)
         self.wpt_reach = np.zeros(shape, np.int64)  # 0 before the FAF, 1 after (the observed flag)
         self.faf_reached = np.zeros(shape, np.int64)  # 0, 1 (FAF) or 2 (near the runway)
-        self.drift = np.zeros(shape)  # deg, to the current target at the last observation
-        self.waypoint_dist = np.zeros(shape)  # NM, to the current target at the last observation
 
     def on_reset(self, envs: IntArray) -> None:
         """Every agent starts towards the FAF."""
         self.wpt_reach[envs] = 0
         self.faf_reached[envs] = 0
-        drift, dist = self._target_geometry()
-        self.drift[envs] = drift[envs]
-        self.waypoint_dist[envs] = dist[envs]
 
     def apply_action(self, action: Array, acting: BoolArray) -> None:
         """HDG wrap180(hdg + 15 a0); SPD (CAS + 20 a1) * 1.94384 kt, for every acting agent."""
@@ -87,57 +89,20 @@ class MergeMultiAgentTask(MultiAgentTask):
 
     def targets(self) -> tuple[Array, Array]:
         """Return the FAF, or the runway for agents that reached the FAF."""
-        after = self.wpt_reach != 0
-        return np.where(after, mg.RWY_LAT, mg.FAF_LAT), np.where(after, mg.RWY_LON, mg.FAF_LON)
+        return mg.target(self.wpt_reach != 0)
 
-    def _target_geometry(self) -> tuple[Array, Array]:
-        s = self.sim
-        tlat, tlon = self.targets()
-        qdr, dist = geo.kwikqdrdist(s.lat, s.lon, tlat, tlon)
-        return wrap180(s.hdg - qdr), dist
+    def measure(self, envs: IntArray, own: IntArray) -> mg.MergeGeometry:
+        """MergeEnv-v0's geometry of the agents ``own`` of episodes ``envs``."""
+        return mg.measure(self.sim, envs, own, self.wpt_reach[envs, own] != 0)
 
-    def agent_drift(self) -> Array:
-        """Drift [deg] to the current target at the last observation."""
-        return self.drift
+    def observe(self, g: StepGeometry) -> dict[str, Array]:
+        """MergeEnv-v0's observation of each agent; padding entries zeroed, plus ``traffic_mask``."""
+        return mask_padding(mg.observation(g), mg.INTRUDER_KEYS, padding_mask(g.n_others, self.num_neighbours))  # type: ignore[arg-type, attr-defined]
 
-    def observe(self) -> dict[str, Array]:
-        """Own drift, airspeed and target distance, and the 5 nearest other aircraft by kwik distance."""
-        s = self.sim
-        drift, dist = self._target_geometry()
-        self.drift = drift
-        self.waypoint_dist = dist
-        # Neighbours by kwik distance (the pair distance matrix is MergeEnv-v0's kwik distance).
-        order, valid = nearest_neighbours(self.pair_dist, s.active, self.num_neighbours)
-        brg, d = geo.kwikqdrdist(s.lat[..., None], s.lon[..., None], of_neighbours(s.lat, order), of_neighbours(s.lon, order))
-        vx = np.cos(np.deg2rad(s.hdg)) * s.tas
-        vy = np.sin(np.deg2rad(s.hdg)) * s.tas
-        vx_r = np.where(valid, of_neighbours(vx, order) - vx[..., None], 0.0)
-        vy_r = np.where(valid, of_neighbours(vy, order) - vy[..., None], 0.0)
-        track = np.arctan2(vy_r, vx_r)
-        d_m = d * NM2KM * mg.M_PER_KM
-        return {
-            "cos(drift)": np.cos(np.deg2rad(drift))[..., None],
-            "sin(drift)": np.sin(np.deg2rad(drift))[..., None],
-            "airspeed": s.tas[..., None].copy(),
-            "waypoint_dist": (dist / mg.WAYPOINT_DIST_SCALE)[..., None],
-            "faf_reached": self.wpt_reach[..., None].astype(np.float64),
-            "x_r": np.where(valid, d_m * np.cos(np.deg2rad(brg)), 0.0) / mg.POSITION_SCALE,
-            "y_r": np.where(valid, d_m * np.sin(np.deg2rad(brg)), 0.0) / mg.POSITION_SCALE,
-            "vx_r": vx_r / mg.SPEED_SCALE,
-            "vy_r": vy_r / mg.SPEED_SCALE,
-            "cos(track)": np.where(valid, np.cos(track), 0.0),
-            "sin(track)": np.where(valid, np.sin(track), 0.0),
-            "distances": np.where(valid, d, 0.0) / mg.WAYPOINT_DIST_SCALE,
-            "traffic_mask": valid.astype(np.float64),
-        }
-
-    def evaluate(self, acting: BoolArray) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """FAF reach reward, runway arrival, drift and intrusion penalties (MergeEnv-v0's, per agent)."""
-        reach_faf = acting & (self.waypoint_dist < mg.DISTANCE_MARGIN) & (self.wpt_reach != 1)
-        near_runway = acting & ~reach_faf & (self.waypoint_dist < mg.GOAL_MARGIN) & (self.wpt_reach == 1)
-        self.wpt_reach = np.where(reach_faf, 1, self.wpt_reach)
-        self.faf_reached = np.where(reach_faf, 1, np.where(near_runway, 2, self.faf_reached))
-        reach = np.where(reach_faf, mg.REACH_REWARD, 0.0)
-        drift_reward = np.abs(np.deg2rad(self.drift)) * mg.DRIFT_PENALTY
-        intrusion = self.intrusion_counts * mg.INTRUSION_PENALTY + 0.0
-        return reach + drift_reward + intrusion, near_runway, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+        r, reach_faf, near_runway, _, components = mg.reward(g)  # type: ignore[arg-type]
+        rows = (g.envs, g.own)  # type: ignore[attr-defined]
+        self.wpt_reach[rows] = np.where(reach_faf, 1, self.wpt_reach[rows])
+        self.faf_reached[rows] = np.where(reach_faf, 1, np.where(near_runway, 2, self.faf_reached[rows]))
+        return r, near_runway, components

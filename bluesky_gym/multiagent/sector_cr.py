@@ -3,7 +3,15 @@
 The scenario is SectorCREnv-v0's (:class:`~bluesky_gym.tasks.sector_cr.SectorCRTask` generates
 it): a random convex sector with ``max(ceil(density * area), 5)`` aircraft, each flying from a
 random point inside towards its own exit point on the boundary. Here every aircraft is an agent
-with the single-agent observation, action and reward, seen from its own point of view.
+with the single-agent observation, action and reward, seen from its own point of view: the
+observation and reward are SectorCREnv-v0's own functions
+(:func:`bluesky_gym.tasks.sector_cr.measure`, :func:`~bluesky_gym.tasks.sector_cr.observation`,
+:func:`~bluesky_gym.tasks.sector_cr.reward`) applied to every agent's slot.
+
+Version history:
+    * Observations now computed by the single-agent task functions for each agent: the drift uses
+      the single-agent (BlueSky Python) kwik form and the intrusion test the single-agent kwik
+      distance, instead of the core's kwik form (values differ in the last bits).
 """
 
 from __future__ import annotations
@@ -12,11 +20,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from bluesky_gym.core import geo
-from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, nearest_neighbours, of_neighbours, pick
+from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
+from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks import sector_cr as sc
-from bluesky_gym.tasks.base import BoxSpec, wrap180
-from bluesky_gym.tasks.geometry import points_in_polygons
+from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
 STATE_SCALE_NM = 40.0  # NM: positions in the global state (the sector's circle has a 34.5 NM radius)
 
@@ -74,64 +81,27 @@ class SectorCRMultiAgentTask(MultiAgentTask):
         """Each aircraft's exit point."""
         return self.scenario.wpt_lat, self.scenario.wpt_lon
 
-    def allocate(self) -> None:
-        """Per-agent drift at the last observation."""
-        self.drift = np.zeros((self.n_envs, self.n_agents))  # deg
+    def measure(self, envs: IntArray, own: IntArray) -> sc.SectorGeometry:
+        """SectorCREnv-v0's geometry of the agents ``own`` of episodes ``envs``."""
+        return sc.measure(self.sim, self.scenario, envs, own)
 
-    def on_reset(self, envs: IntArray) -> None:
-        """Drift of the new agents (zero: they start heading to their exit points)."""
-        self.drift[envs] = self._drift()[envs]
+    def observe(self, g: StepGeometry) -> dict[str, Array]:
+        """SectorCREnv-v0's observation of each agent; padding entries zeroed, plus ``traffic_mask``."""
+        return mask_padding(sc.observation(g), sc.INTRUDER_KEYS, padding_mask(g.n_others, self.num_neighbours))  # type: ignore[arg-type, attr-defined]
 
-    def _drift(self) -> Array:
-        s = self.sim
-        qdr, _ = geo.kwikqdrdist(s.lat, s.lon, self.scenario.wpt_lat, self.scenario.wpt_lon)
-        return wrap180(s.hdg - qdr)
-
-    def agent_drift(self) -> Array:
-        """wrap180(heading - kwik bearing to the own exit point) [deg] at the last observation."""
-        return self.drift
-
-    def observe(self) -> dict[str, Array]:
-        """Own drift and airspeed, and the 4 nearest other aircraft by flat distance."""
-        s = self.sim
-        drift = self._drift()
-        self.drift = drift
-        loc = self.scenario.flat_positions_m()  # (n, m, 2) north / east [m]
-        north, east = loc[..., 0], loc[..., 1]
-        dn = north[:, None, :] - north[:, :, None]  # [e, i, j]: aircraft j minus aircraft i
-        de = east[:, None, :] - east[:, :, None]
-        dist = np.sqrt(dn**2 + de**2)
-        order, valid = nearest_neighbours(dist, s.active, self.num_neighbours)
-        vx = np.cos(np.deg2rad(s.hdg)) * s.tas
-        vy = np.sin(np.deg2rad(s.hdg)) * s.tas
-        vx_r = np.where(valid, of_neighbours(vx, order) - vx[..., None], 0.0)
-        vy_r = np.where(valid, of_neighbours(vy, order) - vy[..., None], 0.0)
-        track = np.arctan2(vy_r, vx_r)
-        return {
-            "cos(drift)": np.cos(np.deg2rad(drift))[..., None],
-            "sin(drift)": np.sin(np.deg2rad(drift))[..., None],
-            "airspeed": ((s.tas - sc.AIRSPEED_MEAN) / sc.AIRSPEED_STD)[..., None],
-            "x_r": pick(dn, order, valid) / sc.POSITION_SCALE,
-            "y_r": pick(de, order, valid) / sc.POSITION_SCALE,
-            "vx_r": vx_r / sc.VX_SCALE,
-            "vy_r": vy_r / sc.VY_SCALE,
-            "cos(track)": np.where(valid, np.cos(track), 0.0),
-            "sin(track)": np.where(valid, np.sin(track), 0.0),
-            "distances": np.where(valid, (pick(dist, order, valid) - sc.DISTANCE_MEAN) / sc.DISTANCE_STD, 0.0),
-            "traffic_mask": valid.astype(np.float64),
-        }
-
-    def evaluate(self, acting: BoolArray) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Drift and intrusion penalties; no agent terminates (leaving the sector truncates it)."""
-        drift_reward = np.abs(np.deg2rad(self.drift)) * sc.DRIFT_PENALTY
-        intrusion = self.intrusion_counts * sc.INTRUSION_PENALTY + 0.0
-        return drift_reward + intrusion, np.zeros_like(acting), {"drift": drift_reward, "intrusion": intrusion}
+        r, _, components = sc.reward(g)  # type: ignore[arg-type]
+        return r, np.zeros(len(g.envs), bool), components
 
     def inside(self) -> BoolArray:
         """(n_envs, n_agents) aircraft inside their episode's sector (2-D even-odd test on lat/lon)."""
         s, scn = self.sim, self.scenario
-        return points_in_polygons(s.lat, s.lon, scn.poly_lat[:, None], scn.poly_lon[:, None], scn.n_vertices[:, None])[..., 0]
+        envs, own = np.nonzero(np.ones_like(s.active))
+        out = np.empty(envs.size, bool)
+        compiled.slots_in_polygons(envs, own, s.lat, s.lon, scn.poly_lat, scn.poly_lon, scn.n_vertices, out)
+        return out.reshape(s.active.shape)
 
-    def leaving(self, acting: BoolArray) -> BoolArray:
+    def leaving(self, g: StepGeometry) -> BoolArray:
         """Agents outside the sector leave (the single-agent episode's truncation)."""
-        return acting & ~self.inside()
+        return ~g.inside  # type: ignore[attr-defined]

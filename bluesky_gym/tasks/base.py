@@ -1,19 +1,37 @@
-"""The batched task: scenario generation, action mapping, observation, reward and KPIs.
+"""The batched task: scenario generation, action mapping, an explicit step, observation, reward and KPIs.
 
 A task runs ``n_envs`` episodes of one air-traffic problem on one physics backend (the native
-:class:`~bluesky_gym.core.Simulator`, or the real BlueSky through the same interface). It is pure
-numpy: the Gymnasium and PettingZoo classes are thin shells around it.
+:class:`~bluesky_gym.core.Simulator`, or the real BlueSky through the same interface). The
+Gymnasium and PettingZoo classes are thin shells around it.
 
-A concrete task supplies four parts, in the spirit of a generator/dynamics/observation/reward
-pipeline:
+The step, written out (:meth:`Task.step`)::
 
-* :meth:`Task.generate` creates the scenario of the episodes being reset, drawing only from their
-  own generators;
-* :meth:`Task.apply_action` maps a batch of normalised actions to autopilot commands;
-* :meth:`Task.observe` builds the observation dict from the simulator state;
-* :meth:`Task.evaluate` returns reward, termination and named reward components.
+    a = clip_action(action)            # validate and clip the batch of actions
+    apply_action(a)                    # autopilot commands (physics commands only)
+    advance()                          # action_frequency physics sub-steps (Simulator.run)
+    g = measure()                      # this step's geometry, computed once
+    obs = observe(g)                   # observation dict, key -> (rows, *shape)
+    reward, terminated, parts = reward(g)
+    record(g, reward)                  # episode statistics / KPIs from g
+    truncation = time limit | truncate(g); info
 
-The base class runs the physics sub-steps, the time limit, episode counters and KPIs.
+A concrete task supplies:
+
+* :meth:`Task.generate`: the scenarios of the episodes being reset, drawn from their own generators;
+* :meth:`Task.apply_action`: a batch of clipped actions -> autopilot commands;
+* :meth:`Task.measure`: a :class:`StepGeometry` (usually a frozen subclass with the task's own
+  quantities: intruder distances and bearings, drift, goal distance...). ``measure(envs)`` gives the
+  rows ``envs`` only (``g.envs``). The common part the base reads for the KPIs is
+  ``separation_nm`` and ``los`` (rows, max_aircraft), ``drift_deg`` (rows,) or None, and
+  ``goal_reached`` (rows,). The default, for tasks without traffic, has no separation, no drift
+  and no goal;
+* :meth:`Task.observe` ``(g)``: the observation of the rows ``g.envs``, from ``g`` and the state;
+* :meth:`Task.reward` ``(g)``: reward, termination and named reward components (all episodes).
+  It may update the task's episode state (reach flags, counters); nothing it needs travels from
+  ``observe`` through an attribute;
+* optionally :meth:`Task.truncate` ``(g)``, :meth:`Task.episode_info`, :meth:`Task.extra_track_km`.
+
+Without an argument, ``observe()`` measures first (e.g. after a reset).
 """
 
 from __future__ import annotations
@@ -28,10 +46,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator
-from bluesky_gym.tasks.geometry import ref_kwikdist, ref_kwikqdrdist
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.geometry import ref_kwikqdrdist
+from bluesky_gym.tasks.geometry import wrap180 as wrap180  # re-exported for the tasks
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
+_EMPTY = np.empty(0)
 
 
 @dataclass(frozen=True)
@@ -85,11 +106,6 @@ def check_pair(name: str, value: Any) -> tuple[float, float]:
     for v in value:
         check_range(name, v, -np.inf)
     return float(value[0]), float(value[1])
-
-
-def wrap180(x: Array) -> Array:
-    """The reference's single wrap: x > 180 -> x - 360; x < -180 -> x + 360 (once only)."""
-    return np.where(x > 180, x - 360, np.where(x < -180, x + 360, x))
 
 
 @dataclass
@@ -155,6 +171,51 @@ class ObservationTerms:
     value: Callable[[Task, NDArray[np.int64]], Mapping[str, Array]]
 
 
+@dataclass(frozen=True)
+class StepGeometry:
+    """One step's geometry of rows ``envs``, computed once by :meth:`Task.measure`.
+
+    Tasks subclass it (frozen) with their own quantities. The base reads the common part below
+    for the episode statistics and KPIs. Arrays are not copied: treat them as read-only.
+
+    Attributes:
+        envs: (rows,) the episodes the rows belong to.
+        separation_nm: (rows, max_aircraft) distance from the ownship to every aircraft slot [NM]
+            (inf for the ownship itself and empty slots).
+        los: (rows, max_aircraft) loss-of-separation flags of those pairs.
+        drift_deg: (rows,) signed drift to the current goal [deg], or None without a heading goal.
+        goal_reached: (rows,) whether the episode's goal is reached after this step.
+    """
+
+    envs: NDArray[np.int64]
+    separation_nm: Array
+    los: BoolArray
+    drift_deg: Array | None
+    goal_reached: BoolArray
+
+
+def kwik_separation(
+    sim: Simulator, envs: NDArray[np.int64], own: NDArray[np.int64], intrusion_nm: float, vertical_m: float | None = None
+) -> tuple[Array, BoolArray]:
+    """Reference kwik distance [NM] from ownship slots to every other active aircraft, and the intrusion flags.
+
+    Args:
+        sim: The physics.
+        envs: (p,) episode of each row.
+        own: (p,) ownship slot of each row (0 for the single-agent tasks).
+        intrusion_nm: Horizontal intrusion distance [NM].
+        vertical_m: Vertical margin [m], or None for a purely horizontal intrusion test.
+
+    Returns:
+        Distances (inf for the ownship and empty slots) and intrusion flags, (p, max_aircraft).
+    """
+    shape = (len(envs), sim.lat.shape[1])
+    dist = np.empty(shape)
+    los = np.empty(shape, bool)
+    compiled.kwik_separation(envs, own, sim.lat, sim.lon, sim.alt, sim.active, intrusion_nm, np.nan if vertical_m is None else vertical_m, dist, los)
+    return dist, los
+
+
 @dataclass
 class StepResult:
     """What one batched step returns (all arrays over the batch)."""
@@ -211,18 +272,11 @@ class Task(abc.ABC):
         self.sim = backend
         if self.sim.n_envs != self.n_envs:
             raise ValueError(f"physics backend has {self.sim.n_envs} airspaces, the task {self.n_envs}")
-        #: Whether observation and reward geometry run compiled (:mod:`bluesky_gym.tasks.compiled`):
-        #: always, the compiled kernels are the production path (plain Python without numba).
-        self.compiled = True
-        #: The compiled functions (the module :mod:`bluesky_gym.tasks.compiled`), or None.
-        self.kernels: Any = None
-        if self.compiled:
-            from bluesky_gym.tasks import compiled
-
-            self.kernels = compiled
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(self.n_envs)]
         self.stats = EpisodeStats(self.n_envs)
         self.all_envs = np.arange(self.n_envs)
+        #: Ownship slot of every episode (0), for the functions written for sets of ownship slots.
+        self.ownship = np.zeros(self.n_envs, np.int64)
         self.observation_spec = self.build_observation_spec()
         self.action_spec = self.build_action_spec()
         #: Per-episode effects (:meth:`add_effect`) and extra observation entries (:meth:`add_observation_terms`).
@@ -258,71 +312,40 @@ class Task(abc.ABC):
     def apply_action(self, action: Array) -> None:
         """Turn a batch of clipped actions (n_envs, dim) into autopilot commands."""
 
+    def measure(self, envs: NDArray[np.int64] | None = None) -> StepGeometry:
+        """This step's geometry of episodes ``envs`` (all when None); the default: no traffic, no drift, no goal."""
+        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        shape = (len(envs), self.sim.max_aircraft)
+        return StepGeometry(envs, np.full(shape, np.inf), np.zeros(shape, bool), None, np.zeros(len(envs), bool))
+
     @abc.abstractmethod
-    def observe(self) -> dict[str, Array]:
-        """Observation of every episode: key -> (n_envs, *shape), float64."""
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
+        """Observation of the rows ``g.envs``: key -> (rows, *shape), float64 (``g`` None: measure all now)."""
 
     def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
-        """Observation of episodes ``envs`` only: key -> (len(envs), *shape) (e.g. after resetting them).
-
-        The same values as :meth:`observe` gives for those rows. By default it is that
-        observation, indexed; tasks with a cheaper per-episode form override it.
-        """
-        return {k: v[envs] for k, v in self.observe().items()}
+        """Observation of episodes ``envs`` only: key -> (len(envs), *shape) (e.g. after resetting them)."""
+        return self.observe(self.measure(np.asarray(envs, dtype=np.int64)))
 
     @abc.abstractmethod
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Reward (n_envs,), termination (n_envs,) and named reward components, after a step."""
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Reward (n_envs,), termination (n_envs,) and named reward components from a full-batch geometry."""
 
     def episode_info(self) -> dict[str, Array]:
         """The reference info keys, (n_envs,) each."""
         return {"total_reward": self.stats.total_reward.copy()}
 
     def ownship_separation(self) -> tuple[Array, BoolArray]:
-        """Ownship-to-aircraft distances [NM] and LoS flags, (n_envs, max_aircraft) each.
+        """Ownship-to-aircraft distances [NM] and LoS flags now, (n_envs, max_aircraft) each (for pictures and tests).
 
-        Slot 0 is the ownship. Tasks with traffic override this (default: no traffic).
+        The step itself reads them from its :class:`StepGeometry`.
         """
-        n = self.sim.max_aircraft
-        return np.full((self.n_envs, n), np.inf), np.zeros((self.n_envs, n), bool)
+        g = self.measure()
+        return g.separation_nm, g.los
 
-    def kwik_separation(self, intrusion_nm: float, vertical_m: float | None = None) -> tuple[Array, BoolArray]:
-        """Reference kwik distance [NM] from the ownship (slot 0) to every other active aircraft.
-
-        Args:
-            intrusion_nm: Horizontal intrusion distance [NM].
-            vertical_m: Vertical margin [m], or None for a purely horizontal intrusion test.
-
-        Returns:
-            Distances (inf for the ownship and empty slots) and intrusion flags, (n_envs, max_aircraft).
-        """
-        s = self.sim
-        if self.compiled:
-            dist = np.empty(s.lat.shape)
-            los = np.empty(s.lat.shape, bool)
-            self.kernels.kwik_separation(s.lat, s.lon, s.alt, s.active, intrusion_nm, np.nan if vertical_m is None else vertical_m, dist, los)
-            return dist, los
-        dist = ref_kwikdist(s.lat[:, :1], s.lon[:, :1], s.lat, s.lon)
-        other = s.active.copy()
-        other[:, 0] = False
-        dist = np.where(other, dist, np.inf)
-        los = other & (dist < intrusion_nm)
-        if vertical_m is not None:
-            los &= np.abs(s.alt[:, :1] - s.alt) < vertical_m
-        return dist, los
-
-    def drift_deg(self) -> Array | None:
-        """(n_envs,) current |drift| [deg] to the goal, or None if the task has no heading goal."""
-        return None
-
-    def goal_reached(self) -> BoolArray:
-        """(n_envs,) whether the episode's goal has been reached."""
-        return np.zeros(self.n_envs, bool)
-
-    def truncate(self) -> BoolArray:
+    def truncate(self, g: StepGeometry) -> BoolArray:
         """(n_envs,) task-specific truncation after a step, OR-ed with the time limit (default: none).
 
-        Called once per step, after :meth:`evaluate`; a terminated episode is never reported as
+        Called once per step, after :meth:`reward`; a terminated episode is never reported as
         truncated.
         """
         return np.zeros(self.n_envs, bool)
@@ -391,7 +414,7 @@ class Task(abc.ABC):
         self.generate(envs)
         for effect in self.effects:
             effect.on_reset(self, envs)
-        self._track_separation(envs, count_steps=False)
+        self.record(self.measure(envs), None)
 
     def clip_action(self, action: Any) -> Array:
         """Validate a batch of actions and clip it to the action space."""
@@ -407,54 +430,38 @@ class Task(abc.ABC):
         return np.minimum(np.maximum(a, spec.low), spec.high)  # np.clip's result, for finite values
 
     def step(self, action: Any) -> StepResult:
-        """Apply a batch of actions, run the physics sub-steps and evaluate every episode."""
-        a = self.clip_action(action)
-        self.apply_action(a)
-        reward, terminated, components, obs = self.transition()
-        obs = self.with_observation_terms(obs)
-        self.stats.steps += 1
-        self.stats.total_reward += reward
-        self._track_separation(slice(None), count_steps=True)
-        drift = self.drift_deg()
-        if drift is not None:
-            self.stats.drift_sum += drift
-            self.stats.drift_n += 1
-        reached = self.goal_reached() & np.isnan(self.stats.time_to_goal)
-        if reached.any():
-            self.stats.time_to_goal[reached] = self.stats.steps[reached] * self.dt * self.action_frequency
-        truncated = ~terminated & ((self.stats.steps >= self.time_limit) | self.truncate())
-        info = self.episode_info()
-        info.update({f"reward_{k}": v for k, v in components.items()})
-        done = terminated | truncated
-        if done.any():
-            info.update(self.kpis())
-        return StepResult(obs, reward, terminated, truncated, info)
-
-    def transition(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """Run ``action_frequency`` physics sub-steps, then evaluate.
+        """Apply a batch of actions, run the physics sub-steps and evaluate every episode.
 
         As in the reference, the observation is built before the reward is evaluated (reach
         flags updated by the reward therefore show in the next observation).
-
-        Returns:
-            Reward, termination, reward components and the observation.
         """
-        self.sim.run(self.action_frequency)
-        obs = self.observe()
-        reward, terminated, components = self.evaluate()
-        return reward, terminated, components, obs
+        a = self.clip_action(action)
+        self.apply_action(a)
+        self.advance()
+        g = self.measure()
+        obs = self.with_observation_terms(self.observe(g))
+        reward, terminated, components = self.reward(g)
+        self.record(g, reward)
+        truncated = ~terminated & ((self.stats.steps >= self.time_limit) | self.truncate(g))
+        info = self.episode_info()
+        info.update({f"reward_{k}": v for k, v in components.items()})
+        if (terminated | truncated).any():
+            info.update(self.kpis())
+        return StepResult(obs, reward, terminated, truncated, info)
 
-    def _track_separation(self, envs: NDArray[np.int64] | slice, count_steps: bool) -> None:
-        dist, los = self.ownship_separation()
-        if not isinstance(envs, slice):
-            dist, los = dist[envs], los[envs]
+    def advance(self) -> None:
+        """Run the ``action_frequency`` physics sub-steps in one :meth:`~bluesky_gym.core.physics.Physics.run` call."""
+        self.sim.run(self.action_frequency)
+
+    def record(self, g: StepGeometry, reward: Array | None) -> None:
+        """Update the episode statistics of rows ``g.envs`` from the geometry (``reward`` None: at a reset, no step)."""
         st = self.stats
-        st.min_separation[envs] = np.minimum(st.min_separation[envs], dist.min(axis=1))
-        new = los & ~st.in_los[envs]
-        st.los_count[envs] += new.sum(axis=1)
-        if count_steps:
-            st.los_steps[envs] += los.any(axis=1)
-        st.in_los[envs] = los
+        stepped = reward is not None
+        compiled.record_step(
+            g.envs, g.separation_nm, g.los, stepped, reward if stepped else _EMPTY, _EMPTY if g.drift_deg is None else g.drift_deg,
+            g.goal_reached, self.dt, self.action_frequency, st.in_los, st.min_separation, st.los_count, st.los_steps, st.steps,
+            st.total_reward, st.drift_sum, st.drift_n, st.time_to_goal,
+        )
 
     def kpis(self) -> dict[str, Array]:
         """Air-traffic KPIs of the current episodes, (n_envs,) each."""

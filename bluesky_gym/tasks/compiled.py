@@ -1,16 +1,18 @@
-"""Optional compiled observation and reward geometry of the traffic tasks.
+"""The compiled observation and reward geometry of the traffic tasks (the only implementation).
 
-The numpy code in the task modules is the reference. At one episode a step of SectorCR, Merge or
+At one episode a step of SectorCR, Merge or
 StaticObstacle issues a hundred small numpy calls (kwik geometry, sorting the intruders, polygon
 tests), which cost far more than the physics; at large batches the same code makes a dozen passes
 over (episodes, aircraft) arrays. The functions here compute the same quantities in one loop per
 episode with numba.
 
-They are bit-identical to the numpy path: the same operations in the same order (numpy's
-``deg2rad``/``rad2deg`` factors, its float remainder, left-to-right products), no floating-point
-contraction, and the tests compare both paths to the last bit. A task uses them when its physics
-runs the fused kernel (numba installed, the ``fast`` extra); ``Simulator(kernel="numpy")`` keeps
-the whole task on numpy.
+They are bit-identical to the readable numpy forms kept as test oracles (``tests/oracle``): the
+same operations in the same order (numpy's ``deg2rad``/``rad2deg`` factors, its float remainder,
+left-to-right products), no floating-point contraction, and the tests compare both to the last
+bit. Without numba they run as plain Python (see :mod:`bluesky_gym.core.jit`).
+
+The observation functions work on rows (episode ``envs[r]``, ownship slot ``own[r]``): the
+single-agent tasks pass ownship slot 0 of every episode, the multi-agent tasks every active slot.
 """
 
 from __future__ import annotations
@@ -18,17 +20,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from bluesky_gym.core.jit import AVAILABLE, jit, jit_inline
 from bluesky_gym.core.scalar import mod as _mod
-from bluesky_gym.core.units import NM2KM
+from bluesky_gym.core.units import NM, NM2KM, R_EARTH
 
 __all__ = ["AVAILABLE"]
 
+Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
 _RAD = np.pi / 180.0  # numpy's deg2rad factor
 _DEG = 180.0 / np.pi  # numpy's rad2deg factor
-_KWIK_R = 6371000.0  # m: Earth radius of BlueSky's Python kwik forms
-_KWIK_NM = 1852.0  # m per NM in those forms
+_KWIK_R = R_EARTH  # m: Earth radius of BlueSky's Python kwik forms
+_KWIK_NM = NM  # m per NM in those forms
 _M_PER_KM = 1000.0
 
 
@@ -42,26 +49,39 @@ def _kwik_parts(lata, lona, latb, lonb):
 
 
 @jit_inline
+def _dist_of_parts(dlat, dlon, cavelat):
+    return _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
+
+
+@jit_inline
+def _qdr_of_parts(dlat, dlon, cavelat):
+    return _mod(math.atan2(dlon * cavelat, dlat) * _DEG, 360.0)
+
+
+@jit_inline
+def _matrix_dist_of_parts(dlat, dlon, cavelat):
+    return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
+
+
+@jit_inline
 def _kwikdist(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist` [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    return _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
+    return _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
 def _kwikqdrdist(lata, lona, latb, lonb):
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikqdrdist`: bearing [deg, 0..360) and distance [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    dist = _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
-    qdr = _mod(math.atan2(dlon * cavelat, dlat) * _DEG, 360.0)
-    return qdr, dist
+    return _qdr_of_parts(dlat, dlon, cavelat), _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
 def _kwikdist_matrix(lata, lona, latb, lonb):
-    """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist_matrix` [NM] (other product grouping)."""
+    """BlueSky's Python ``kwikdist_matrix`` [NM]: the ``_kwikdist`` formula with the products grouped otherwise."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
+    return _matrix_dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
@@ -105,7 +125,7 @@ def _closest(key, active, out, best):
 def _polygon_contains(y, x, py, px, nv):
     """Even-odd test of point (lat y, lon x) against the first ``nv`` vertices of (py, px).
 
-    :class:`~bluesky_gym.tasks.geometry.PolygonSet` for one point and one polygon.
+    BlueSky's 2-D ``checkInside`` for one point and one polygon.
     """
     inside = False
     for v in range(nv):
@@ -118,26 +138,27 @@ def _polygon_contains(y, x, py, px, nv):
 
 # --- shared by the tasks -----------------------------------------------------------------------
 @jit
-def kwik_separation(lat, lon, alt, active, intrusion_nm, vertical_m, dist_out, los_out):
-    """:meth:`bluesky_gym.tasks.base.Task.kwik_separation` into ``dist_out``/``los_out`` (n, m).
+def kwik_separation(envs, own, lat, lon, alt, active, intrusion_nm, vertical_m, dist_out, los_out):
+    """Kwik distance [NM] from ownship slot ``own[r]`` of episode ``envs[r]`` to every slot, and the intrusion flags.
 
+    Row ``r`` of ``dist_out``/``los_out`` (p, m): inf / False for the ownship and empty slots.
     ``vertical_m`` NaN means a purely horizontal intrusion test.
     """
-    for e in range(lat.shape[0]):
-        lat0, lon0, alt0 = lat[e, 0], lon[e, 0], alt[e, 0]
-        dist_out[e, 0] = np.inf
-        los_out[e, 0] = False
-        for j in range(1, lat.shape[1]):
-            if active[e, j]:
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        lat0, lon0, alt0 = lat[e, o], lon[e, o], alt[e, o]
+        for j in range(lat.shape[1]):
+            if active[e, j] and j != o:
                 d = _kwikdist(lat0, lon0, lat[e, j], lon[e, j])
-                dist_out[e, j] = d
+                dist_out[r, j] = d
                 los = d < intrusion_nm
                 if los and not math.isnan(vertical_m):
                     los = abs(alt0 - alt[e, j]) < vertical_m
-                los_out[e, j] = los
+                los_out[r, j] = los
             else:
-                dist_out[e, j] = np.inf
-                los_out[e, j] = False
+                dist_out[r, j] = np.inf
+                los_out[r, j] = False
 
 
 @jit
@@ -188,134 +209,252 @@ def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
                     out[k, e] += 1
 
 
-@jit
-def intruder_relative_state(lat, lon, hdg, gs, out):
-    """:func:`bluesky_gym.tasks.vertical_cr.intruder_relative_state` into ``out`` (5, n, m - 1).
-
-    Rows: dist_km, cos_bearing, sin_bearing, x_dif, y_dif.
-    """
-    for e in range(lat.shape[0]):
-        lat0, lon0, hdg0, gs0 = lat[e, 0], lon[e, 0], hdg[e, 0], gs[e, 0]
-        for j in range(1, lat.shape[1]):
-            qdr, dist = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
-            bearing = _wrap180(hdg0 - qdr) * _RAD
-            difference = (hdg0 - hdg[e, j]) * _RAD
-            out[0, e, j - 1] = dist * NM2KM
-            out[1, e, j - 1] = math.cos(bearing)
-            out[2, e, j - 1] = math.sin(bearing)
-            out[3, e, j - 1] = -math.cos(difference) * gs[e, j]
-            out[4, e, j - 1] = gs0 - math.sin(difference) * gs[e, j]
+@jit_inline
+def _other_slots(active, o, slots, act):
+    """The slots other than the ownship ``o`` in slot order into ``slots`` (m - 1), their activity into ``act``."""
+    i = 0
+    for j in range(active.shape[0]):
+        if j != o:
+            slots[i] = j
+            act[i] = active[j]
+            i += 1
 
 
 @jit_inline
-def _relative_velocity(hdg, tas, e, j):
-    """(vx_r, vy_r) of intruder slot ``j`` (:func:`bluesky_gym.tasks.sector_cr.relative_velocity`)."""
-    vx = math.cos(hdg[e, j] * _RAD) * tas[e, j] - math.cos(hdg[e, 0] * _RAD) * tas[e, 0]
-    vy = math.sin(hdg[e, j] * _RAD) * tas[e, j] - math.sin(hdg[e, 0] * _RAD) * tas[e, 0]
-    return vx, vy
+def _count_active(act):
+    c = 0
+    for i in range(act.shape[0]):
+        if act[i]:
+            c += 1
+    return c
+
+
+@jit
+def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, count_out):
+    """Ownship-relative geometry of the other aircraft, per (episode, ownship) row, into ``out`` (5, p, k).
+
+    Rows: dist_km, cos_bearing, sin_bearing, x_dif, y_dif (the expressions of
+    :func:`bluesky_gym.tasks.vertical_cr.intruder_relative_state`). Row ``r`` is ownship slot
+    ``own[r]`` of episode ``envs[r]``. With ``nearest`` False the other slots follow in slot
+    order (the first k; the single-agent tasks' creation order); with ``nearest`` True they are
+    the k nearest active ones by kwik distance (ties: lower slot first; empty slots last).
+    ``count_out`` (p,) receives the number of other active aircraft.
+    """
+    m = lat.shape[1]
+    k = out.shape[2]
+    slots = np.empty(m - 1, np.int64)
+    act = np.empty(m - 1, np.bool_)
+    key = np.empty(m - 1)
+    order = np.empty(k, np.int64)
+    best = np.empty(k)
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        lat0, lon0, hdg0, gs0 = lat[e, o], lon[e, o], hdg[e, o], gs[e, o]
+        _other_slots(active[e], o, slots, act)
+        count_out[r] = _count_active(act)
+        if nearest:
+            for i in range(m - 1):
+                if act[i]:  # (_closest reads the keys of active slots only)
+                    key[i] = _kwikdist(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+            _closest(key, act, order, best)
+        else:
+            for i in range(k):
+                order[i] = i
+        for i in range(k):
+            j = slots[order[i]]
+            qdr, dist = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
+            bearing = _wrap180(hdg0 - qdr) * _RAD
+            difference = (hdg0 - hdg[e, j]) * _RAD
+            out[0, r, i] = dist * NM2KM
+            out[1, r, i] = math.cos(bearing)
+            out[2, r, i] = math.sin(bearing)
+            out[3, r, i] = -math.cos(difference) * gs[e, j]
+            out[4, r, i] = gs0 - math.sin(difference) * gs[e, j]
+
+
+@jit
+def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_out):
+    """Drift wrap180(heading - kwik bearing to the goal) [deg] and kwik distance [NM] of each row's ownship to its goal.
+
+    Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``, goal (``goal_lat[r]``, ``goal_lon[r]``).
+    """
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        qdr, dist = _kwikqdrdist(lat[e, o], lon[e, o], goal_lat[r], goal_lon[r])
+        drift_out[r] = _wrap180(hdg[e, o] - qdr)
+        dist_out[r] = dist
+
+
+@jit_inline
+def _velocity(hdg, tas, e, j, vx, vy, stamp):
+    """TAS vector (north, east) [m/s] of slot ``j`` of episode ``e``, memoised per episode in (vx, vy, stamp)."""
+    if stamp[j] != e:
+        vx[j] = math.cos(hdg[e, j] * _RAD) * tas[e, j]
+        vy[j] = math.sin(hdg[e, j] * _RAD) * tas[e, j]
+        stamp[j] = e
+    return vx[j], vy[j]
+
+
+@jit_inline
+def _relative_velocity(hdg, tas, e, o, j, vx, vy, stamp):
+    """(vx_r, vy_r): the TAS vector of slot ``j`` minus the ownship's (slot ``o``), north / east [m/s]."""
+    vxj, vyj = _velocity(hdg, tas, e, j, vx, vy, stamp)
+    vxo, vyo = _velocity(hdg, tas, e, o, vx, vy, stamp)
+    return vxj - vxo, vyj - vyo
 
 
 # --- SectorCR ----------------------------------------------------------------------------------
 @jit
-def sector_observe(envs, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out):
-    """:meth:`bluesky_gym.tasks.sector_cr.SectorCRTask.observe` of episodes ``envs``.
+def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out, count_out):
+    """SectorCR's observation geometry of (episode ``envs[r]``, ownship slot ``own[r]``) rows.
 
     Args:
-        envs: (p,) the episodes to observe; output row i belongs to episode ``envs[i]``.
+        envs: (p,) the episode of each row.
+        own: (p,) the ownship slot of each row.
         lat: (n, m) latitudes [deg].
         lon: (n, m) longitudes [deg].
         hdg: (n, m) headings [deg].
         tas: (n, m) true airspeeds [m/s].
         active: (n, m) occupied slots.
-        wpt_lat: (n,) latitude of the agent's waypoint [deg].
-        wpt_lon: (n,) its longitude [deg].
+        wpt_lat: (p,) latitude of each row's ownship waypoint [deg].
+        wpt_lon: (p,) its longitude [deg].
         center: (lat, lon, cos(radians(lat))) of the flat projection.
         scales: (airspeed mean, airspeed std, position, vx, vy, distance mean, distance std).
         drift_out: (p,) drift [deg].
         own_out: (p, 3) cos(drift), sin(drift), airspeed.
         intruder_out: (p, 7, k) x_r, y_r, vx_r, vy_r, cos(track), sin(track), distances of the
-            k closest intruders.
+            k closest other aircraft by flat distance (ties: lower slot first; when fewer are
+            active, empty slots follow in slot order).
+        count_out: (p,) number of other active aircraft.
     """
     spd_mean, spd_std, pos_scale, vx_scale, vy_scale, d_mean, d_std = scales
     clat, clon, ccos = center
     m = lat.shape[1]
     k = intruder_out.shape[2]
+    slots = np.empty(m - 1, np.int64)
+    act = np.empty(m - 1, np.bool_)
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
     best = np.empty(k)
     rx = np.empty(m - 1)
     ry = np.empty(m - 1)
+    vxs = np.empty(m)
+    vys = np.empty(m)
+    stamp = np.full(m, -1, np.int64)
     for r in range(envs.shape[0]):
         e = envs[r]
-        qdr, _ = _kwikqdrdist(lat[e, 0], lon[e, 0], wpt_lat[e], wpt_lon[e])
-        drift = _wrap180(hdg[e, 0] - qdr)
+        o = own[r]
+        qdr, _ = _kwikqdrdist(lat[e, o], lon[e, o], wpt_lat[r], wpt_lon[r])
+        drift = _wrap180(hdg[e, o] - qdr)
         drift_out[r] = drift
         own_out[r, 0] = math.cos(drift * _RAD)
         own_out[r, 1] = math.sin(drift * _RAD)
-        own_out[r, 2] = (tas[e, 0] - spd_mean) / spd_std
+        own_out[r, 2] = (tas[e, o] - spd_mean) / spd_std
         # Flat positions [m] around the sector centre (geometry.latlon_to_nm * 1852).
-        x0 = (lat[e, 0] - clat) * 60.0 * NM2KM * _M_PER_KM
-        y0 = (lon[e, 0] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM
-        for j in range(1, m):
-            rx[j - 1] = (lat[e, j] - clat) * 60.0 * NM2KM * _M_PER_KM - x0
-            ry[j - 1] = (lon[e, j] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM - y0
-            key[j - 1] = math.sqrt(rx[j - 1] * rx[j - 1] + ry[j - 1] * ry[j - 1])
-        _closest(key, active[e, 1:], order, best)
+        x0 = (lat[e, o] - clat) * 60.0 * NM2KM * _M_PER_KM
+        y0 = (lon[e, o] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM
+        _other_slots(active[e], o, slots, act)
+        count_out[r] = _count_active(act)
+        for i in range(m - 1):
+            j = slots[i]
+            rx[i] = (lat[e, j] - clat) * 60.0 * NM2KM * _M_PER_KM - x0
+            ry[i] = (lon[e, j] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM - y0
+            key[i] = math.sqrt(rx[i] * rx[i] + ry[i] * ry[i])
+        _closest(key, act, order, best)
         for i in range(k):
-            j = order[i]
-            vx, vy = _relative_velocity(hdg, tas, e, j + 1)
+            q = order[i]
+            vx, vy = _relative_velocity(hdg, tas, e, o, slots[q], vxs, vys, stamp)
             trk = math.atan2(vy, vx)
-            intruder_out[r, 0, i] = rx[j] / pos_scale
-            intruder_out[r, 1, i] = ry[j] / pos_scale
+            intruder_out[r, 0, i] = rx[q] / pos_scale
+            intruder_out[r, 1, i] = ry[q] / pos_scale
             intruder_out[r, 2, i] = vx / vx_scale
             intruder_out[r, 3, i] = vy / vy_scale
             intruder_out[r, 4, i] = math.cos(trk)
             intruder_out[r, 5, i] = math.sin(trk)
-            intruder_out[r, 6, i] = (key[j] - d_mean) / d_std
+            intruder_out[r, 6, i] = (key[q] - d_mean) / d_std
+
+
+@jit
+def slots_in_polygons(envs, own, lat, lon, poly_lat, poly_lon, n_vertices, out):
+    """Even-odd test of aircraft slot ``own[r]`` of episode ``envs[r]`` against that episode's polygon.
+
+    ``poly_*`` are (n, V), ``n_vertices`` (n,), ``out`` (p,).
+    """
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        out[r] = _polygon_contains(lat[e, own[r]], lon[e, own[r]], poly_lat[e], poly_lon[e], n_vertices[e])
 
 
 # --- Merge -------------------------------------------------------------------------------------
 @jit
-def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out):
-    """:meth:`bluesky_gym.tasks.merge.MergeTask.observe` of episodes ``envs``.
+def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out, count_out):
+    """Merge's observation geometry of (episode ``envs[r]``, ownship slot ``own[r]``) rows.
 
     Args:
-        envs: (p,) the episodes to observe; output row i belongs to episode ``envs[i]``.
+        envs: (p,) the episode of each row.
+        own: (p,) the ownship slot of each row.
         lat: (n, m) latitudes [deg].
         lon: (n, m) longitudes [deg].
         hdg: (n, m) headings [deg].
         tas: (n, m) true airspeeds [m/s].
         active: (n, m) occupied slots.
-        target_lat: (n,) latitude of the ownship's current target [deg].
-        target_lon: (n,) its longitude [deg].
+        target_lat: (p,) latitude of each row's current target [deg].
+        target_lon: (p,) its longitude [deg].
         scales: (position, speed, distance) divisors.
         own_out: (p, 4) drift [deg], target distance [NM], cos(drift), sin(drift).
         intruder_out: (p, 7, k) x_r, y_r, vx_r, vy_r, cos(track), sin(track), distances of the
-            k closest intruders.
+            k closest other aircraft by kwik distance (ties: lower slot first; when fewer are
+            active, empty slots follow in slot order).
+        count_out: (p,) number of other active aircraft.
     """
     pos_scale, spd_scale, d_scale = scales
     m = lat.shape[1]
     k = intruder_out.shape[2]
+    slots = np.empty(m - 1, np.int64)
+    act = np.empty(m - 1, np.bool_)
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
     best = np.empty(k)
+    vxs = np.empty(m)
+    vys = np.empty(m)
+    stamp = np.full(m, -1, np.int64)
+    dlats = np.empty(m - 1)
+    dlons = np.empty(m - 1)
+    cavs = np.empty(m - 1)
     for r in range(envs.shape[0]):
         e = envs[r]
-        lat0, lon0 = lat[e, 0], lon[e, 0]
-        qdr, dist = _kwikqdrdist(lat0, lon0, target_lat[e], target_lon[e])
-        drift = _wrap180(hdg[e, 0] - qdr)
+        o = own[r]
+        lat0, lon0 = lat[e, o], lon[e, o]
+        qdr, dist = _kwikqdrdist(lat0, lon0, target_lat[r], target_lon[r])
+        drift = _wrap180(hdg[e, o] - qdr)
         own_out[r, 0] = drift
         own_out[r, 1] = dist
         own_out[r, 2] = math.cos(drift * _RAD)
         own_out[r, 3] = math.sin(drift * _RAD)
-        for j in range(1, m):
-            key[j - 1] = _kwikdist_matrix(lat0, lon0, lat[e, j], lon[e, j])
-        _closest(key, active[e, 1:], order, best)
+        _other_slots(active[e], o, slots, act)
+        count_out[r] = _count_active(act)
+        for i in range(m - 1):
+            # The kwik parts of each active pair once: the sort key is kwikdist_matrix's grouping,
+            # the observed distance and bearing kwikqdrdist's.
+            if act[i]:
+                dlat, dlon, cavelat = _kwik_parts(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+                dlats[i], dlons[i], cavs[i] = dlat, dlon, cavelat
+                key[i] = _matrix_dist_of_parts(dlat, dlon, cavelat)
+        _closest(key, act, order, best)
         for i in range(k):
-            j = order[i] + 1
-            brg, d_int = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
+            q = order[i]
+            j = slots[q]
+            if act[q]:
+                dlat, dlon, cavelat = dlats[q], dlons[q], cavs[q]
+            else:  # padding: an empty slot
+                dlat, dlon, cavelat = _kwik_parts(lat0, lon0, lat[e, j], lon[e, j])
+                key[q] = _matrix_dist_of_parts(dlat, dlon, cavelat)
+            d_int = _dist_of_parts(dlat, dlon, cavelat)
+            brg = _qdr_of_parts(dlat, dlon, cavelat)
             d_m = d_int * NM2KM * _M_PER_KM
-            vx, vy = _relative_velocity(hdg, tas, e, j)
+            vx, vy = _relative_velocity(hdg, tas, e, o, j, vxs, vys, stamp)
             trk = math.atan2(vy, vx)
             intruder_out[r, 0, i] = d_m * math.cos(brg * _RAD) / pos_scale
             intruder_out[r, 1, i] = d_m * math.sin(brg * _RAD) / pos_scale
@@ -323,4 +462,99 @@ def merge_observe(envs, lat, lon, hdg, tas, active, target_lat, target_lon, scal
             intruder_out[r, 3, i] = vy / spd_scale
             intruder_out[r, 4, i] = math.cos(trk)
             intruder_out[r, 5, i] = math.sin(trk)
-            intruder_out[r, 6, i] = key[j - 1] / d_scale
+            intruder_out[r, 6, i] = key[q] / d_scale
+
+
+# --- array forms of the scenario and kwik geometry (tasks/geometry.py wraps these) -------------
+@jit_inline
+def _point_at_distance(lat: float, lon: float, d_km: float, bearing: float, radius_km: float) -> tuple[float, float]:
+    """Great-circle destination (lat, lon) [deg] at ``d_km`` along ``bearing`` [deg] (spherical)."""
+    lat1 = lat * _RAD
+    lon1 = lon * _RAD
+    a = bearing * _RAD
+    dr = d_km / radius_km
+    lat2 = math.asin(math.sin(lat1) * math.cos(dr) + math.cos(lat1) * math.sin(dr) * math.cos(a))
+    lon2 = lon1 + math.atan2(math.sin(a) * math.sin(dr) * math.cos(lat1), math.cos(dr) - math.sin(lat1) * math.sin(lat2))
+    return lat2 * _DEG, lon2 * _DEG
+
+
+@jit_inline
+def _at(a: Array, i: int, j: int) -> float:
+    """``a[i, j]`` of a 2-D array broadcast against (i, j): a dimension of length 1 repeats."""
+    return float(a[i if a.shape[0] > 1 else 0, j if a.shape[1] > 1 else 0])
+
+
+@jit
+def point_at_distance(lat: Array, lon: Array, d_km: Array, bearing: Array, radius_km: float, lat_out: Array, lon_out: Array) -> None:
+    """:func:`bluesky_gym.tasks.geometry.point_at_distance` of 2-D inputs broadcast to the outputs' shape."""
+    for i in range(lat_out.shape[0]):
+        for j in range(lat_out.shape[1]):
+            lat_out[i, j], lon_out[i, j] = _point_at_distance(_at(lat, i, j), _at(lon, i, j), _at(d_km, i, j), _at(bearing, i, j), radius_km)
+
+
+@jit
+def kwikdist(lata: Array, lona: Array, latb: Array, lonb: Array, dist_out: Array) -> None:
+    """:func:`bluesky_gym.tasks.geometry.ref_kwikdist` of 2-D inputs broadcast to the output's shape."""
+    for i in range(dist_out.shape[0]):
+        for j in range(dist_out.shape[1]):
+            dist_out[i, j] = _kwikdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
+
+
+@jit
+def kwikqdrdist(lata: Array, lona: Array, latb: Array, lonb: Array, qdr_out: Array, dist_out: Array) -> None:
+    """:func:`bluesky_gym.tasks.geometry.ref_kwikqdrdist` of 2-D inputs broadcast to the outputs' shape."""
+    for i in range(dist_out.shape[0]):
+        for j in range(dist_out.shape[1]):
+            qdr_out[i, j], dist_out[i, j] = _kwikqdrdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
+
+
+@jit
+def add_samples(total: Array, count: IntArray, value: Array, times: IntArray) -> None:
+    """Add ``value[e]`` to ``total[e]`` ``times[e]`` times, one addition after the other, and ``times[e]`` to ``count[e]``."""
+    for e in range(total.shape[0]):
+        for _ in range(times[e]):
+            total[e] += value[e]
+        count[e] += times[e]
+
+
+# --- episode statistics -------------------------------------------------------------------------
+@jit
+def record_step(envs, separation, los, stepped, reward, drift, goal, dt, action_frequency, in_los, min_sep, los_count, los_steps, steps, total_reward,
+                drift_sum, drift_n, time_to_goal):
+    """:meth:`bluesky_gym.tasks.base.Task.record`: the episode statistics of rows ``envs`` from a step's geometry.
+
+    Always: the smallest separation, new losses of separation (pairs not in LoS before) and the
+    LoS flags. When ``stepped`` (a decision step, not a reset) also the step count, return, steps
+    in LoS, |drift| (when ``drift`` has a value per row) and the time to the goal of rows that
+    reach it for the first time.
+    """
+    for r in range(envs.shape[0]):
+        e = envs[r]
+        dmin = np.inf
+        new = 0
+        any_los = False
+        for j in range(separation.shape[1]):
+            d = separation[r, j]
+            if d < dmin or d != d:  # NaN propagates as in np.min
+                dmin = d
+            flag = los[r, j]
+            if flag:
+                any_los = True
+                if not in_los[e, j]:
+                    new += 1
+            in_los[e, j] = flag
+        m = min_sep[e]
+        if dmin < m or dmin != dmin:
+            min_sep[e] = dmin
+        los_count[e] += new
+        if not stepped:
+            continue
+        steps[e] += 1
+        total_reward[e] += reward[r]
+        if any_los:
+            los_steps[e] += 1
+        if drift.shape[0] > 0:
+            drift_sum[e] += abs(drift[r])
+            drift_n[e] += 1
+        if goal[r] and time_to_goal[e] != time_to_goal[e]:
+            time_to_goal[e] = steps[e] * dt * action_frequency

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.units import NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import ref_kwikdist
 
 ALT_MEAN = 1500.0  # m
@@ -26,6 +26,18 @@ AC_SPD = 150.0  # m/s CAS
 DEFAULT_RWY_DIS = 200.0  # km from the start point to the runway
 RWY_LAT, RWY_LON = 52.0, 4.0  # deg: the start point the runway distance is measured from
 CLIMB_TARGET = 1e6  # m: selected altitude for a climb (clipped by the ceiling)
+
+
+@dataclass(frozen=True)
+class DescentMeasurement(StepGeometry):
+    """One step's quantities of the descent task, for the rows (episodes) ``envs``.
+
+    No traffic and no heading goal; ``goal_reached``: the runway has been reached.
+    """
+
+    alt: Array  # (rows,) m, ownship altitude
+    vs: Array  # (rows,) m/s, ownship vertical speed
+    runway_km: Array  # (rows,) km left to the runway
 
 
 @dataclass(frozen=True)
@@ -93,40 +105,58 @@ class DescentTask(Task):
         self.sim.create(envs, 0, RWY_LAT, RWY_LON, 0.0, alt_init, AC_SPD)
         self.sim.set_autopilot(envs, 0, swvnav=False)
 
-    # --- dynamics interface ---------------------------------------------------------------------
+    # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """Direct ``selalt``/``selvs`` writes, as the reference."""
+        """Vertical speed 12.5 a m/s: the reference's direct ``selalt``/``selvs`` writes."""
         v = action[:, 0] * ACTION_2_MS
         self.sim.set_autopilot(self.all_envs, 0, selalt=np.where(v >= 0, CLIMB_TARGET, 0.0), selvs=v)
 
-    def runway_distance(self) -> Array:
-        """(n_envs,) km left to the runway along the 200 km leg."""
-        d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[:, 0], self.sim.lon[:, 0])
+    # --- measure --------------------------------------------------------------------------------
+    def runway_distance(self, envs: NDArray[np.int64] | slice | None = None) -> Array:
+        """Km left to the runway along the 200 km leg, of episodes ``envs`` (all when None)."""
+        rows = slice(None) if envs is None else envs
+        d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[rows, 0], self.sim.lon[rows, 0])
         return self.config.runway_distance_km - d * NM2KM
 
+    def measure(self, envs: NDArray[np.int64] | None = None) -> DescentMeasurement:
+        """Altitude, vertical speed and runway distance of episodes ``envs`` (all when None)."""
+        ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
+        s = self.sim
+        runway_km = self.runway_distance(rows)
+        shape = (ids.size, s.max_aircraft)
+        return DescentMeasurement(
+            envs=ids,
+            separation_nm=np.full(shape, np.inf),
+            los=np.zeros(shape, bool),
+            drift_deg=None,
+            goal_reached=runway_km <= 0,
+            alt=s.alt[rows, 0],
+            vs=s.vs[rows, 0],
+            runway_km=runway_km,
+        )
+
     # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
-        """Normalised altitude, vertical speed, target and runway distance."""
-        alt = self.sim.alt[:, 0]
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
+        """Normalised altitude, vertical speed, target and runway distance of the rows ``g.envs``."""
+        g = self.measure() if g is None else g
+        assert isinstance(g, DescentMeasurement)
         return {
-            "altitude": ((alt - ALT_MEAN) / ALT_STD)[:, None],
-            "vz": ((self.sim.vs[:, 0] - VZ_MEAN) / VZ_STD)[:, None],
-            "target_altitude": ((self.target_alt - ALT_MEAN) / ALT_STD)[:, None],
-            "runway_distance": ((self.runway_distance() - RWY_DIS_MEAN) / RWY_DIS_STD)[:, None],
+            "altitude": ((g.alt - ALT_MEAN) / ALT_STD)[:, None],
+            "vz": ((g.vs - VZ_MEAN) / VZ_STD)[:, None],
+            "target_altitude": ((self.target_alt[g.envs] - ALT_MEAN) / ALT_STD)[:, None],
+            "runway_distance": ((g.runway_km - RWY_DIS_MEAN) / RWY_DIS_STD)[:, None],
         }
 
-    # --- reward ---------------------------------------------------------------------------------
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Altitude tracking, crash or runway term, in the reference order."""
-        alt = self.sim.alt[:, 0]
-        rd = self.runway_distance()
-        flying = (rd > 0) & (alt > 0)
-        crashed = ~flying & (alt <= 0)
-        at_runway = ~flying & ~crashed & (rd <= 0)
-        altitude = np.where(flying, np.abs(self.target_alt - alt) * ALT_DIF_REWARD_SCALE, 0.0)
+    # --- reward and termination -----------------------------------------------------------------
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Altitude tracking while flying, else the crash or runway term; records ``final_altitude`` (all episodes)."""
+        assert isinstance(g, DescentMeasurement)
+        flying, crashed, at_runway = descent_outcome(g)
+        altitude = np.where(flying, np.abs(self.target_alt - g.alt) * ALT_DIF_REWARD_SCALE, 0.0)
         crash = np.where(crashed, CRASH_PENALTY, 0.0)
-        runway = np.where(at_runway, alt * RWY_ALT_DIF_REWARD_SCALE, 0.0)
-        self.final_altitude = np.where(crashed, -100.0, np.where(at_runway, alt, self.final_altitude))
+        runway = np.where(at_runway, g.alt * RWY_ALT_DIF_REWARD_SCALE, 0.0)
+        self.final_altitude = np.where(crashed, -100.0, np.where(at_runway, g.alt, self.final_altitude))
         reward = np.where(flying, altitude, np.where(crashed, crash, runway))
         return reward, crashed | at_runway, {"altitude": altitude, "crash": crash, "runway": runway}
 
@@ -134,10 +164,13 @@ class DescentTask(Task):
         """``total_reward`` and ``final_altitude``."""
         return {"total_reward": self.stats.total_reward.copy(), "final_altitude": self.final_altitude.copy()}
 
-    def goal_reached(self) -> BoolArray:
-        """The runway has been reached."""
-        return self.runway_distance() <= 0
-
     def extra_track_km(self) -> Array:
         """Distance flown beyond the runway leg [km]."""
         return self.sim.distflown[:, 0] / 1000.0 - self.config.runway_distance_km
+
+
+def descent_outcome(g: DescentMeasurement) -> tuple[BoolArray, BoolArray, BoolArray]:
+    """(n_envs,) flags of a step, exactly one set per episode: flying on, crashed (alt <= 0), at the runway."""
+    flying = (g.runway_km > 0) & (g.alt > 0)
+    crashed = ~flying & (g.alt <= 0)
+    return flying, crashed, ~flying & ~crashed & (g.runway_km <= 0)

@@ -1,7 +1,9 @@
 """Scenario geometry of the paper's environments (bluesky-gym 0.2.0 ``envs/common/functions``).
 
 Re-implemented from their description in the environment specification, vectorised where the
-tasks need it, with every random draw taken from a generator passed in.
+tasks need it, with every random draw taken from a generator passed in. The great-circle and kwik
+functions are array faces of the scalar kernels in :mod:`bluesky_gym.tasks.compiled` (one formula
+each); the readable numpy forms they are tested against live in the test suite's oracles.
 """
 
 from __future__ import annotations
@@ -11,37 +13,25 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bluesky_gym.tasks import compiled
+
 Array = NDArray[np.float64]
 
 EARTH_RADIUS_KM = 6371.0
 
 
 def wrap180(angle: ArrayLike) -> Array:
-    """Single wrap into [-180, 180]: x > 180 -> x - 360; x < -180 -> x + 360 (once only)."""
+    """The reference's single wrap: x > 180 -> x - 360; x < -180 -> x + 360 (once only; not into [-180, 180] for |x| > 540)."""
     a = np.asarray(angle, dtype=np.float64)
-    return np.where(a > 180, -(360 - a), np.where(a < -180, 360 + a, a))
+    return np.where(a > 180, a - 360, np.where(a < -180, a + 360, a))
 
 
 def point_at_distance(lat: ArrayLike, lon: ArrayLike, d_km: ArrayLike, bearing: ArrayLike, radius_km: float = EARTH_RADIUS_KM) -> tuple[Array, Array]:
-    """Great-circle destination [deg] at ``d_km`` along initial ``bearing`` [deg] (spherical)."""
-    lat1 = np.radians(lat)
-    lon1 = np.radians(lon)
-    a = np.radians(bearing)
-    dr = np.asarray(d_km, dtype=np.float64) / radius_km
-    lat2 = np.arcsin(np.sin(lat1) * np.cos(dr) + np.cos(lat1) * np.sin(dr) * np.cos(a))
-    lon2 = lon1 + np.arctan2(np.sin(a) * np.sin(dr) * np.cos(lat1), np.cos(dr) - np.sin(lat1) * np.sin(lat2))
-    return np.degrees(lat2), np.degrees(lon2)
-
-
-def point_at_distance_scalar(lat: float, lon: float, d_km: float, bearing: float, radius_km: float = EARTH_RADIUS_KM) -> tuple[float, float]:
-    """:func:`point_at_distance` for one point, in scalar Python (the same libm calls and order)."""
-    lat1 = math.radians(lat)
-    lon1 = math.radians(lon)
-    a = math.radians(bearing)
-    dr = float(d_km) / radius_km
-    lat2 = math.asin(math.sin(lat1) * math.cos(dr) + math.cos(lat1) * math.sin(dr) * math.cos(a))
-    lon2 = lon1 + math.atan2(math.sin(a) * math.sin(dr) * math.cos(lat1), math.cos(dr) - math.sin(lat1) * math.sin(lat2))
-    return math.degrees(lat2), math.degrees(lon2)
+    """Great-circle destination [deg] at ``d_km`` along initial ``bearing`` [deg] (spherical; broadcasting)."""
+    shape, (la, lo, d, b) = _grid(lat, lon, d_km, bearing)
+    lat2, lon2 = np.empty(shape[1]), np.empty(shape[1])
+    compiled.point_at_distance(la, lo, d, b, float(radius_km), lat2, lon2)
+    return lat2.reshape(shape[0])[()], lon2.reshape(shape[0])[()]
 
 
 def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: ArrayLike) -> Array:
@@ -55,13 +45,8 @@ def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: Arr
     delta_lon = l2 - l1
     x = np.sin(delta_lon) * np.cos(p2)
     y = np.cos(p1) * np.sin(p2) - np.sin(p1) * np.cos(p2) * np.cos(delta_lon)
-    return (np.degrees(np.arctan2(x, y)) + 360) % 360
-
-
-def sort_points_clockwise(vertices: ArrayLike) -> Array:
-    """Sort (north, east) points by atan2(east, north) ascending: clockwise by compass bearing."""
-    v = np.asarray(vertices, dtype=np.float64)
-    return v[np.argsort(np.arctan2(v[:, 1], v[:, 0]), kind="stable")]
+    bearing: Array = (np.degrees(np.arctan2(x, y)) + 360) % 360
+    return bearing
 
 
 def polygon_area(vertices: ArrayLike) -> float:
@@ -74,9 +59,8 @@ def random_convex_polygon(rng: np.random.Generator, radius: float, min_area: flo
 
     Starts with three points, adds one at a time (the reference's polygon generator).
     """
-    # Scalar Python on a handful of points: the same operations as the numpy helpers above
-    # (libm cos/sin/atan2, a stable sort, the shoelace sum in vertex order), without the
-    # per-call overhead of tiny arrays.
+    # Scalar Python on a handful of points (libm cos/sin/atan2, a stable sort by compass bearing,
+    # the shoelace sum in vertex order), without the per-call overhead of tiny arrays.
     r = float(radius)
     pts = [_point_on_circle(rng, r) for _ in range(3)]
     poly = sorted(pts, key=_compass_key)
@@ -128,58 +112,6 @@ def latlon_to_nm(center: ArrayLike, points: ArrayLike) -> Array:
     return np.stack([x, y], axis=-1)
 
 
-class PolygonSet:
-    """Polygons in (lat, lon) prepared for repeated even-odd point-in-polygon tests.
-
-    BlueSky's 2-D ``checkInside`` (a matplotlib path test without altitude limits), batched.
-
-    Args:
-        poly_lat: Vertices, shape (..., K, V), padded beyond ``n_vertices``.
-        poly_lon: Same shape as ``poly_lat``.
-        n_vertices: Vertex count of each polygon, shape (..., K); 0 means no polygon.
-    """
-
-    def __init__(self, poly_lat: ArrayLike, poly_lon: ArrayLike, n_vertices: ArrayLike) -> None:
-        py = np.asarray(poly_lat, dtype=np.float64)
-        px = np.asarray(poly_lon, dtype=np.float64)
-        nv = np.asarray(n_vertices)[..., :, None]  # (..., K, 1)
-        v = np.arange(py.shape[-1])
-        last = v + 1 >= nv  # the closing edge goes back to vertex 0
-        # Edge v runs from vertex v to vertex v + 1 (or 0).
-        qy = np.where(last, py[..., :1], np.concatenate([py[..., 1:], py[..., :1]], axis=-1))
-        qx = np.where(last, px[..., :1], np.concatenate([px[..., 1:], px[..., :1]], axis=-1))
-        self._py, self._px = py[..., None, :, :], px[..., None, :, :]  # (..., 1, K, V)
-        self._qy, self._qx = qy[..., None, :, :], qx[..., None, :, :]
-        self._valid = (v < nv)[..., None, :, :]
-        self._dx = self._qx - self._px
-        self._dy = self._qy - self._py
-
-    def contains(self, lat: ArrayLike, lon: ArrayLike) -> NDArray[np.bool_]:
-        """Inside flags, shape (..., P, K), of points (..., P)."""
-        y = np.asarray(lat, dtype=np.float64)[..., :, None, None]  # (..., P, 1, 1)
-        x = np.asarray(lon, dtype=np.float64)[..., :, None, None]
-        py, px, qy = self._py, self._px, self._qy
-        with np.errstate(divide="ignore", invalid="ignore"):
-            crosses = ((py > y) != (qy > y)) & (x < self._dx * (y - py) / self._dy + px)
-        return (np.count_nonzero(crosses & self._valid, axis=-1) % 2) == 1
-
-
-def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly_lon: ArrayLike, n_vertices: ArrayLike) -> NDArray[np.bool_]:
-    """Even-odd point-in-polygon test on (lat, lon), batched (BlueSky's 2-D ``checkInside``).
-
-    Args:
-        lat: Points, shape (..., P).
-        lon: Points, shape (..., P).
-        poly_lat: Polygon vertices, shape (..., K, V) (padded beyond ``n_vertices``).
-        poly_lon: Same shape as ``poly_lat``.
-        n_vertices: Vertex count of each polygon, shape (..., K); 0 means no polygon.
-
-    Returns:
-        Inside flags, shape (..., P, K).
-    """
-    return PolygonSet(poly_lat, poly_lon, n_vertices).contains(lat, lon)
-
-
 # --- kwik geometry as the reference environments compute it ------------------------------------
 # The reference environment modules import ``bluesky.simulation`` (through their screen dummy)
 # before ``bs.init`` reads the ``prefer_compiled`` setting, so ``bs.tools.geo`` resolves to
@@ -188,42 +120,66 @@ def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly
 # the conversion to radians, the longitude difference is wrapped, distances are divided by
 # 1852 m, bearings are taken mod 360), i.e. in the last bits. Observations and rewards use these
 # forms so that a state gives the reference's numbers exactly.
-KWIK_EARTH_RADIUS_M = 6371000.0
-KWIK_NM_M = 1852.0
-
-
-def _kwik_py(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> tuple[Array, Array, Array]:
-    lata, lona = np.asarray(lata, dtype=np.float64), np.asarray(lona, dtype=np.float64)
-    latb, lonb = np.asarray(latb, dtype=np.float64), np.asarray(lonb, dtype=np.float64)
-    dlat = np.radians(latb - lata)
-    dlon = np.radians(((lonb - lona) + 180) % 360 - 180)
-    cavelat = np.cos(np.radians(lata + latb) * 0.5)
-    return dlat, dlon, cavelat
+#
+# The scalar forms are in :mod:`bluesky_gym.tasks.compiled`; these functions apply them elementwise
+# over broadcast arrays.
 
 
 def ref_kwikdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
-    """Flat-earth distance [NM] a -> b, as BlueSky's Python ``geo.kwikdist`` (see above)."""
-    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
-    dangle = np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)
-    return KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
+    """Flat-earth distance [NM] a -> b, as BlueSky's Python ``geo.kwikdist`` (see above; broadcasting)."""
+    shape, (a0, a1, b0, b1) = _grid(lata, lona, latb, lonb)
+    dist = np.empty(shape[1])
+    compiled.kwikdist(a0, a1, b0, b1, dist)
+    return dist.reshape(shape[0])[()]
 
 
 def ref_kwikqdrdist(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> tuple[Array, Array]:
     """Flat-earth bearing [deg, 0..360) and distance [NM] a -> b, as BlueSky's Python ``geo.kwikqdrdist``."""
-    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
-    dangle = np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)
-    dist = KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
-    qdr = np.degrees(np.arctan2(dlon * cavelat, dlat)) % 360.0
-    return qdr, dist
+    shape, (a0, a1, b0, b1) = _grid(lata, lona, latb, lonb)
+    qdr, dist = np.empty(shape[1]), np.empty(shape[1])
+    compiled.kwikqdrdist(a0, a1, b0, b1, qdr, dist)
+    return qdr.reshape(shape[0])[()], dist.reshape(shape[0])[()]
 
 
-def ref_kwikdist_matrix(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> Array:
-    """Flat-earth distance [NM] a -> b as BlueSky's Python ``geo.kwikdist_matrix`` (broadcasting).
+def _grid(*arrays: ArrayLike) -> tuple[tuple[tuple[int, ...], tuple[int, int]], list[Array]]:
+    """Broadcast ``arrays`` for the 2-D kernels: ((result shape, its 2-D form), the arrays as 2-D float64).
 
-    The formula of :func:`ref_kwikdist` with the products grouped as
-    dlat^2 + (dlon^2)(cavelat^2), which can differ in the last bit. The reference sorts the
-    intruders and fills ``distances`` with it, and ``x_r``/``y_r`` with ``kwikqdrdist``.
+    Arrays of up to two dimensions are passed as they are (a length-1 dimension repeats in the
+    kernel); higher dimensions are broadcast and flattened to (1, size).
     """
-    dlat, dlon, cavelat = _kwik_py(lata, lona, latb, lonb)
-    dangle = np.sqrt(np.multiply(dlat, dlat) + np.multiply(np.multiply(dlon, dlon), np.multiply(cavelat, cavelat)))
-    return KWIK_EARTH_RADIUS_M * dangle / KWIK_NM_M
+    out = []
+    rows = cols = 1
+    ndim = 0
+    for a in arrays:
+        x = a if type(a) is np.ndarray and a.dtype == np.float64 else np.asarray(a, dtype=np.float64)
+        if x.ndim != 2:
+            if x.ndim > 2:
+                return _grid_nd(arrays)
+            ndim = max(ndim, x.ndim)
+            x = x.reshape((1, x.size) if x.ndim == 1 else (1, 1))
+        else:
+            ndim = 2
+        r, c = x.shape
+        if r != 1:
+            if rows not in (1, r):
+                raise ValueError(f"shapes {[np.shape(a) for a in arrays]} do not broadcast")
+            rows = r
+        if c != 1:
+            if cols not in (1, c):
+                raise ValueError(f"shapes {[np.shape(a) for a in arrays]} do not broadcast")
+            cols = c
+        out.append(x)
+    return ((rows, cols)[2 - ndim :], (rows, cols)), out
+
+
+def _grid_nd(arrays: tuple[ArrayLike, ...]) -> tuple[tuple[tuple[int, ...], tuple[int, int]], list[Array]]:
+    """:func:`_grid` with an array of more than two dimensions: broadcast and flattened to (1, size)."""
+    b = [np.asarray(a, dtype=np.float64) for a in arrays]
+    shape = np.broadcast_shapes(*(x.shape for x in b))
+    flat = [_broadcast(x, shape).reshape(1, -1) for x in b]
+    return (shape, flat[0].shape), flat
+
+
+def _broadcast(a: NDArray, shape: tuple[int, ...]) -> NDArray:
+    """``a`` broadcast to ``shape`` as a contiguous array (a copy where it had to be broadcast)."""
+    return np.ascontiguousarray(a) if a.shape == shape else np.broadcast_to(a, shape).copy()

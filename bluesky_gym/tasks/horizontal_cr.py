@@ -8,10 +8,11 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.core import Simulator
 from bluesky_gym.core.units import NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, wrap180
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, kwik_separation, wrap180
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist, ref_kwikqdrdist
-from bluesky_gym.tasks.vertical_cr import intruder_relative_state
 
 DISTANCE_MARGIN = 5.0  # km: waypoint capture radius
 REACH_REWARD = 1.0
@@ -72,6 +73,91 @@ class HorizontalCRConfig(TaskConfig):
         check_int("waypoint_distance_max", self.waypoint_distance_max, self.waypoint_distance_min + 1, 5000)
 
 
+# --- the step's geometry, observation and reward, for a set of ownship slots ----------------------
+INTRUDER_KEYS = ("intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed")
+
+
+@dataclass(frozen=True)
+class HorizontalCRGeometry(StepGeometry):
+    """HorizontalCR's geometry of (episode, ownship slot) rows (see :func:`measure`).
+
+    Attributes:
+        own: (rows,) ownship slot of each row.
+        intruders: (5, rows, k) dist_km, cos_bearing, sin_bearing, x_dif, y_dif of the observed
+            other aircraft (:func:`bluesky_gym.tasks.compiled.intruder_relative_state`).
+        n_others: (rows,) other active aircraft.
+        heading: (rows,) the ownship's heading [deg].
+        waypoint_km: (rows,) kwik distance to the own waypoint [km].
+        newly_reached: (rows,) the waypoint is reached now for the first time.
+    """
+
+    own: NDArray[np.int64]
+    intruders: Array
+    n_others: NDArray[np.int64]
+    heading: Array
+    waypoint_km: Array
+    newly_reached: BoolArray
+
+
+def measure(
+    sim: Simulator, envs: NDArray[np.int64], own: NDArray[np.int64], wpt_lat: Array, wpt_lon: Array, reached: BoolArray, nearest: bool = False,
+    k: int | None = None,
+) -> HorizontalCRGeometry:
+    """Intruder geometry, waypoint distance and drift, separation and the reach test of each row.
+
+    Args:
+        sim: The physics.
+        envs: (rows,) episode of each row.
+        own: (rows,) ownship slot of each row.
+        wpt_lat: (rows,) latitude of each row's waypoint [deg].
+        wpt_lon: (rows,) its longitude [deg].
+        reached: (rows,) whether the waypoint was reached before this step.
+        nearest: Observe the ``k`` nearest other aircraft (True) or the other slots in slot order
+            (False: the single-agent creation order).
+        k: Observed other aircraft (default: all other slots).
+    """
+    n, m = len(envs), sim.lat.shape[1]
+    k = m - 1 if k is None else k
+    intruders = np.empty((5, n, k))
+    n_others = np.empty(n, np.int64)
+    compiled.intruder_relative_state(envs, own, sim.lat, sim.lon, sim.hdg, sim.gs, sim.active, nearest, intruders, n_others)
+    drift = np.empty(n)
+    dist = np.empty(n)
+    compiled.goal_geometry(envs, own, sim.lat, sim.lon, sim.hdg, wpt_lat, wpt_lon, drift, dist)
+    waypoint_km = dist * NM2KM
+    heading = sim.hdg[envs, own]
+    separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
+    newly = (waypoint_km < DISTANCE_MARGIN) & ~reached
+    return HorizontalCRGeometry(envs, separation, los, drift, reached | newly, own, intruders, n_others, heading, waypoint_km, newly)
+
+
+def observation(g: HorizontalCRGeometry) -> dict[str, Array]:
+    """HorizontalCREnv-v0's observation of every row."""
+    assert g.drift_deg is not None
+    dist_km, cos_b, sin_b, x_dif, y_dif = g.intruders
+    rad = np.deg2rad(g.drift_deg)
+    return {
+        "intruder_distance": dist_km / DISTANCE_SCALE,
+        "cos_difference_pos": cos_b,
+        "sin_difference_pos": sin_b,
+        "x_difference_speed": x_dif / SPEED_SCALE,
+        "y_difference_speed": y_dif / SPEED_SCALE,
+        "waypoint_distance": (g.waypoint_km / DISTANCE_SCALE)[:, None],
+        "cos_drift": np.cos(rad)[:, None],
+        "sin_drift": np.sin(rad)[:, None],
+    }
+
+
+def reward(g: HorizontalCRGeometry) -> tuple[Array, NDArray[np.int64], dict[str, Array]]:
+    """Per row: +1 on first reaching the waypoint, -0.1 |drift| [rad], -1 per other aircraft within 5 NM; and the intrusion count."""
+    assert g.drift_deg is not None
+    reach = np.where(g.newly_reached, REACH_REWARD, 0.0)
+    drift_reward = np.abs(np.deg2rad(g.drift_deg)) * DRIFT_PENALTY
+    count = g.los.sum(axis=1)
+    intrusion = count * INTRUSION_PENALTY
+    return reach + drift_reward + intrusion, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+
+
 class HorizontalCRTask(Task):
     """Batched horizontal CR task; see :class:`bluesky_gym.envs.horizontal_cr_env.HorizontalCREnv`."""
 
@@ -107,9 +193,9 @@ class HorizontalCRTask(Task):
         n = self.n_envs
         self.wpt_lat = np.zeros(n)  # deg
         self.wpt_lon = np.zeros(n)  # deg
-        self.wpt_reach = np.zeros(n, bool)  # set by evaluate(), after the observation (one-step lag)
+        self.wpt_reach = np.zeros(n, bool)  # set by reward(), after the observation (one-step lag)
+        self.ac_hdg = np.zeros(n)  # deg: ownship heading at the last observation (the action's reference)
         self.start_wpt_dist_km = np.zeros(n)  # kwik distance start -> waypoint [km]
-        self.ac_hdg = np.zeros(n)  # deg: ownship heading stored at the last observation
         self.total_intrusions = np.zeros(n, np.int64)
         self.drift_rad_sum = np.zeros(n)  # sum of |drift| [rad] over the steps (average_drift)
         self.drift_rad_n = np.zeros(n, np.int64)
@@ -144,8 +230,8 @@ class HorizontalCRTask(Task):
         self.wpt_lat[envs] = lat
         self.wpt_lon[envs] = lon
         self.wpt_reach[envs] = False
-        self.start_wpt_dist_km[envs] = ref_kwikdist(self.sim.lat[envs, 0], self.sim.lon[envs, 0], lat, lon) * NM2KM
         self.ac_hdg[envs] = self.sim.hdg[envs, 0]
+        self.start_wpt_dist_km[envs] = ref_kwikdist(self.sim.lat[envs, 0], self.sim.lon[envs, 0], lat, lon) * NM2KM
         self.total_intrusions[envs] = 0
         self.drift_rad_sum[envs] = 0.0
         self.drift_rad_n[envs] = 0
@@ -163,47 +249,34 @@ class HorizontalCRTask(Task):
         qdr, dist = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], self.wpt_lat, self.wpt_lon)
         return dist * NM2KM, wrap180(s.hdg[:, 0] - qdr)
 
-    # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
-        """Observation of every episode: key -> (n_envs, *shape), float64."""
-        s = self.sim
-        self.ac_hdg = s.hdg[:, 0].copy()
-        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs, self.kernels)
-        wpt_dist_km, drift = self.waypoint_geometry()
-        return {
-            # Intruders in creation order (slots 1..n), no sorting (spec section 3).
-            "intruder_distance": rel["dist_km"] / DISTANCE_SCALE,
-            "cos_difference_pos": rel["cos_bearing"],
-            "sin_difference_pos": rel["sin_bearing"],
-            "x_difference_speed": rel["x_dif"] / SPEED_SCALE,
-            "y_difference_speed": rel["y_dif"] / SPEED_SCALE,
-            "waypoint_distance": (wpt_dist_km / DISTANCE_SCALE)[:, None],
-            "cos_drift": np.cos(np.deg2rad(drift))[:, None],
-            "sin_drift": np.sin(np.deg2rad(drift))[:, None],
-        }
+    # --- the step -----------------------------------------------------------------------------
+    def measure(self, envs: NDArray[np.int64] | None = None) -> HorizontalCRGeometry:
+        """The ownship's (slot 0) geometry of episodes ``envs`` (all when None): :func:`measure`."""
+        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        return measure(self.sim, envs, self.ownship[: len(envs)], self.wpt_lat[envs], self.wpt_lon[envs], self.wpt_reach[envs])
 
-    # --- reward ---------------------------------------------------------------------------------
-    def intrusions(self) -> BoolArray:
-        """(n_envs, num_intruders) intruders within 5 NM of the ownship (horizontal only)."""
-        return self.kwik_separation(INTRUSION_DISTANCE)[1][:, 1:]
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
+        """Intruders in creation order (slots 1..n, no sorting, spec section 3) and the waypoint.
 
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Reward, termination and reward components after a step."""
-        # Evaluated on the state of the observation just built; the reach flag therefore only
-        # shows from the next observation on (spec sections 3-4, one-step lag).
-        wpt_dist_km, drift = self.waypoint_geometry()
-        newly = (wpt_dist_km < DISTANCE_MARGIN) & ~self.wpt_reach
-        self.wpt_reach |= newly
-        reach = np.where(newly, REACH_REWARD, 0.0)
-        abs_drift = np.abs(np.deg2rad(drift))
-        self.drift_rad_sum += abs_drift
+        Stores the observed heading: the next action's reference.
+        """
+        g = self.measure() if g is None else g
+        self.ac_hdg[g.envs] = g.heading  # type: ignore[attr-defined]
+        return observation(g)  # type: ignore[arg-type]
+
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Reach, drift and intrusion terms; terminated once the waypoint is reached.
+
+        Evaluated on the state of the observation just built; the reach flag therefore only
+        shows from the next observation on (spec sections 3-4, one-step lag).
+        """
+        r, count, components = reward(g)  # type: ignore[arg-type]
+        self.wpt_reach = g.goal_reached.copy()
+        assert g.drift_deg is not None
+        self.drift_rad_sum += np.abs(np.deg2rad(g.drift_deg))
         self.drift_rad_n += 1
-        drift_reward = abs_drift * DRIFT_PENALTY
-        count = self.intrusions().sum(axis=1)
         self.total_intrusions += count
-        intrusion = count * INTRUSION_PENALTY
-        reward = reach + drift_reward + intrusion
-        return reward, self.wpt_reach.copy(), {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+        return r, g.goal_reached.copy(), components
 
     def episode_info(self) -> dict[str, Array]:
         """Info keys of the reference, (n_envs,) each."""
@@ -217,18 +290,6 @@ class HorizontalCRTask(Task):
         }
 
     # --- KPIs -----------------------------------------------------------------------------------
-    def ownship_separation(self) -> tuple[Array, BoolArray]:
-        """Kwik distance [NM] from the ownship to every other aircraft and the intrusion flags."""
-        return self.kwik_separation(INTRUSION_DISTANCE)
-
-    def drift_deg(self) -> Array | None:
-        """(n_envs,) |drift| to the waypoint [deg]."""
-        return np.abs(self.waypoint_geometry()[1])
-
-    def goal_reached(self) -> BoolArray:
-        """(n_envs,) whether the waypoint has been reached."""
-        return self.wpt_reach.copy()
-
     def extra_track_km(self) -> Array:
         """(n_envs,) distance flown minus the shortest path to the capture circle [km]."""
         # Shortest path to the goal: the start's distance to the waypoint minus the capture radius.

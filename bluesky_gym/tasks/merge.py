@@ -8,10 +8,23 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.core import Simulator
 from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_pair, check_range, wrap180
-from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist, ref_kwikdist_matrix, ref_kwikqdrdist
-from bluesky_gym.tasks.sector_cr import relative_velocity
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.base import (
+    Array,
+    BoolArray,
+    BoxSpec,
+    StepGeometry,
+    Task,
+    TaskConfig,
+    check_int,
+    check_pair,
+    check_range,
+    kwik_separation,
+    wrap180,
+)
+from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist
 
 # Airspace (reference values).
 RWY_LAT, RWY_LON = 52.36239301495972, 4.713195734579777  # deg: runway (Schiphol)
@@ -44,6 +57,7 @@ SPEED_SCALE = 150.0  # m/s: vx_r, vy_r
 M_PER_KM = 1000.0
 
 _OBS_SCALES = (POSITION_SCALE, SPEED_SCALE, WAYPOINT_DIST_SCALE)  # for the compiled observation
+INTRUDER_KEYS = ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")
 MAX_NUM_AC = 200  # largest supported traffic count
 ALT_MAX = 11060.0  # m: the A320's altitude ceiling
 CAS_RANGE = (67.0, 163.0)  # m/s: the A320's CAS envelope away from the ground
@@ -90,6 +104,85 @@ class MergeConfig(TaskConfig):
         check_range("altitude", self.altitude, 0.0, ALT_MAX, strict_low=True)
 
 
+# --- the step's geometry, observation and reward, for a set of ownship slots ----------------------
+@dataclass(frozen=True)
+class MergeGeometry(StepGeometry):
+    """Merge's geometry of (episode, ownship slot) rows (see :func:`measure`).
+
+    Attributes:
+        own: (rows,) ownship slot of each row.
+        after_faf: (rows,) whether the ownship had passed the FAF before this step's reward (its
+            target is then the runway).
+        target_nm: (rows,) kwik distance to the current target [NM].
+        features: (rows, 4) drift [deg], target distance [NM], cos(drift), sin(drift).
+        airspeed: (rows,) TAS [m/s].
+        intruders: (rows, 7, NUM_AC_STATE) the observed closest other aircraft (:data:`INTRUDER_KEYS`).
+        n_others: (rows,) other active aircraft (fewer than NUM_AC_STATE: the last entries are padding).
+    """
+
+    own: NDArray[np.int64]
+    after_faf: BoolArray
+    target_nm: Array
+    features: Array
+    airspeed: Array
+    intruders: Array
+    n_others: NDArray[np.int64]
+
+
+def target(after_faf: BoolArray) -> tuple[Array, Array]:
+    """Lat, lon [deg] of the current target: the FAF, then the runway once the FAF was reached."""
+    return np.where(after_faf, RWY_LAT, FAF_LAT), np.where(after_faf, RWY_LON, FAF_LON)
+
+
+def measure(sim: Simulator, envs: NDArray[np.int64], own: NDArray[np.int64], after_faf: BoolArray) -> MergeGeometry:
+    """Drift and distance to the current target, the 5 closest other aircraft and the separation of each row.
+
+    BlueSky's Python kwik forms (bearing mod 360, degrees subtracted first), which the reference
+    runs use; intruders sorted by ``kwikdist_matrix``; separation by kwik distance, 4 NM.
+    """
+    n = len(envs)
+    tlat, tlon = target(after_faf)
+    features = np.empty((n, 4))
+    intruders = np.empty((n, 7, NUM_AC_STATE))
+    n_others = np.empty(n, np.int64)
+    compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, _OBS_SCALES, features, intruders, n_others)
+    separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
+    dist = features[:, 1]
+    reached = after_faf & (dist < GOAL_MARGIN)
+    return MergeGeometry(envs, separation, los, features[:, 0], reached, own, after_faf, dist, features, sim.tas[envs, own], intruders, n_others)
+
+
+def observation(g: MergeGeometry) -> dict[str, Array]:
+    """MergeEnv-v0's observation of every row (the reference's padding when fewer intruders are active)."""
+    f = g.features
+    obs = {
+        "cos(drift)": f[:, 2:3],
+        "sin(drift)": f[:, 3:4],
+        "airspeed": g.airspeed[:, None],  # m/s, not normalised (reference)
+        "waypoint_dist": f[:, 1:2] / WAYPOINT_DIST_SCALE,
+        # The reach flag as it was before this step's reward (one-step lag, spec section 7).
+        "faf_reached": g.after_faf[:, None].astype(np.float64),
+    }
+    obs.update(zip(INTRUDER_KEYS, g.intruders.transpose(1, 0, 2)))
+    return obs
+
+
+def reward(g: MergeGeometry) -> tuple[Array, BoolArray, BoolArray, NDArray[np.int64], dict[str, Array]]:
+    """FAF reach reward, drift and intrusion penalties of every row.
+
+    Returns:
+        Reward, FAF reached now, runway goal reached now (termination), intrusion count, components.
+    """
+    reach_faf = (g.target_nm < DISTANCE_MARGIN) & ~g.after_faf
+    near_runway = ~reach_faf & g.goal_reached
+    reach = np.where(reach_faf, REACH_REWARD, 0.0)
+    assert g.drift_deg is not None
+    drift_reward = np.abs(np.deg2rad(g.drift_deg)) * DRIFT_PENALTY
+    count = g.los.sum(axis=1)
+    intrusion = count * INTRUSION_PENALTY + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
+    return reach + drift_reward + intrusion, reach_faf, near_runway, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+
+
 class MergeTask(Task):
     """Batched merge task; see :class:`bluesky_gym.envs.merge_env.MergeEnv` for the MDP."""
 
@@ -127,8 +220,6 @@ class MergeTask(Task):
         n = self.n_envs
         self.wpt_reach = np.zeros(n, np.int64)  # 0 before the FAF, 1 after (the observed flag)
         self.faf_reached = np.zeros(n, np.int64)  # 0, 1 (FAF) or 2 (near the runway): info faf_reach
-        self.drift = np.zeros(n)  # deg, drift to the current target at the last observation
-        self.waypoint_dist = np.zeros(n)  # NM, kwik distance to the current target at the last observation
         self.total_intrusions = np.zeros(n, np.int64)
         self.drift_rad_sum = np.zeros(n)  # sum of |drift| [rad] (average_drift)
         self.drift_rad_n = np.zeros(n, np.int64)
@@ -162,8 +253,6 @@ class MergeTask(Task):
         self.sim.set_destination(env, slot, RWY_LAT, RWY_LON)
         self.wpt_reach[envs] = 0
         self.faf_reached[envs] = 0
-        self.drift[envs] = 0.0
-        self.waypoint_dist[envs] = 0.0
         self.total_intrusions[envs] = 0
         self.drift_rad_sum[envs] = 0.0
         self.drift_rad_n[envs] = 0
@@ -178,104 +267,30 @@ class MergeTask(Task):
         s.cmd_heading(self.all_envs, 0, heading_new)
         s.cmd_speed(self.all_envs, 0, speed_kts * KTS)
 
-    # --- observation ----------------------------------------------------------------------------
+    # --- the step -----------------------------------------------------------------------------
     def target(self) -> tuple[Array, Array]:
         """(n_envs,) lat, lon [deg] of the current target: the FAF, then the runway once reached."""
-        after = self.wpt_reach != 0
-        return np.where(after, RWY_LAT, FAF_LAT), np.where(after, RWY_LON, FAF_LON)
+        return target(self.wpt_reach != 0)
 
-    def observe(self) -> dict[str, Array]:
+    def measure(self, envs: NDArray[np.int64] | None = None) -> MergeGeometry:
+        """The ownship's (slot 0) geometry of episodes ``envs`` (all when None): :func:`measure`."""
+        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        return measure(self.sim, envs, self.ownship[: len(envs)], self.wpt_reach[envs] != 0)
+
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Ownship drift, airspeed and target distance, and the 5 closest intruders by kwik distance."""
-        s = self.sim
-        tlat, tlon = self.target()
-        if self.compiled:
-            return self._observe_compiled(tlat, tlon)
-        # BlueSky's Python kwik forms (bearing mod 360, degrees subtracted first), which the
-        # reference runs use.
-        qdr, dist = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], tlat, tlon)
-        drift = wrap180(s.hdg[:, 0] - qdr)
-        self.drift = drift
-        self.waypoint_dist = dist
-        brg, d_int = ref_kwikqdrdist(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
-        d_sort = ref_kwikdist_matrix(s.lat[:, :1], s.lon[:, :1], s.lat[:, 1:], s.lon[:, 1:])
-        vx_r, vy_r = relative_velocity(s.hdg, s.tas)
-        track = np.arctan2(vy_r, vx_r)
-        order = np.argsort(np.where(s.active[:, 1:], d_sort, np.inf), axis=1, kind="stable")[:, :NUM_AC_STATE]
+        return observation(self.measure() if g is None else g)  # type: ignore[arg-type]
 
-        def closest(a: Array) -> Array:
-            return np.take_along_axis(a, order, axis=1)
-
-        d_m = d_int * NM2KM * M_PER_KM
-        return {
-            "cos(drift)": np.cos(np.deg2rad(drift))[:, None],
-            "sin(drift)": np.sin(np.deg2rad(drift))[:, None],
-            "airspeed": s.tas[:, :1].copy(),  # m/s, not normalised (reference)
-            "waypoint_dist": (dist / WAYPOINT_DIST_SCALE)[:, None],
-            # The reach flag as it was before this step's reward (one-step lag, spec section 7).
-            "faf_reached": self.wpt_reach[:, None].astype(np.float64),
-            "x_r": closest(d_m * np.cos(np.deg2rad(brg))) / POSITION_SCALE,
-            "y_r": closest(d_m * np.sin(np.deg2rad(brg))) / POSITION_SCALE,
-            "vx_r": closest(vx_r) / SPEED_SCALE,
-            "vy_r": closest(vy_r) / SPEED_SCALE,
-            "cos(track)": np.cos(closest(track)),
-            "sin(track)": np.sin(closest(track)),
-            "distances": closest(d_sort) / WAYPOINT_DIST_SCALE,
-        }
-
-    def _observe_compiled(self, tlat: Array, tlon: Array, envs: NDArray[np.int64] | None = None) -> dict[str, Array]:
-        """The same observation through :func:`bluesky_gym.tasks.compiled.merge_observe` (of ``envs`` only if given)."""
-        s = self.sim
-        rows = self.all_envs if envs is None else envs
-        n = len(rows)
-        own = np.empty((n, 4))
-        intruders = np.empty((n, 7, NUM_AC_STATE))
-        self.kernels.merge_observe(rows, s.lat, s.lon, s.hdg, s.tas, s.active, tlat, tlon, _OBS_SCALES, own, intruders)
-        if envs is None:
-            self.drift = own[:, 0].copy()
-            self.waypoint_dist = own[:, 1].copy()
-        else:
-            self.drift[envs] = own[:, 0]
-            self.waypoint_dist[envs] = own[:, 1]
-        obs = {
-            "cos(drift)": own[:, 2:3],
-            "sin(drift)": own[:, 3:4],
-            "airspeed": s.tas[rows, :1],
-            "waypoint_dist": own[:, 1:2] / WAYPOINT_DIST_SCALE,
-            "faf_reached": self.wpt_reach[rows, None].astype(np.float64),
-        }
-        obs.update(zip(("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances"), intruders.transpose(1, 0, 2)))
-        return obs
-
-    def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
-        """Observation of episodes ``envs`` only (compiled: computed for those alone)."""
-        if self.compiled:
-            tlat, tlon = self.target()
-            return self._observe_compiled(tlat, tlon, np.asarray(envs, dtype=np.int64))
-        return super().observe_envs(envs)
-
-    # --- reward ---------------------------------------------------------------------------------
-    def intrusions(self) -> BoolArray:
-        """(n_envs, max_aircraft - 1) intruders within 4 NM (kwik distance) of the ownship."""
-        return self.kwik_separation(INTRUSION_DISTANCE)[1][:, 1:]
-
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """FAF reach reward, runway goal, drift and intrusion penalties."""
-        # Waypoint logic on the distance of the last observation (to the FAF, or to the runway
-        # once the FAF was reached in an earlier step).
-        reach_faf = (self.waypoint_dist < DISTANCE_MARGIN) & (self.wpt_reach != 1)
-        near_runway = ~reach_faf & (self.waypoint_dist < GOAL_MARGIN) & (self.wpt_reach == 1)
+        r, reach_faf, near_runway, count, components = reward(g)  # type: ignore[arg-type]
         self.wpt_reach = np.where(reach_faf, 1, self.wpt_reach)
         self.faf_reached = np.where(reach_faf, 1, np.where(near_runway, 2, self.faf_reached))
-        reach = np.where(reach_faf, REACH_REWARD, 0.0)
-        abs_drift = np.abs(np.deg2rad(self.drift))
-        self.drift_rad_sum += abs_drift
+        assert g.drift_deg is not None
+        self.drift_rad_sum += np.abs(np.deg2rad(g.drift_deg))
         self.drift_rad_n += 1
-        drift_reward = abs_drift * DRIFT_PENALTY
-        count = self.intrusions().sum(axis=1)
         self.total_intrusions += count
-        intrusion = count * INTRUSION_PENALTY + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
-        reward = reach + drift_reward + intrusion
-        return reward, near_runway, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+        return r, near_runway, components
 
     def episode_info(self) -> dict[str, Array]:
         """Info keys of the reference, (n_envs,) each."""
@@ -289,18 +304,6 @@ class MergeTask(Task):
         }
 
     # --- KPIs -----------------------------------------------------------------------------------
-    def ownship_separation(self) -> tuple[Array, BoolArray]:
-        """Kwik distance [NM] from the ownship to every other aircraft and the intrusion flags."""
-        return self.kwik_separation(INTRUSION_DISTANCE)
-
-    def drift_deg(self) -> Array | None:
-        """(n_envs,) |drift| to the current target at the last observation [deg]."""
-        return np.abs(self.drift)
-
-    def goal_reached(self) -> BoolArray:
-        """(n_envs,) FAF passed and within 20 NM of the runway (faf_reach == 2)."""
-        return self.faf_reached == 2
-
     def extra_track_km(self) -> Array:
         """(n_envs,) distance flown minus the nominal route start -> FAF -> 20 NM before the runway [km]."""
         to_faf = ref_kwikdist(self.start_lat, self.start_lon, FAF_LAT, FAF_LON)

@@ -11,8 +11,8 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
-from bluesky_gym.tasks.geometry import point_at_distance, wrap180
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikqdrdist, wrap180
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 AC_HDG = 0.0  # deg: creation heading (BlueSky's default, north)
@@ -24,6 +24,19 @@ REACH_REWARD = 1.0  # per waypoint newly within the capture radius
 WAYPOINT_BEARING_END = 359  # deg, exclusive upper bound of the bearing draw
 MAX_WAYPOINTS = 8  # the shortest-tour KPI enumerates all n! visiting orders
 TOUR_CHUNK = 1 << 20  # leg lengths evaluated at once by the tour KPI (bounds its memory)
+
+
+@dataclass(frozen=True)
+class PlanWaypointMeasurement(StepGeometry):
+    """One step's quantities of the waypoint-planning task, for the rows (episodes) ``envs``.
+
+    No traffic and no single heading goal; ``goal_reached``: every waypoint reached, this step's included.
+    """
+
+    dist_km: Array  # (rows, num_waypoints) kwik distance to each waypoint
+    drift: Array  # (rows, num_waypoints) deg, wrap180(hdg - qdr)
+    reached_before: BoolArray  # (rows, num_waypoints) reached in an earlier step
+    newly_reached: BoolArray  # (rows, num_waypoints) within the capture radius for the first time
 
 
 @dataclass(frozen=True)
@@ -117,51 +130,70 @@ class PlanWaypointTask(Task):
         dist = geo.kwikdist(lat[:, :, None], lon[:, :, None], lat[:, None, :], lon[:, None, :]) * NM2KM
         o = self._orders
         length = dist[:, 0, o[:, 0]] + dist[:, o[:, :-1], o[:, 1:]].sum(axis=-1)  # (envs, n!)
-        return length.min(axis=1)
+        shortest: Array = length.min(axis=1)
+        return shortest
 
-    # --- dynamics interface ---------------------------------------------------------------------
+    # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """Heading target hdg + 45 a (the reference's "HDG" command, not wrapped)."""
         self.sim.cmd_heading(self.all_envs, 0, self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
 
-    def waypoint_geometry(self) -> tuple[Array, Array]:
-        """(n_envs, num_waypoints) kwik distance [km] and drift wrap180(hdg - qdr) [deg]."""
-        qdr, dist = self.kwik_from_ownship(self.wpt_lat, self.wpt_lon)
-        return dist * NM2KM, wrap180(self.sim.hdg[:, :1] - qdr)
+    # --- measure --------------------------------------------------------------------------------
+    def waypoint_geometry(self, envs: NDArray[np.int64] | slice | None = None) -> tuple[Array, Array]:
+        """(rows, num_waypoints) kwik distance [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
+        rows = slice(None) if envs is None else envs
+        s = self.sim
+        qdr, dist = ref_kwikqdrdist(s.lat[rows, :1], s.lon[rows, :1], self.wpt_lat[rows], self.wpt_lon[rows])
+        return dist * NM2KM, wrap180(s.hdg[rows, :1] - qdr)
+
+    def measure(self, envs: NDArray[np.int64] | None = None) -> PlanWaypointMeasurement:
+        """Distance and drift to every waypoint, and which ones the aircraft is within the capture radius of, for episodes ``envs``."""
+        ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
+        dist_km, drift = self.waypoint_geometry(rows)
+        reached_before = self.wpt_reached[rows].copy()  # the reward updates the flags
+        new = (dist_km < self.config.distance_margin_km) & ~reached_before
+        shape = (ids.size, self.sim.max_aircraft)
+        return PlanWaypointMeasurement(
+            envs=ids,
+            separation_nm=np.full(shape, np.inf),
+            los=np.zeros(shape, bool),
+            drift_deg=None,
+            goal_reached=(reached_before | new).all(axis=1),
+            dist_km=dist_km,
+            drift=drift,
+            reached_before=reached_before,
+            newly_reached=new,
+        )
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
-        """Masked distance and drift per waypoint, and the reach flags as floats."""
-        dist_km, drift = self.waypoint_geometry()
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
+        """Masked distance and drift per waypoint, and the reach flags as floats, of the rows ``g.envs``."""
+        g = self.measure() if g is None else g
+        assert isinstance(g, PlanWaypointMeasurement)
         # The reference masks with the integer (1 - reached), so a masked entry is 0.0 times the
-        # value: -0.0 where the value is negative (spec 4).
-        m = np.where(self.wpt_reached, 0.0, 1.0)
-        rad = np.deg2rad(drift)
+        # value: -0.0 where the value is negative (spec 4). A waypoint reached in this step still
+        # shows as unreached (the one-step lag, spec 4).
+        m = np.where(g.reached_before, 0.0, 1.0)
+        rad = np.deg2rad(g.drift)
         return {
-            "waypoint_distance": m * dist_km / self.config.waypoint_distance_max,
+            "waypoint_distance": m * g.dist_km / self.config.waypoint_distance_max,
             "cos_difference": m * np.cos(rad),
             "sin_difference": m * np.sin(rad),
-            "waypoint_reached": self.wpt_reached.astype(np.float64),
+            "waypoint_reached": g.reached_before.astype(np.float64),
         }
 
-    # --- reward ---------------------------------------------------------------------------------
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """+1 per newly reached waypoint; terminated when all are reached."""
-        # Runs after the observation was built, so a waypoint reached now still shows as
-        # unreached in this step's observation (the one-step lag, spec 4).
-        dist_km, _ = self.waypoint_geometry()
-        new = (dist_km < self.config.distance_margin_km) & ~self.wpt_reached
-        self.wpt_reached |= new
-        reach = new.sum(axis=1) * REACH_REWARD
-        return reach, self.wpt_reached.all(axis=1), {"reach": reach}
+    # --- reward and termination -----------------------------------------------------------------
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """+1 per newly reached waypoint (recorded); terminated when all are reached (all episodes)."""
+        assert isinstance(g, PlanWaypointMeasurement)
+        self.wpt_reached |= g.newly_reached
+        reach = g.newly_reached.sum(axis=1) * REACH_REWARD
+        return reach, g.goal_reached, {"reach": reach}
 
     def episode_info(self) -> dict[str, Array]:
         """``total_reward`` and ``waypoints_completed``."""
         return {"total_reward": self.stats.total_reward.copy(), "waypoints_completed": self.wpt_reached.sum(axis=1)}
-
-    def goal_reached(self) -> BoolArray:
-        """All waypoints reached."""
-        return self.wpt_reached.all(axis=1)
 
     def extra_track_km(self) -> Array:
         """Distance flown minus the shortest polyline from the start through all waypoint centres.

@@ -10,17 +10,11 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_pair, check_range, wrap180
-from bluesky_gym.tasks.geometry import (
-    initial_bearing,
-    latlon_to_nm,
-    nm_to_latlon,
-    points_in_polygons,
-    polygon_area,
-    random_convex_polygon,
-    ref_kwikqdrdist,
-)
+from bluesky_gym.core import Simulator
+from bluesky_gym.core.units import KTS, MPS2KT
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_pair, check_range, kwik_separation, wrap180
+from bluesky_gym.tasks.geometry import initial_bearing, nm_to_latlon, polygon_area, random_convex_polygon
 
 # Scenario (reference values).
 AC_DENSITY_RANGE = (0.003, 0.007)  # aircraft per NM^2 ("uniform" mode)
@@ -131,14 +125,65 @@ def worst_case_aircraft(config: SectorCRConfig) -> int:
     return max(math.ceil(config.density_cap() * float(config.poly_area_range[1])), MIN_AIRCRAFT)
 
 
-def relative_velocity(hdg: Array, tas: Array) -> tuple[Array, Array]:
-    """(vx_r, vy_r) [m/s]: each intruder's TAS vector minus the ownship's (slot 0), north / east.
+INTRUDER_KEYS = ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")
 
-    Shapes (n_envs, max_aircraft - 1); the reference uses heading and TAS (not track and GS).
+
+# --- the step's geometry, observation and reward, for a set of ownship slots ----------------------
+@dataclass(frozen=True)
+class SectorGeometry(StepGeometry):
+    """SectorCR's geometry of (episode, ownship slot) rows (see :func:`measure`).
+
+    Attributes:
+        own: (rows,) ownship slot of each row.
+        features: (rows, 3) cos(drift), sin(drift), normalised airspeed.
+        intruders: (rows, 7, NUM_AC_STATE) the observed closest other aircraft (:data:`INTRUDER_KEYS`).
+        n_others: (rows,) other active aircraft (fewer than NUM_AC_STATE: the last entries are padding).
+        inside: (rows,) whether the ownship is inside its sector.
     """
-    vx = np.cos(np.deg2rad(hdg)) * tas
-    vy = np.sin(np.deg2rad(hdg)) * tas
-    return vx[:, 1:] - vx[:, :1], vy[:, 1:] - vy[:, :1]
+
+    own: NDArray[np.int64]
+    features: Array
+    intruders: Array
+    n_others: NDArray[np.int64]
+    inside: BoolArray
+
+
+def measure(sim: Simulator, sector: SectorCRTask, envs: NDArray[np.int64], own: NDArray[np.int64]) -> SectorGeometry:
+    """Drift to the own waypoint, the closest other aircraft, separation and the sector test of each row.
+
+    The drift is wrap180(heading - kwik bearing to the aircraft's waypoint) (BlueSky's Python kwik
+    form); intruders are sorted by flat distance around :data:`CENTER`; separation is the kwik
+    distance with a 5 NM horizontal intrusion test.
+    """
+    n = len(envs)
+    drift = np.empty(n)
+    features = np.empty((n, 3))
+    intruders = np.empty((n, 7, NUM_AC_STATE))
+    n_others = np.empty(n, np.int64)
+    compiled.sector_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, sector.wpt_lat[envs, own], sector.wpt_lon[envs, own],
+                            _FLAT_CENTER, _OBS_SCALES, drift, features, intruders, n_others)
+    separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
+    inside = np.empty(n, bool)
+    compiled.slots_in_polygons(envs, own, sim.lat, sim.lon, sector.poly_lat, sector.poly_lon, sector.n_vertices, inside)
+    return SectorGeometry(envs, separation, los, drift, np.zeros(n, bool), own, features, intruders, n_others, inside)
+
+
+def observation(g: SectorGeometry) -> dict[str, Array]:
+    """SectorCREnv-v0's observation of every row (the reference's padding when fewer intruders are active)."""
+    f = g.features
+    # airspeed is kept as in the reference although it leaves the declared [-1, 1] bound.
+    obs = {"cos(drift)": f[:, 0:1], "sin(drift)": f[:, 1:2], "airspeed": f[:, 2:3]}
+    obs.update(zip(INTRUDER_KEYS, g.intruders.transpose(1, 0, 2)))
+    return obs
+
+
+def reward(g: SectorGeometry) -> tuple[Array, NDArray[np.int64], dict[str, Array]]:
+    """Per row: -0.1 |drift| [rad] - 1 per other aircraft within 5 NM; also the intrusion count."""
+    assert g.drift_deg is not None
+    drift_reward = np.abs(np.deg2rad(g.drift_deg)) * DRIFT_PENALTY
+    count = g.los.sum(axis=1)
+    intrusion = count * INTRUSION_PENALTY + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
+    return drift_reward + intrusion, count, {"drift": drift_reward, "intrusion": intrusion}
 
 
 class SectorCRTask(Task):
@@ -183,7 +228,6 @@ class SectorCRTask(Task):
         self.wpt_nm = np.zeros((n, m, 2))  # (north, east) NM from CENTER, one per aircraft
         self.wpt_lat = np.zeros((n, m))  # deg
         self.wpt_lon = np.zeros((n, m))
-        self.drift = np.zeros(n)  # deg, agent drift at the last observation
         self.total_intrusions = np.zeros(n, np.int64)
         self.drift_rad_sum = np.zeros(n)  # sum of |drift| [rad] (average_drift)
         self.drift_rad_n = np.zeros(n, np.int64)
@@ -258,7 +302,6 @@ class SectorCRTask(Task):
         # Everyone flies straight at its waypoint's initial bearing, CAS 150 m/s, at 350 m (the
         # reference's ALTITUDE 350 "FL" used as metres). No routes: they never turn.
         self.sim.create(cre_env, cre_slot, lat0, lon0, hdg0, ALTITUDE, AC_SPD)
-        self.drift[envs] = 0.0
         self.total_intrusions[envs] = 0
         self.drift_rad_sum[envs] = 0.0
         self.drift_rad_n[envs] = 0
@@ -324,14 +367,9 @@ class SectorCRTask(Task):
 
     def _start_inside(self, lat: Array, lon: Array, owner: NDArray[np.int64]) -> NDArray[np.bool_]:
         """Whether each point (lat, lon) lies in the sector of episode ``owner``."""
-        if self.compiled:
-            inside = np.empty(lat.shape, bool)
-            self.kernels.points_in_owner_polygon(lat, lon, owner, self.poly_lat, self.poly_lon, self.n_vertices, inside)
-            return inside
-        inside = points_in_polygons(
-            lat[:, None], lon[:, None], self.poly_lat[owner][:, None], self.poly_lon[owner][:, None], self.n_vertices[owner][:, None]
-        )
-        return inside[:, 0, 0]
+        inside = np.empty(lat.shape, bool)
+        compiled.points_in_owner_polygon(lat, lon, owner, self.poly_lat, self.poly_lon, self.n_vertices, inside)
+        return inside
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
@@ -344,105 +382,38 @@ class SectorCRTask(Task):
         s.cmd_heading(self.all_envs, 0, heading_new)
         s.cmd_speed(self.all_envs, 0, speed_kts * KTS)
 
-    # --- observation ----------------------------------------------------------------------------
-    def waypoint_drift(self) -> Array:
-        """(n_envs,) agent drift wrap180(hdg - kwik qdr to its waypoint) [deg]."""
-        s = self.sim
-        # BlueSky's Python kwik form (bearing mod 360), which the reference runs use.
-        qdr, _ = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], self.wpt_lat[:, 0], self.wpt_lon[:, 0])
-        return wrap180(s.hdg[:, 0] - qdr)
+    # --- the step -----------------------------------------------------------------------------
+    def measure(self, envs: NDArray[np.int64] | None = None) -> SectorGeometry:
+        """The agent's (slot 0) geometry of episodes ``envs`` (all when None): :func:`measure`."""
+        envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        return measure(self.sim, self, envs, self.ownship[: len(envs)])
 
-    def flat_positions_m(self) -> Array:
-        """(n_envs, max_aircraft, 2) (north, east) positions [m] in the flat projection around CENTER."""
-        s = self.sim
-        return latlon_to_nm(CENTER, np.stack([s.lat, s.lon], axis=-1)) * NM2KM * M_PER_KM
-
-    def observe(self) -> dict[str, Array]:
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Agent drift and airspeed, and the 4 closest intruders by flat distance."""
-        s = self.sim
-        if self.compiled:
-            return self._observe_compiled()
-        drift = self.waypoint_drift()
-        self.drift = drift
-        loc = self.flat_positions_m()
-        rel = loc[:, 1:] - loc[:, :1]  # (n, m-1, 2) intruder minus agent, m
-        dist = np.sqrt(np.sum(rel**2, axis=-1))
-        vx_r, vy_r = relative_velocity(s.hdg, s.tas)
-        track = np.arctan2(vy_r, vx_r)
-        # Intruders sorted ascending by flat distance; empty slots last.
-        order = np.argsort(np.where(s.active[:, 1:], dist, np.inf), axis=1, kind="stable")[:, :NUM_AC_STATE]
-        # One gather of the six per-intruder quantities, in sorted order: (n, NUM_AC_STATE, 6).
-        x, y, vx, vy, trk, d = np.moveaxis(
-            np.take_along_axis(np.stack([rel[..., 0], rel[..., 1], vx_r, vy_r, track, dist], axis=-1), order[..., None], axis=1), -1, 0
-        )
-        return {
-            "cos(drift)": np.cos(np.deg2rad(drift))[:, None],
-            "sin(drift)": np.sin(np.deg2rad(drift))[:, None],
-            # Kept as in the reference although it leaves the declared [-1, 1] bound.
-            "airspeed": ((s.tas[:, :1] - AIRSPEED_MEAN) / AIRSPEED_STD),
-            "x_r": x / POSITION_SCALE,
-            "y_r": y / POSITION_SCALE,
-            "vx_r": vx / VX_SCALE,
-            "vy_r": vy / VY_SCALE,
-            "cos(track)": np.cos(trk),
-            "sin(track)": np.sin(trk),
-            "distances": (d - DISTANCE_MEAN) / DISTANCE_STD,
-        }
+        return observation(self.measure() if g is None else g)  # type: ignore[arg-type]
 
-    def _observe_compiled(self, envs: NDArray[np.int64] | None = None) -> dict[str, Array]:
-        """The same observation through :func:`bluesky_gym.tasks.compiled.sector_observe` (of ``envs`` only if given)."""
-        s = self.sim
-        rows = self.all_envs if envs is None else envs
-        n = len(rows)
-        drift = np.empty(n)
-        own = np.empty((n, 3))
-        intruders = np.empty((n, 7, NUM_AC_STATE))
-        self.kernels.sector_observe(rows, s.lat, s.lon, s.hdg, s.tas, s.active, self.wpt_lat[:, 0], self.wpt_lon[:, 0], _FLAT_CENTER,
-                                    _OBS_SCALES, drift, own, intruders)
-        if envs is None:
-            self.drift = drift
-        else:
-            self.drift[envs] = drift
-        obs = {"cos(drift)": own[:, 0:1], "sin(drift)": own[:, 1:2], "airspeed": own[:, 2:3]}
-        obs.update(zip(("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances"), intruders.transpose(1, 0, 2)))
-        return obs
-
-    def observe_envs(self, envs: NDArray[np.int64]) -> dict[str, Array]:
-        """Observation of episodes ``envs`` only (compiled: computed for those alone)."""
-        if self.compiled:
-            return self._observe_compiled(np.asarray(envs, dtype=np.int64))
-        return super().observe_envs(envs)
-
-    # --- reward ---------------------------------------------------------------------------------
-    def intrusions(self) -> BoolArray:
-        """(n_envs, max_aircraft - 1) intruders within 5 NM (kwik distance) of the agent."""
-        return self.kwik_separation(INTRUSION_DISTANCE)[1][:, 1:]
-
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Drift and intrusion penalties; never terminates (leaving the sector truncates)."""
-        abs_drift = np.abs(np.deg2rad(self.drift))
-        self.drift_rad_sum += abs_drift
+        r, count, components = reward(g)  # type: ignore[arg-type]
+        assert g.drift_deg is not None
+        self.drift_rad_sum += np.abs(np.deg2rad(g.drift_deg))
         self.drift_rad_n += 1
-        drift_reward = abs_drift * DRIFT_PENALTY
-        count = self.intrusions().sum(axis=1)
         self.total_intrusions += count
-        intrusion = count * INTRUSION_PENALTY + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
-        reward = drift_reward + intrusion
-        return reward, np.zeros(self.n_envs, bool), {"drift": drift_reward, "intrusion": intrusion}
+        return r, np.zeros(self.n_envs, bool), components
+
+    def truncate(self, g: StepGeometry) -> BoolArray:
+        """Truncate when the agent has left the sector (the reference's ``truncated``)."""
+        return ~g.inside  # type: ignore[attr-defined]
 
     def agent_inside(self) -> BoolArray:
-        """(n_envs,) whether the agent is inside its sector (2-D even-odd test on lat/lon)."""
-        s = self.sim
-        if self.compiled:
-            out = np.empty((self.n_envs, 1), bool)
-            self.kernels.ownship_in_polygons(s.lat, s.lon, self.poly_lat[:, None], self.poly_lon[:, None], self.n_vertices[:, None], out)
-            return out[:, 0]
-        inside = points_in_polygons(s.lat[:, :1], s.lon[:, :1], self.poly_lat[:, None], self.poly_lon[:, None], self.n_vertices[:, None])
-        return inside[:, 0, 0]
+        """(n_envs,) whether the agent is inside its sector now (2-D even-odd test on lat/lon)."""
+        return self.measure().inside
 
-    def truncate(self) -> BoolArray:
-        """Truncate when the agent has left the sector (the reference's ``truncated``)."""
-        return ~self.agent_inside()
+    def waypoint_drift(self) -> Array:
+        """(n_envs,) agent drift wrap180(hdg - kwik qdr to its waypoint) now [deg]."""
+        drift = self.measure().drift_deg
+        assert drift is not None
+        return drift
 
     def episode_info(self) -> dict[str, Array]:
         """Info keys of the reference, (n_envs,) each."""
@@ -453,12 +424,3 @@ class SectorCRTask(Task):
             "total_intrusions": self.total_intrusions.copy(),
             "average_drift": np.where(n > 0, self.drift_rad_sum / np.maximum(n, 1), 0.0),
         }
-
-    # --- KPIs -----------------------------------------------------------------------------------
-    def ownship_separation(self) -> tuple[Array, BoolArray]:
-        """Kwik distance [NM] from the agent to every other aircraft and the intrusion flags."""
-        return self.kwik_separation(INTRUSION_DISTANCE)
-
-    def drift_deg(self) -> Array | None:
-        """(n_envs,) |drift| to the agent's waypoint at the last observation [deg]."""
-        return np.abs(self.drift)

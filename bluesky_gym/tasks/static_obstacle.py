@@ -4,20 +4,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import (
-    PolygonSet,
     nm_to_latlon,
     point_at_distance,
-    point_at_distance_scalar,
-    points_in_polygons,
     polygon_area,
     random_convex_polygon,
     ref_kwikqdrdist,
@@ -39,6 +37,22 @@ BEARING_END = 360  # deg, exclusive upper bound of the integer bearing draws: [0
 VIEW_SIZE_KM = 350.0  # width of the reference's square view, centred on the start position
 VIEW_ORIGIN_BEARING = 315.0  # deg: the view's top-left corner as seen from the start
 VERTEX_CAPACITY = 16  # initial vertex slots per polygon (grown when a polygon needs more)
+
+
+@dataclass(frozen=True)
+class StaticObstacleMeasurement(StepGeometry):
+    """One step's quantities of the static-obstacle task, for the rows (episodes) ``envs``.
+
+    No traffic; ``drift_deg``: drift wrap180(hdg - qdr) to the waypoint now [deg];
+    ``goal_reached``: the waypoint has been reached, this step included.
+    """
+
+    wpt_km: Array  # (rows,) kwik distance to the waypoint now
+    centre_km: Array  # (rows, num_obstacles) kwik distance to each obstacle centre
+    centre_bearing: Array  # (rows, num_obstacles) deg, wrap180(hdg - qdr) to each centre
+    obstacle_count: NDArray[np.int64]  # (rows,) obstacles containing the aircraft now
+    newly_reached: BoolArray  # (rows,) reached in this step, by the last observation's distance
+    stale_drift_rad: Array  # (rows,) |drift| [rad] of the last observation
 
 
 @dataclass(frozen=True)
@@ -118,7 +132,6 @@ class StaticObstacleTask(Task):
     # --- generator ------------------------------------------------------------------------------
     def allocate(self) -> None:
         """Obstacle polygons, waypoint, stale observation values and episode counters."""
-        self._obstacle_cache: tuple[tuple[NDArray, ...], PolygonSet] | None = None
         n, k = self.n_envs, self.config.num_obstacles
         self.obstacle_centre_lat = np.zeros((n, k))  # deg
         self.obstacle_centre_lon = np.zeros((n, k))  # deg
@@ -132,10 +145,10 @@ class StaticObstacleTask(Task):
         self.start_wpt_km = np.zeros(n)  # kwik distance start -> waypoint [km]
         self.view_origin_lat = np.zeros(n)  # deg: top-left corner of the reference's view
         self.view_origin_lon = np.zeros(n)
-        # Waypoint distance [km] and drift [deg] as of the last observation: the per-sub-step
-        # reward uses these stale values (spec 6).
-        self.obs_wpt_km = np.zeros(n)
-        self.obs_drift = np.zeros(n)
+        # Waypoint distance [km] and drift [deg] the last observation showed: the per-sub-step
+        # reward of the next step uses these stale values (spec 6).
+        self.last_wpt_km = np.zeros(n)
+        self.last_drift = np.zeros(n)
         self.wpt_reached = np.zeros(n, bool)
         self.crashed = np.zeros(n, bool)
         self.intrusions = np.zeros(n, np.int64)  # obstacle intrusions counted by the reward
@@ -170,7 +183,7 @@ class StaticObstacleTask(Task):
             self._store_polygons(e, clat, clon, polys)
             self.wpt_lat[e], self.wpt_lon[e] = sample_waypoint(
                 rng, lat0[j], lon0[j], self.obstacle_lat[e], self.obstacle_lon[e], self.obstacle_nv[e],
-                c.waypoint_distance_min, c.waypoint_distance_max, self.kernels,
+                c.waypoint_distance_min, c.waypoint_distance_max,
             )
         # The aircraft starts pointing at the waypoint: hdg and the autopilot track (spec 6).
         qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
@@ -182,9 +195,7 @@ class StaticObstacleTask(Task):
         self.intrusions[envs] = 0
         self.drift_sum_rad[envs] = 0.0
         self.drift_count[envs] = 0
-        dist_km, drift = self.waypoint_geometry()
-        self.obs_wpt_km[envs] = dist_km[envs]
-        self.obs_drift[envs] = drift[envs]
+        self.remember(self.measure(envs))
 
     def _store_polygons(self, e: int, clat: Array, clon: Array, polys: list[Array]) -> None:
         """Store episode ``e``'s polygons, (north, east) NM around their centres, as (lat, lon)."""
@@ -203,7 +214,7 @@ class StaticObstacleTask(Task):
         self.obstacle_lon[e][mask] = vertices[:, 1]
         self.obstacle_nv[e] = nv
 
-    # --- dynamics interface ---------------------------------------------------------------------
+    # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """Heading wrap180(hdg + 45 a0) and speed (CAS + 20/3 a1) * 1.94384 kts."""
         hdg = wrap180(self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
@@ -212,162 +223,111 @@ class StaticObstacleTask(Task):
         self.sim.cmd_heading(self.all_envs, 0, hdg)
         self.sim.cmd_speed(self.all_envs, 0, spd_kts * KTS)
 
-    def waypoint_geometry(self) -> tuple[Array, Array]:
-        """(n_envs,) live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg]."""
-        qdr, dist = ref_kwikqdrdist(self.sim.lat[:, 0], self.sim.lon[:, 0], self.wpt_lat, self.wpt_lon)
-        return dist * NM2KM, wrap180(self.sim.hdg[:, 0] - qdr)
+    # --- sub-steps ------------------------------------------------------------------------------
+    def advance(self) -> None:
+        """Run the sub-steps; an episode stops at the sub-step it ends (the reference returns there).
 
-    def inside_obstacles(self) -> NDArray[np.bool_]:
-        """(n_envs, num_obstacles) whether each obstacle polygon contains the aircraft now."""
-        if self.compiled:
-            out = np.empty(self.obstacle_nv.shape, bool)
-            self.kernels.ownship_in_polygons(self.sim.lat, self.sim.lon, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, out)
-            return out
-        key = (self.obstacle_lat, self.obstacle_lon, self.obstacle_nv)
-        cached = self._obstacle_cache
-        if cached is None or not all(np.array_equal(a, b) for a, b in zip(key, cached[0])):
-            # Prepared once per set of scenarios; any change to the polygons rebuilds it.
-            cached = self._obstacle_cache = (tuple(a.copy() for a in key), PolygonSet(*key))
-        return cached[1].contains(self.sim.lat[:, :1], self.sim.lon[:, :1])[:, 0, :]
+        The reference evaluates the reward after every sub-step and returns at once when the
+        episode ends, with the state of that sub-step. Its waypoint terms use the stale values of
+        the last observation, so a waypoint is reached (and the episode ends) at the first sub-step
+        or not at all; only the obstacle test needs the positions after each sub-step, which
+        :class:`SubstepEnd` gets from the physics' traced run. Every evaluated sub-step adds one
+        |drift| sample to ``average_drift``.
+        """
+        reached = self.reached_by_last_observation()
+        end = SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, self.wpt_reached | reached)
+        self.sim.run(self.action_frequency, stop=end)
+        evaluated = np.where(end.ended_at > 0, end.ended_at, self.action_frequency)  # sub-steps per episode
+        compiled.add_samples(self.drift_sum_rad, self.drift_count, np.abs(np.deg2rad(self.last_drift)), evaluated)
+
+    # --- measure --------------------------------------------------------------------------------
+    def waypoint_geometry(self, envs: NDArray[np.int64] | slice | None = None) -> tuple[Array, Array]:
+        """Live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
+        rows = slice(None) if envs is None else envs
+        s = self.sim
+        qdr, dist = ref_kwikqdrdist(s.lat[rows, 0], s.lon[rows, 0], self.wpt_lat[rows], self.wpt_lon[rows])
+        return dist * NM2KM, wrap180(s.hdg[rows, 0] - qdr)
+
+    def inside_obstacles(self, envs: NDArray[np.int64] | slice | None = None) -> NDArray[np.bool_]:
+        """(rows, num_obstacles) whether each obstacle polygon of episodes ``envs`` (all when None) contains the aircraft now."""
+        rows = slice(None) if envs is None else envs
+        s = self.sim
+        nv = self.obstacle_nv[rows]
+        out = np.empty(nv.shape, bool)
+        compiled.ownship_in_polygons(s.lat[rows], s.lon[rows], self.obstacle_lat[rows], self.obstacle_lon[rows], nv, out)
+        return out
+
+    def reached_by_last_observation(self, envs: NDArray[np.int64] | slice | None = None) -> BoolArray:
+        """Waypoints not reached before but within the capture radius in the last observation, of episodes ``envs``."""
+        rows = slice(None) if envs is None else envs
+        return (self.last_wpt_km[rows] < self.config.distance_margin_km) & ~self.wpt_reached[rows]
+
+    def measure(self, envs: NDArray[np.int64] | None = None) -> StaticObstacleMeasurement:
+        """Waypoint and obstacle-centre geometry now, the obstacles around the aircraft, the stale waypoint terms, of episodes ``envs``."""
+        ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
+        s = self.sim
+        dist_km, drift = self.waypoint_geometry(rows)
+        qdr_c, dist_c = ref_kwikqdrdist(s.lat[rows, :1], s.lon[rows, :1], self.obstacle_centre_lat[rows], self.obstacle_centre_lon[rows])
+        reached = self.reached_by_last_observation(rows)
+        shape = (ids.size, s.max_aircraft)
+        return StaticObstacleMeasurement(
+            envs=ids,
+            separation_nm=np.full(shape, np.inf),
+            los=np.zeros(shape, bool),
+            drift_deg=drift,
+            goal_reached=self.wpt_reached[rows] | reached,
+            wpt_km=dist_km,
+            centre_km=dist_c * NM2KM,
+            centre_bearing=wrap180(s.hdg[rows, :1] - qdr_c),
+            obstacle_count=self.inside_obstacles(rows).sum(axis=1),
+            newly_reached=reached,
+            stale_drift_rad=np.abs(np.deg2rad(self.last_drift[rows])),
+        )
 
     # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
-        """Waypoint and obstacle-centre geometry; stores the waypoint values the reward uses."""
-        dist_km, drift = self.waypoint_geometry()
-        self.obs_wpt_km = dist_km
-        self.obs_drift = drift
-        qdr_c, dist_c = self.kwik_from_ownship(self.obstacle_centre_lat, self.obstacle_centre_lon)
-        bearing = np.deg2rad(wrap180(self.sim.hdg[:, :1] - qdr_c))
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
+        """Waypoint distance and drift, then the obstacle radii and the distances and bearings of their centres, of the rows ``g.envs``."""
+        g = self.measure() if g is None else g
+        assert isinstance(g, StaticObstacleMeasurement)
         scale = self.config.waypoint_distance_max
-        rad = np.deg2rad(drift)
+        assert g.drift_deg is not None
+        rad = np.deg2rad(g.drift_deg)
+        bearing = np.deg2rad(g.centre_bearing)
         return {
-            "destination_waypoint_distance": (dist_km / scale)[:, None],
+            "destination_waypoint_distance": (g.wpt_km / scale)[:, None],
             "destination_waypoint_cos_drift": np.cos(rad)[:, None],
             "destination_waypoint_sin_drift": np.sin(rad)[:, None],
-            "restricted_area_radius": self.obstacle_radius / RADIUS_SCALE_NM,
-            "restricted_area_distance": dist_c * NM2KM / scale,
+            "restricted_area_radius": self.obstacle_radius[g.envs] / RADIUS_SCALE_NM,
+            "restricted_area_distance": g.centre_km / scale,
             "cos_difference_restricted_area_pos": np.cos(bearing),
             "sin_difference_restricted_area_pos": np.sin(bearing),
         }
 
-    # --- reward ---------------------------------------------------------------------------------
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """One sub-step's reward of every episode (see :meth:`evaluate_substep`)."""
-        return self.evaluate_substep(np.ones(self.n_envs, bool))
+    # --- reward and termination -----------------------------------------------------------------
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """The last evaluated sub-step's reward of all episodes; ends at the waypoint or inside an obstacle (spec 6).
 
-    def evaluate_substep(self, running: BoolArray) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Evaluate one sub-step as the reference does, with side effects only where ``running``.
-
-        Waypoint distance and drift are the stale values of the last observation; the obstacle
-        test uses the live position (spec 6).
-
-        Args:
-            running: (n_envs,) episodes still being stepped in this decision step.
-
-        Returns:
-            Reward, done flags and the components ``reach``, ``drift``, ``intrusion``.
-
+        +1 for reaching the waypoint and -0.01 per rad of |drift| (both from the stale values of the
+        last observation), -5 per obstacle containing the aircraft. Records the flags and
+        counters, and this step's observation values for the next step.
         """
-        new = running & (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
-        self.wpt_reached |= new
-        reach = np.where(new, REACH_REWARD, 0.0)
-        drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        drift = drift_rad * DRIFT_PENALTY
-        self.drift_sum_rad += np.where(running, drift_rad, 0.0)
-        self.drift_count += running
-        count = self.inside_obstacles().sum(axis=1)
-        intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
-        hit = running & (count > 0)
-        self.crashed |= hit
-        self.intrusions += np.where(running, count, 0)
+        assert isinstance(g, StaticObstacleMeasurement)
+        self.wpt_reached |= g.newly_reached
+        self.crashed |= g.obstacle_count > 0
+        self.intrusions += g.obstacle_count
+        self.remember(g)
+        reach = np.where(g.newly_reached, REACH_REWARD, 0.0)
+        drift = g.stale_drift_rad * DRIFT_PENALTY
+        intrusion = g.obstacle_count * RESTRICTED_AREA_INTRUSION_PENALTY
         reward = reach + drift + intrusion
-        return reward, self.wpt_reached | (count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
+        return reward, g.goal_reached | (g.obstacle_count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
 
-    def transition(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """Sub-steps with the reward evaluated after each; an episode stops at the sub-step it ends.
-
-        The reference returns at once when an episode ends at sub-step k, with the observation of
-        sub-step k. In a batch the other episodes keep stepping; the ended ones are stepped too
-        (the physics is batched) and then put back to their state at sub-step k. Only the reward
-        of the last evaluated sub-step is returned (spec 6).
-
-        This is :meth:`evaluate_substep` after every sub-step, with the work that does not change
-        between sub-steps done once: the waypoint distance and drift are the stale values of the
-        last observation, so a waypoint is reached (and the episode ends) at the first sub-step
-        or not at all, and only the obstacle test needs the live position.
-        """
-        if self.compiled:
-            return self._transition_traced()
-        n = self.n_envs
-        running = np.ones(n, bool)
-        last = np.zeros(n, np.int64)  # last evaluated sub-step of each episode
-        count = np.zeros(n, np.int64)  # obstacles containing the aircraft at that sub-step
-        reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
-        done_anyway = self.wpt_reached | reached  # ends at the first sub-step, obstacles or not
-        drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        frozen: list[tuple[NDArray[np.int64], dict[str, Any]]] = []
-        for k in range(self.action_frequency):
-            self.sim.step()
-            self.drift_sum_rad += np.where(running, drift_rad, 0.0)
-            self.drift_count += running
-            c = self.inside_obstacles().sum(axis=1)
-            ended = running & (done_anyway | (c > 0))
-            last[running] = k
-            count[running] = c[running]
-            running &= ~ended
-            if not running.any():
-                break
-            if ended.any() and k < self.action_frequency - 1:
-                envs = np.flatnonzero(ended)
-                frozen.append((envs, self.sim._snapshot(envs)))  # native core only (one airspace never gets here)
-        for envs, state in frozen:
-            self.sim._restore(state, envs)
-        return self._finish_transition(reached, done_anyway, drift_rad, count)
-
-    def _transition_traced(self) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """:meth:`transition` from one traced run of all sub-steps (compiled physics and geometry).
-
-        The obstacle test needs only the ownship's position after each sub-step, so all sub-steps
-        run in one call that records the positions; the physics leaves the episodes that ended
-        before the last sub-step in the state they had when they ended (``run(stop=...)``).
-        """
-        sim, n, steps = self.sim, self.n_envs, self.action_frequency
-        reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
-        done_anyway = self.wpt_reached | reached
-        drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        counts = np.zeros((steps, n), np.int64)
-        ended = np.zeros(n, np.int64)
-
-        def stop(track: Array) -> NDArray[np.int64]:
-            k = track.shape[0]
-            self.kernels.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts[:k])
-            hit = done_anyway | (counts[:k] > 0)  # (k, n): the episode ends at this sub-step
-            ended[...] = np.where(hit.any(axis=0), hit.argmax(axis=0) + 1, 0)
-            return ended
-
-        sim.run(steps, stop=stop)
-        last = np.where(ended > 0, ended - 1, steps - 1)  # last evaluated sub-step
-        count = counts[last, self.all_envs]
-        for k in range(int(last.max()) + 1):
-            evaluated = last >= k
-            self.drift_sum_rad += np.where(evaluated, drift_rad, 0.0)
-            self.drift_count += evaluated
-        return self._finish_transition(reached, done_anyway, drift_rad, count)
-
-    def _finish_transition(
-        self, reached: BoolArray, done_anyway: BoolArray, drift_rad: Array, count: NDArray[np.int64]
-    ) -> tuple[Array, BoolArray, dict[str, Array], dict[str, Array]]:
-        """Flags, counters, the last evaluated sub-step's reward, and the observation."""
-        self.wpt_reached |= reached
-        self.crashed |= count > 0
-        self.intrusions += count
-        reach = np.where(reached, REACH_REWARD, 0.0)
-        drift = drift_rad * DRIFT_PENALTY
-        intrusion = count * RESTRICTED_AREA_INTRUSION_PENALTY
-        reward = reach + drift + intrusion
-        terminated = done_anyway | (count > 0)
-        obs = self.observe()
-        return reward, terminated, {"reach": reach, "drift": drift, "intrusion": intrusion}, obs
+    def remember(self, g: StaticObstacleMeasurement) -> None:
+        """Keep the waypoint distance and drift of the observation of ``g`` (rows ``g.envs``) for the next step's reward."""
+        self.last_wpt_km[g.envs] = g.wpt_km
+        assert g.drift_deg is not None
+        self.last_drift[g.envs] = g.drift_deg
 
     # --- info and KPIs --------------------------------------------------------------------------
     def average_drift(self) -> Array:
@@ -385,14 +345,6 @@ class StaticObstacleTask(Task):
             "crashed": self.crashed.astype(np.int64),
             "average_drift": self.average_drift(),
         }
-
-    def drift_deg(self) -> Array:
-        """|drift| to the waypoint at the last observation [deg]."""
-        return np.abs(self.obs_drift)
-
-    def goal_reached(self) -> BoolArray:
-        """Whether the waypoint has been reached."""
-        return self.wpt_reached.copy()
 
     def extra_track_km(self) -> Array:
         """Distance flown minus the start-to-waypoint kwik-distance [km]."""
@@ -414,7 +366,6 @@ def sample_waypoint(
     n_vertices: NDArray[np.int64],
     d_min: int,
     d_max: int,
-    kernels: Any = None,
 ) -> tuple[float, float]:
     """Rejection-sample a waypoint outside every obstacle, as the reference does.
 
@@ -431,7 +382,6 @@ def sample_waypoint(
         n_vertices: (K,) vertex counts.
         d_min: Lower bound of the distance draw [km].
         d_max: Exclusive upper bound of the distance draw [km].
-        kernels: A task's compiled functions for the inside test, or None for numpy.
 
     Returns:
         The waypoint (lat, lon) [deg].
@@ -445,12 +395,9 @@ def sample_waypoint(
         tries += 1
         d = rng.integers(d_min, d_max)
         b = rng.integers(0, BEARING_END)
-        wlat, wlon = point_at_distance_scalar(lat, lon, d, b)
-        if kernels is not None:
-            inside = np.empty((1, len(n_vertices)), bool)
-            kernels.ownship_in_polygons(np.array([[wlat]]), np.array([[wlon]]), poly_lat[None], poly_lon[None], n_vertices[None], inside)
-        else:
-            inside = points_in_polygons(np.atleast_1d(wlat), np.atleast_1d(wlon), poly_lat, poly_lon, n_vertices)
+        wlat, wlon = point_at_distance(lat, lon, d, b)
+        inside = np.empty((1, len(n_vertices)), bool)
+        compiled.ownship_in_polygons(np.array([[wlat]]), np.array([[wlon]]), poly_lat[None], poly_lon[None], n_vertices[None], inside)
         if tries > MAX_WAYPOINT_TRIES:
             raise RuntimeError(
                 f"no waypoint outside the obstacles after {MAX_WAYPOINT_TRIES} tries; the obstacles cover the waypoint "
@@ -458,3 +405,30 @@ def sample_waypoint(
             )
         if not inside.any():
             return float(wlat), float(wlon)
+
+
+class SubstepEnd:
+    """The ``stop`` rule of a decision step's sub-steps (see :meth:`Physics.run`).
+
+    An episode ends at the first sub-step after which its aircraft is inside an obstacle, or at
+    the first sub-step when it ends anyway (its waypoint was reached).
+
+    Args:
+        poly_lat: (n_envs, K, V) obstacle vertex latitudes [deg].
+        poly_lon: (n_envs, K, V) obstacle vertex longitudes [deg].
+        n_vertices: (n_envs, K) vertex counts.
+        done_anyway: (n_envs,) episodes that end at the first sub-step whatever happens.
+    """
+
+    def __init__(self, poly_lat: Array, poly_lon: Array, n_vertices: NDArray[np.int64], done_anyway: BoolArray) -> None:
+        self.poly_lat, self.poly_lon, self.n_vertices, self.done_anyway = poly_lat, poly_lon, n_vertices, done_anyway
+        #: (n_envs,) sub-steps after which each episode ended (1..k) in the last track seen, 0 if it did not.
+        self.ended_at = np.zeros(len(done_anyway), np.int64)
+
+    def __call__(self, track: Array) -> NDArray[np.int64]:
+        """``ended_at`` of the positions ``track`` (k, 2, n_envs, max_aircraft) after k sub-steps."""
+        counts = np.empty((track.shape[0], len(self.done_anyway)), np.int64)
+        compiled.ownship_polygon_counts(track, self.poly_lat, self.poly_lon, self.n_vertices, counts)
+        hit = self.done_anyway | (counts > 0)  # (k, n_envs): the episode ends at this sub-step
+        self.ended_at = np.where(hit.any(axis=0), hit.argmax(axis=0) + 1, 0)
+        return self.ended_at

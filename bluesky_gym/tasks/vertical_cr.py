@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import atmosphere as isa
-from bluesky_gym.core.units import FT, NM2KM
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, TaskConfig, check_int, check_range, wrap180
-from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentTask
-from bluesky_gym.tasks.geometry import ref_kwikqdrdist
+from bluesky_gym.core.units import FT
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, TaskConfig, check_int, check_range, kwik_separation
+from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentMeasurement, DescentTask
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
 INTRUSION_DISTANCE = 5.0  # NM, horizontal radius of the intrusion cylinder
@@ -21,39 +21,39 @@ INTRUDER_DISTANCE_SCALE = DEFAULT_RWY_DIS  # km: intruder_distance is divided by
 SPEED_SCALE = AC_SPD  # m/s: x/y_difference_speed are divided by 150
 TLOSV = 1e11  # s: vertical time to loss of separation given to creconfs (intruder vs ~ 0)
 KM = 1000.0  # m per km
+INTRUDER_STATE = ("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif")  # rows of compiled.intruder_relative_state
 
 
-def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array, kernels: Any = None) -> dict[str, Array]:
+def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array) -> dict[str, Array]:
     """Ownship-relative geometry of the intruders (slots 1..) shared by the CR tasks.
 
-    All inputs are (n_envs, max_aircraft) simulator arrays with the ownship in slot 0. The
-    expressions and their operation order are the reference's (spec sections 2 and 3).
-    ``kernels`` is a task's compiled functions (:attr:`~bluesky_gym.tasks.base.Task.kernels`), or
-    None for numpy.
+    All inputs are (rows, max_aircraft) simulator arrays with the ownship in slot 0. The
+    expressions and their operation order are the reference's (spec sections 2 and 3), computed
+    by :func:`bluesky_gym.tasks.compiled.intruder_relative_state`.
 
     Returns:
         ``dist_km`` kwik distance [km]; ``cos_bearing``/``sin_bearing`` of
         wrap180(hdg_own - qdr_own->int); ``x_dif``/``y_dif`` [m/s], the intruder velocity seen in
-        the reference's ownship frame (not yet normalised). Each (n_envs, max_aircraft - 1).
+        the reference's ownship frame (not yet normalised). Each (rows, max_aircraft - 1).
 
     """
-    if kernels is not None:  # the same numbers from the compiled form (Task.kernels)
-        out = np.empty((5, sim_lat.shape[0], sim_lat.shape[1] - 1))
-        kernels.intruder_relative_state(sim_lat, sim_lon, hdg, gs, out)
-        return dict(zip(("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif"), out))
-    qdr, dist = ref_kwikqdrdist(sim_lat[:, :1], sim_lon[:, :1], sim_lat[:, 1:], sim_lon[:, 1:])
-    own_hdg = hdg[:, :1]
-    bearing = wrap180(own_hdg - qdr)
-    heading_difference = own_hdg - hdg[:, 1:]
-    x_dif = -np.cos(np.deg2rad(heading_difference)) * gs[:, 1:]
-    y_dif = gs[:, :1] - np.sin(np.deg2rad(heading_difference)) * gs[:, 1:]
-    return {
-        "dist_km": dist * NM2KM,
-        "cos_bearing": np.cos(np.deg2rad(bearing)),
-        "sin_bearing": np.sin(np.deg2rad(bearing)),
-        "x_dif": x_dif,
-        "y_dif": y_dif,
-    }
+    n, m = sim_lat.shape
+    out = np.empty((5, n, m - 1))
+    count = np.empty(n, np.int64)
+    compiled.intruder_relative_state(np.arange(n), np.zeros(n, np.int64), sim_lat, sim_lon, hdg, gs, np.ones((n, m), bool), False, out, count)
+    return dict(zip(INTRUDER_STATE, out))
+
+
+@dataclass(frozen=True)
+class VerticalCRMeasurement(DescentMeasurement):
+    """One step's quantities of the vertical CR task: the descent ones and the intruders'.
+
+    ``separation_nm``/``los``: the kwik distances and the 5 NM / 1000 ft intrusion cylinder.
+    """
+
+    intruders: dict[str, Array]  # intruder_relative_state, (rows, num_intruders) each
+    alt_difference: Array  # (rows, num_intruders) m, intruder minus ownship altitude
+    vs_difference: Array  # (rows, num_intruders) m/s, intruder minus ownship vertical speed
 
 
 @dataclass(frozen=True)
@@ -207,31 +207,54 @@ class VerticalCRTask(DescentTask):
         self.sim.cmd_altitude(env, slot, alt, 0.0)
         self.total_intrusions[envs] = 0
 
-    # --- observation ----------------------------------------------------------------------------
-    def observe(self) -> dict[str, Array]:
-        """Observation of every episode: key -> (n_envs, *shape), float64."""
-        obs = super().observe()
+    # --- measure --------------------------------------------------------------------------------
+    def measure(self, envs: NDArray[np.int64] | None = None) -> VerticalCRMeasurement:
+        """The descent quantities, the intruders' relative state and the intrusion cylinder test, of episodes ``envs``."""
+        d = super().measure(envs)
+        ids = d.envs
+        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
         s = self.sim
-        rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs, self.kernels)
-        # Intruders in creation order (slots 1..n), no sorting (spec section 2).
+        own = self.ownship[rows]
+        separation_nm, los = kwik_separation(s, ids, own, INTRUSION_DISTANCE, VERTICAL_MARGIN)
+        alt, vs = s.alt[rows], s.vs[rows]
+        intruders = np.empty((5, ids.size, s.max_aircraft - 1))
+        compiled.intruder_relative_state(ids, own, s.lat, s.lon, s.hdg, s.gs, s.active, False, intruders, np.empty(ids.size, np.int64))
+        return VerticalCRMeasurement(
+            envs=ids,
+            separation_nm=separation_nm,
+            los=los,
+            drift_deg=None,
+            goal_reached=d.goal_reached,
+            alt=d.alt,
+            vs=d.vs,
+            runway_km=d.runway_km,
+            intruders=dict(zip(INTRUDER_STATE, intruders)),
+            alt_difference=alt[:, 1:] - alt[:, :1],
+            vs_difference=vs[:, 1:] - vs[:, :1],
+        )
+
+    # --- observation ----------------------------------------------------------------------------
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
+        """The descent entries, then the intruders in creation order (slots 1..n, no sorting; spec section 2)."""
+        g = self.measure() if g is None else g
+        assert isinstance(g, VerticalCRMeasurement)
+        obs = super().observe(g)
+        rel = g.intruders
         obs["intruder_distance"] = rel["dist_km"] / INTRUDER_DISTANCE_SCALE
         obs["cos_difference_pos"] = rel["cos_bearing"]
         obs["sin_difference_pos"] = rel["sin_bearing"]
-        obs["altitude_difference"] = (s.alt[:, 1:] - s.alt[:, :1]) / ALT_STD
+        obs["altitude_difference"] = g.alt_difference / ALT_STD
         obs["x_difference_speed"] = rel["x_dif"] / SPEED_SCALE
         obs["y_difference_speed"] = rel["y_dif"] / SPEED_SCALE
-        obs["z_difference_speed"] = s.vs[:, 1:] - s.vs[:, :1]  # m/s, not normalised (reference quirk)
+        obs["z_difference_speed"] = g.vs_difference  # m/s, not normalised (reference quirk)
         return obs
 
     # --- reward ---------------------------------------------------------------------------------
-    def intrusions(self) -> BoolArray:
-        """(n_envs, num_intruders) intruders within 5 NM and 1000 ft of the ownship."""
-        return self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)[1][:, 1:]
-
-    def evaluate(self) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Descent reward and termination plus the intrusion penalty."""
-        descent_reward, terminated, components = super().evaluate()
-        count = self.intrusions().sum(axis=1)
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Descent reward and termination plus -50 per intruder inside the 5 NM / 1000 ft cylinder."""
+        assert isinstance(g, VerticalCRMeasurement)
+        descent_reward, terminated, components = super().reward(g)
+        count = g.los[:, 1:].sum(axis=1)
         intrusion = count * INTRUSION_PENALTY
         self.total_intrusions += count
         components["intrusion"] = intrusion
@@ -244,8 +267,3 @@ class VerticalCRTask(DescentTask):
             "total_intrusions": self.total_intrusions.copy(),
             "final_altitude": self.final_altitude.copy(),
         }
-
-    # --- KPIs -----------------------------------------------------------------------------------
-    def ownship_separation(self) -> tuple[Array, BoolArray]:
-        """Kwik distance [NM] from the ownship to every other aircraft and the 5 NM / 1000 ft intrusion flags."""
-        return self.kwik_separation(INTRUSION_DISTANCE, VERTICAL_MARGIN)

@@ -1,36 +1,27 @@
-"""The compiled observation/reward geometry equals the numpy path to the last bit."""
+"""The compiled observation/reward geometry equals the readable numpy oracle to the last bit."""
 
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from bluesky_gym.core import Simulator
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.geometry import (
-    points_in_polygons,
-    ref_kwikdist,
-)
+from bluesky_gym.tasks import merge as mg
+from bluesky_gym.tasks import sector_cr as sc
 from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
 from bluesky_gym.tasks.merge import MergeTask
 from bluesky_gym.tasks.sector_cr import SectorCRTask
-from bluesky_gym.tasks.static_obstacle import StaticObstacleTask
-from bluesky_gym.tasks.vertical_cr import VerticalCRTask
-from tests.oracle.simulator import OracleSimulator
-
-pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason="numba (extra 'fast') not installed")
+from bluesky_gym.tasks.vertical_cr import VerticalCRTask, intruder_relative_state
+from tests.oracle import tasks as oracle
+from tests.oracle.geometry import points_in_polygons, ref_kwikdist, ref_kwikdist_matrix
 
 N_ENVS = 6
 
 
-def _task(task_class: type, kernel: str, seed: int) -> object:
-    """The task on the compiled core ("fused"), or its numpy path on the numpy oracle of the core ("numpy")."""
-    probe = task_class(N_ENVS)
-    cls = OracleSimulator if kernel == "numpy" else Simulator
-    sim = cls(N_ENVS, probe.sim.max_aircraft, dt=task_class.dt, max_waypoints=probe.sim.max_waypoints)
-    task = task_class(N_ENVS, backend=sim)
-    if kernel == "numpy":
-        task.compiled, task.kernels = False, None
+def _task(task_class: type, seed: int) -> object:
+    task = task_class(N_ENVS)
     task.seed(task.all_envs, [np.random.default_rng(seed + i) for i in range(N_ENVS)])
     task.reset()
     return task
@@ -42,29 +33,52 @@ def _assert_same(a: dict, b: dict, what: str) -> None:
         np.testing.assert_array_equal(np.asarray(a[k]), np.asarray(b[k]), err_msg=f"{what}: {k}", strict=True)
 
 
-@pytest.mark.parametrize("task_class", [SectorCRTask, MergeTask, StaticObstacleTask, HorizontalCRTask, VerticalCRTask])
-def test_compiled_episodes_equal_numpy_episodes(task_class: type) -> None:
-    ref, fast = _task(task_class, "numpy", 11), _task(task_class, "fused", 11)
-    assert not ref.compiled and fast.compiled
-    _assert_same(ref.observe(), fast.observe(), "reset")
+def _oracle_observation(task: object) -> dict:
+    s = task.sim
+    if isinstance(task, SectorCRTask):
+        return oracle.sector_observation(s, task.wpt_lat[:, 0], task.wpt_lon[:, 0])
+    if isinstance(task, MergeTask):
+        return oracle.merge_observation(s, task.wpt_reach)
+    if isinstance(task, HorizontalCRTask):
+        return oracle.horizontal_cr_observation(s, task.wpt_lat, task.wpt_lon)
+    return oracle.intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
+
+
+def _task_observation(task: object) -> dict:
+    if isinstance(task, VerticalCRTask):
+        s = task.sim
+        return intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)
+    return task.observe()
+
+
+_SEPARATION = {SectorCRTask: (sc.INTRUSION_DISTANCE, None), MergeTask: (mg.INTRUSION_DISTANCE, None), HorizontalCRTask: (5.0, None),
+               VerticalCRTask: (5.0, 1000 * 0.3048)}
+
+
+@pytest.mark.parametrize("task_class", [SectorCRTask, MergeTask, HorizontalCRTask, VerticalCRTask])
+def test_task_geometry_equals_the_numpy_oracle_through_episodes(task_class: type) -> None:
+    task = _task(task_class, 11)
+    _assert_same(_task_observation(task), _oracle_observation(task), "reset")
+    intrusion, vertical = _SEPARATION[task_class]
     rng = np.random.default_rng(3)
     ended = 0
     for step in range(160):
-        action = rng.uniform(-1, 1, (N_ENVS, *ref.action_spec.shape))
-        ra, rb = ref.step(action), fast.step(action)
-        _assert_same(ra.observation, rb.observation, f"step {step}")
-        _assert_same(ra.info, rb.info, f"step {step} info")
-        np.testing.assert_array_equal(ra.reward, rb.reward)
-        np.testing.assert_array_equal(ra.terminated, rb.terminated)
-        np.testing.assert_array_equal(ra.truncated, rb.truncated)
-        done = np.flatnonzero(ra.terminated | ra.truncated)
+        res = task.step(rng.uniform(-1, 1, (N_ENVS, *task.action_spec.shape)))
+        if task_class in (SectorCRTask, HorizontalCRTask):  # no state the reward changes is observed
+            _assert_same(res.observation, _oracle_observation(task), f"step {step}")
+        _assert_same(_task_observation(task), _oracle_observation(task), f"after step {step}")
+        s = task.sim
+        dist, los = task.ownship_separation()
+        want_dist, want_los = oracle.kwik_separation(s.lat, s.lon, s.alt, s.active, intrusion, vertical)
+        np.testing.assert_array_equal(dist, want_dist)
+        np.testing.assert_array_equal(los, want_los)
+        done = np.flatnonzero(res.terminated | res.truncated)
         if done.size:
             ended += done.size
-            ref.reset(done)
-            fast.reset(done)
-            _assert_same(ref.observe(), fast.observe(), f"reset at step {step}")
+            task.reset(done)
+            _assert_same(_task_observation(task), _oracle_observation(task), f"reset at step {step}")
             # The observation of the reset episodes alone equals their rows of the full one.
-            _assert_same(fast.observe_envs(done), {k: v[done] for k, v in ref.observe().items()}, f"reset rows at step {step}")
+            _assert_same(task.observe_envs(done), {k: v[done] for k, v in task.observe().items()}, f"reset rows at step {step}")
     assert ended > 0  # the comparison covered episode ends and resets
 
 
@@ -79,8 +93,6 @@ def _random_airspace(rng: np.random.Generator, n: int, m: int) -> tuple[np.ndarr
 
 
 def test_closest_intruders_keep_the_stable_order_of_ties_and_skip_empty_slots() -> None:
-    from bluesky_gym.tasks.merge import _OBS_SCALES
-
     rng = np.random.default_rng(0)
     lat, lon, hdg, tas, active = _random_airspace(rng, 200, 12)
     lat[:, 3] = lat[:, 5]  # two intruders at the same place: equal distances
@@ -88,17 +100,87 @@ def test_closest_intruders_keep_the_stable_order_of_ties_and_skip_empty_slots() 
     active[:5, 1:9] = False  # fewer active intruders than observed ones in some airspaces
     own = np.empty((200, 4))
     out = np.empty((200, 7, 5))
-    compiled.merge_observe(np.arange(200), lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7), _OBS_SCALES, own, out)
+    count = np.empty(200, np.int64)
+    compiled.merge_observe(np.arange(200), np.zeros(200, np.int64), lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7),
+                           mg._OBS_SCALES, own, out, count)
     # distances column: the numpy order (stable argsort, empty slots last) of kwikdist_matrix.
-    from bluesky_gym.tasks.geometry import ref_kwikdist_matrix
-
     d = ref_kwikdist_matrix(lat[:, :1], lon[:, :1], lat[:, 1:], lon[:, 1:])
     order = np.argsort(np.where(active[:, 1:], d, np.inf), axis=1, kind="stable")[:, :5]
-    expected = np.take_along_axis(d, order, axis=1) / _OBS_SCALES[2]
+    expected = np.take_along_axis(d, order, axis=1) / mg._OBS_SCALES[2]
     np.testing.assert_array_equal(out[:, 6], expected)
+    np.testing.assert_array_equal(count, active[:, 1:].sum(axis=1))
     # The cases were exercised: equal distances, and fewer active intruders than observed ones.
     assert np.array_equal(d[:, 2], d[:, 4])
     assert (active[:5, 1:].sum(axis=1) < 5).all()
+
+
+def _to_front(a: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """Each row of ``a`` (n, m) with slot ``own[e]`` moved to slot 0, the others in slot order."""
+    m = a.shape[1]
+    perm = np.array([[o, *[j for j in range(m) if j != o]] for o in own])
+    return np.take_along_axis(a, perm, axis=1)
+
+
+def test_functions_of_an_ownship_slot_equal_the_oracle_with_that_slot_moved_to_slot_0() -> None:
+    """Any ownship slot sees the other slots in slot order, as the single-agent ownship sees slots 1.."""
+    rng = np.random.default_rng(5)
+    n, m = 60, 9
+    lat, lon, hdg, tas, active = _random_airspace(rng, n, m)
+    lat[:, 1:] = lat[:, :1] + rng.normal(0, 0.05, (n, m - 1))
+    alt = rng.uniform(0, 3000, (n, m))
+    gs = tas * 0.9
+    own = rng.integers(0, m, n)
+    active[np.arange(n), own] = True
+    envs = np.arange(n)
+    moved = SimpleNamespace(**{k: _to_front(v, own) for k, v in dict(lat=lat, lon=lon, hdg=hdg, tas=tas, active=active, alt=alt, gs=gs).items()})
+    wlat, wlon = 52.0 + rng.normal(0, 0.3, n), 4.0 + rng.normal(0, 0.3, n)
+    # SectorCR
+    drift, feat, intr, cnt = np.empty(n), np.empty((n, 3)), np.empty((n, 7, sc.NUM_AC_STATE)), np.empty(n, np.int64)
+    compiled.sector_observe(envs, own, lat, lon, hdg, tas, active, wlat, wlon, sc._FLAT_CENTER, sc._OBS_SCALES, drift, feat, intr, cnt)
+    want = oracle.sector_observation(moved, wlat, wlon)
+    got = sc.observation(SimpleNamespace(features=feat, intruders=intr))
+    _assert_same(got, want, "sector")
+    # Merge
+    after = rng.uniform(size=n) < 0.5
+    tlat, tlon = mg.target(after)
+    feat, intr = np.empty((n, 4)), np.empty((n, 7, mg.NUM_AC_STATE))
+    compiled.merge_observe(envs, own, lat, lon, hdg, tas, active, tlat, tlon, mg._OBS_SCALES, feat, intr, cnt)
+    want = oracle.merge_observation(moved, after.astype(np.int64))
+    got = mg.observation(SimpleNamespace(features=feat, intruders=intr, airspeed=tas[envs, own], after_faf=after))
+    _assert_same(got, want, "merge")
+    np.testing.assert_array_equal(cnt, moved.active[:, 1:].sum(axis=1))
+    # Intruder geometry in slot order
+    out = np.empty((5, n, m - 1))
+    compiled.intruder_relative_state(envs, own, lat, lon, hdg, gs, active, False, out, cnt)
+    want = oracle.intruder_relative_state(moved.lat, moved.lon, moved.hdg, moved.gs)
+    _assert_same(dict(zip(want, out)), want, "intruders")
+    # Kwik separation (the ownship's own slot is inf / False wherever it sits)
+    for vertical in (np.nan, 300.0):
+        dist, los = np.empty((n, m)), np.empty((n, m), bool)
+        compiled.kwik_separation(envs, own, lat, lon, alt, active, 5.0, vertical, dist, los)
+        want_d, want_l = oracle.kwik_separation(moved.lat, moved.lon, moved.alt, moved.active, 5.0, None if np.isnan(vertical) else vertical)
+        np.testing.assert_array_equal(_to_front(dist, own), want_d)
+        np.testing.assert_array_equal(_to_front(los, own), want_l)
+
+
+def test_nearest_intruders_are_sorted_by_kwik_distance_with_empty_slots_last() -> None:
+    rng = np.random.default_rng(6)
+    n, m = 80, 7
+    lat, lon, hdg, tas, active = _random_airspace(rng, n, m)
+    own = rng.integers(0, m, n)
+    active[np.arange(n), own] = True
+    active[:10] = False
+    active[np.arange(10), own[:10]] = True  # alone: every entry is padding
+    out, cnt = np.empty((5, n, m - 1)), np.empty(n, np.int64)
+    compiled.intruder_relative_state(np.arange(n), own, lat, lon, hdg, tas, active, True, out, cnt)
+    d = ref_kwikdist(lat[np.arange(n), own][:, None], lon[np.arange(n), own][:, None], lat, lon)
+    other = active.copy()
+    other[np.arange(n), own] = False
+    for e in range(n):
+        k = int(cnt[e])
+        assert k == other[e].sum()
+        np.testing.assert_array_equal(out[0, e, :k], np.sort(d[e][other[e]]) * 1.852)
+    assert (cnt[:10] == 0).all() and (cnt[10:] > 0).all()
 
 
 def test_kwik_separation_matches_the_numpy_formula_with_and_without_vertical_margin() -> None:
@@ -106,17 +188,13 @@ def test_kwik_separation_matches_the_numpy_formula_with_and_without_vertical_mar
     lat, lon, _, _, active = _random_airspace(rng, 50, 9)
     lat[:, 1:] = lat[:, :1] + rng.normal(0, 0.05, (50, 8))
     alt = rng.uniform(0, 3000, (50, 9))
-    expected = np.where(active, ref_kwikdist(lat[:, :1], lon[:, :1], lat, lon), np.inf)
-    expected[:, 0] = np.inf
     for vertical in (np.nan, 300.0):
         dist = np.empty((50, 9))
         los = np.empty((50, 9), bool)
-        compiled.kwik_separation(lat, lon, alt, active, 5.0, vertical, dist, los)
-        np.testing.assert_array_equal(dist, expected)
-        want = expected < 5.0
-        if not np.isnan(vertical):
-            want &= np.abs(alt[:, :1] - alt) < vertical
-        np.testing.assert_array_equal(los, want)
+        compiled.kwik_separation(np.arange(50), np.zeros(50, np.int64), lat, lon, alt, active, 5.0, vertical, dist, los)
+        want_d, want_l = oracle.kwik_separation(lat, lon, alt, active, 5.0, None if np.isnan(vertical) else vertical)
+        np.testing.assert_array_equal(dist, want_d)
+        np.testing.assert_array_equal(los, want_l)
         assert los.any() and not los.all()
 
 
@@ -132,6 +210,10 @@ def test_ownship_in_polygons_matches_the_numpy_even_odd_test() -> None:
     compiled.ownship_in_polygons(lat, lon, poly_lat, poly_lon, nv, out)
     np.testing.assert_array_equal(out, points_in_polygons(lat, lon, poly_lat, poly_lon, nv)[:, 0, :])
     assert out.any() and not out.all()
+    # Any slot against its episode's first polygon.
+    slots = np.empty(n, bool)
+    compiled.slots_in_polygons(np.arange(n), np.zeros(n, np.int64), lat, lon, poly_lat[:, 0], poly_lon[:, 0], nv[:, 0], slots)
+    np.testing.assert_array_equal(slots, out[:, 0])
 
 
 def test_polygon_counts_along_a_track_match_the_numpy_test() -> None:
@@ -151,3 +233,18 @@ def test_polygon_counts_along_a_track_match_the_numpy_test() -> None:
         inside = points_in_polygons(track[s, 0], track[s, 1], poly_lat, poly_lon, nv)[:, 0, :]
         np.testing.assert_array_equal(counts[s], inside.sum(axis=1), err_msg=f"step {s}")
     assert counts.any() and (counts == 0).any()
+
+
+def test_kwik_functions_equal_the_numpy_oracle_for_scalars_and_broadcast_arrays() -> None:
+    from bluesky_gym.tasks import geometry
+    from tests.oracle import geometry as oracle_geometry
+
+    rng = np.random.default_rng(7)
+    lat_a, lon_a = 52.0 + rng.normal(0, 1.0, (30, 1)), rng.uniform(-190, 190, (30, 1))  # longitudes across the date line too
+    lat_b, lon_b = 52.0 + rng.normal(0, 1.0, (1, 8)), rng.uniform(-190, 190, (1, 8))
+    for args in ((lat_a, lon_a, lat_b, lon_b), (52.1, 4.2, 53.3, 4.9), (lat_a[:, 0], lon_a[:, 0], 54.0, 4.7)):
+        for name in ("ref_kwikdist",):
+            got, want = getattr(geometry, name)(*args), getattr(oracle_geometry, name)(*args)
+            np.testing.assert_array_equal(got, want, strict=True)
+        for got, want in zip(geometry.ref_kwikqdrdist(*args), oracle_geometry.ref_kwikqdrdist(*args), strict=True):
+            np.testing.assert_array_equal(got, want, strict=True)

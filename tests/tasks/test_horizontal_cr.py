@@ -48,8 +48,9 @@ def test_reward_drift_intrusion_and_reach() -> None:
     s.lat[2, 1], s.lon[2, 1] = _north_of(52.0, 1 * NM), 4.0  # env 2: two intruders within 5 NM
     s.lat[2, 3], s.lon[2, 3] = 52.0, _east_of(52.0, 4.0, -3 * NM)
     task.wpt_lat[2] = _north_of(52.0, 4_000.0)  # and the waypoint within 5 km
-    task.observe()
-    reward, terminated, comp = task.evaluate()
+    g = task.measure()
+    task.observe(g)
+    reward, terminated, comp = task.reward(g)
     drift = -0.1 * np.radians(30.0)
     np.testing.assert_allclose(comp["drift"], drift, rtol=1e-9)
     np.testing.assert_array_equal(comp["intrusion"], [0.0, -1.0, -2.0])
@@ -58,7 +59,7 @@ def test_reward_drift_intrusion_and_reach() -> None:
     assert terminated.dtype == bool and terminated.tolist() == [False, False, True]
     np.testing.assert_array_equal(task.total_intrusions, [0, 1, 2])
     # The reach reward is paid once; the episode stays terminated.
-    reward2, terminated2, comp2 = task.evaluate()
+    reward2, terminated2, comp2 = task.reward(task.measure())
     assert comp2["reach"][2] == 0.0 and terminated2[2]
     info = task.episode_info()
     np.testing.assert_allclose(info["average_drift"], np.radians(30.0), rtol=1e-12)
@@ -71,11 +72,11 @@ def test_average_drift_is_zero_at_reset_then_the_mean_abs_drift_in_radians() -> 
     assert set(info) == {"total_reward", "total_intrusions", "average_drift"}
     np.testing.assert_array_equal(info["average_drift"], [0.0, 0.0])  # the reference gives NaN here
     _hand_built(task, wpt_north_m=80_000.0, hdg=20.0)
-    task.evaluate()
+    task.reward(task.measure())
     task.sim.hdg[:, 0] = 340.0  # drift -20
-    task.evaluate()
+    task.reward(task.measure())
     task.sim.hdg[:, 0] = 90.0  # drift 90
-    task.evaluate()
+    task.reward(task.measure())
     np.testing.assert_allclose(task.episode_info()["average_drift"], np.radians((20 + 20 + 90) / 3), rtol=1e-12)
 
 
@@ -83,10 +84,11 @@ def test_average_drift_is_zero_at_reset_then_the_mean_abs_drift_in_radians() -> 
 def test_reach_flag_is_updated_after_the_observation() -> None:
     task = _task(1)
     _hand_built(task, wpt_north_m=3_000.0)
-    obs = task.observe()
+    g = task.measure()
+    obs = task.observe(g)
     assert obs["waypoint_distance"][0, 0] * 150 < 5.0
-    assert not task.wpt_reach[0] and not task.goal_reached()[0]  # observe() does not set it
-    reward, terminated, _ = task.evaluate()
+    assert not task.wpt_reach[0]  # observe() does not set it
+    reward, terminated, _ = task.reward(g)
     assert task.wpt_reach[0] and terminated[0] and reward[0] > 0.5
 
 
@@ -242,6 +244,6 @@ def test_ownship_separation_drift_and_extra_track() -> None:
     assert dist[0, 0] == np.inf and dist[0, 4] == np.inf
     np.testing.assert_allclose(dist[0, 1:3], [4.5, 5.5], rtol=1e-9)
     assert los[0].tolist() == [False, True, False, False, False, False]
-    np.testing.assert_allclose(task.drift_deg(), [10.0], rtol=1e-9)
+    np.testing.assert_allclose(task.measure().drift_deg, [-10.0], rtol=1e-9)
     s.distflown[0, 0] = 200_000.0
     np.testing.assert_allclose(task.extra_track_km(), 200.0 - (task.start_wpt_dist_km - 5.0))

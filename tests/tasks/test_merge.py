@@ -202,9 +202,10 @@ def test_reward_drift_and_intrusions_against_all_intruders() -> None:
     # env 0: intruders at 3 and 3.9 NM (inside 4 NM) in slots 7 and 19, one at 4.1 NM.
     for slot, d_nm in ((7, 3.0), (19, 3.9), (12, 4.1)):
         s.lat[0, slot], s.lon[0, slot] = _north_of(lat0, d_nm), FAF_LON
-    obs = task.observe()
+    g = task.measure()
+    obs = task.observe(g)
     assert obs["sin(drift)"][:, 0] == pytest.approx(math.sin(math.radians(20)))
-    reward, terminated, comp = task.evaluate()
+    reward, terminated, comp = task.reward(g)
     drift = -0.1 * math.radians(20)
     np.testing.assert_allclose(comp["drift"], drift, rtol=1e-12)
     np.testing.assert_array_equal(comp["intrusion"], [-2.0, 0.0])

@@ -181,16 +181,16 @@ def test_reward_counts_each_newly_reached_waypoint_once() -> None:
     task = seeded_task([2])
     for i, north in enumerate([4.99, 5.01, -3.0, 40.0, 60.0]):
         place_waypoint(task, 0, i, north)
-    r, te, comp = task.evaluate()
+    r, te, comp = task.reward(task.measure())
     assert r[0] == 2.0 and comp["reach"][0] == 2.0 and not te[0]
     np.testing.assert_array_equal(task.wpt_reached[0], [True, False, True, False, False])
     assert task.episode_info()["waypoints_completed"][0] == 2
-    r, te, _ = task.evaluate()
+    r, te, _ = task.reward(task.measure())
     assert r[0] == 0.0 and not te[0]
     for i in (1, 3, 4):
         place_waypoint(task, 0, i, 0.0, 1.0)
-    r, te, _ = task.evaluate()
-    assert r[0] == 3.0 and te[0] and task.goal_reached()[0]
+    r, te, _ = task.reward(task.measure())
+    assert r[0] == 3.0 and te[0] and task.measure().goal_reached[0]
 
 
 def test_reach_flag_shows_one_step_late() -> None:

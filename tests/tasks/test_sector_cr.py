@@ -211,9 +211,10 @@ def test_reward_drift_and_intrusions() -> None:
         s.lat[0, slot], s.lon[0, slot] = s.lat[0, 0] + math.degrees(d_nm * NM / R_EARTH), s.lon[0, 0]
     s.lat[0, 4], s.lon[0, 4] = s.lat[0, 0], s.lon[0, 0] + 0.01
     # env 1: nobody near.
-    obs = task.observe()
+    g = task.measure()
+    obs = task.observe(g)
     assert obs["cos(drift)"][:, 0] == pytest.approx(math.cos(math.radians(30)))
-    reward, terminated, comp = task.evaluate()
+    reward, terminated, comp = task.reward(g)
     drift = -0.1 * math.radians(30)
     np.testing.assert_allclose(comp["drift"], drift, rtol=1e-12)
     np.testing.assert_array_equal(comp["intrusion"], [-2.0, 0.0])
@@ -297,7 +298,7 @@ def test_inside_test_matches_an_independent_polygon_test() -> None:
         ]
     )
     assert 0 < expected.sum() < n
-    np.testing.assert_array_equal(task.truncate(), ~expected)
+    np.testing.assert_array_equal(task.truncate(task.measure()), ~expected)
 
 
 def test_vector_env_resets_truncated_episodes() -> None:

@@ -11,6 +11,7 @@ from matplotlib.path import Path
 
 import bluesky_gym
 from bluesky_gym.tasks.static_obstacle import StaticObstacleConfig, StaticObstacleTask, sample_waypoint
+from tests.oracle.static_obstacle import reference_substeps
 
 bluesky_gym.register_envs()
 
@@ -200,7 +201,8 @@ def test_observation_matches_hand_computed_geometry() -> None:
     centres = [(52.2 + 0.1 * i, 3.0 + 0.2 * i) for i in range(10)]
     for i, (la, lo) in enumerate(centres):
         task.obstacle_centre_lat[0, i], task.obstacle_centre_lon[0, i] = la, lo
-    obs = task.observe()
+    g = task.measure()
+    obs = task.observe(g)
     qdr, dist = kwik(52.2, 3.8, 52.9, 4.1)
     drift = wrap(200.0 - qdr)  # qdr about 15: drift about 185 wraps to about -175
     assert drift < -170
@@ -214,9 +216,10 @@ def test_observation_matches_hand_computed_geometry() -> None:
         assert obs["restricted_area_distance"][0, i] == pytest.approx(dist / 170, rel=1e-12)
         assert obs["cos_difference_restricted_area_pos"][0, i] == pytest.approx(math.cos(bearing), rel=1e-12, abs=1e-15)
         assert obs["sin_difference_restricted_area_pos"][0, i] == pytest.approx(math.sin(bearing), rel=1e-12, abs=1e-15)
-    # The reward's waypoint values are those of this observation.
-    assert task.obs_wpt_km[0] == pytest.approx(kwik(52.2, 3.8, 52.9, 4.1)[1], rel=1e-12)
-    assert task.obs_drift[0] == pytest.approx(drift, rel=1e-12)
+    # The next step's reward uses the waypoint values of this observation.
+    task.reward(g)
+    assert task.last_wpt_km[0] == pytest.approx(kwik(52.2, 3.8, 52.9, 4.1)[1], rel=1e-12)
+    assert task.last_drift[0] == pytest.approx(drift, rel=1e-12)
 
 
 # --- action -----------------------------------------------------------------------------------------
@@ -236,33 +239,32 @@ def test_reward_uses_stale_waypoint_values_and_live_position() -> None:
     task = seeded_task([3])
     sim = task.sim
     clear_obstacles(task, 0)
-    task.obs_wpt_km[0], task.obs_drift[0] = 50.0, -30.0
+    task.last_wpt_km[0], task.last_drift[0] = 50.0, -30.0
     # Live position on the waypoint, stale distance 50 km: no reach.
     sim.lat[0, 0], sim.lon[0, 0] = task.wpt_lat[0], task.wpt_lon[0]
-    r, te, comp = task.evaluate()
+    r, te, comp = task.reward(task.measure())
     assert r[0] == pytest.approx(-0.01 * math.radians(30)) and not te[0]
     assert comp["reach"][0] == 0.0 and comp["intrusion"][0] == 0.0
     # Stale distance below 5 km: reached, whatever the live position.
     sim.lat[0, 0], sim.lon[0, 0] = 52.0, 4.0
-    task.obs_wpt_km[0] = 4.99
-    r, te, comp = task.evaluate()
+    task.last_wpt_km[0], task.last_drift[0] = 4.99, -30.0
+    r, te, comp = task.reward(task.measure())
     assert comp["reach"][0] == 1.0 and r[0] == pytest.approx(1 - 0.01 * math.radians(30)) and te[0]
     info = task.episode_info()
     assert info["waypoint_reached"][0] == 1 and info["crashed"][0] == 0
-    assert info["average_drift"][0] == pytest.approx(math.radians(30))
 
 
 def test_intrusion_penalty_per_containing_obstacle() -> None:
     task = seeded_task([4])
     clear_obstacles(task, 0)
-    task.obs_wpt_km[0], task.obs_drift[0] = 80.0, 0.0
+    task.last_wpt_km[0], task.last_drift[0] = 80.0, 0.0
     lat, lon = task.sim.lat[0, 0], task.sim.lon[0, 0]
     set_square(task, 0, 2, lat + 0.2, lon, 0.1)  # just north of the aircraft: outside
-    r, te, _ = task.evaluate()
+    r, te, _ = task.reward(task.measure())
     assert r[0] == 0.0 and not te[0] and task.episode_info()["crashed"][0] == 0
     set_square(task, 0, 5, lat, lon, 0.05)
     set_square(task, 0, 7, lat + 0.04, lon, 0.05)  # overlaps the aircraft too
-    r, te, comp = task.evaluate()
+    r, te, comp = task.reward(task.measure())
     assert r[0] == -10.0 and comp["intrusion"][0] == -10.0 and te[0]
     assert task.episode_info()["crashed"][0] == 1 and task.intrusions[0] == 2
 
@@ -275,14 +277,16 @@ def test_step_returns_the_last_substep_reward_and_averages_every_sample() -> Non
     task = env.task
     clear_obstacles(task, 0)
     task.sim.hdg[0, 0] += 20.0  # drift of 20 deg in the observation the first step uses
-    obs0 = task.observe()
+    g0 = task.measure()
+    task.remember(g0)
+    obs0 = task.observe(g0)
     d0 = math.atan2(obs0["destination_waypoint_sin_drift"][0, 0], obs0["destination_waypoint_cos_drift"][0, 0])
     assert abs(d0) == pytest.approx(math.radians(20), rel=1e-9)
     _, r1, te, _, info1 = env.step(np.array([0.0, 0.0]))
     assert not te and r1 == pytest.approx(-0.01 * abs(d0), rel=1e-12)  # not 10 sub-steps' worth
     assert info1["total_reward"] == r1 and info1["average_drift"] == pytest.approx(abs(d0), rel=1e-12)
     assert task.drift_count[0] == 10
-    d1 = math.radians(abs(task.obs_drift[0]))
+    d1 = math.radians(abs(task.last_drift[0]))
     _, r2, _, _, info2 = env.step(np.array([0.0, 0.0]))
     assert r2 == pytest.approx(-0.01 * d1, rel=1e-12)
     assert info2["average_drift"] == pytest.approx((abs(d0) + d1) / 2, rel=1e-12)
@@ -297,10 +301,10 @@ def test_waypoint_capture_is_detected_one_step_late() -> None:
     lat, lon, hdg = task.sim.lat[0, 0], task.sim.lon[0, 0], task.sim.hdg[0, 0]
     # Straight ahead at 6 km (about 1.5 km is flown per step).
     task.wpt_lat[0], task.wpt_lon[0] = _point(lat, lon, 6.0, hdg)
-    task.observe()
+    task.remember(task.measure())
     t0 = task.sim.simt
     obs1, r1, te1, _, _ = env.step(np.array([0.0, 0.0]))
-    assert not te1 and task.obs_wpt_km[0] < 5.0 and r1 <= 0.0
+    assert not te1 and task.last_wpt_km[0] < 5.0 and r1 <= 0.0
     assert obs1["destination_waypoint_distance"][0] * 170 < 5.0
     _, r2, te2, _, info2 = env.step(np.array([0.0, 0.0]))
     assert te2 and info2["waypoint_reached"] == 1 and r2 > 0.99 and info2["kpi_success"] == 1.0
@@ -350,7 +354,7 @@ def test_episode_ending_mid_step_returns_that_substep_in_a_batch() -> None:
     _arm(batch, crash, path, k)
     _arm(alone[crash], 0, path, k)
     for t in (batch, *alone):
-        t.observe()
+        t.remember(t.measure())
     action = np.zeros((3, 2))
     action[:, 0] = [0.3, 0.0, -0.4]
     res = batch.step(action)
@@ -391,3 +395,47 @@ def test_vector_env_resets_a_crashed_episode_and_keeps_the_others() -> None:
     assert info["final_info"]["crashed"][1] == 1 and r[1] < -4.9
     assert obs["destination_waypoint_cos_drift"][1, 0] == pytest.approx(1.0)  # a fresh episode
     assert task.sim.lat[1, 0] == 52.0 and task.drift_count[1] == 0
+
+
+# --- the batched sub-step path against the reference's one-airspace loop ---------------------------
+class _ReferenceLoopTask(StaticObstacleTask):
+    """One airspace stepped sub-step by sub-step as the reference does (tests.oracle.static_obstacle)."""
+
+    def transition(self):  # noqa: ANN201
+        reward, terminated, components = reference_substeps(self)
+        g = self.measure()
+        self.remember(g)  # the waypoint values of this observation, for the next step
+        return reward, terminated, components, self.observe(g)
+
+
+def test_batched_substeps_equal_the_reference_loop_of_each_episode() -> None:
+    seeds = [70, 71, 72, 73, 74, 75]
+    options = {"num_obstacles": 14, "obstacle_area_max": 1500}  # crowded: crashes at every sub-step index
+    batch = seeded_task(seeds, **options)
+    alone = []
+    for s in seeds:
+        t = _ReferenceLoopTask(1, StaticObstacleTask.make_config(options))
+        t.seed(t.all_envs, [np.random.default_rng(s)])
+        t.reset()
+        alone.append(t)
+    rng = np.random.default_rng(5)
+    ended_at, ends = set(), 0
+    for step in range(120):
+        action = rng.uniform(-1, 1, (len(seeds), 2))
+        res = batch.step(action)
+        for e, t in enumerate(alone):
+            t0 = t.sim.simt
+            s = t.step(action[e : e + 1])
+            assert res.reward[e] == s.reward[0] and res.terminated[e] == s.terminated[0] and res.truncated[e] == s.truncated[0]
+            for key in s.observation:
+                np.testing.assert_array_equal(res.observation[key][e], s.observation[key][0], err_msg=f"step {step} episode {e} {key}")
+            assert s.info.keys() <= res.info.keys()
+            for key in s.info:
+                np.testing.assert_array_equal(res.info[key][e], s.info[key][0], err_msg=f"step {step} episode {e} info {key}")
+            if s.terminated[0] or s.truncated[0]:
+                ended_at.add(round(t.sim.simt - t0))
+                ends += 1
+                t.reset()
+        done = np.flatnonzero(res.terminated | res.truncated)
+        batch.reset(done)
+    assert ends > 10 and len(ended_at) >= 5  # episodes ended after many different sub-step counts

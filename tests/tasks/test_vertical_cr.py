@@ -55,14 +55,14 @@ def test_reward_altitude_term_and_intrusion_cylinder() -> None:
     # env 2: two intruders inside (1 NM, 100 m below; 3 NM, 300 m above).
     s.lat[2, 1], s.lon[2, 1], s.alt[2, 1] = _north_of(52.0, 1 * NM), 4.0, 2900.0
     s.lat[2, 3], s.lon[2, 3], s.alt[2, 3] = 52.0, _east_of(52.0, 4.0, 3 * NM), 3300.0
-    reward, terminated, comp = task.evaluate()
+    reward, terminated, comp = task.reward(task.measure())
     alt_term = -(5 / 3000) * 400.0
     np.testing.assert_allclose(comp["altitude"], alt_term, rtol=1e-12)
     np.testing.assert_array_equal(comp["intrusion"], [-50.0, 0.0, -100.0])
     np.testing.assert_allclose(reward, [alt_term - 50, alt_term, alt_term - 100], rtol=1e-12)
     assert terminated.dtype == bool and not terminated.any()
     np.testing.assert_array_equal(task.total_intrusions, [1, 0, 2])
-    task.evaluate()
+    task.reward(task.measure())
     np.testing.assert_array_equal(task.total_intrusions, [2, 0, 4])  # counted per intruder per step
     info = task.episode_info()
     assert set(info) == {"total_reward", "total_intrusions", "final_altitude"}
@@ -76,13 +76,14 @@ def test_reward_crash_and_runway_terminate_with_intrusions_added() -> None:
     s.lat[1, 0] = _north_of(52.0, 201_000.0)  # past the runway, 250 m up
     s.alt[1, 0] = 250.0
     s.lat[1, 2], s.lon[1, 2], s.alt[1, 2] = _north_of(52.0, 203_000.0), 4.0, 300.0  # 2 km ahead, 50 m above
-    reward, terminated, comp = task.evaluate()
+    g = task.measure()
+    reward, terminated, comp = task.reward(g)
     np.testing.assert_array_equal(terminated, [True, True])
     assert reward[0] == -100.0 and task.final_altitude[0] == -100.0
     np.testing.assert_allclose(reward[1], 250.0 * (-50 / 3000) - 50.0, rtol=1e-12)
     assert task.final_altitude[1] == 250.0
     np.testing.assert_array_equal(comp["intrusion"], [0.0, -50.0])
-    assert task.goal_reached().tolist() == [False, True]
+    assert g.goal_reached.tolist() == [False, True]
 
 
 # --- observation -----------------------------------------------------------------------------------
@@ -250,3 +251,19 @@ def test_ownship_separation_uses_the_intrusion_cylinder() -> None:
     assert dist.shape == (1, 6) and dist[0, 0] == np.inf and dist[0, 5] == np.inf
     np.testing.assert_allclose(dist[0, 1:3], [4.0, 2.0], rtol=1e-9)
     assert los[0].tolist() == [False, True, False, False, False, False]
+
+
+def test_intruder_relative_state_equals_the_numpy_oracle() -> None:
+    from bluesky_gym.tasks.vertical_cr import intruder_relative_state
+    from tests.oracle.tasks import intruder_relative_state as oracle
+
+    rng = np.random.default_rng(12)
+    n, m = 40, 7
+    lat = 52.0 + rng.normal(0, 0.5, (n, m))
+    lon = rng.uniform(-180, 180, (n, m))  # the longitude difference wraps too
+    hdg = rng.uniform(-200, 400, (n, m))  # bearings beyond the single wrap
+    gs = rng.uniform(80, 260, (n, m))
+    got, want = intruder_relative_state(lat, lon, hdg, gs), oracle(lat, lon, hdg, gs)
+    assert got.keys() == want.keys()
+    for k in want:
+        np.testing.assert_array_equal(got[k], want[k], err_msg=k, strict=True)
