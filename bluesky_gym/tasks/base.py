@@ -31,7 +31,17 @@ A concrete task supplies:
   ``observe`` through an attribute;
 * optionally :meth:`Task.truncate` ``(g)``, :meth:`Task.episode_info`, :meth:`Task.extra_track_km`.
 
-Without an argument, ``observe()`` measures first (e.g. after a reset).
+Without an argument, ``observe()`` measures first (e.g. after a reset). The base supplies
+:meth:`Task.advance` (the physics sub-steps in one ``Simulator.run`` call, unless sub-step hooks
+are installed) and :meth:`Task.record` (the statistics, from ``g`` only: the separation is never
+computed a second time).
+
+Tasks with traffic (SectorCR, Merge, HorizontalCR) write measure, observation and reward as
+module functions of rows (episode ``envs[r]``, ownship slot ``own[r]``), e.g.
+``sector_cr.measure(sim, task, envs, own)``, ``sector_cr.observation(g)``,
+``sector_cr.reward(g)``: the single-agent task passes slot 0 of its episodes
+(:attr:`Task.ownship`), the multi-agent tasks every active agent slot. Their geometry comes from
+the compiled kernels of :mod:`bluesky_gym.tasks.compiled`, the only implementation.
 """
 
 from __future__ import annotations
@@ -48,6 +58,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core import Simulator
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.geometry import ref_kwikqdrdist
+from bluesky_gym.tasks.geometry import wrap180 as wrap180  # re-exported: the reference's single wrap
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -105,11 +116,6 @@ def check_pair(name: str, value: Any) -> tuple[float, float]:
     for v in value:
         check_range(name, v, -np.inf)
     return float(value[0]), float(value[1])
-
-
-def wrap180(x: Array) -> Array:
-    """The reference's single wrap: x > 180 -> x - 360; x < -180 -> x + 360 (once only)."""
-    return np.where(x > 180, x - 360, np.where(x < -180, x + 360, x))
 
 
 @dataclass

@@ -309,7 +309,12 @@ class StaticObstacleTask(Task):
         or not at all, and only the obstacle test needs the live position.
         """
         if not self.substep_hooks:
-            return self._transition_traced()
+            try:
+                start = self.sim.snapshot()
+            except NotImplementedError:  # physics that cannot rewind (the BlueSky adapter): one sub-step at a time
+                start = None
+            if start is not None:
+                return self._transition_traced(start)
         n = self.n_envs
         running = np.ones(n, bool)
         last = np.zeros(n, np.int64)  # last evaluated sub-step of each episode
@@ -338,7 +343,7 @@ class StaticObstacleTask(Task):
             self.sim.restore(state, envs)
         return self._finish_transition(reached, done_anyway, drift_rad, count)
 
-    def _transition_traced(self) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def _transition_traced(self, start: dict[str, Any]) -> tuple[Array, BoolArray, dict[str, Array]]:
         """:meth:`transition` from one traced run of all sub-steps (compiled physics and geometry).
 
         The obstacle test needs only the ownship's position after each sub-step, so all sub-steps
@@ -350,7 +355,6 @@ class StaticObstacleTask(Task):
         reached = (self.obs_wpt_km < self.config.distance_margin_km) & ~self.wpt_reached
         done_anyway = self.wpt_reached | reached
         drift_rad = np.abs(np.deg2rad(self.obs_drift))
-        start = sim.snapshot()
         track = sim.run(steps, trace=True)
         counts = np.empty((steps, n), np.int64)
         compiled.ownship_polygon_counts(track, self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, counts)
