@@ -197,7 +197,7 @@ def _kwik(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike, be
 
     arrays = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in (lata, lona, latb, lonb)))
     shape = arrays[0].shape
-    flat = [np.ascontiguousarray(x).ravel() for x in arrays]
+    flat = [np.array(x, dtype=np.float64).ravel() for x in arrays]  # writeable copies of the broadcast views
     dist = np.empty(flat[0].size)
     qdr = np.empty(dist.size if bearing else 0)
     compiled.kwik_pairs(flat[0], flat[1], flat[2], flat[3], matrix, qdr, dist)
