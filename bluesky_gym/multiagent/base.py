@@ -35,8 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator
-from bluesky_gym.core.units import KTS, MPS2KT
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, wrap180
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, command_heading_and_speed
 from bluesky_gym.tasks.geometry import latlon_to_nm
 
 IntArray = NDArray[np.int64]
@@ -229,17 +228,9 @@ class MultiAgentTask(abc.ABC):
         """Turn clipped actions (n_envs, n_agents, dim) of the acting agents into autopilot commands."""
 
     def command_heading_and_speed(self, action: Array, acting: BoolArray, d_heading: float, d_speed: float) -> None:
-        """The single-agent SectorCR/Merge action mapping for every acting agent.
-
-        HDG wrap180(hdg + d_heading·a0); SPD (CAS + d_speed·a1)·1.94384 kt, which BlueSky converts
-        back with 0.514444 m/s per kt (the reference's unit round trip).
-        """
-        s = self.sim
+        """The single-agent SectorCR/Merge action mapping (:func:`bluesky_gym.tasks.base.command_heading_and_speed`) for every acting agent."""
         e, k = np.nonzero(acting)
-        heading_new = wrap180(s.hdg[e, k] + action[e, k, 0] * d_heading)
-        speed_kts = (s.cas[e, k] + action[e, k, 1] * d_speed) * MPS2KT
-        s.cmd_heading(e, k, heading_new)
-        s.cmd_speed(e, k, speed_kts * KTS)
+        command_heading_and_speed(self.sim, e, k, action[e, k], d_heading, d_speed)
 
     @abc.abstractmethod
     def measure(self, envs: IntArray, own: IntArray) -> StepGeometry:

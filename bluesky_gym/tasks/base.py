@@ -31,7 +31,17 @@ A concrete task supplies:
   ``observe`` through an attribute;
 * optionally :meth:`Task.truncate` ``(g)``, :meth:`Task.episode_info`, :meth:`Task.extra_track_km`.
 
-Without an argument, ``observe()`` measures first (e.g. after a reset).
+Without an argument, ``observe()`` measures first (e.g. after a reset). The base supplies
+:meth:`Task.advance` (the physics sub-steps in one ``Simulator.run`` call, unless sub-step hooks
+are installed) and :meth:`Task.record` (the statistics, from ``g`` only: the separation is never
+computed a second time).
+
+Tasks with traffic (SectorCR, Merge, HorizontalCR) write measure, observation and reward as
+module functions of rows (episode ``envs[r]``, ownship slot ``own[r]``), e.g.
+``sector_cr.measure(sim, task, envs, own)``, ``sector_cr.observation(g)``,
+``sector_cr.reward(g)``: the single-agent task passes slot 0 of its episodes
+(:attr:`Task.ownship`), the multi-agent tasks every active agent slot. Their geometry comes from
+the compiled kernels of :mod:`bluesky_gym.tasks.compiled`, the only implementation.
 """
 
 from __future__ import annotations
@@ -46,6 +56,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator
+from bluesky_gym.core.units import KTS, MPS2KT
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.geometry import ref_kwikqdrdist
 from bluesky_gym.tasks.geometry import wrap180 as wrap180  # re-exported for the tasks
@@ -214,6 +225,21 @@ def kwik_separation(
     los = np.empty(shape, bool)
     compiled.kwik_separation(envs, own, sim.lat, sim.lon, sim.alt, sim.active, intrusion_nm, np.nan if vertical_m is None else vertical_m, dist, los)
     return dist, los
+
+
+def command_heading_and_speed(
+    sim: Simulator, envs: NDArray[np.int64], own: NDArray[np.int64], action: Array, d_heading: float, d_speed: float
+) -> None:
+    """SectorCR's and Merge's action of rows (episode ``envs[r]``, ownship slot ``own[r]``), ``action`` (rows, 2).
+
+    HDG wrap180(hdg + d_heading a0); SPD (CAS + d_speed a1) * 1.94384 kt: the reference adds the
+    step to CAS in m/s, converts the sum to knots and stacks SPD, which BlueSky converts back with
+    1 kt = 0.514444 m/s.
+    """
+    heading_new = wrap180(sim.hdg[envs, own] + action[:, 0] * d_heading)
+    speed_kts = (sim.cas[envs, own] + action[:, 1] * d_speed) * MPS2KT
+    sim.cmd_heading(envs, own, heading_new)
+    sim.cmd_speed(envs, own, speed_kts * KTS)
 
 
 @dataclass

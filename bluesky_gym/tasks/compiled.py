@@ -210,14 +210,14 @@ def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
 
 
 @jit_inline
-def _other_slots(active, o, slots, act):
-    """The slots other than the ownship ``o`` in slot order into ``slots`` (m - 1), their activity into ``act``."""
-    i = 0
-    for j in range(active.shape[0]):
-        if j != o:
-            slots[i] = j
-            act[i] = active[j]
-            i += 1
+def _other_slots(active, e, o, slots, act):
+    """The slots other than the ownship ``o`` of episode ``e`` in slot order into ``slots`` (m - 1), their activity into ``act``."""
+    for j in range(o):
+        slots[j] = j
+        act[j] = active[e, j]
+    for j in range(o + 1, active.shape[1]):
+        slots[j - 1] = j
+        act[j - 1] = active[e, j]
 
 
 @jit_inline
@@ -251,7 +251,7 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
         e = envs[r]
         o = own[r]
         lat0, lon0, hdg0, gs0 = lat[e, o], lon[e, o], hdg[e, o], gs[e, o]
-        _other_slots(active[e], o, slots, act)
+        _other_slots(active, e, o, slots, act)
         count_out[r] = _count_active(act)
         if nearest:
             for i in range(m - 1):
@@ -288,21 +288,9 @@ def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_
 
 
 @jit_inline
-def _velocity(hdg, tas, e, j, vx, vy, stamp):
-    """TAS vector (north, east) [m/s] of slot ``j`` of episode ``e``, memoised per episode in (vx, vy, stamp)."""
-    if stamp[j] != e:
-        vx[j] = math.cos(hdg[e, j] * _RAD) * tas[e, j]
-        vy[j] = math.sin(hdg[e, j] * _RAD) * tas[e, j]
-        stamp[j] = e
-    return vx[j], vy[j]
-
-
-@jit_inline
-def _relative_velocity(hdg, tas, e, o, j, vx, vy, stamp):
-    """(vx_r, vy_r): the TAS vector of slot ``j`` minus the ownship's (slot ``o``), north / east [m/s]."""
-    vxj, vyj = _velocity(hdg, tas, e, j, vx, vy, stamp)
-    vxo, vyo = _velocity(hdg, tas, e, o, vx, vy, stamp)
-    return vxj - vxo, vyj - vyo
+def _velocity(hdg, tas, e, j):
+    """TAS vector (north, east) [m/s] of slot ``j`` of episode ``e`` (heading and TAS, not track and GS, as the reference)."""
+    return math.cos(hdg[e, j] * _RAD) * tas[e, j], math.sin(hdg[e, j] * _RAD) * tas[e, j]
 
 
 # --- SectorCR ----------------------------------------------------------------------------------
@@ -340,9 +328,6 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
     best = np.empty(k)
     rx = np.empty(m - 1)
     ry = np.empty(m - 1)
-    vxs = np.empty(m)
-    vys = np.empty(m)
-    stamp = np.full(m, -1, np.int64)
     for r in range(envs.shape[0]):
         e = envs[r]
         o = own[r]
@@ -355,17 +340,23 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
         # Flat positions [m] around the sector centre (geometry.latlon_to_nm * 1852).
         x0 = (lat[e, o] - clat) * 60.0 * NM2KM * _M_PER_KM
         y0 = (lon[e, o] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM
-        _other_slots(active[e], o, slots, act)
+        _other_slots(active, e, o, slots, act)
         count_out[r] = _count_active(act)
+        # Other slots j < o go to row entry j, j > o to j - 1: two contiguous loops (vectorisable).
+        for j in range(o):
+            rx[j] = (lat[e, j] - clat) * 60.0 * NM2KM * _M_PER_KM - x0
+            ry[j] = (lon[e, j] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM - y0
+        for j in range(o + 1, m):
+            rx[j - 1] = (lat[e, j] - clat) * 60.0 * NM2KM * _M_PER_KM - x0
+            ry[j - 1] = (lon[e, j] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM - y0
         for i in range(m - 1):
-            j = slots[i]
-            rx[i] = (lat[e, j] - clat) * 60.0 * NM2KM * _M_PER_KM - x0
-            ry[i] = (lon[e, j] - clon) * 60.0 * ccos * NM2KM * _M_PER_KM - y0
             key[i] = math.sqrt(rx[i] * rx[i] + ry[i] * ry[i])
         _closest(key, act, order, best)
+        vxo, vyo = _velocity(hdg, tas, e, o)
         for i in range(k):
             q = order[i]
-            vx, vy = _relative_velocity(hdg, tas, e, o, slots[q], vxs, vys, stamp)
+            vxj, vyj = _velocity(hdg, tas, e, slots[q])
+            vx, vy = vxj - vxo, vyj - vyo  # relative TAS vector
             trk = math.atan2(vy, vx)
             intruder_out[r, 0, i] = rx[q] / pos_scale
             intruder_out[r, 1, i] = ry[q] / pos_scale
@@ -417,9 +408,6 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
     key = np.empty(m - 1)
     order = np.empty(k, np.int64)
     best = np.empty(k)
-    vxs = np.empty(m)
-    vys = np.empty(m)
-    stamp = np.full(m, -1, np.int64)
     dlats = np.empty(m - 1)
     dlons = np.empty(m - 1)
     cavs = np.empty(m - 1)
@@ -433,7 +421,7 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
         own_out[r, 1] = dist
         own_out[r, 2] = math.cos(drift * _RAD)
         own_out[r, 3] = math.sin(drift * _RAD)
-        _other_slots(active[e], o, slots, act)
+        _other_slots(active, e, o, slots, act)
         count_out[r] = _count_active(act)
         for i in range(m - 1):
             # The kwik parts of each active pair once: the sort key is kwikdist_matrix's grouping,
@@ -443,6 +431,7 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
                 dlats[i], dlons[i], cavs[i] = dlat, dlon, cavelat
                 key[i] = _matrix_dist_of_parts(dlat, dlon, cavelat)
         _closest(key, act, order, best)
+        vxo, vyo = _velocity(hdg, tas, e, o)
         for i in range(k):
             q = order[i]
             j = slots[q]
@@ -454,7 +443,8 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
             d_int = _dist_of_parts(dlat, dlon, cavelat)
             brg = _qdr_of_parts(dlat, dlon, cavelat)
             d_m = d_int * NM2KM * _M_PER_KM
-            vx, vy = _relative_velocity(hdg, tas, e, o, j, vxs, vys, stamp)
+            vxj, vyj = _velocity(hdg, tas, e, j)
+            vx, vy = vxj - vxo, vyj - vyo  # relative TAS vector
             trk = math.atan2(vy, vx)
             intruder_out[r, 0, i] = d_m * math.cos(brg * _RAD) / pos_scale
             intruder_out[r, 1, i] = d_m * math.sin(brg * _RAD) / pos_scale

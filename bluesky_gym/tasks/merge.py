@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator
-from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
+from bluesky_gym.core.units import NM2KM
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
     Array,
@@ -21,8 +21,8 @@ from bluesky_gym.tasks.base import (
     check_int,
     check_pair,
     check_range,
+    command_heading_and_speed,
     kwik_separation,
-    wrap180,
 )
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist
 
@@ -260,12 +260,7 @@ class MergeTask(Task):
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 15 a0); SPD (CAS + 20 a1) * 1.94384 kt (spec section 7)."""
-        s = self.sim
-        heading_new = wrap180(s.hdg[:, 0] + action[:, 0] * D_HEADING)
-        # Stacked as knots; BlueSky converts back with 1 kt = 0.514444 m/s.
-        speed_kts = (s.cas[:, 0] + action[:, 1] * D_SPEED) * MPS2KT
-        s.cmd_heading(self.all_envs, 0, heading_new)
-        s.cmd_speed(self.all_envs, 0, speed_kts * KTS)
+        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, D_SPEED)
 
     # --- the step -----------------------------------------------------------------------------
     def target(self) -> tuple[Array, Array]:

@@ -11,9 +11,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator
-from bluesky_gym.core.units import KTS, MPS2KT
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_pair, check_range, kwik_separation, wrap180
+from bluesky_gym.tasks.base import (
+    Array,
+    BoolArray,
+    BoxSpec,
+    StepGeometry,
+    Task,
+    TaskConfig,
+    check_pair,
+    check_range,
+    command_heading_and_speed,
+    kwik_separation,
+)
 from bluesky_gym.tasks.geometry import initial_bearing, nm_to_latlon, polygon_area, random_convex_polygon
 
 # Scenario (reference values).
@@ -374,13 +384,7 @@ class SectorCRTask(Task):
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt (spec section 5)."""
-        s = self.sim
-        heading_new = wrap180(s.hdg[:, 0] + action[:, 0] * D_HEADING)
-        # The reference adds the 20/3 "kts" step to CAS in m/s, converts the sum to knots and
-        # stacks SPD, which BlueSky converts back with 1 kt = 0.514444 m/s.
-        speed_kts = (s.cas[:, 0] + action[:, 1] * D_VELOCITY) * MPS2KT
-        s.cmd_heading(self.all_envs, 0, heading_new)
-        s.cmd_speed(self.all_envs, 0, speed_kts * KTS)
+        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, D_VELOCITY)
 
     # --- the step -----------------------------------------------------------------------------
     def measure(self, envs: NDArray[np.int64] | None = None) -> SectorGeometry:
