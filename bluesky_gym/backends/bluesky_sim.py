@@ -193,7 +193,7 @@ class BlueSkyWind(WindField):
             raise IndexError("the 'bluesky' backend has one airspace (env 0)")
         super().add_points(env, lat, lon, vnorth, veast)
         lat, lon, vn, ve = (np.atleast_1d(np.asarray(x, dtype=np.float64)).ravel() for x in (lat, lon, vnorth, veast))
-        # BlueSky 1.1.1 needs sized lat/lon and (1, npoints) wind arrays [dynamics.md 6.1].
+        # BlueSky 1.1.1 needs sized lat/lon and (1, npoints) wind arrays [docs/dynamics.md §6.1].
         self._bs.traf.wind.addpointvne(lat.copy(), lon.copy(), vn.reshape(1, -1).copy(), ve.reshape(1, -1).copy())
 
     def _getdata(self, lat: ArrayLike, lon: ArrayLike) -> tuple[Array, Array]:
@@ -557,7 +557,7 @@ class BlueSkyPhysics:
         """Stack ``DEST acid lat lon``.
 
         Unlike the native core, BlueSky switches VNAV on when the destination is the route's only
-        waypoint and then descends towards it (altitude constraint 0) [dynamics.md 2.7].
+        waypoint and then descends towards it (altitude constraint 0) [docs/dynamics.md §2.7].
         """
         env, slot = self._begin(env, slot)
         has_dest = self.route_has_dest[env, slot]

@@ -1,6 +1,6 @@
 """ISA atmosphere and airspeed conversions exactly as BlueSky 1.1.1 computes them.
 
-Two forms exist in BlueSky and both are reproduced [dynamics.md 1.6]:
+Two forms exist in BlueSky and both are reproduced [docs/dynamics.md §1.6]:
 
 * the *vector* ISA (BlueSky's ``vatmos`` and the ``v*`` conversions), used by the kinematics and
   the performance model; its density exponent differs slightly from the layered model's;
@@ -105,7 +105,7 @@ def cas2tas_at(cas: float, p: float, rho: float) -> float:
 
 @jit
 def is_mach(spd: float) -> bool:
-    """BlueSky reads a speed as a Mach number when 0.1 < spd < 2 [dynamics.md 1.6]."""
+    """BlueSky reads a speed as a Mach number when 0.1 < spd < 2 [docs/dynamics.md §1.6]."""
     return spd > MACH_MIN and spd < CASMACH_THRESHOLD
 
 

@@ -2,7 +2,7 @@
 
 Both are batched: ``create_conflicts`` places one intruder per requested (airspace, target) pair,
 and :func:`detect` evaluates every ordered aircraft pair of every airspace at once with the
-symmetric, correct geometry of BlueSky's compiled CSTATEBASED detector [dynamics.md 3, 5].
+symmetric, correct geometry of BlueSky's compiled CSTATEBASED detector [docs/dynamics.md §3, §5].
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def conflict_geometry(
     rpz: float,
     hpz: float,
 ) -> tuple[float, float, float, float, float, float]:
-    """Position, altitude, vertical speed and ground velocity of one ``creconfs`` intruder [dynamics.md 3].
+    """Position, altitude, vertical speed and ground velocity of one ``creconfs`` intruder [docs/dynamics.md §3].
 
     Args:
         latref: Target latitude [deg].
@@ -129,7 +129,7 @@ def create_conflicts(
     rpz: float = PZ_RADIUS,
     hpz: float = PZ_HEIGHT,
 ) -> None:
-    """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``) [dynamics.md 3].
+    """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``) [docs/dynamics.md §3].
 
     The geometry is :func:`conflict_geometry`; the intruder's CAS comes from BlueSky's layered ISA.
 
@@ -209,7 +209,7 @@ def detect(
     hpz: float = PZ_HEIGHT,
     lookahead: float = LOOKAHEAD,
 ) -> Conflicts:
-    """State-based conflict detection over all ordered pairs (BlueSky CSTATEBASED) [dynamics.md 5].
+    """State-based conflict detection over all ordered pairs (BlueSky CSTATEBASED) [docs/dynamics.md §5].
 
     All inputs are shaped (n_envs, n_aircraft). Only pairs of active aircraft can conflict.
     """

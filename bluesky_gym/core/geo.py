@@ -1,6 +1,6 @@
 """Geodesy, reproducing BlueSky 1.1.1's compiled ``_cgeo`` module, its Python ``geo`` module and ``geo.kwikpos``.
 
-Angles are degrees, distances NM, as in BlueSky [dynamics.md 4]. The arithmetic follows BlueSky's
+Angles are degrees, distances NM, as in BlueSky [docs/dynamics.md §4]. The arithmetic follows BlueSky's
 code operation by operation, so results are bit-identical to BlueSky's.
 
 The geometry is written once, as scalar kernels (:func:`qdrdist_compiled`, :func:`qdrdist_py`,
@@ -47,7 +47,7 @@ def qdrdist_compiled(latd1: float, lond1: float, latd2: float, lond2: float) -> 
     """Great-circle initial bearing [deg, (-180, 180]] and haversine distance [NM] (compiled ``qdrdist``).
 
     The distance uses the WGS-84 radius at the mean latitude, or BlueSky's latitude-weighted mix
-    when the points lie in opposite hemispheres [dynamics.md 4].
+    when the points lie in opposite hemispheres [docs/dynamics.md §4].
     """
     lat1 = DEG2RAD * latd1
     lon1 = DEG2RAD * lond1

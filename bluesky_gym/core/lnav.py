@@ -1,4 +1,4 @@
-"""LNAV: BlueSky 1.1.1's active-waypoint logic, per aircraft [dynamics.md 2.6].
+"""LNAV: BlueSky 1.1.1's active-waypoint logic, per aircraft [docs/dynamics.md §2.6].
 
 :func:`lnav_one` switches an aircraft to its next waypoint when the active one is reached (fly-by
 turn anticipation, ``actwp.reached``) and steers the autopilot track to the active waypoint. The
@@ -73,7 +73,7 @@ def lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, rou
         return
     qdr, distnm = qdrdist_s(python_geo, F[I_LAT, i], F[I_LON, i], F[I_ACTWP_LAT, i], F[I_ACTWP_LON, i])
     dist = distnm * NM
-    # actwp.reached [dynamics.md 2.6]; all waypoints here are fly-by.
+    # actwp.reached [docs/dynamics.md §2.6]; all waypoints here are fly-by.
     close2wp = dist / _maximum(GS_FLOOR, abs(F[I_GS, i])) < CLOSE_TO_WP_S
     tooclose2turn = close2wp and abs(degto180(_mod(F[I_TRK, i], 360.0) - _mod(qdr, 360.0))) > 90.0
     awayorpassed = tooclose2turn or abs(degto180(qdr - F[I_CURLEGDIR, i])) > 90.0

@@ -1,4 +1,4 @@
-"""OpenAP A320 performance as BlueSky 1.1.1 applies it [dynamics.md 1.2-1.5].
+"""OpenAP A320 performance as BlueSky 1.1.1 applies it [docs/dynamics.md §1.2-1.5].
 
 The model supplies three things to the kinematics: the flight phase, the speed envelope of that
 phase, and the maximum longitudinal acceleration ``axmax`` from maximum thrust and drag. It is
@@ -99,7 +99,7 @@ LBF = 4.448  # N per pound-force, OpenAP's literal
 
 @jit
 def flight_phase(tas: float, vs: float, alt: float) -> int:
-    """OpenAP phase from TAS [m/s], vertical speed [m/s] and altitude [m] [dynamics.md 1.3]."""
+    """OpenAP phase from TAS [m/s], vertical speed [m/s] and altitude [m] [docs/dynamics.md §1.3]."""
     roc = vs / ROC_FPM
     a = alt / FT
     ph = PHASE_NA
@@ -120,7 +120,7 @@ def flight_phase(tas: float, vs: float, alt: float) -> int:
 
 @jit
 def performance(tas: float, vs: float, alt: float, perf: tuple[float, ...]) -> tuple[int, float, float, float]:
-    """OpenAP phase, CAS envelope [m/s] and axmax [m/s^2] [dynamics.md 1.3-1.4].
+    """OpenAP phase, CAS envelope [m/s] and axmax [m/s^2] [docs/dynamics.md §1.3-1.4].
 
     Includes BlueSky's always-true en-route envelope test (quirk 9.1).
 

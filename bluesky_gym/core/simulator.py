@@ -4,7 +4,7 @@ One :class:`Simulator` holds ``n_envs`` independent airspaces with room for ``ma
 aircraft each. Every state array is shaped ``(n_envs, max_aircraft)`` and an ``active`` mask says
 which slots hold an aircraft. Creating and deleting aircraft writes into preallocated slots, and
 one :meth:`Simulator.step` advances every airspace by ``dt`` seconds with the compiled step
-kernel (:mod:`bluesky_gym.core.step`), in BlueSky 1.1.1's update order [dynamics.md 2].
+kernel (:mod:`bluesky_gym.core.step`), in BlueSky 1.1.1's update order [docs/dynamics.md §2].
 
 The kernel skips inactive slots; their values are meaningless and readers must use the
 ``active`` mask. :class:`Simulator` implements :class:`~bluesky_gym.core.physics.Physics`.
@@ -193,7 +193,7 @@ class Simulator:
         alt: ArrayLike = 0.0,
         spd: ArrayLike = 0.0,
     ) -> None:
-        """Create aircraft, as BlueSky's ``traf.cre`` [dynamics.md 2.4].
+        """Create aircraft, as BlueSky's ``traf.cre`` [docs/dynamics.md §2.4].
 
         Args:
             env: Airspace index of each new aircraft.
@@ -260,7 +260,7 @@ class Simulator:
         self.active[env, slot] = False
 
     # ------------------------------------------------------------------------------------------
-    # Commands [dynamics.md 2.5]; each acts as if stacked before the next step.
+    # Commands [docs/dynamics.md §2.5]; each acts as if stacked before the next step.
     # ------------------------------------------------------------------------------------------
     def cmd_heading(self, env: ArrayLike, slot: ArrayLike, hdg: ArrayLike) -> None:
         """``HDG acid hdg`` [deg]: select a track (wind-corrected above 50 ft); LNAV off."""
@@ -360,7 +360,7 @@ class Simulator:
     def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """``ADDWPT acid lat lon``: append a fly-by waypoint (before the destination).
 
-        The aircraft then goes direct to its active waypoint with LNAV on [dynamics.md 2.6].
+        The aircraft then goes direct to its active waypoint with LNAV on [docs/dynamics.md §2.6].
         """
         env, slot = self._index(env, slot)
         self._check_route_room(env, slot)
@@ -377,7 +377,7 @@ class Simulator:
         self._after_route_insert(env, slot, grew=np.ones(env.shape, bool))
 
     def set_destination(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
-        """``DEST acid lat lon``: set (or overwrite) the route's destination [dynamics.md 2.7].
+        """``DEST acid lat lon``: set (or overwrite) the route's destination [docs/dynamics.md §2.7].
 
         VNAV is left out of this core (see README), so a destination that is the route's only
         waypoint is flown with LNAV only.
@@ -444,7 +444,7 @@ class Simulator:
         create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
 
     # ------------------------------------------------------------------------------------------
-    # Stepping [dynamics.md 2.1-2.2]
+    # Stepping [docs/dynamics.md §2.1-2.2]
     # ------------------------------------------------------------------------------------------
     def step(self) -> None:
         """Advance every airspace by ``dt`` seconds."""

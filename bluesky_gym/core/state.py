@@ -49,7 +49,7 @@ STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
     ("vmin", np.float64, 67.0),  # m/s CAS
     ("vmax", np.float64, 163.0),  # m/s CAS
     ("axmax", np.float64, 2.37),  # m/s^2
-    # Active waypoint (LNAV) [dynamics.md 2.6].
+    # Active waypoint (LNAV) [docs/dynamics.md §2.6].
     ("iactwp", np.int64, -1),
     ("nwp", np.int64, 0),
     ("actwp_lat", np.float64, 0.0),  # deg

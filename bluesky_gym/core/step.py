@@ -1,4 +1,4 @@
-"""The simulation step: every aircraft advanced by ``dt`` in BlueSky 1.1.1's update order [dynamics.md 2].
+"""The simulation step: every aircraft advanced by ``dt`` in BlueSky 1.1.1's update order [docs/dynamics.md §2].
 
 :func:`step_one` is the whole per-aircraft sub-step (performance update, autopilot, performance
 limits, speed, heading, vertical speed, ground speed with wind, position), compiled with numba so
@@ -86,7 +86,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
     hmax, vsmax, mmo, v_rotate = limits
     mm = memo[i]
-    # Performance update from the start-of-step state [dynamics.md 2.1].
+    # Performance update from the start-of-step state [docs/dynamics.md §2.1].
     if do_perf:
         if not (same(F[I_TAS, i], mm[M_PERF_TAS]) and same(F[I_VS, i], mm[M_PERF_VS]) and same(F[I_ALT, i], mm[M_PERF_ALT])):
             ph, vmn, vmx, axm = performance(F[I_TAS, i], F[I_VS, i], F[I_ALT, i], perf)
@@ -101,7 +101,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         mm[M_H] = h
         mm[M_P_H], mm[M_RHO_H], mm[M_T_H] = isa(h)
     p_h, rho_h, t_h = mm[M_P_H], mm[M_RHO_H], mm[M_T_H]
-    # Autopilot [dynamics.md 2.3].
+    # Autopilot [docs/dynamics.md §2.3].
     sv = F[I_SELVS, i]
     apvs = sv if abs(sv) > VS_SELECT_EPS else VS_DEFAULT
     F[I_AP_VS, i] = apvs
@@ -129,7 +129,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         hdg_t = _mod(trk_t + steer * DEG, 360.0)
     else:
         hdg_t = _mod(trk_t, 360.0)
-    # Performance limits at the target altitude [dynamics.md 1.5].
+    # Performance limits at the target altitude [docs/dynamics.md §1.5].
     alt_t = hmax if apalt > hmax else apalt
     if not same(alt_t, mm[M_HT]):
         mm[M_HT] = alt_t
@@ -151,7 +151,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         vs_t = (1 - F[I_AX, i] / F[I_AXMAX, i]) * vsmax
     if phase[i] == PHASE_GD and F[I_TAS, i] < v_rotate:
         vs_t = 0.0
-    # Speed [dynamics.md 2.2 step 6].
+    # Speed [docs/dynamics.md §2.2 step 6].
     delta_spd = tas_t - F[I_TAS, i]
     if abs(delta_spd) > abs(dt * F[I_AXMAX, i]):
         a_x = 1.0 * _sign(delta_spd) * F[I_AXMAX, i]
@@ -192,7 +192,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
     if not math.isfinite(vs_new):
         vs_new = 0.0
     F[I_VS, i] = vs_new
-    # Ground speed [step 9, dynamics.md 1.7].
+    # Ground speed [step 9, docs/dynamics.md §1.7].
     if not same(new_hdg, mm[M_HDG]):
         hr = new_hdg * RAD
         mm[M_COS], mm[M_SIN] = math.cos(hr), math.sin(hr)

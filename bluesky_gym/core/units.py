@@ -26,7 +26,7 @@ R_EARTH = 6371000.0  # m, mean Earth radius (kinematics, kwik geometry)
 WGS84_A = 6378137.0  # m, WGS-84 major semi-axis
 WGS84_B = 6356752.314245  # m, WGS-84 minor semi-axis
 
-# --- ISA atmosphere [dynamics.md 1.6] ----------------------------------------------------------
+# --- ISA atmosphere [docs/dynamics.md §1.6] ----------------------------------------------------------
 R_AIR = 287.05287  # J/(kg K), specific gas constant used by BlueSky
 GAMMA = 1.40  # -, cp/cv for air
 P0 = 101325.0  # Pa, ISA sea-level pressure
@@ -38,14 +38,14 @@ H_TROPOPAUSE = 11000.0  # m
 RHO_EXPONENT = 4.256848030018761  # -, density exponent of BlueSky's vector ISA (g0 / (R lapse) - 1, rounded)
 H_SCALE_STRAT = 6341.552161  # m, density scale height above the tropopause (vector ISA)
 MACH_MIN = 0.1  # -: a speed MACH_MIN < v < CASMACH_THRESHOLD is a Mach number, otherwise CAS
-CASMACH_THRESHOLD = 2.0  # m/s: a speed 0.1 < v < 2 is a Mach number, otherwise CAS [dynamics.md 1.6]
+CASMACH_THRESHOLD = 2.0  # m/s: a speed 0.1 < v < 2 is a Mach number, otherwise CAS [docs/dynamics.md §1.6]
 
-# --- Autopilot and kinematics [dynamics.md 2] --------------------------------------------------
+# --- Autopilot and kinematics [docs/dynamics.md §2] --------------------------------------------------
 BANK_DEFAULT = 0.4363323129985824  # rad (25 deg), BlueSky's default bank angle
-VS_DEFAULT = 1500 * FPM  # m/s (7.62): used when |selvs| <= VS_SELECT_EPS [dynamics.md 2.3]
+VS_DEFAULT = 1500 * FPM  # m/s (7.62): used when |selvs| <= VS_SELECT_EPS [docs/dynamics.md §2.3]
 VS_SELECT_EPS = 0.1  # m/s
 VS_RAMP = 300 * FPM  # m/s per s: vertical acceleration, threshold NOT scaled by dt (quirk 9.6)
-WIND_MIN_ALT = 50.0 * FT  # m: wind only acts above this altitude [dynamics.md 1.7]
+WIND_MIN_ALT = 50.0 * FT  # m: wind only acts above this altitude [docs/dynamics.md §1.7]
 TAS_EPS = 0.01  # m/s, BlueSky's traf.eps: floor of TAS in the turn-rate formula
 PERFORMANCE_INTERVAL = 1.0  # s, BlueSky's performance_dt timer
 NO_VALUE = -999.0  # BlueSky's marker for "not set"

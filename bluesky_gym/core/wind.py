@@ -1,4 +1,4 @@
-"""Wind fields per airspace: none, uniform, or BlueSky's 2-D point field [dynamics.md 6.1]."""
+"""Wind fields per airspace: none, uniform, or BlueSky's 2-D point field [docs/dynamics.md §6.1]."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Multi-agent HorizontalCR: the ownship and its intruders are all agents (adapted from spec section 3).
+"""Multi-agent HorizontalCR: the ownship and its intruders are all agents (adapted from docs/environments-v0.md §3).
 
 The scenario is HorizontalCREnv-v0's (:class:`~bluesky_gym.tasks.horizontal_cr.HorizontalCRTask`
 generates it): an aircraft at 52N 4E heading north to a waypoint 100-149 km due north, and 5

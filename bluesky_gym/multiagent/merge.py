@@ -1,4 +1,4 @@
-"""Multi-agent Merge: every arrival is an agent merging via the FAF to the runway (adapted from spec section 7).
+"""Multi-agent Merge: every arrival is an agent merging via the FAF to the runway (adapted from docs/environments-v0.md §7).
 
 The scenario is MergeEnv-v0's (:class:`~bluesky_gym.tasks.merge.MergeTask` generates it): 20
 aircraft at 10000 m north of the final approach fix, within +-15 deg of the approach radial. In

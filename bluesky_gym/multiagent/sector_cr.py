@@ -1,4 +1,4 @@
-"""Multi-agent SectorCR: every aircraft crossing the sector is an agent (adapted from spec section 5).
+"""Multi-agent SectorCR: every aircraft crossing the sector is an agent (adapted from docs/environments-v0.md §5).
 
 The scenario is SectorCREnv-v0's (:class:`~bluesky_gym.tasks.sector_cr.SectorCRTask` generates
 it): a random convex sector with ``max(ceil(density * area), 5)`` aircraft, each flying from a

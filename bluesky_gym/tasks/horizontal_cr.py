@@ -1,4 +1,4 @@
-"""HorizontalCREnv-v0: reach a waypoint due north, avoiding intruders by heading (spec section 3)."""
+"""HorizontalCREnv-v0: reach a waypoint due north, avoiding intruders by heading (docs/environments-v0.md §3)."""
 
 from __future__ import annotations
 
@@ -256,7 +256,7 @@ class HorizontalCRTask(Task):
         return measure(self.sim, envs, self.ownship[: len(envs)], self.wpt_lat[envs], self.wpt_lon[envs], self.wpt_reach[envs])
 
     def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
-        """Intruders in creation order (slots 1..n, no sorting, spec section 3) and the waypoint.
+        """Intruders in creation order (slots 1..n, no sorting, docs/environments-v0.md §3) and the waypoint.
 
         Stores the observed heading: the next action's reference.
         """
@@ -268,7 +268,7 @@ class HorizontalCRTask(Task):
         """Reach, drift and intrusion terms; terminated once the waypoint is reached.
 
         Evaluated on the state of the observation just built; the reach flag therefore only
-        shows from the next observation on (spec sections 3-4, one-step lag).
+        shows from the next observation on (docs/environments-v0.md §3-4, one-step lag).
         """
         r, count, components = reward(g)  # type: ignore[arg-type]
         self.wpt_reach = g.goal_reached.copy()

@@ -1,4 +1,4 @@
-"""MergeEnv-v0: merge the ownship into a stream of arrivals via a final approach fix (spec section 7)."""
+"""MergeEnv-v0: merge the ownship into a stream of arrivals via a final approach fix (docs/environments-v0.md §7)."""
 
 from __future__ import annotations
 
@@ -160,7 +160,7 @@ def observation(g: MergeGeometry) -> dict[str, Array]:
         "sin(drift)": f[:, 3:4],
         "airspeed": g.airspeed[:, None],  # m/s, not normalised (reference)
         "waypoint_dist": f[:, 1:2] / WAYPOINT_DIST_SCALE,
-        # The reach flag as it was before this step's reward (one-step lag, spec section 7).
+        # The reach flag as it was before this step's reward (one-step lag, docs/environments-v0.md §7).
         "faf_reached": g.after_faf[:, None].astype(np.float64),
     }
     obs.update(zip(INTRUDER_KEYS, g.intruders.transpose(1, 0, 2)))
@@ -259,7 +259,7 @@ class MergeTask(Task):
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """HDG wrap180(hdg + 15 a0); SPD (CAS + 20 a1) * 1.94384 kt (spec section 7)."""
+        """HDG wrap180(hdg + 15 a0); SPD (CAS + 20 a1) * 1.94384 kt (docs/environments-v0.md §7)."""
         command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, D_SPEED)
 
     # --- the step -----------------------------------------------------------------------------

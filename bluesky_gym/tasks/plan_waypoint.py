@@ -1,4 +1,4 @@
-"""PlanWaypointEnv-v0: fly over as many of five scattered waypoints as possible (spec section 4)."""
+"""PlanWaypointEnv-v0: fly over as many of five scattered waypoints as possible (docs/environments-v0.md §4)."""
 
 from __future__ import annotations
 
@@ -16,11 +16,11 @@ from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikqdrdist, wrap1
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 AC_HDG = 0.0  # deg: creation heading (BlueSky's default, north)
-AC_ALT = 0.0  # m: created on the ground, so OpenAP's ground phase caps CAS at 89 m/s (kept, spec 0)
+AC_ALT = 0.0  # m: created on the ground, so OpenAP's ground phase caps CAS at 89 m/s (kept, docs/environments-v0.md §0)
 AC_SPD = 150.0  # m/s CAS requested at creation
 D_HEADING = 45.0  # deg of heading change per unit action
 REACH_REWARD = 1.0  # per waypoint newly within the capture radius
-# The reference draws bearings with randint(0, 359): integers in [0, 358] (kept, spec 4).
+# The reference draws bearings with randint(0, 359): integers in [0, 358] (kept, docs/environments-v0.md §4).
 WAYPOINT_BEARING_END = 359  # deg, exclusive upper bound of the bearing draw
 MAX_WAYPOINTS = 8  # the shortest-tour KPI enumerates all n! visiting orders
 TOUR_CHUNK = 1 << 20  # leg lengths evaluated at once by the tour KPI (bounds its memory)
@@ -172,8 +172,8 @@ class PlanWaypointTask(Task):
         g = self.measure() if g is None else g
         assert isinstance(g, PlanWaypointMeasurement)
         # The reference masks with the integer (1 - reached), so a masked entry is 0.0 times the
-        # value: -0.0 where the value is negative (spec 4). A waypoint reached in this step still
-        # shows as unreached (the one-step lag, spec 4).
+        # value: -0.0 where the value is negative (docs/environments-v0.md §4). A waypoint reached in this step still
+        # shows as unreached (the one-step lag, docs/environments-v0.md §4).
         m = np.where(g.reached_before, 0.0, 1.0)
         rad = np.deg2rad(g.drift)
         return {

@@ -1,4 +1,4 @@
-"""SectorCREnv-v0: cross a random convex sector towards an exit point among traffic (spec section 5)."""
+"""SectorCREnv-v0: cross a random convex sector towards an exit point among traffic (docs/environments-v0.md §5)."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ AC_DENSITY_MU = 0.005  # aircraft per NM^2 ("normal" mode mean)
 AC_DENSITY_SIGMA = 0.001  # aircraft per NM^2 ("normal" mode standard deviation)
 POLY_AREA_RANGE = (2400, 3750)  # NM^2: minimum polygon area, area of the circumscribed circle
 CENTER = (51.990426702297746, 4.376124857109851)  # deg: sector centre (TU Delft Aerospace faculty)
-ALTITUDE = 350.0  # m: the reference's "FL350" is passed to ``cre`` as metres (spec section 5)
+ALTITUDE = 350.0  # m: the reference's "FL350" is passed to ``cre`` as metres (docs/environments-v0.md §5)
 AC_SPD = 150.0  # m/s CAS at creation
 DENSITY_MODES = ("normal", "uniform")
 
@@ -383,7 +383,7 @@ class SectorCRTask(Task):
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt (spec section 5)."""
+        """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt (docs/environments-v0.md §5)."""
         command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, D_VELOCITY)
 
     # --- the step -----------------------------------------------------------------------------

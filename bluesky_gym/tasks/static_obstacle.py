@@ -1,4 +1,4 @@
-"""StaticObstacleEnv-v0: reach a waypoint around polygonal restricted areas (spec section 6)."""
+"""StaticObstacleEnv-v0: reach a waypoint around polygonal restricted areas (docs/environments-v0.md §6)."""
 
 from __future__ import annotations
 
@@ -24,10 +24,10 @@ from bluesky_gym.tasks.geometry import (
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 AC_HDG = 0.0  # deg: creation heading, replaced by the bearing to the waypoint
-AC_ALT = 350.0  # m: the reference's "ALTITUDE 350" (meant as FL350) is used as metres (spec 6)
+AC_ALT = 350.0  # m: the reference's "ALTITUDE 350" (meant as FL350) is used as metres (docs/environments-v0.md §6)
 AC_SPD = 150.0  # m/s CAS (commented as kts in the reference)
 D_HEADING = 45.0  # deg of heading change per unit action
-D_SPEED = 20 / 3  # "kts" in the reference, but added to CAS in m/s (kept, spec 6)
+D_SPEED = 20 / 3  # "kts" in the reference, but added to CAS in m/s (kept, docs/environments-v0.md §6)
 REACH_REWARD = 1.0
 DRIFT_PENALTY = -0.01  # per rad of |drift|
 RESTRICTED_AREA_INTRUSION_PENALTY = -5.0  # per obstacle containing the aircraft
@@ -146,7 +146,7 @@ class StaticObstacleTask(Task):
         self.view_origin_lat = np.zeros(n)  # deg: top-left corner of the reference's view
         self.view_origin_lon = np.zeros(n)
         # Waypoint distance [km] and drift [deg] the last observation showed: the per-sub-step
-        # reward of the next step uses these stale values (spec 6).
+        # reward of the next step uses these stale values (docs/environments-v0.md §6).
         self.last_wpt_km = np.zeros(n)
         self.last_drift = np.zeros(n)
         self.wpt_reached = np.zeros(n, bool)
@@ -156,7 +156,7 @@ class StaticObstacleTask(Task):
         self.drift_count = np.zeros(n, np.int64)
 
     def generate(self, envs: NDArray[np.int64]) -> None:
-        """Aircraft, obstacle centres, polygons, waypoint, then the initial heading (spec 6)."""
+        """Aircraft, obstacle centres, polygons, waypoint, then the initial heading (docs/environments-v0.md §6)."""
         c = self.config
         k = c.num_obstacles
         self.sim.create(envs, 0, AC_LAT, AC_LON, AC_HDG, AC_ALT, AC_SPD)
@@ -185,7 +185,7 @@ class StaticObstacleTask(Task):
                 rng, lat0[j], lon0[j], self.obstacle_lat[e], self.obstacle_lon[e], self.obstacle_nv[e],
                 c.waypoint_distance_min, c.waypoint_distance_max,
             )
-        # The aircraft starts pointing at the waypoint: hdg and the autopilot track (spec 6).
+        # The aircraft starts pointing at the waypoint: hdg and the autopilot track (docs/environments-v0.md §6).
         qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])
         self.sim.set_state(envs, 0, hdg=qdr)
         self.sim.set_autopilot(envs, 0, ap_trk=qdr)
@@ -306,7 +306,7 @@ class StaticObstacleTask(Task):
 
     # --- reward and termination -----------------------------------------------------------------
     def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """The last evaluated sub-step's reward of all episodes; ends at the waypoint or inside an obstacle (spec 6).
+        """The last evaluated sub-step's reward of all episodes; ends at the waypoint or inside an obstacle (docs/environments-v0.md §6).
 
         +1 for reaching the waypoint and -0.01 per rad of |drift| (both from the stale values of the
         last observation), -5 per obstacle containing the aircraft. Records the flags and

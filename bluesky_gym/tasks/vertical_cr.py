@@ -1,4 +1,4 @@
-"""VerticalCREnv-v0: the descent task with level intruders to avoid vertically (spec section 2)."""
+"""VerticalCREnv-v0: the descent task with level intruders to avoid vertically (docs/environments-v0.md §2)."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Arra
     """Ownship-relative geometry of the intruders (slots 1..) shared by the CR tasks.
 
     All inputs are (rows, max_aircraft) simulator arrays with the ownship in slot 0. The
-    expressions and their operation order are the reference's (spec sections 2 and 3), computed
+    expressions and their operation order are the reference's (docs/environments-v0.md §2 and §3), computed
     by :func:`bluesky_gym.tasks.compiled.intruder_relative_state`.
 
     Returns:
@@ -199,7 +199,7 @@ class VerticalCRTask(DescentTask):
         self.conflict_dpsi[envs], self.conflict_dcpa[envs], self.conflict_tlosh[envs], self.conflict_dh[envs] = dpsi, dcpa, tlosh, dh
         env = np.repeat(envs, n)
         slot = np.tile(np.arange(1, n + 1), envs.size)
-        # creconfs adds dH in metres (its docstring says ft; spec section 0), then the reference
+        # creconfs adds dH in metres (its docstring says ft; docs/environments-v0.md §0), then the reference
         # forces the intruder to that altitude and selects it, so the intruder holds level.
         self.sim.creconfs(env, 0, slot, dpsi.ravel(), dcpa.ravel(), tlosh.ravel(), dh.ravel(), TLOSV)
         alt = self.sim.alt[env, 0] + dh.ravel()
@@ -235,7 +235,7 @@ class VerticalCRTask(DescentTask):
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
-        """The descent entries, then the intruders in creation order (slots 1..n, no sorting; spec section 2)."""
+        """The descent entries, then the intruders in creation order (slots 1..n, no sorting; docs/environments-v0.md §2)."""
         g = self.measure() if g is None else g
         assert isinstance(g, VerticalCRMeasurement)
         obs = super().observe(g)

@@ -45,7 +45,7 @@ from bluesky_gym.core.units import NM2KM
 Array = NDArray[np.float64]
 Obs = dict[str, Array]
 
-# --- DescentEnv-v0 / VerticalCREnv-v0 observation constants (envs-v0 sections 1 and 2) --------
+# --- DescentEnv-v0 / VerticalCREnv-v0 observation constants (docs/environments-v0.md §1 and §2) --------
 ALT_MEAN, ALT_STD = 1500.0, 3000.0  # m
 RWY_DIS_MEAN, RWY_DIS_STD = 100.0, 200.0  # km
 ACTION_2_MS = 12.5  # m/s of vertical speed per unit action

@@ -1,4 +1,4 @@
-"""Wind: a uniform wind or a field of wind points with BlueSky's interpolation [dynamics.md 6].
+"""Wind: a uniform wind or a field of wind points with BlueSky's interpolation [docs/dynamics.md §6].
 
 As in the reference wrapper, the wind is added right after every episode's scenario was
 generated (so aircraft are created without wind and the wind acts from the first step on), and

@@ -3,7 +3,7 @@
 The package computes these with scalar kernels (bluesky_gym.core.atmosphere); the tests compare
 them with this form, operation by operation BlueSky's own numpy code, to the last bit.
 
-Two forms exist in BlueSky and both are reproduced [dynamics.md 1.6]:
+Two forms exist in BlueSky and both are reproduced [docs/dynamics.md §1.6]:
 
 * the *vector* ISA (``vatmos`` and the ``v*`` conversions), used by the kinematics and the
   performance model; its density exponent 4.256848030018761 differs slightly from the layered
@@ -89,7 +89,7 @@ def vcas2tas(cas: ArrayLike, h: ArrayLike) -> Array:
 
 
 def is_mach(spd: ArrayLike) -> NDArray[np.bool_]:
-    """BlueSky reads a speed as a Mach number when 0.1 < spd < 2 [dynamics.md 1.6]."""
+    """BlueSky reads a speed as a Mach number when 0.1 < spd < 2 [docs/dynamics.md §1.6]."""
     spd = np.asarray(spd)
     return (spd > 0.1) & (spd < CASMACH_THRESHOLD)
 

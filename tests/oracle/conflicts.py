@@ -38,7 +38,7 @@ def create_conflicts(
     rpz: float = PZ_RADIUS,
     hpz: float = PZ_HEIGHT,
 ) -> None:
-    """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``) [dynamics.md 3].
+    """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``) [docs/dynamics.md §3].
 
     Args:
         sim: The simulator.

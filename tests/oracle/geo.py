@@ -4,7 +4,7 @@ The package computes these with scalar kernels (bluesky_gym.core.geo); the tests
 with this form to the last bit.
 
 All functions broadcast over numpy arrays of any shape. Angles are degrees, distances NM, as in
-BlueSky [dynamics.md 4]. The arithmetic follows the compiled C++ code operation by operation
+BlueSky [docs/dynamics.md §4]. The arithmetic follows the compiled C++ code operation by operation
 (convert to radians first, then difference), so results are bit-identical to BlueSky's.
 """
 
@@ -40,7 +40,7 @@ def qdrdist(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayLi
     """Great-circle initial bearing [deg, (-180, 180]] and haversine distance [NM].
 
     The distance uses the WGS-84 radius at the mean latitude, or BlueSky's latitude-weighted mix
-    when the points lie in opposite hemispheres [dynamics.md 4].
+    when the points lie in opposite hemispheres [docs/dynamics.md §4].
     """
     lat1 = DEG2RAD * np.asarray(latd1, dtype=np.float64)
     lon1 = DEG2RAD * np.asarray(lond1, dtype=np.float64)

@@ -28,7 +28,7 @@ _VCAS_REF = isa.vtas2cas(isa.vmach2tas(np.float64(0.8), np.float64(_FT_35000)), 
 
 
 def flight_phase(tas: Array, vs: Array, alt: Array) -> NDArray[np.int64]:
-    """OpenAP phase from TAS [m/s], vertical speed [m/s] and altitude [m] [dynamics.md 1.3]."""
+    """OpenAP phase from TAS [m/s], vertical speed [m/s] and altitude [m] [docs/dynamics.md §1.3]."""
     roc = vs / 0.00508
     a = alt / 0.3048
     ph = np.zeros(np.shape(alt), dtype=np.int64)
@@ -88,7 +88,7 @@ def max_thrust_ratio(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array
 
 
 def max_acceleration(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array, perf: AircraftPerformance = A320) -> Array:
-    """Maximum longitudinal acceleration ``axmax`` [m/s^2] = (Tmax - D) / m [dynamics.md 1.4]."""
+    """Maximum longitudinal acceleration ``axmax`` [m/s^2] = (Tmax - D) / m [docs/dynamics.md §1.4]."""
     gd = phase == PHASE_GD
     ap = phase == PHASE_AP
     ic = phase == PHASE_IC

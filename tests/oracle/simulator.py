@@ -2,7 +2,7 @@
 
 :class:`OracleSimulator` is a :class:`~bluesky_gym.core.Simulator` (same state, same commands)
 whose :meth:`step` advances every airspace with whole-array numpy operations written like
-BlueSky's own code [dynamics.md 2], instead of the compiled kernels. The tests compare both to the
+BlueSky's own code [docs/dynamics.md §2], instead of the compiled kernels. The tests compare both to the
 last bit (with numpy's AVX-512 math off, so that numpy and the kernels call the same C library
 functions). Inactive slots are computed too (their values are meaningless).
 """
@@ -82,13 +82,13 @@ class OracleSimulator(Simulator):
             self._update_position(alt_t)
 
     def _update_performance(self) -> None:
-        """OpenAP update from the start-of-step state [dynamics.md 1.3-1.4]."""
+        """OpenAP update from the start-of-step state [docs/dynamics.md §1.3-1.4]."""
         self.phase[...] = pf.flight_phase(self.tas, self.vs, self.alt)
         self.vmin, self.vmax = pf.speed_envelope(self.phase, self.perf)
         self.axmax = pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, self.perf)
 
     def _update_autopilot(self) -> None:
-        """Autopilot targets [dynamics.md 2.3]; LNAV waypoint logic [2.6]."""
+        """Autopilot targets [docs/dynamics.md §2.3]; LNAV waypoint logic [docs/dynamics.md §2.6]."""
         if np.any(self.swlnav):
             self._update_lnav()
         self.ap_vs = np.where(np.abs(self.selvs) > VS_SELECT_EPS, self.selvs, VS_DEFAULT)
@@ -115,7 +115,7 @@ class OracleSimulator(Simulator):
     def _update_lnav(self) -> None:
         qdr, distnm = self._oracle_qdrdist(self.lat, self.lon, self.actwp_lat, self.actwp_lon)
         dist = distnm * NM
-        # actwp.reached [dynamics.md 2.6]; all waypoints here are fly-by.
+        # actwp.reached [docs/dynamics.md §2.6]; all waypoints here are fly-by.
         close2wp = dist / (np.maximum(0.0001, np.abs(self.gs))) < 4.0
         tooclose2turn = close2wp * (np.abs(ogeo.degto180(self.trk % 360.0 - qdr % 360.0)) > 90.0)
         awayorpassed = np.logical_or(tooclose2turn, np.abs(ogeo.degto180(qdr - self.curlegdir)) > 90.0)
@@ -151,7 +151,7 @@ class OracleSimulator(Simulator):
         self.ap_trk = np.where(self.swlnav, qdr % 360.0, self.ap_trk)
 
     def _update_airspeed(self, tas_t: Array, hdg_t: Array, alt_t: Array, vs_t: Array) -> None:
-        """Speed ramp, heading turn and vertical-speed ramp [dynamics.md 2.2 steps 6-8]."""
+        """Speed ramp, heading turn and vertical-speed ramp [docs/dynamics.md §2.2 steps 6-8]."""
         dt = self.dt
         delta_spd = tas_t - self.tas
         need_ax = np.abs(delta_spd) > np.abs(dt * self.axmax)
@@ -177,7 +177,7 @@ class OracleSimulator(Simulator):
         self.vs = np.where(np.isfinite(vs), vs, 0)
 
     def _update_groundspeed(self, any_wind: bool) -> None:
-        """Ground velocity from TAS, heading and wind [dynamics.md 1.7]."""
+        """Ground velocity from TAS, heading and wind [docs/dynamics.md §1.7]."""
         hdgrad = np.radians(self.hdg)
         if not any_wind:
             self.gsnorth = self.tas * np.cos(hdgrad)
@@ -199,7 +199,7 @@ class OracleSimulator(Simulator):
         self.trk = np.where(applywind, trk_wind, self.hdg)
 
     def _update_position(self, alt_t: Array) -> None:
-        """Semi-implicit Euler position update on the sphere [dynamics.md 2.2 step 10]."""
+        """Semi-implicit Euler position update on the sphere [docs/dynamics.md §2.2 step 10]."""
         dt = self.dt
         self.alt = np.where(self._swaltsel, np.round(self.alt + self.vs * dt, 6), alt_t)
         self.lat = self.lat + np.degrees(dt * self.gsnorth / R_EARTH)

@@ -1,4 +1,4 @@
-"""DescentEnv-v0 task: action, measurement, observation and reward written out by hand (spec section 1)."""
+"""DescentEnv-v0 task: action, measurement, observation and reward written out by hand (docs/environments-v0.md §1)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """HorizontalCREnv-v0 task: reward, observation, one-step lag, scenario generation and options
-(spec section 3)."""
+(docs/environments-v0.md §3)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""MergeEnv-v0 task: scenario generation, LNAV intruders, FAF logic, observation, reward (spec section 7)."""
+"""MergeEnv-v0 task: scenario generation, LNAV intruders, FAF logic, observation, reward (docs/environments-v0.md §7)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""PlanWaypointEnv-v0: scenario, observation, reward, one-step lag and options (spec section 4)."""
+"""PlanWaypointEnv-v0: scenario, observation, reward, one-step lag and options (docs/environments-v0.md §4)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ R_KM = 6371.0
 
 
 def kwik(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
-    """Flat-earth bearing [deg] and distance [km], written out independently (spec conventions)."""
+    """Flat-earth bearing [deg] and distance [km], written out independently (docs/environments-v0.md, Conventions)."""
     dlat = math.radians(lat2) - math.radians(lat1)
     dlon = math.radians(lon2) - math.radians(lon1)
     c = math.cos(0.5 * (math.radians(lat1) + math.radians(lat2)))

@@ -1,4 +1,4 @@
-"""SectorCREnv-v0 task: scenario generation, observation, reward, truncation and options (spec section 5)."""
+"""SectorCREnv-v0 task: scenario generation, observation, reward, truncation and options (docs/environments-v0.md §5)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""StaticObstacleEnv-v0: scenario, observation, per-sub-step reward and early return (spec section 6)."""
+"""StaticObstacleEnv-v0: scenario, observation, per-sub-step reward and early return (docs/environments-v0.md §6)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ R_KM = 6371.0
 
 
 def kwik(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
-    """Flat-earth bearing [deg, mod 360] and distance [km], written out independently (spec conventions)."""
+    """Flat-earth bearing [deg, mod 360] and distance [km], written out independently (docs/environments-v0.md, Conventions)."""
     dlat = math.radians(lat2) - math.radians(lat1)
     dlon = math.radians(lon2) - math.radians(lon1)
     c = math.cos(0.5 * (math.radians(lat1) + math.radians(lat2)))

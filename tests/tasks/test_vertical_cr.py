@@ -1,4 +1,4 @@
-"""VerticalCREnv-v0 task: reward, observation, scenario generation and options (spec section 2)."""
+"""VerticalCREnv-v0 task: reward, observation, scenario generation and options (docs/environments-v0.md §2)."""
 
 from __future__ import annotations
 
