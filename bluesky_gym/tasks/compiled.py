@@ -78,13 +78,6 @@ def _kwikqdrdist(lata, lona, latb, lonb):
 
 
 @jit_inline
-def _kwikdist_matrix(lata, lona, latb, lonb):
-    """BlueSky's Python ``kwikdist_matrix`` [NM]: the ``_kwikdist`` formula with the products grouped otherwise."""
-    dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
-    return _matrix_dist_of_parts(dlat, dlon, cavelat)
-
-
-@jit_inline
 def _wrap180(x):
     """The reference's single wrap (:func:`bluesky_gym.tasks.base.wrap180`)."""
     if x > 180.0:
