@@ -22,6 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 import bluesky_gym
+from bluesky_gym.benchmarks.profiling import short_path
 
 _CORE = "bluesky_gym/core/"
 
@@ -74,7 +75,7 @@ def profile_env(env_id: str, num_envs: int = 1024, steps: int = 40, top: int = 1
             physics += sum(ct for (cfile, _cl, _cn), (_c1, _c2, _tt, ct) in callers.items() if not _in_core(cfile))
     functions = [
         {
-            "function": f"{_short(filename)}:{line}({name})" if line else name,
+            "function": f"{short_path(filename)}:{line}({name})" if line else name,
             "calls": nc / steps,
             "own_s": own / steps,
             "own_pct": 100.0 * own / total,
@@ -95,9 +96,3 @@ def profile_env(env_id: str, num_envs: int = 1024, steps: int = 40, top: int = 1
         "functions": functions[:top],
     }
 
-
-def _short(filename: str) -> str:
-    parts = filename.replace("\\", "/").split("/")
-    if "bluesky_gym" in parts:
-        return "/".join(parts[parts.index("bluesky_gym") :])
-    return parts[-1]

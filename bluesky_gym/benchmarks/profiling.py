@@ -53,7 +53,7 @@ def profile_core(n_envs: int = 4096, n_aircraft: int = 20, kernel: str | None = 
     total = step_total or stats.total_tt  # type: ignore[attr-defined]
     functions = []
     for (filename, line, name), (_cc, ncalls, own, cum, _callers) in raw.items():
-        label = f"{_short(filename)}:{line}({name})" if line else name
+        label = f"{short_path(filename)}:{line}({name})" if line else name
         functions.append(
             {
                 "function": label,
@@ -76,7 +76,7 @@ def profile_core(n_envs: int = 4096, n_aircraft: int = 20, kernel: str | None = 
     }
 
 
-def _short(filename: str) -> str:
+def short_path(filename: str) -> str:
     """``bluesky_gym/core/simulator.py`` instead of an absolute path; the base name otherwise."""
     parts = filename.replace("\\", "/").split("/")
     if "bluesky_gym" in parts:

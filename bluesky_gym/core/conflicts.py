@@ -19,6 +19,7 @@ from bluesky_gym.core.atmosphere import casormach2tas, isa_layered, tas2cas_at
 from bluesky_gym.core.geo import kwikpos_s
 from bluesky_gym.core.jit import jit
 from bluesky_gym.core.scalar import DEG, RAD, maximum, sign
+from bluesky_gym.core.state import aircraft_index
 from bluesky_gym.core.units import DEG2RAD, FT, M2NM, NM, R_EARTH, RAD2DEG
 
 if TYPE_CHECKING:
@@ -147,8 +148,8 @@ def create_conflicts(
         rpz: Protected-zone radius [m].
         hpz: Protected-zone half height [m].
     """
-    env, target = sim._index(env, target)
-    _, slot = sim._index(env, slot)
+    env, target = aircraft_index(env, target, sim.n_envs, sim.max_aircraft)
+    _, slot = aircraft_index(env, slot, sim.n_envs, sim.max_aircraft)
     n = env.size
 
     def bc(x: ArrayLike) -> Array:

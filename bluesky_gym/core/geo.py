@@ -142,14 +142,7 @@ def kwikqdrdist_s(latd1: float, lond1: float, latd2: float, lond2: float) -> tup
 @jit
 def kwikdist_s(latd1: float, lond1: float, latd2: float, lond2: float) -> float:
     """Flat-earth (equirectangular) distance [NM], no longitude wrap (compiled 1.1.1)."""
-    lat1 = DEG2RAD * latd1
-    lon1 = DEG2RAD * lond1
-    lat2 = DEG2RAD * latd2
-    lon2 = DEG2RAD * lond2
-    dlat = lat2 - lat1
-    dlon = lon2 - lon1
-    cavelat = math.cos(0.5 * (lat1 + lat2))
-    return M2NM * (R_EARTH * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat))
+    return kwikqdrdist_s(latd1, lond1, latd2, lond2)[1]
 
 
 @jit
