@@ -121,7 +121,8 @@ def load_bluesky() -> ModuleType:
                 bluesky.init(mode="sim", detached=True)
         except Exception as exc:
             raise RuntimeError(f"BlueSky failed to start; its start-up output was:\n{out.getvalue()}") from exc
-    return bluesky
+    module: ModuleType = bluesky
+    return module
 
 
 @contextlib.contextmanager

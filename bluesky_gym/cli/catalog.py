@@ -85,7 +85,7 @@ def describe(env_id: str) -> dict[str, Any]:
     try:
         obs_space = env.observation_space
         act_space = env.action_space
-        config = env.unwrapped.config
+        config = getattr(env.unwrapped, "config")  # noqa: B009 - every BlueSky-Gym environment has one; gym.Env does not declare it
     finally:
         env.close()
     docs = _attribute_docs(type(config))
@@ -111,7 +111,7 @@ def describe(env_id: str) -> dict[str, Any]:
         "seconds_per_step": float(task_class.dt * task_class.action_frequency),
         "has_goal": bool(task_class.has_goal),
         "reference_info_keys": list(task_class.info_keys),
-        "observation": {k: _box(v) for k, v in obs_space.spaces.items()},
+        "observation": {k: _box(v) for k, v in obs_space.items()} if isinstance(obs_space, gym.spaces.Dict) else {},
         "action": _box(act_space),
         "options": options,
     }

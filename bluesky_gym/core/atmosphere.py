@@ -123,20 +123,20 @@ def casormach(spd: float, h: float) -> tuple[float, float, float]:
 
 # --- Array functions (loops over the kernels) ----------------------------------------------------
 @jit
-def _vcasormach_loop(spd, h, tas, cas, mach):
+def _vcasormach_loop(spd, h, tas, cas, mach):  # type: ignore[no-untyped-def]
     for i in range(spd.shape[0]):
         tas[i], cas[i], mach[i] = casormach(spd[i], h[i])
 
 
 @jit
-def _vcas2tas_loop(cas, h, out):
+def _vcas2tas_loop(cas, h, out):  # type: ignore[no-untyped-def]
     for i in range(cas.shape[0]):
         p, rho, _ = isa(h[i])
         out[i] = cas2tas_at(cas[i], p, rho)
 
 
 @jit
-def _layered_loop(spd, h, out, to_cas):
+def _layered_loop(spd, h, out, to_cas):  # type: ignore[no-untyped-def]
     for i in range(spd.shape[0]):
         p, rho, t = isa_layered(h[i])
         if to_cas:

@@ -173,7 +173,7 @@ def degto180(angle: float) -> float:
 
 # --- Array functions (loops over the kernels) ----------------------------------------------------
 @jit
-def _pair_loop(which, a, b, c, d, out1, out2):
+def _pair_loop(which, a, b, c, d, out1, out2):  # type: ignore[no-untyped-def]
     for i in range(a.shape[0]):
         if which == 0:
             out1[i], out2[i] = qdrdist_compiled(a[i], b[i], c[i], d[i])

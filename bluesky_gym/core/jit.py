@@ -42,7 +42,7 @@ def _kernel_sources_stamp() -> tuple[tuple[str, float, int], ...]:
 if numba is not None:
     from numba.core.caching import CacheImpl, InTreeCacheLocator
 
-    class _KernelCacheLocator(InTreeCacheLocator):  # type: ignore[misc]
+    class _KernelCacheLocator(InTreeCacheLocator):
         """numba's in-tree cache, invalidated by a change to ANY kernel module.
 
         numba stamps a cached function with its own file only, but kernels inline and call
@@ -97,7 +97,8 @@ def python_form(fn: F) -> F:
     Used to evaluate constants at import time without compiling, and by the tests that run the
     kernels uncompiled.
     """
-    return getattr(fn, "py_func", fn)  # type: ignore[no-any-return]
+    plain: F = getattr(fn, "py_func", fn)
+    return plain
 
 
 def flat_float_args(*args: Any) -> tuple[tuple[int, ...], list[np.ndarray]]:

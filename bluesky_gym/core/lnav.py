@@ -52,7 +52,7 @@ def turn_distance(tas: float, qdr: float, next_qdr: float) -> float:
 
 
 @jit_inline
-def lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # noqa: ANN001, ANN201
+def lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """LNAV of aircraft ``i``: waypoint switching and the autopilot track.
 
     Args:
@@ -110,14 +110,14 @@ def lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, rou
 
 
 @jit
-def lnav_kernel(F, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # noqa: ANN001, ANN201
+def lnav_kernel(F, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """LNAV of every aircraft (flattened arrays; ``route_*`` shaped (aircraft, waypoints))."""
     for i in range(F.shape[1]):
         lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo)
 
 
 @jit
-def _turn_distance_loop(tas, qdr, next_qdr, out):
+def _turn_distance_loop(tas, qdr, next_qdr, out):  # type: ignore[no-untyped-def]
     for i in range(tas.shape[0]):
         out[i] = turn_distance(tas[i], qdr[i], next_qdr[i])
 

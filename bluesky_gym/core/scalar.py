@@ -28,7 +28,7 @@ def mod(a: float, b: float) -> float:
             return a
         if -b < a < 0.0:
             return a + b
-    m = np.fmod(a, b)
+    m = float(np.fmod(a, b))
     if m != 0.0:
         if (b < 0.0) != (m < 0.0):
             m += b

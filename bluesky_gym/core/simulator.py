@@ -208,50 +208,46 @@ class Simulator:
         if np.any(self.active[env, slot]):
             raise ValueError("create: an aircraft already exists in one of the requested slots")
         n = env.shape[0]
-        lat = np.broadcast_to(np.asarray(lat, dtype=np.float64), (n,)).copy()
-        lon = np.broadcast_to(np.asarray(lon, dtype=np.float64), (n,)).copy()
-        hdg = np.broadcast_to(np.asarray(hdg, dtype=np.float64), (n,)).copy()
-        alt = np.broadcast_to(np.asarray(alt, dtype=np.float64), (n,)).copy()
-        spd = np.broadcast_to(np.asarray(spd, dtype=np.float64), (n,)).copy()
-        lon[lon > 180.0] -= 360.0
-        lon[lon < -180.0] += 360.0
+        lat_a, lon_a, hdg_a, alt_a, spd_a = (np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)).copy() for x in (lat, lon, hdg, alt, spd))
+        lon_a[lon_a > 180.0] -= 360.0
+        lon_a[lon_a < -180.0] += 360.0
         for name, (_dtype, value) in self._defaults.items():
             getattr(self, name)[env, slot] = value
         self.route_lat[env, slot] = 0.0
         self.route_lon[env, slot] = 0.0
         self.active[env, slot] = True
-        self.lat[env, slot] = lat
-        self.lon[env, slot] = lon
-        self.alt[env, slot] = alt
-        self.hdg[env, slot] = hdg
-        self.trk[env, slot] = hdg
-        tas, cas, mach = vcasormach(spd, alt)
+        self.lat[env, slot] = lat_a
+        self.lon[env, slot] = lon_a
+        self.alt[env, slot] = alt_a
+        self.hdg[env, slot] = hdg_a
+        self.trk[env, slot] = hdg_a
+        tas, cas, mach = vcasormach(spd_a, alt_a)
         self.tas[env, slot] = tas
         self.cas[env, slot] = cas
         self.mach[env, slot] = mach
         self.gs[env, slot] = tas
-        hdgrad = np.radians(hdg)
+        hdgrad = np.radians(hdg_a)
         gsnorth = tas * np.cos(hdgrad)
         gseast = tas * np.sin(hdgrad)
         windy = self.wind.has_wind[env]
         if np.any(windy):
             e, s = env[windy], slot[windy]
-            applywind = alt[windy] > WIND_MIN_ALT
-            wn, we = self.wind.at(e, lat[windy], lon[windy])
+            applywind = alt_a[windy] > WIND_MIN_ALT
+            wn, we = self.wind.at(e, lat_a[windy], lon_a[windy])
             self.windnorth[e, s] = wn
             self.windeast[e, s] = we
             gsn = gsnorth[windy] + wn * applywind
             gse = gseast[windy] + we * applywind
             gsnorth[windy] = gsn
             gseast[windy] = gse
-            self.trk[e, s] = np.logical_not(applywind) * hdg[windy] + applywind * np.degrees(np.arctan2(gse, gsn))
+            self.trk[e, s] = np.logical_not(applywind) * hdg_a[windy] + applywind * np.degrees(np.arctan2(gse, gsn))
             self.gs[e, s] = np.sqrt(gsn**2 + gse**2)
         self.gsnorth[env, slot] = gsnorth
         self.gseast[env, slot] = gseast
         self.selspd[env, slot] = cas
-        self.selalt[env, slot] = alt
+        self.selalt[env, slot] = alt_a
         self.ap_tas[env, slot] = tas
-        self.ap_alt[env, slot] = alt
+        self.ap_alt[env, slot] = alt_a
         self.ap_trk[env, slot] = self.trk[env, slot]
 
     def delete(self, env: ArrayLike, slot: ArrayLike) -> None:

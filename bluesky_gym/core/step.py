@@ -82,7 +82,7 @@ MEMO_COLUMNS = 33
 
 
 @jit_inline
-def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):  # noqa: ANN001, ANN201
+def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
     hmax, vsmax, mmo, v_rotate = limits
     mm = memo[i]
@@ -235,7 +235,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
 
 @jit
-def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, active):  # noqa: ANN001, ANN201
+def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, active):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance every aircraft by one step, in BlueSky's update order.
 
     Args:
@@ -259,7 +259,7 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
 
 @jit
-def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, active, lnav, trace):  # noqa: ANN001, ANN201
+def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, active, lnav, trace):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
 
     Valid when aircraft do not interact within these steps, which holds for the physics and

@@ -106,7 +106,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
     """
 
     task_class: ClassVar[type[Task]]
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}
+    metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}  # noqa: RUF012 - Gymnasium declares it an instance attribute
 
     def __init__(self, render_mode: str | None = None, backend: str = "native", max_episode_steps: int | None = None, **options: Any) -> None:
         _check_render_mode(render_mode)
@@ -157,7 +157,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
             raise RuntimeError("step() called before reset() or after the episode ended (terminated or truncated); call reset() first")
         a = np.asarray(action, dtype=np.float64) if not isinstance(action, np.ndarray) else action
         if a.shape != self.action_space.shape:
-            if a.size == int(np.prod(self.action_space.shape)) and a.ndim <= 1:
+            if a.size == int(np.prod(self.task.action_spec.shape)) and a.ndim <= 1:
                 a = a.reshape(self.action_space.shape)
             else:
                 raise ValueError(f"action has shape {a.shape}, expected {self.action_space.shape} for {self.task.env_id}")
@@ -181,7 +181,8 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
             from bluesky_gym.render import make_renderer
 
             self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id))
-        return self._renderer.render(0, reward=self._last_reward, info=self._last_info)
+        frame: np.ndarray | None = self._renderer.render(0, reward=self._last_reward, info=self._last_info)
+        return frame
 
     def close(self) -> None:
         """Release this environment's window (and its BlueSky backend, if any)."""
@@ -220,7 +221,7 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
     """
 
     task_class: ClassVar[type[Task]]
-    metadata: ClassVar[dict[str, Any]] = {
+    metadata: dict[str, Any] = {  # noqa: RUF012 - Gymnasium declares it an instance attribute
         "render_modes": RENDER_MODES,
         "render_fps": RENDER_FPS,
         "autoreset_mode": AutoresetMode.SAME_STEP,
@@ -336,7 +337,7 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
             self.render()
         return obs, res.reward, res.terminated, res.truncated, info
 
-    def render(self) -> np.ndarray | None:
+    def render(self) -> np.ndarray | None:  # type: ignore[override]  # one frame, not Gymnasium's tuple of sub-environment frames
         """A frame of episode ``render_env`` (or a grid of the first ``render_grid`` episodes)."""
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode")
@@ -345,9 +346,13 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
             from bluesky_gym.render import make_renderer
 
             self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id))
+        frame: np.ndarray | None
         if self.render_grid > 1:
-            return self._renderer.render_grid(min(self.render_grid, self.num_envs), rewards=self._last_reward, info=self._last_info)
-        return self._renderer.render(self.render_env, reward=float(self._last_reward[self.render_env]), info=_pick(self._last_info, self.render_env))
+            frame = self._renderer.render_grid(min(self.render_grid, self.num_envs), rewards=self._last_reward, info=self._last_info)
+        else:
+            reward = float(self._last_reward[self.render_env])
+            frame = self._renderer.render(self.render_env, reward=reward, info=_pick(self._last_info, self.render_env))
+        return frame
 
     def close_extras(self, **kwargs: Any) -> None:
         """Release the window."""

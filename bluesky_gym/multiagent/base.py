@@ -34,7 +34,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core import Simulator
+from bluesky_gym.core.physics import Physics
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, command_heading_and_speed
 from bluesky_gym.tasks.geometry import latlon_to_nm
 
@@ -177,7 +177,7 @@ class MultiAgentTask(abc.ABC):
             check_int("max_episode_steps", max_episode_steps, 1)
         #: The single-agent task generating the scenarios; it shares :attr:`sim`.
         self.scenario: Task = self.scenario_class(int(n_envs), config, backend="native", max_episode_steps=max_episode_steps)
-        self.sim: Simulator = self.scenario.sim
+        self.sim: Physics = self.scenario.sim
         self.config = self.scenario.config
         self.n_envs = int(n_envs)
         self.n_agents = int(self.sim.max_aircraft)

@@ -56,7 +56,7 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
     """
 
     task_class: ClassVar[type[MultiAgentTask]]
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}
+    metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}  # noqa: RUF012 - Gymnasium declares it an instance attribute
 
     def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, **options: Any) -> None:
         if render_mode is not None and render_mode not in RENDER_MODES:
@@ -100,7 +100,7 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
         if self._needs_reset:
             raise RuntimeError("step() called before reset() or after the episode ended; call reset() first")
         a = np.asarray(action, dtype=np.float64)
-        if a.size != self.action_space.shape[0]:
+        if a.size != int(np.prod(self.action_space.shape or ())):
             raise ValueError(f"action has shape {a.shape}, expected {self.action_space.shape}")
         res = self.task.step(a.reshape(1, self.task.n_agents, *self.task.action_spec.shape))
         reward = float(res.reward[0].sum())

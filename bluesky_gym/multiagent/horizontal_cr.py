@@ -25,7 +25,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from bluesky_gym.core import Simulator, geo
+from bluesky_gym.core import geo
+from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import NM, NM2KM, R_EARTH
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
 from bluesky_gym.tasks import horizontal_cr as hc
@@ -51,7 +52,7 @@ def rhumb_destination(lat: Array, lon: Array, d_km: Array, bearing: Array) -> tu
     return np.degrees(phi2), lon + np.degrees(delta * np.sin(theta) / q)
 
 
-def mirrored_waypoints(sim: Simulator, envs: IntArray, min_km: float) -> tuple[Array, Array]:
+def mirrored_waypoints(sim: Physics, envs: IntArray, min_km: float) -> tuple[Array, Array]:
     """Waypoints of the aircraft of ``envs``: the mirror image of each start about its CPA with slot 0.
 
     Each aircraft's closest point of approach with the aircraft in slot 0 is predicted from the
@@ -101,6 +102,7 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
     name: ClassVar[str] = "horizontal_cr_v0"
     env_id: ClassVar[str] = "HorizontalCR multi-agent"
     scenario_class = hc.HorizontalCRTask
+    config: hc.HorizontalCRConfig
     intrusion_distance: ClassVar[float] = hc.INTRUSION_DISTANCE
     state_origin: ClassVar[tuple[float, float]] = (hc.START_LAT, hc.START_LON)
     state_scale_nm: ClassVar[float] = hc.DISTANCE_SCALE / NM2KM

@@ -40,7 +40,8 @@ from bluesky_gym.multiagent.render import agent_name
 from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
 from bluesky_gym.tasks.base import BoxSpec
 
-ParallelEnv = require_pettingzoo().ParallelEnv
+require_pettingzoo()  # a clear error naming the extra when PettingZoo is missing
+from pettingzoo import ParallelEnv  # noqa: E402
 
 RENDER_MODES = ["rgb_array", "human"]
 RENDER_FPS = 30
@@ -146,10 +147,10 @@ class BlueSkyParallelEnv(ParallelEnv):
         kpis = {}
         if res.episode_done[0]:
             kpis = {key: float(v[0]) for key, v in res.info.items() if key.startswith("kpi_") and np.isfinite(v[0])}
-        for a, k in zip(names, acting, strict=True):
-            info = {key: v[0, k].item() for key, v in res.agent_info.items()}
+        for name, slot in zip(names, acting, strict=True):
+            info = {key: v[0, slot].item() for key, v in res.agent_info.items()}
             info.update(kpis)
-            infos[a] = info
+            infos[name] = info
         self.agents = [a for a in names if not (terminations[a] or truncations[a])]
         self._last_reward = float(res.reward[0].sum())
         self._last_info = {key: v[0].item() for key, v in res.info.items()}

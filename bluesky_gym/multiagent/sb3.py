@@ -82,10 +82,12 @@ class SharedPolicyVecEnv(VecEnv):
     def __init__(self, task: MultiAgentTask | str, n_episodes: int = 8, max_episode_steps: int | None = None, **options: Any) -> None:
         if isinstance(task, str):
             cls = task_class(task)
-            task = cls(n_episodes, cls.make_config(options), max_episode_steps=max_episode_steps)
+            self.task: MultiAgentTask = cls(n_episodes, cls.make_config(options), max_episode_steps=max_episode_steps)
         elif options or max_episode_steps is not None:
             raise TypeError("scenario options and max_episode_steps are only accepted together with an environment name")
-        self.task = task
+        else:
+            self.task = task
+        task = self.task
         self.n_episodes, self.n_agents = task.n_envs, task.n_agents
         self.render_mode = None
         obs_space = spaces.Dict({k: spaces.Box(v.low, v.high, v.shape, np.float64) for k, v in task.observation_spec.items()})
@@ -232,7 +234,9 @@ class LiveRowsRolloutBuffer(DictRolloutBuffer):
             self.live[self.pos] = self.live_source()
         super().add(*args, **kwargs)
 
-    def get(self, batch_size: int | None = None) -> Generator[DictRolloutBufferSamples, None, None]:
+    def get(  # type: ignore[override]  # SB3 annotates its dict buffer's get with the plain sample type
+        self, batch_size: int | None = None
+    ) -> Generator[DictRolloutBufferSamples, None, None]:
         """Yield minibatches of live transitions, in random order."""
         assert self.full, "the rollout buffer is not full"
         if not self.generator_ready:
@@ -271,9 +275,10 @@ class LiveRowsVecNormalize(VecNormalize):
 
     def __init__(self, venv: SharedPolicyVecEnv, clip_obs: float = 10.0) -> None:
         super().__init__(venv, norm_obs=True, norm_reward=False, clip_obs=clip_obs)
+        self.shared = venv
 
     def _update_obs_rms(self, obs: dict[str, np.ndarray]) -> None:
-        live = self.venv.task.sim.active.reshape(-1)  # rows whose observation belongs to an agent
+        live = self.shared.task.sim.active.reshape(-1)  # rows whose observation belongs to an agent
         if self.training and np.any(live):
             for key, rms in self.obs_rms.items():
                 rms.update(obs[key][live])
@@ -281,16 +286,20 @@ class LiveRowsVecNormalize(VecNormalize):
     def reset(self) -> dict[str, np.ndarray]:
         """Reset the episodes; return the normalised first observations."""
         obs = self.venv.reset()
+        assert isinstance(obs, dict)
         self.old_obs = obs
         self.returns = np.zeros(self.num_envs)
         self._update_obs_rms(obs)
-        return self.normalize_obs(obs)
+        normalised = self.normalize_obs(obs)
+        assert isinstance(normalised, dict)
+        return normalised
 
     def step_wait(self) -> VecEnvStepReturn:
         """Step; update the statistics with the live rows and normalise the observations."""
         obs, rewards, dones, infos = self.venv.step_wait()
+        assert isinstance(obs, dict)
         self.old_obs, self.old_reward = obs, rewards
         self._update_obs_rms(obs)
-        for idx in np.flatnonzero(dones & self.venv.live_rows):
+        for idx in np.flatnonzero(dones & self.shared.live_rows):
             infos[idx]["terminal_observation"] = self.normalize_obs(infos[idx]["terminal_observation"])
         return self.normalize_obs(obs), rewards, dones, infos

@@ -32,9 +32,9 @@ A concrete task supplies:
 * optionally :meth:`Task.truncate` ``(g)``, :meth:`Task.episode_info`, :meth:`Task.extra_track_km`.
 
 Without an argument, ``observe()`` measures first (e.g. after a reset). The base supplies
-:meth:`Task.advance` (the physics sub-steps in one ``Simulator.run`` call, unless sub-step hooks
-are installed) and :meth:`Task.record` (the statistics, from ``g`` only: the separation is never
-computed a second time).
+:meth:`Task.advance` (the physics sub-steps in one ``Physics.run`` call) and
+:meth:`Task.record` (the statistics, from ``g`` only: the separation is never computed a second
+time).
 
 Tasks with traffic (SectorCR, Merge, HorizontalCR) write measure, observation and reward as
 module functions of rows (episode ``envs[r]``, ownship slot ``own[r]``), e.g.
@@ -55,7 +55,7 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core import Simulator
+from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import KTS, MPS2KT
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.geometry import ref_kwikqdrdist
@@ -206,7 +206,7 @@ class StepGeometry:
 
 
 def kwik_separation(
-    sim: Simulator, envs: NDArray[np.int64], own: NDArray[np.int64], intrusion_nm: float, vertical_m: float | None = None
+    sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], intrusion_nm: float, vertical_m: float | None = None
 ) -> tuple[Array, BoolArray]:
     """Reference kwik distance [NM] from ownship slots to every other active aircraft, and the intrusion flags.
 
@@ -228,7 +228,7 @@ def kwik_separation(
 
 
 def command_heading_and_speed(
-    sim: Simulator, envs: NDArray[np.int64], own: NDArray[np.int64], action: Array, d_heading: float, d_speed: float
+    sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], action: Array, d_heading: float, d_speed: float
 ) -> None:
     """SectorCR's and Merge's action of rows (episode ``envs[r]``, ownship slot ``own[r]``), ``action`` (rows, 2).
 
@@ -278,7 +278,7 @@ class Task(abc.ABC):
     has_goal: ClassVar[bool] = True
 
     def __init__(
-        self, n_envs: int = 1, config: TaskConfig | None = None, backend: str | Simulator = "native", max_episode_steps: int | None = None
+        self, n_envs: int = 1, config: TaskConfig | None = None, backend: str | Physics = "native", max_episode_steps: int | None = None
     ) -> None:
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"n_envs must be a positive integer, got {n_envs!r}")
@@ -291,11 +291,13 @@ class Task(abc.ABC):
         if not isinstance(self.config, self.config_class):
             raise TypeError(f"config must be a {self.config_class.__name__}, got {type(self.config).__name__}")
         self.config.validate()
+        self.sim: Physics
         if isinstance(backend, str):
             from bluesky_gym.backends import make_physics
 
-            backend = make_physics(backend, type(self), self.n_envs, self.max_aircraft(), self.max_waypoints())
-        self.sim = backend
+            self.sim = make_physics(backend, type(self), self.n_envs, self.max_aircraft(), self.max_waypoints())
+        else:
+            self.sim = backend
         if self.sim.n_envs != self.n_envs:
             raise ValueError(f"physics backend has {self.sim.n_envs} airspaces, the task {self.n_envs}")
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(self.n_envs)]

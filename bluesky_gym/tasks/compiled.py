@@ -41,7 +41,7 @@ _M_PER_KM = 1000.0
 
 # --- BlueSky's Python kwik forms (tasks/geometry.ref_kwik*), per pair of points -----------------
 @jit_inline
-def _kwik_parts(lata, lona, latb, lonb):
+def _kwik_parts(lata, lona, latb, lonb):  # type: ignore[no-untyped-def]
     dlat = (latb - lata) * _RAD
     dlon = (_mod((lonb - lona) + 180.0, 360.0) - 180.0) * _RAD
     cavelat = math.cos((lata + latb) * _RAD * 0.5)
@@ -49,36 +49,36 @@ def _kwik_parts(lata, lona, latb, lonb):
 
 
 @jit_inline
-def _dist_of_parts(dlat, dlon, cavelat):
+def _dist_of_parts(dlat, dlon, cavelat):  # type: ignore[no-untyped-def]
     return _KWIK_R * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / _KWIK_NM
 
 
 @jit_inline
-def _qdr_of_parts(dlat, dlon, cavelat):
+def _qdr_of_parts(dlat, dlon, cavelat):  # type: ignore[no-untyped-def]
     return _mod(math.atan2(dlon * cavelat, dlat) * _DEG, 360.0)
 
 
 @jit_inline
-def _matrix_dist_of_parts(dlat, dlon, cavelat):
+def _matrix_dist_of_parts(dlat, dlon, cavelat):  # type: ignore[no-untyped-def]
     return _KWIK_R * math.sqrt(dlat * dlat + (dlon * dlon) * (cavelat * cavelat)) / _KWIK_NM
 
 
 @jit_inline
-def _kwikdist(lata, lona, latb, lonb):
+def _kwikdist(lata, lona, latb, lonb):  # type: ignore[no-untyped-def]
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist` [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
     return _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
-def _kwikqdrdist(lata, lona, latb, lonb):
+def _kwikqdrdist(lata, lona, latb, lonb):  # type: ignore[no-untyped-def]
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikqdrdist`: bearing [deg, 0..360) and distance [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
     return _qdr_of_parts(dlat, dlon, cavelat), _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
-def _wrap180(x):
+def _wrap180(x):  # type: ignore[no-untyped-def]
     """The reference's single wrap (:func:`bluesky_gym.tasks.base.wrap180`)."""
     if x > 180.0:
         return x - 360.0
@@ -88,7 +88,7 @@ def _wrap180(x):
 
 
 @jit_inline
-def _closest(key, active, out, best):
+def _closest(key, active, out, best):  # type: ignore[no-untyped-def]
     """Indices of the ``len(out)`` smallest ``key[j]`` over active j (ties: lower j first).
 
     The first columns of a stable argsort of ``where(active, key, inf)``; empty slots count as
@@ -115,7 +115,7 @@ def _closest(key, active, out, best):
 
 
 @jit_inline
-def _polygon_contains(y, x, py, px, nv):
+def _polygon_contains(y, x, py, px, nv):  # type: ignore[no-untyped-def]
     """Even-odd test of point (lat y, lon x) against the first ``nv`` vertices of (py, px).
 
     BlueSky's 2-D ``checkInside`` for one point and one polygon.
@@ -131,7 +131,7 @@ def _polygon_contains(y, x, py, px, nv):
 
 # --- shared by the tasks -----------------------------------------------------------------------
 @jit
-def kwik_separation(envs, own, lat, lon, alt, active, intrusion_nm, vertical_m, dist_out, los_out):
+def kwik_separation(envs, own, lat, lon, alt, active, intrusion_nm, vertical_m, dist_out, los_out):  # type: ignore[no-untyped-def]
     """Kwik distance [NM] from ownship slot ``own[r]`` of episode ``envs[r]`` to every slot, and the intrusion flags.
 
     Row ``r`` of ``dist_out``/``los_out`` (p, m): inf / False for the ownship and empty slots.
@@ -155,7 +155,7 @@ def kwik_separation(envs, own, lat, lon, alt, active, intrusion_nm, vertical_m, 
 
 
 @jit
-def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
+def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):  # type: ignore[no-untyped-def]
     """Whether each episode's ownship (slot 0) lies in each of its polygons.
 
     ``poly_*`` are (n, K, V), ``n_vertices`` (n, K), ``out`` (n, K).
@@ -166,7 +166,7 @@ def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):
 
 
 @jit
-def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out):
+def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out):  # type: ignore[no-untyped-def]
     """Even-odd test of points (P,) each against the polygon of its episode ``owner[p]``.
 
     ``poly_*`` are (n, V) and ``n_vertices`` (n,); ``out`` is (P,).
@@ -177,7 +177,7 @@ def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out
 
 
 @jit
-def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
+def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):  # type: ignore[no-untyped-def]
     """How many of its polygons contain each episode's ownship at each step of a track.
 
     ``track`` is :meth:`bluesky_gym.core.Simulator.run`'s (steps, 2, n, m) positions, ``poly_*``
@@ -203,7 +203,7 @@ def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):
 
 
 @jit_inline
-def _other_slots(active, e, o, slots, act):
+def _other_slots(active, e, o, slots, act):  # type: ignore[no-untyped-def]
     """The slots other than the ownship ``o`` of episode ``e`` in slot order into ``slots`` (m - 1), their activity into ``act``."""
     for j in range(o):
         slots[j] = j
@@ -214,7 +214,7 @@ def _other_slots(active, e, o, slots, act):
 
 
 @jit_inline
-def _count_active(act):
+def _count_active(act):  # type: ignore[no-untyped-def]
     c = 0
     for i in range(act.shape[0]):
         if act[i]:
@@ -223,7 +223,7 @@ def _count_active(act):
 
 
 @jit
-def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, count_out):
+def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, count_out):  # type: ignore[no-untyped-def]
     """Ownship-relative geometry of the other aircraft, per (episode, ownship) row, into ``out`` (5, p, k).
 
     Rows: dist_km, cos_bearing, sin_bearing, x_dif, y_dif (the expressions of
@@ -267,7 +267,7 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
 
 
 @jit
-def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_out):
+def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_out):  # type: ignore[no-untyped-def]
     """Drift wrap180(heading - kwik bearing to the goal) [deg] and kwik distance [NM] of each row's ownship to its goal.
 
     Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``, goal (``goal_lat[r]``, ``goal_lon[r]``).
@@ -281,14 +281,14 @@ def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_
 
 
 @jit_inline
-def _velocity(hdg, tas, e, j):
+def _velocity(hdg, tas, e, j):  # type: ignore[no-untyped-def]
     """TAS vector (north, east) [m/s] of slot ``j`` of episode ``e`` (heading and TAS, not track and GS, as the reference)."""
     return math.cos(hdg[e, j] * _RAD) * tas[e, j], math.sin(hdg[e, j] * _RAD) * tas[e, j]
 
 
 # --- SectorCR ----------------------------------------------------------------------------------
 @jit
-def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out, count_out):
+def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out, count_out):  # type: ignore[no-untyped-def]
     """SectorCR's observation geometry of (episode ``envs[r]``, ownship slot ``own[r]``) rows.
 
     Args:
@@ -361,7 +361,7 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
 
 
 @jit
-def slots_in_polygons(envs, own, lat, lon, poly_lat, poly_lon, n_vertices, out):
+def slots_in_polygons(envs, own, lat, lon, poly_lat, poly_lon, n_vertices, out):  # type: ignore[no-untyped-def]
     """Even-odd test of aircraft slot ``own[r]`` of episode ``envs[r]`` against that episode's polygon.
 
     ``poly_*`` are (n, V), ``n_vertices`` (n,), ``out`` (p,).
@@ -373,7 +373,7 @@ def slots_in_polygons(envs, own, lat, lon, poly_lat, poly_lon, n_vertices, out):
 
 # --- Merge -------------------------------------------------------------------------------------
 @jit
-def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out, count_out):
+def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon, scales, own_out, intruder_out, count_out):  # type: ignore[no-untyped-def]
     """Merge's observation geometry of (episode ``envs[r]``, ownship slot ``own[r]``) rows.
 
     Args:
@@ -502,8 +502,10 @@ def add_samples(total: Array, count: IntArray, value: Array, times: IntArray) ->
 
 # --- episode statistics -------------------------------------------------------------------------
 @jit
-def record_step(envs, separation, los, stepped, reward, drift, goal, dt, action_frequency, in_los, min_sep, los_count, los_steps, steps, total_reward,
-                drift_sum, drift_n, time_to_goal):
+def record_step(  # type: ignore[no-untyped-def]
+    envs, separation, los, stepped, reward, drift, goal, dt, action_frequency, in_los, min_sep, los_count, los_steps, steps, total_reward,
+    drift_sum, drift_n, time_to_goal,
+):
     """:meth:`bluesky_gym.tasks.base.Task.record`: the episode statistics of rows ``envs`` from a step's geometry.
 
     Always: the smallest separation, new losses of separation (pairs not in LoS before) and the

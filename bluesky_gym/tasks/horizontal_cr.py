@@ -8,7 +8,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core import Simulator
+from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import NM2KM
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, kwik_separation, wrap180
@@ -100,7 +100,7 @@ class HorizontalCRGeometry(StepGeometry):
 
 
 def measure(
-    sim: Simulator, envs: NDArray[np.int64], own: NDArray[np.int64], wpt_lat: Array, wpt_lon: Array, reached: BoolArray, nearest: bool = False,
+    sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], wpt_lat: Array, wpt_lon: Array, reached: BoolArray, nearest: bool = False,
     k: int | None = None,
 ) -> HorizontalCRGeometry:
     """Intruder geometry, waypoint distance and drift, separation and the reach test of each row.

@@ -8,7 +8,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core import Simulator
+from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import NM2KM
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
@@ -134,7 +134,7 @@ def target(after_faf: BoolArray) -> tuple[Array, Array]:
     return np.where(after_faf, RWY_LAT, FAF_LAT), np.where(after_faf, RWY_LON, FAF_LON)
 
 
-def measure(sim: Simulator, envs: NDArray[np.int64], own: NDArray[np.int64], after_faf: BoolArray) -> MergeGeometry:
+def measure(sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], after_faf: BoolArray) -> MergeGeometry:
     """Drift and distance to the current target, the 5 closest other aircraft and the separation of each row.
 
     BlueSky's Python kwik forms (bearing mod 360, degrees subtracted first), which the reference

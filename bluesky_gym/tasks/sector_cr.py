@@ -10,7 +10,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core import Simulator
+from bluesky_gym.core.physics import Physics
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
     Array,
@@ -158,7 +158,7 @@ class SectorGeometry(StepGeometry):
     inside: BoolArray
 
 
-def measure(sim: Simulator, sector: SectorCRTask, envs: NDArray[np.int64], own: NDArray[np.int64]) -> SectorGeometry:
+def measure(sim: Physics, sector: SectorCRTask, envs: NDArray[np.int64], own: NDArray[np.int64]) -> SectorGeometry:
     """Drift to the own waypoint, the closest other aircraft, separation and the sector test of each row.
 
     The drift is wrap180(heading - kwik bearing to the aircraft's waypoint) (BlueSky's Python kwik
@@ -407,7 +407,9 @@ class SectorCRTask(Task):
 
     def truncate(self, g: StepGeometry) -> BoolArray:
         """Truncate when the agent has left the sector (the reference's ``truncated``)."""
-        return ~g.inside  # type: ignore[attr-defined]
+        assert isinstance(g, SectorGeometry)
+        inside: BoolArray = g.inside
+        return ~inside
 
     def agent_inside(self) -> BoolArray:
         """(n_envs,) whether the agent is inside its sector now (2-D even-odd test on lat/lon)."""
