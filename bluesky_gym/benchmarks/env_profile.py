@@ -95,4 +95,3 @@ def profile_env(env_id: str, num_envs: int = 1024, steps: int = 40, top: int = 1
         "task_share": float(np.clip((total - physics) / total, 0.0, 1.0)) if total > 0 else float("nan"),
         "functions": functions[:top],
     }
-

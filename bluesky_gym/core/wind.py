@@ -88,9 +88,7 @@ class WindField:
         )
 
     @staticmethod
-    def _evaluate(
-        count: NDArray[np.int64], plat: Array, plon: Array, pvn: Array, pve: Array, lat: ArrayLike, lon: ArrayLike
-    ) -> tuple[Array, Array]:
+    def _evaluate(count: NDArray[np.int64], plat: Array, plon: Array, pvn: Array, pve: Array, lat: ArrayLike, lon: ArrayLike) -> tuple[Array, Array]:
         lat = np.asarray(lat, dtype=np.float64)
         shape = np.broadcast_shapes(np.shape(count), lat.shape)
         if plat.shape[-1] == 0:

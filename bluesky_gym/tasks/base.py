@@ -227,9 +227,7 @@ def kwik_separation(
     return dist, los
 
 
-def command_heading_and_speed(
-    sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], action: Array, d_heading: float, d_speed: float
-) -> None:
+def command_heading_and_speed(sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], action: Array, d_heading: float, d_speed: float) -> None:
     """SectorCR's and Merge's action of rows (episode ``envs[r]``, ownship slot ``own[r]``), ``action`` (rows, 2).
 
     HDG wrap180(hdg + d_heading a0); SPD (CAS + d_speed a1) * 1.94384 kt: the reference adds the
@@ -486,9 +484,24 @@ class Task(abc.ABC):
         st = self.stats
         stepped = reward is not None
         compiled.record_step(
-            g.envs, g.separation_nm, g.los, stepped, reward if stepped else _EMPTY, _EMPTY if g.drift_deg is None else g.drift_deg,
-            g.goal_reached, self.dt, self.action_frequency, st.in_los, st.min_separation, st.los_count, st.los_steps, st.steps,
-            st.total_reward, st.drift_sum, st.drift_n, st.time_to_goal,
+            g.envs,
+            g.separation_nm,
+            g.los,
+            stepped,
+            reward if stepped else _EMPTY,
+            _EMPTY if g.drift_deg is None else g.drift_deg,
+            g.goal_reached,
+            self.dt,
+            self.action_frequency,
+            st.in_los,
+            st.min_separation,
+            st.los_count,
+            st.los_steps,
+            st.steps,
+            st.total_reward,
+            st.drift_sum,
+            st.drift_n,
+            st.time_to_goal,
         )
 
     def kpis(self) -> dict[str, Array]:

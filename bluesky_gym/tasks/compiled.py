@@ -503,8 +503,24 @@ def add_samples(total: Array, count: IntArray, value: Array, times: IntArray) ->
 # --- episode statistics -------------------------------------------------------------------------
 @jit
 def record_step(  # type: ignore[no-untyped-def]
-    envs, separation, los, stepped, reward, drift, goal, dt, action_frequency, in_los, min_sep, los_count, los_steps, steps, total_reward,
-    drift_sum, drift_n, time_to_goal,
+    envs,
+    separation,
+    los,
+    stepped,
+    reward,
+    drift,
+    goal,
+    dt,
+    action_frequency,
+    in_los,
+    min_sep,
+    los_count,
+    los_steps,
+    steps,
+    total_reward,
+    drift_sum,
+    drift_n,
+    time_to_goal,
 ):
     """:meth:`bluesky_gym.tasks.base.Task.record`: the episode statistics of rows ``envs`` from a step's geometry.
 

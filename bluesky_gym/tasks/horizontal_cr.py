@@ -100,7 +100,13 @@ class HorizontalCRGeometry(StepGeometry):
 
 
 def measure(
-    sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], wpt_lat: Array, wpt_lon: Array, reached: BoolArray, nearest: bool = False,
+    sim: Physics,
+    envs: NDArray[np.int64],
+    own: NDArray[np.int64],
+    wpt_lat: Array,
+    wpt_lon: Array,
+    reached: BoolArray,
+    nearest: bool = False,
     k: int | None = None,
 ) -> HorizontalCRGeometry:
     """Intruder geometry, waypoint distance and drift, separation and the reach test of each row.
@@ -177,8 +183,7 @@ class HorizontalCRTask(Task):
         """Observation keys, shapes and bounds, in the reference's key order."""
         n = self.config.num_intruders
         spec = {
-            k: BoxSpec((n,))
-            for k in ("intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed")
+            k: BoxSpec((n,)) for k in ("intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed")
         }
         spec.update({k: BoxSpec((1,)) for k in ("waypoint_distance", "cos_drift", "sin_drift")})
         return spec

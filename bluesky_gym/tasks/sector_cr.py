@@ -109,8 +109,7 @@ class SectorCRConfig(TaskConfig):
         worst = worst_case_aircraft(self)
         if worst > MAX_AIRCRAFT_LIMIT:
             raise ValueError(
-                f"the densities and poly_area_range allow up to {worst} aircraft per episode; at most "
-                f"{MAX_AIRCRAFT_LIMIT} are supported"
+                f"the densities and poly_area_range allow up to {worst} aircraft per episode; at most {MAX_AIRCRAFT_LIMIT} are supported"
             )
 
     def density_cap(self) -> float:
@@ -170,8 +169,23 @@ def measure(sim: Physics, sector: SectorCRTask, envs: NDArray[np.int64], own: ND
     features = np.empty((n, 3))
     intruders = np.empty((n, 7, NUM_AC_STATE))
     n_others = np.empty(n, np.int64)
-    compiled.sector_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, sector.wpt_lat[envs, own], sector.wpt_lon[envs, own],
-                            _FLAT_CENTER, _OBS_SCALES, drift, features, intruders, n_others)
+    compiled.sector_observe(
+        envs,
+        own,
+        sim.lat,
+        sim.lon,
+        sim.hdg,
+        sim.tas,
+        sim.active,
+        sector.wpt_lat[envs, own],
+        sector.wpt_lon[envs, own],
+        _FLAT_CENTER,
+        _OBS_SCALES,
+        drift,
+        features,
+        intruders,
+        n_others,
+    )
     separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
     inside = np.empty(n, bool)
     compiled.slots_in_polygons(envs, own, sim.lat, sim.lon, sector.poly_lat, sector.poly_lon, sector.n_vertices, inside)

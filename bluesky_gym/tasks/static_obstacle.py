@@ -182,8 +182,14 @@ class StaticObstacleTask(Task):
                 self.obstacle_area[e, i] = polygon_area(polys[-1])
             self._store_polygons(e, clat, clon, polys)
             self.wpt_lat[e], self.wpt_lon[e] = sample_waypoint(
-                rng, lat0[j], lon0[j], self.obstacle_lat[e], self.obstacle_lon[e], self.obstacle_nv[e],
-                c.waypoint_distance_min, c.waypoint_distance_max,
+                rng,
+                lat0[j],
+                lon0[j],
+                self.obstacle_lat[e],
+                self.obstacle_lon[e],
+                self.obstacle_nv[e],
+                c.waypoint_distance_min,
+                c.waypoint_distance_max,
             )
         # The aircraft starts pointing at the waypoint: hdg and the autopilot track (docs/environments-v0.md §6).
         qdr, dist = ref_kwikqdrdist(lat0, lon0, self.wpt_lat[envs], self.wpt_lon[envs])

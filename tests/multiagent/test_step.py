@@ -20,8 +20,9 @@ def _seeded(task, seed: int = 3):
     return task
 
 
-@pytest.mark.parametrize("task_class", [SectorCRMultiAgentTask, MergeMultiAgentTask, HorizontalCRMultiAgentTask, SectorCRTask, MergeTask,
-                                        HorizontalCRTask])
+@pytest.mark.parametrize(
+    "task_class", [SectorCRMultiAgentTask, MergeMultiAgentTask, HorizontalCRMultiAgentTask, SectorCRTask, MergeTask, HorizontalCRTask]
+)
 def test_a_step_runs_the_physics_sub_steps_in_one_run_call(task_class, monkeypatch) -> None:
     task = _seeded(task_class(2))
     calls: list[int] = []
@@ -42,8 +43,10 @@ def test_a_step_runs_the_physics_sub_steps_in_one_run_call(task_class, monkeypat
     assert calls == [task.action_frequency] * 3
 
 
-@pytest.mark.parametrize(("ma_class", "sa_class"), [(SectorCRMultiAgentTask, SectorCRTask), (MergeMultiAgentTask, MergeTask),
-                                                     (HorizontalCRMultiAgentTask, HorizontalCRTask)])
+@pytest.mark.parametrize(
+    ("ma_class", "sa_class"),
+    [(SectorCRMultiAgentTask, SectorCRTask), (MergeMultiAgentTask, MergeTask), (HorizontalCRMultiAgentTask, HorizontalCRTask)],
+)
 def test_agent_zero_has_the_single_agent_geometry_and_reward(ma_class, sa_class) -> None:
     """The same scenario seen by agent 0 and by the single-agent ownship: one geometry, one reward."""
     ma, sa = _seeded(ma_class(2), 11), _seeded(sa_class(2), 11)

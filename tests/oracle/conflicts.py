@@ -23,7 +23,6 @@ if TYPE_CHECKING:
 Array = NDArray[np.float64]
 
 
-
 def create_conflicts(
     sim: Simulator,
     env: ArrayLike,
@@ -101,5 +100,3 @@ def create_conflicts(
     sim.create(env, slot, aclat, aclon, achdg, acalt, acspd)
     sim.cmd_altitude(env, slot, altref, acvs)
     sim.vs[env, slot] = acvs
-
-

@@ -28,7 +28,6 @@ def point_at_distance(lat: ArrayLike, lon: ArrayLike, d_km: ArrayLike, bearing: 
     return np.degrees(lat2), np.degrees(lon2)
 
 
-
 class PolygonSet:
     """Polygons in (lat, lon) prepared for repeated even-odd point-in-polygon tests.
 
@@ -79,7 +78,6 @@ def points_in_polygons(lat: ArrayLike, lon: ArrayLike, poly_lat: ArrayLike, poly
         Inside flags, shape (..., P, K).
     """
     return PolygonSet(poly_lat, poly_lon, n_vertices).contains(lat, lon)
-
 
 
 def _kwik_py(lata: ArrayLike, lona: ArrayLike, latb: ArrayLike, lonb: ArrayLike) -> tuple[Array, Array, Array]:

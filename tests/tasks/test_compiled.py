@@ -51,8 +51,12 @@ def _task_observation(task: object) -> dict:
     return task.observe()
 
 
-_SEPARATION = {SectorCRTask: (sc.INTRUSION_DISTANCE, None), MergeTask: (mg.INTRUSION_DISTANCE, None), HorizontalCRTask: (5.0, None),
-               VerticalCRTask: (5.0, 1000 * 0.3048)}
+_SEPARATION = {
+    SectorCRTask: (sc.INTRUSION_DISTANCE, None),
+    MergeTask: (mg.INTRUSION_DISTANCE, None),
+    HorizontalCRTask: (5.0, None),
+    VerticalCRTask: (5.0, 1000 * 0.3048),
+}
 
 
 @pytest.mark.parametrize("task_class", [SectorCRTask, MergeTask, HorizontalCRTask, VerticalCRTask])
@@ -101,8 +105,9 @@ def test_closest_intruders_keep_the_stable_order_of_ties_and_skip_empty_slots() 
     own = np.empty((200, 4))
     out = np.empty((200, 7, 5))
     count = np.empty(200, np.int64)
-    compiled.merge_observe(np.arange(200), np.zeros(200, np.int64), lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7),
-                           mg._OBS_SCALES, own, out, count)
+    compiled.merge_observe(
+        np.arange(200), np.zeros(200, np.int64), lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7), mg._OBS_SCALES, own, out, count
+    )
     # distances column: the numpy order (stable argsort, empty slots last) of kwikdist_matrix.
     d = ref_kwikdist_matrix(lat[:, :1], lon[:, :1], lat[:, 1:], lon[:, 1:])
     order = np.argsort(np.where(active[:, 1:], d, np.inf), axis=1, kind="stable")[:, :5]

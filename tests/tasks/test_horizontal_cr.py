@@ -125,8 +125,14 @@ def test_observation_matches_hand_computed_geometry() -> None:
     s.lat[0, 2], s.lon[0, 2], s.hdg[0, 2], s.gs[0, 2] = _north_of(52.0, 45_000.0), 4.0, 0.0, 89.0
     obs = task.observe()
     assert set(obs) == {
-        "intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed",
-        "waypoint_distance", "cos_drift", "sin_drift",
+        "intruder_distance",
+        "cos_difference_pos",
+        "sin_difference_pos",
+        "x_difference_speed",
+        "y_difference_speed",
+        "waypoint_distance",
+        "cos_drift",
+        "sin_drift",
     }
     assert all(v.dtype == np.float64 for v in obs.values())
     np.testing.assert_allclose(obs["intruder_distance"][0, :2], [15 / 150, 45 / 150], rtol=1e-9)

@@ -233,8 +233,7 @@ def test_shortest_tour_matches_brute_force() -> None:
     for e in range(3):
         nodes = [(52.0, 4.0)] + list(zip(task.wpt_lat[e], task.wpt_lon[e], strict=True))
         best = min(
-            sum(kwik(*nodes[a], *nodes[b])[1] for a, b in zip((0, *order), order, strict=False))
-            for order in itertools.permutations(range(1, 6))
+            sum(kwik(*nodes[a], *nodes[b])[1] for a, b in zip((0, *order), order, strict=False)) for order in itertools.permutations(range(1, 6))
         )
         assert task.tour_km[e] == pytest.approx(best, rel=1e-12)
 

@@ -183,10 +183,20 @@ def test_waypoint_rejection_gives_up_at_the_1001st_try() -> None:
 
 
 def test_generation_raises_when_obstacles_cover_the_waypoint_range() -> None:
-    task = StaticObstacleTask(1, StaticObstacleTask.make_config({
-        "num_obstacles": 40, "obstacle_distance_min": 0, "obstacle_distance_max": 1, "obstacle_area_min": 3900,
-        "obstacle_area_max": 7850, "waypoint_distance_min": 5, "waypoint_distance_max": 6,
-    }))
+    task = StaticObstacleTask(
+        1,
+        StaticObstacleTask.make_config(
+            {
+                "num_obstacles": 40,
+                "obstacle_distance_min": 0,
+                "obstacle_distance_max": 1,
+                "obstacle_area_min": 3900,
+                "obstacle_area_max": 7850,
+                "waypoint_distance_min": 5,
+                "waypoint_distance_max": 6,
+            }
+        ),
+    )
     task.seed(task.all_envs, [np.random.default_rng(0)])
     with pytest.raises(RuntimeError, match="1000 tries"):
         task.reset()

@@ -183,7 +183,10 @@ def test_draw_order_is_the_reference_order() -> None:
             else:
                 dh = rng.integers(int(target - alt - 500), int(target - alt + 500))
             assert (task.conflict_dpsi[0, i], task.conflict_dcpa[0, i], task.conflict_tlosh[0, i], task.conflict_dh[0, i]) == (
-                dpsi, dcpa, tlosh, dh,
+                dpsi,
+                dcpa,
+                tlosh,
+                dh,
             )
 
 
