@@ -1,10 +1,9 @@
 """The compiled observation and reward geometry of the traffic tasks (the only implementation).
 
-At one episode a step of SectorCR, Merge or
-StaticObstacle issues a hundred small numpy calls (kwik geometry, sorting the intruders, polygon
-tests), which cost far more than the physics; at large batches the same code makes a dozen passes
-over (episodes, aircraft) arrays. The functions here compute the same quantities in one loop per
-episode with numba.
+Written with numpy arrays, one step of SectorCR, Merge or StaticObstacle at one episode would
+issue a hundred small numpy calls (kwik geometry, sorting the intruders, polygon tests), costing
+far more than the physics, and at large batches a dozen passes over (episodes, aircraft) arrays.
+The functions here compute those quantities in one loop per episode with numba.
 
 They are bit-identical to the readable numpy forms kept as test oracles (``tests/oracle``): the
 same operations in the same order (numpy's ``deg2rad``/``rad2deg`` factors, its float remainder,
