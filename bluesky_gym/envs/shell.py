@@ -25,7 +25,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from bluesky_gym.envs.registry import scene_builder
-from bluesky_gym.tasks.base import BoxSpec, StepResult, Task
+from bluesky_gym.tasks.base import BoxSpec, StepResult, Task, numeric_action
 
 RENDER_MODES = ["rgb_array", "human"]
 RENDER_FPS = 30
@@ -155,7 +155,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
         """Advance one decision step. Out-of-range actions are clipped to the action space."""
         if self._needs_reset:
             raise RuntimeError("step() called before reset() or after the episode ended (terminated or truncated); call reset() first")
-        a = np.asarray(action, dtype=np.float64) if not isinstance(action, np.ndarray) else action
+        a = numeric_action(action, self.task.action_spec.shape)
         if a.shape != self.action_space.shape:
             if a.size == int(np.prod(self.task.action_spec.shape)) and a.ndim <= 1:
                 a = a.reshape(self.action_space.shape)

@@ -35,7 +35,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, command_heading_and_speed
+from bluesky_gym.tasks.base import (
+    Array,
+    BoolArray,
+    BoxSpec,
+    StepGeometry,
+    Task,
+    TaskConfig,
+    check_int,
+    command_heading_and_speed,
+    numeric_action,
+)
 from bluesky_gym.tasks.geometry import latlon_to_nm
 
 IntArray = NDArray[np.int64]
@@ -330,10 +340,7 @@ class MultiAgentTask(abc.ABC):
         """Validate a batch of joint actions (n_envs, n_agents, dim) and clip it to the action space."""
         spec = self.action_spec
         shape = (self.n_envs, self.n_agents, *spec.shape)
-        try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"action must be numeric with shape {shape}, got {action!r}") from exc
+        a = numeric_action(action, shape)
         if a.shape != shape:
             raise ValueError(f"action has shape {a.shape}, expected {shape} for {self.name}")
         if not np.all(np.isfinite(a)):

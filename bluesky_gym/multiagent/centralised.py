@@ -33,6 +33,7 @@ from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, flatten_
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
+from bluesky_gym.tasks.base import numeric_action
 
 RENDER_MODES = ["rgb_array", "human"]
 RENDER_FPS = 30
@@ -99,7 +100,7 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
         """Apply the joint action (out-of-range values are clipped)."""
         if self._needs_reset:
             raise RuntimeError("step() called before reset() or after the episode ended; call reset() first")
-        a = np.asarray(action, dtype=np.float64)
+        a = numeric_action(action, self.action_space.shape or ())
         if a.size != int(np.prod(self.action_space.shape or ())):
             raise ValueError(f"action has shape {a.shape}, expected {self.action_space.shape}")
         res = self.task.step(a.reshape(1, self.task.n_agents, *self.task.action_spec.shape))

@@ -93,6 +93,26 @@ class TaskConfig:
         """Raise ``ValueError`` naming the first invalid field."""
 
 
+def numeric_action(action: Any, expected: tuple[int, ...]) -> Array:
+    """``action`` as a float64 array, refusing what is not real numbers.
+
+    Strings, bytes, complex numbers, objects and ragged nestings are refused with a ``ValueError``
+    naming the expected shape, instead of being converted (``'0.5'`` -> 0.5, the imaginary part
+    dropped) or failing inside numpy.
+
+    Args:
+        action: The action as given.
+        expected: The shape it should have (for the message).
+    """
+    try:
+        raw = action if isinstance(action, np.ndarray) else np.asarray(action)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f"action must be an array of real numbers with shape {expected}, got {action!r}") from exc
+    if raw.dtype.kind not in "biuf":
+        raise ValueError(f"action must be an array of real numbers with shape {expected}, got {action!r} (dtype {raw.dtype})")
+    return np.asarray(raw, dtype=np.float64)
+
+
 def check_int(name: str, value: Any, low: int, high: int | None = None) -> None:
     """Validate an integer option in [low, high]."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
@@ -445,10 +465,7 @@ class Task(abc.ABC):
     def clip_action(self, action: Any) -> Array:
         """Validate a batch of actions and clip it to the action space."""
         spec = self.action_spec
-        try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"action must be numeric with shape {(self.n_envs, *spec.shape)}, got {action!r}") from exc
+        a = numeric_action(action, (self.n_envs, *spec.shape))
         if a.shape != (self.n_envs, *spec.shape):
             raise ValueError(f"action has shape {a.shape}, expected {(self.n_envs, *spec.shape)} for {self.env_id}")
         if not np.isfinite(a).all():

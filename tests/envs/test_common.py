@@ -176,3 +176,32 @@ def test_step_after_episode_end_raises(env_id: str) -> None:
     assert any(k.startswith("kpi_") for k in info), "KPIs missing at the end of the episode"
     with pytest.raises(RuntimeError, match="ended"):
         env.step(env.action_space.sample())
+
+
+NOT_NUMBERS = [
+    pytest.param("0.5", id="numeric-string"),
+    pytest.param(b"1", id="bytes"),
+    pytest.param(np.array([0.5 + 1j]), id="complex"),
+    pytest.param([[0.1, 0.2], [0.3]], id="ragged"),
+    pytest.param({"a": 1}, id="dict"),
+    pytest.param(10**400, id="huge-int"),
+    pytest.param(None, id="none"),
+]
+
+
+@pytest.mark.parametrize("bad", NOT_NUMBERS)
+@pytest.mark.parametrize("env_id", IDS)
+def test_actions_that_are_not_real_numbers_are_refused_by_the_env(env_id: str, bad: object) -> None:
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="real numbers"):
+        env.step(bad)
+
+
+@pytest.mark.parametrize("bad", NOT_NUMBERS)
+def test_batched_actions_that_are_not_real_numbers_are_refused(bad: object) -> None:
+    venv = gym.make_vec(IDS[0], num_envs=2, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    with pytest.raises(ValueError, match="real numbers"):
+        venv.step(bad)
+    venv.close()

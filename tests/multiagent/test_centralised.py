@@ -102,3 +102,14 @@ def test_render_rgb_array(monkeypatch: pytest.MonkeyPatch) -> None:
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.shape[2] == 3
     env.close()
+
+
+@pytest.mark.parametrize("bad", ["0.5", b"1", None])
+def test_joint_actions_that_are_not_real_numbers_are_refused(bad: object) -> None:
+    env = gym.make("HorizontalCRCentralised-v0").unwrapped
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="real numbers"):
+        env.step(bad)
+    task = ma.task_class("sector_cr_v0")(1)
+    with pytest.raises(ValueError, match="real numbers"):
+        task.step(np.full((1, task.n_agents, *task.action_spec.shape), 0.5 + 1j))
