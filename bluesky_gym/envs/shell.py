@@ -25,7 +25,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from bluesky_gym.envs.registry import scene_builder
-from bluesky_gym.tasks.base import BoxSpec, StepResult, Task, numeric_action
+from bluesky_gym.tasks.base import BoxSpec, StepResult, Task, check_int, numeric_action
 
 RENDER_MODES = ["rgb_array", "human"]
 RENDER_FPS = 30
@@ -118,6 +118,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
         self.action_space = _box(self.task.action_spec)
         self._renderer: Any = None
         self._needs_reset = True
+        self._reset_once = False
         self._last_reward = 0.0
         self._last_info: dict[str, Any] = {}
 
@@ -143,6 +144,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
         self.task.seed(np.array([0]), [self.np_random])
         self.task.reset()
         self._needs_reset = False
+        self._reset_once = True
         self._last_reward = 0.0
         obs = {k: v[0].copy() for k, v in self.task.observation().items()}
         info = {k: _scalar(v[0]) for k, v in self.task.episode_info().items()}
@@ -177,6 +179,8 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human' to gym.make")
             return None
+        if not self._reset_once:
+            raise RuntimeError("render() called before reset(): there is no state to draw yet; call reset() first")
         if self._renderer is None:
             from bluesky_gym.render import make_renderer
 
@@ -238,6 +242,9 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         **options: Any,
     ) -> None:
         _check_render_mode(render_mode)
+        check_int("num_envs", num_envs, 1)
+        check_int("render_env", render_env, 0)
+        check_int("render_grid", render_grid, 1)
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
         self.render_env = int(render_env)
@@ -342,6 +349,8 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode")
             return None
+        if not self._reset_once:
+            raise RuntimeError("render() called before reset(): there is no state to draw yet; call reset() first")
         if self._renderer is None:
             from bluesky_gym.render import make_renderer
 

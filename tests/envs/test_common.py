@@ -205,3 +205,30 @@ def test_batched_actions_that_are_not_real_numbers_are_refused(bad: object) -> N
     with pytest.raises(ValueError, match="real numbers"):
         venv.step(bad)
     venv.close()
+
+
+@pytest.mark.parametrize("num_envs", [2.5, "4", True, 0, -1])
+def test_make_vec_refuses_a_batch_size_that_is_not_a_positive_integer(num_envs: object) -> None:
+    with pytest.raises(ValueError, match="num_envs"):
+        gym.make_vec(IDS[0], num_envs=num_envs, vectorization_mode="vector_entry_point")
+
+
+def test_integer_options_beyond_int64_are_refused() -> None:
+    with pytest.raises(ValueError, match="64-bit"):
+        gym.make("HorizontalCREnv-v0", dcpa_max=2**63)
+    with pytest.raises(ValueError, match="64-bit"):
+        gym.make("HorizontalCREnv-v0", max_episode_steps=None, num_intruders=-(2**70))
+
+
+def test_render_before_reset_is_an_error_not_a_picture_of_nothing() -> None:
+    pytest.importorskip("pygame")
+    env = gym.make(IDS[0], render_mode="rgb_array").unwrapped
+    with pytest.raises(RuntimeError, match="before reset"):
+        env.render()
+    env.reset(seed=0)
+    assert env.render().ndim == 3
+    venv = gym.make_vec(IDS[0], num_envs=2, vectorization_mode="vector_entry_point", render_mode="rgb_array")
+    with pytest.raises(RuntimeError, match="before reset"):
+        venv.render()
+    venv.reset(seed=0)
+    assert venv.render().ndim == 3
