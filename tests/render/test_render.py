@@ -57,7 +57,8 @@ def _same(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> bool:
 @pytest.mark.parametrize("env_id", IDS)
 def test_rgb_array_single_env(env_id: str) -> None:
     env = gym.make(env_id, render_mode="rgb_array")
-    _check_frame(env.unwrapped.render())  # before the first reset: an empty scene, no error
+    with pytest.raises(RuntimeError, match="before reset"):  # no state to draw yet
+        env.unwrapped.render()
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     first = _check_frame(env.render())
