@@ -21,7 +21,7 @@ BlueSky keeps its simulator in module-level singletons, so a process holds one o
 each, e.g. ``gymnasium.make_vec(env_id, num_envs=4, vectorization_mode="async",
 backend="bluesky")``.
 
-The ``bluesky`` extra (``pip install "bluesky-gym[bluesky]"``) installs BlueSky 1.1.1 with
+The ``bluesky`` extra (``pip install -e ".[bluesky]"``) installs BlueSky 1.1.1 with
 ``numpy<2.4``: BlueSky 1.1.1's scalar wind look-up, used by every ``creconfs``, fails on numpy 2.4.
 """
 
@@ -41,13 +41,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bluesky_gym.core.extras import missing_extra
 from bluesky_gym.core.state import STATE_FIELDS, aircraft_index
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
 
 ACTYPE = "A320"
-INSTALL_HINT = 'pip install "bluesky-gym[bluesky]"'
 
 # State array -> (object under bs.traf, or "" for bs.traf itself; attribute). These are read
 # after every step, creation and command.
@@ -108,12 +108,10 @@ def load_bluesky() -> ModuleType:
     try:
         import bluesky
     except ImportError as exc:
-        raise ImportError(f"the 'bluesky' backend needs the BlueSky simulator (bluesky-simulator 1.1.1): {INSTALL_HINT}") from exc
+        raise missing_extra("the 'bluesky' backend needs the BlueSky simulator (bluesky-simulator 1.1.1)", "bluesky") from exc
     major, minor = (int(x) for x in np.__version__.split(".")[:2])
     if (major, minor) >= (2, 4):
-        raise ImportError(
-            f"BlueSky 1.1.1 needs numpy<2.4 (its wind look-up, used by every creconfs, fails on numpy {np.__version__}): {INSTALL_HINT}"
-        )
+        raise missing_extra(f"BlueSky 1.1.1 needs numpy<2.4 (its wind look-up, used by every creconfs, fails on numpy {np.__version__})", "bluesky")
     if bluesky.sim is None:
         out = io.StringIO()
         try:
@@ -245,7 +243,7 @@ class BlueSkyPhysics:
         max_waypoints: Route capacity per aircraft (BlueSky has none; kept for the interface).
 
     Raises:
-        ImportError: BlueSky is not installed (``pip install "bluesky-gym[bluesky]"``).
+        ImportError: BlueSky is not installed (``pip install -e ".[bluesky]"``).
         RuntimeError: Another :class:`BlueSkyPhysics` is open in this process.
     """
 

@@ -13,7 +13,7 @@ runs and resumes interrupted ones from their last checkpoint (model, optimiser, 
 and timesteps), so a killed sweep loses at most the steps since each run's last checkpoint.
 Result files are replaced atomically: a killed sweep never leaves a half-written result.
 
-By default the runs are Ray tasks (``pip install "bluesky-gym[distributed]"``): on a local Ray
+By default the runs are Ray tasks (``pip install -e ".[distributed]"``): on a local Ray
 instance, or on the cluster at ``--address`` (then ``--out`` must be a directory every node
 sees). ``--local`` runs them one after the other in this process, without Ray.
 

@@ -17,7 +17,7 @@ scenarios, and a KPI table is printed: losses of separation per episode and per 
 pair-steps, minimum separation, mean |drift|, fraction of agents that completed (exit / arrival)
 and return per agent (mean +- 95% half-width over the episodes).
 
-Needs Stable-Baselines3 and PyTorch: ``pip install "bluesky-gym[train]"``.
+Needs Stable-Baselines3 and PyTorch: ``pip install -e ".[train]"``.
 """
 
 from __future__ import annotations

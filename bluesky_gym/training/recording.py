@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from bluesky_gym.core.extras import missing_extra
+
 Actor = Callable[[dict[str, np.ndarray]], np.ndarray]
 NAMED_POLICIES = ("random", "classical")
 SB3_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "a2c": "A2C"}
@@ -55,7 +57,7 @@ def make_actor(policy: str, env_id: str, action_space: Any, seed: int, algo: str
     try:
         import stable_baselines3 as sb3
     except ImportError as exc:
-        raise ImportError('loading a model needs Stable-Baselines3: pip install "bluesky-gym[train]"') from exc
+        raise missing_extra("loading a model needs Stable-Baselines3", "train") from exc
     name = algo or _algo_from_zip(path)
     model = getattr(sb3, SB3_ALGORITHMS[name]).load(path, device="cpu")
 
