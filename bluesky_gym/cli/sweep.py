@@ -2,10 +2,12 @@
 
 Examples::
 
-    bluesky-gym sweep --envs DescentEnv-v0 MergeEnv-v0 --algos PPO SAC --seeds 0 1 2 --steps 100000 --local
-    bluesky-gym sweep --envs all --algos all --seeds 0 1 2 --steps 2e6              # Ray on this machine
-    bluesky-gym sweep --envs all --algos all --seeds 0 1 2 --address ray://head:10001 --out sweeps/paper
-    bluesky-gym sweep --envs all --algos all --steps 2e6 --estimate       # how long would the grid take here?
+    bluesky-gym sweep --env DescentEnv-v0,MergeEnv-v0 --algos PPO SAC --seeds 0 1 2 \
+        --steps 100000 --local
+    bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6      # Ray on this machine
+    bluesky-gym sweep --env all --algos all --seeds 0 1 2 --address ray://head:10001 \
+        --out sweeps/paper
+    bluesky-gym sweep --env all --algos all --steps 2e6 --estimate  # how long would it take?
 
 Every run goes to ``<out>/<ID>/<ALGO>/seed_<S>`` (the same layout as ``train``) with the paper's
 hyperparameters unless ``--config`` overrides them. Rerunning the same command skips finished
@@ -33,7 +35,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.train import add_run_options, load_config, non_negative_int, positive_int, run_overrides
+from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int
+from bluesky_gym.cli.train import add_run_options, load_config, run_overrides
 from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.training import ALGORITHMS
 
@@ -44,9 +47,9 @@ def add_parser(subparsers: Any) -> None:
         "sweep",
         help="train the grid of environments x algorithms x seeds (Ray or --local)",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--envs", nargs="+", required=True, metavar="ID", help="environment ids, or 'all'")
+    add_env_option(p, several=True)
+    deprecated_alias(p, "--envs", "--env", "env", extend=True, nargs="+", metavar="ID")
     p.add_argument("--algos", nargs="+", default=["all"], metavar="ALGO", help=f"algorithms ({', '.join(ALGORITHMS)}) or 'all' (default)")
     p.add_argument("--seeds", nargs="+", type=non_negative_int, default=[0], metavar="S", help="run seeds (default: 0)")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), metavar="DIR", help="sweep directory (default: runs/sweep)")
@@ -96,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
 
     verbose = 0 if args.quiet else 1
     try:
-        envs = _expand(args.envs, bluesky_gym.available_envs(), "environment")
+        envs = _expand(args.env, bluesky_gym.available_envs(), "environment")
         algos = _expand(args.algos, ALGORITHMS, "algorithm")
         config = load_config(args.config)
         if args.estimate:

@@ -1,8 +1,9 @@
 """Train a policy shared by all agents with PPO and compare its KPIs with random and classical policies.
 
-Usage::
+Usage (the command line is ``bluesky-gym train-ma``; this module's own ``main`` is kept for
+existing scripts and prints a deprecation warning)::
 
-    python -m bluesky_gym.multiagent.train --env sector_cr_v0 --timesteps 1000000 --seed 0
+    bluesky-gym train-ma --env sector_cr_v0 --steps 1e6 --seed 0
 
 The policy is trained on :class:`~bluesky_gym.multiagent.sb3.SharedPolicyVecEnv`: every agent
 slot of ``--episodes`` parallel multi-agent episodes is one row, ``--timesteps`` counts row-steps
@@ -127,16 +128,54 @@ def train(
     return model, venv
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Train, evaluate and print the KPI table; returns the exit code."""
-    args = build_parser().parse_args(argv)
+def train_and_compare(
+    env: str,
+    timesteps: int,
+    *,
+    eval_episodes: int = DEFAULTS["eval_episodes"],
+    threads: int = 1,
+    save: str | None = None,
+    **hyperparams: Any,
+) -> None:
+    """Train a shared policy (:func:`train`), evaluate it with the references and print the KPI table.
+
+    Args:
+        env: Multi-agent environment name.
+        timesteps: PPO row-steps.
+        eval_episodes: Held-out evaluation episodes.
+        threads: PyTorch threads.
+        save: Save the model to ``save.zip`` and the observation statistics to ``save.pkl``.
+        **hyperparams: Keyword arguments of :func:`train` (``episodes``, ``n_steps``, ``seed``, ...).
+
+    """
     import torch
 
-    torch.set_num_threads(args.threads)
+    torch.set_num_threads(threads)
     t0 = time.time()
-    model, normalizer = train(
+    model, normalizer = train(env, timesteps, **hyperparams)
+    rows = normalizer.venv
+    print(f"trained {env}: {timesteps} row-steps ({rows.num_envs} rows), {rows.episodes_done} training episodes, {time.time() - t0:.0f} s")
+    if save:
+        model.save(f"{save}.zip")
+        normalizer.save(f"{save}.pkl")
+        print(f"saved {save}.zip and {save}.pkl")
+    t1 = time.time()
+    policies = (RandomPolicy(seed=hyperparams.get("seed", 0)), GeometricCRPolicy(), SharedSB3Policy(model, normalizer=normalizer, name="shared PPO"))
+    results = {p.name: evaluate(env, p, eval_episodes) for p in policies}
+    print(f"evaluation on {eval_episodes} held-out episodes ({time.time() - t1:.0f} s):")
+    print(kpi_table(results))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Train, evaluate and print the KPI table; returns the exit code (deprecated: use ``bluesky-gym train-ma``)."""
+    args = build_parser().parse_args(argv)
+    print("python -m bluesky_gym.multiagent.train: warning: deprecated; use `bluesky-gym train-ma` (--steps, --num-envs)", file=sys.stderr)
+    train_and_compare(
         args.env,
         args.timesteps,
+        eval_episodes=args.eval_episodes,
+        threads=args.threads,
+        save=args.save,
         episodes=args.episodes,
         n_steps=args.n_steps,
         batch_size=args.batch_size,
@@ -146,17 +185,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         log_std_init=args.log_std_init,
         seed=args.seed,
     )
-    rows = normalizer.venv
-    print(f"trained {args.env}: {args.timesteps} row-steps ({rows.num_envs} rows), {rows.episodes_done} training episodes, {time.time() - t0:.0f} s")
-    if args.save:
-        model.save(f"{args.save}.zip")
-        normalizer.save(f"{args.save}.pkl")
-        print(f"saved {args.save}.zip and {args.save}.pkl")
-    t1 = time.time()
-    policies = (RandomPolicy(seed=args.seed), GeometricCRPolicy(), SharedSB3Policy(model, normalizer=normalizer, name="shared PPO"))
-    results = {p.name: evaluate(args.env, p, args.eval_episodes) for p in policies}
-    print(f"evaluation on {args.eval_episodes} held-out episodes ({time.time() - t1:.0f} s):")
-    print(kpi_table(results))
     return 0
 
 

@@ -111,8 +111,16 @@ RUN_KEYS = frozenset(PAPER["run"])
 
 
 def load_config_file(path: str | Path) -> dict[str, Any]:
-    """Read a config file (``.toml`` or ``.json``) and check its layout."""
+    """Read a config file (``.toml`` or ``.json``) and check its layout.
+
+    Raises:
+        ValueError: The file is missing, unreadable, not valid TOML/JSON (the message names the
+            file and the line) or does not have the layout of :data:`PAPER`.
+
+    """
     p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"config file {p} not found")
     if p.suffix.lower() == ".toml":
         try:
             if sys.version_info >= (3, 11):
@@ -121,10 +129,18 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
                 import tomli as tomllib
         except ModuleNotFoundError as exc:  # Python 3.10 without tomli
             raise ValueError(f"reading {p} needs Python >= 3.11 or the 'tomli' package; or use a .json config") from exc
-        with open(p, "rb") as f:
-            data = tomllib.load(f)
+        try:
+            with open(p, "rb") as f:
+                data = tomllib.load(f)
+        except tomllib.TOMLDecodeError as exc:  # its message ends with "(at line L, column C)"
+            raise ValueError(f"{p}: not valid TOML: {exc}") from None
     elif p.suffix.lower() == ".json":
-        data = json.loads(p.read_text(encoding="utf-8"))
+        try:
+            data = json.loads(p.read_text(encoding="utf-8"))
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{p}, line {exc.lineno}, column {exc.colno}: not valid JSON: {exc.msg}") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"{p}: expected a JSON object with the sections run, algos, env_options")
     else:
         raise ValueError(f"config file {p} must end in .toml or .json")
     check_config(data, source=str(p))
