@@ -2,10 +2,10 @@
 
 Examples::
 
-    bluesky-gym sweep --env DescentEnv-v0,MergeEnv-v0 --algos PPO SAC --seeds 0 1 2 \
+    bluesky-gym sweep --env DescentEnv-v0,MergeEnv-v0 --algos PPO SAC --seeds 0 1 2 \\
         --steps 100000 --local
     bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6      # Ray on this machine
-    bluesky-gym sweep --env all --algos all --seeds 0 1 2 --address ray://head:10001 \
+    bluesky-gym sweep --env all --algos all --seeds 0 1 2 --address ray://head:10001 \\
         --out sweeps/paper
     bluesky-gym sweep --env all --algos all --steps 2e6 --estimate  # how long would it take?
 
@@ -61,7 +61,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--quiet", action="store_true", help="fewer messages")
     est = p.add_argument_group("estimating the time of a grid (nothing is trained)")
     est.add_argument("--estimate", action="store_true", help="measure steps/s per algorithm and environment and extrapolate the grid's time")
-    est.add_argument("--probe-env", metavar="ID", help="environment the algorithms are timed on (default: the first of --envs)")
+    est.add_argument("--probe-env", metavar="ID", help="environment the algorithms are timed on (default: the first of --env)")
     est.add_argument("--probe-steps", type=positive_int, default=2048, metavar="N", help="timed training steps per algorithm (default: 2048)")
     p.set_defaults(func=run)
 
