@@ -93,7 +93,7 @@ def add_parser(subparsers: Any) -> None:
     bench = subparsers.add_parser(
         "bench",
         help="measure simulation and environment throughput",
-        description="Throughput of the native core and of the environments, compared with BlueSky and the reference bluesky-gym 0.2.0.",
+        description="Throughput of the native core and of the environments,\ncompared with BlueSky and the reference bluesky-gym 0.2.0.",
     )
     sub = bench.add_subparsers(dest="bench_command", metavar="WHAT")
     sub.required = True

@@ -1,9 +1,9 @@
-"""``bluesky-gym eval``: deterministic evaluation on held-out scenarios, as a KPI table.
+r"""``bluesky-gym eval``: deterministic evaluation on held-out scenarios, as a KPI table.
 
 Examples::
 
     bluesky-gym eval --env DescentEnv-v0 --model runs/DescentEnv-v0/PPO/seed_0 --episodes 100
-    bluesky-gym eval --env MergeEnv-v0 --model random --model classical \\
+    bluesky-gym eval --env MergeEnv-v0 --model random --model classical \
         --model runs/MergeEnv-v0/SAC/seed_0/model.zip
     bluesky-gym eval --env SectorCREnv-v0 --model classical --episodes 200 --out results/sector
 

@@ -1,11 +1,11 @@
-"""``bluesky-gym sweep``: the benchmark grid (environments x algorithms x seeds), resumable.
+r"""``bluesky-gym sweep``: the benchmark grid (environments x algorithms x seeds), resumable.
 
 Examples::
 
-    bluesky-gym sweep --env DescentEnv-v0,MergeEnv-v0 --algos PPO SAC --seeds 0 1 2 \\
+    bluesky-gym sweep --env DescentEnv-v0,MergeEnv-v0 --algos PPO SAC --seeds 0 1 2 \
         --steps 100000 --local
     bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6      # Ray on this machine
-    bluesky-gym sweep --env all --algos all --seeds 0 1 2 --address ray://head:10001 \\
+    bluesky-gym sweep --env all --algos all --seeds 0 1 2 --address ray://head:10001 \
         --out sweeps/paper
     bluesky-gym sweep --env all --algos all --steps 2e6 --estimate  # how long would it take?
 
