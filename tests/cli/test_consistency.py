@@ -275,3 +275,43 @@ def test_the_multi_agent_trainer_is_a_subcommand(tmp_path: Path) -> None:
     assert "trained merge_v0" in run.stdout and "shared PPO" in run.stdout
     bad = run_cli("train-ma", "--env", "DescentEnv-v0", cwd=tmp_path)
     assert bad.returncode == 2 and "must be one of horizontal_cr_v0, sector_cr_v0, merge_v0" in _one_error_line(bad.stderr, "bluesky-gym train-ma")
+
+
+def _documented_commands() -> list[tuple[str, str]]:
+    """Every concrete ``bluesky-gym`` command of the README, the docs and the subcommands' examples."""
+    from .conftest import ROOT
+
+    found: list[tuple[str, str]] = []
+    for path in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        in_code = False
+        for line in path.read_text(encoding="utf-8").splitlines():
+            if line.startswith("```"):
+                in_code = not in_code
+                continue
+            m = re.match(r"^\s*(?:\$ )?(?:\S*/)?bluesky-gym (.*)$", line) if in_code else None
+            if m:
+                found.append((path.name, m.group(1)))
+    for module in sorted((ROOT / "bluesky_gym" / "cli").glob("*.py")):
+        text = module.read_text(encoding="utf-8").replace("\\\n", " ")
+        for m in re.finditer(r"^    bluesky-gym (.*)$", text, flags=re.MULTILINE):
+            found.append((module.name, m.group(1)))
+    return found
+
+
+def test_every_documented_command_uses_the_current_spellings(capsys: pytest.CaptureFixture[str]) -> None:
+    import shlex
+
+    from bluesky_gym.cli.arguments import chosen_env
+
+    commands = _documented_commands()
+    assert len(commands) > 20
+    for source, command in commands:
+        words = shlex.split(command, comments=True)
+        if words and words[0] == "&&":
+            continue
+        words = words[: words.index("&&")] if "&&" in words else words
+        args, extras = build_parser().parse_known_args(words)
+        assert not extras, (source, command, extras)
+        if hasattr(args, "env_required"):
+            chosen_env(args.cli_parser, args)
+        assert capsys.readouterr().err == "", (source, command)
