@@ -35,8 +35,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int
-from bluesky_gym.cli.train import add_run_options, load_config, run_overrides
+from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int, warn
+from bluesky_gym.cli.train import add_run_options, check_device, load_config, ppo_rounding, run_overrides
 from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.training import ALGORITHMS
 
@@ -105,6 +105,11 @@ def run(args: argparse.Namespace) -> int:
         if args.estimate:
             return _estimate(args, config, envs, algos, verbose)
         cells = plan(config, envs, algos, args.seeds, args.out, **run_overrides(args))
+        check_device(cells[0].spec.device)
+        if verbose and args.steps is not None:
+            for note in dict.fromkeys(ppo_rounding(c.spec.algo, c.spec.hyperparams, c.spec.n_envs, c.spec.total_timesteps) for c in cells):
+                if note:
+                    warn("bluesky-gym sweep", note)
         if verbose:
             print(f"sweep of {len(cells)} runs ({len(envs)} environments x {len(algos)} algorithms x {len(args.seeds)} seeds) -> {args.out}")
         results = run_local(cells, verbose) if args.local else run_ray(cells, args.address, args.cpus_per_run, verbose)

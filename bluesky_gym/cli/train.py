@@ -148,7 +148,7 @@ def run_train(args: argparse.Namespace) -> int:
         config = load_config(args.config)
         spec = make_run_spec(config, args.env, args.algo, args.seed, **run_overrides(args))
         check_device(spec.device)
-        if not args.quiet:
+        if not args.quiet and args.steps is not None:
             note = ppo_rounding(spec.algo, spec.hyperparams, spec.n_envs, spec.total_timesteps)
             if note:
                 warn("bluesky-gym train", note)
@@ -173,7 +173,12 @@ def run_train(args: argparse.Namespace) -> int:
 def run_demo(args: argparse.Namespace) -> int:
     """Run the ``demo`` subcommand."""
     from bluesky_gym.training.demo import run_demo as demo
+    from bluesky_gym.training.hyperparams import DEMO, PAPER, merge, resolve
 
+    run, hp, _ = resolve(merge(PAPER, DEMO), args.env, "PPO")
+    note = ppo_rounding("PPO", hp, args.num_envs or int(run["n_envs"]), args.steps) if args.steps is not None else None
+    if note:
+        warn("bluesky-gym demo", note)
     try:
         demo(
             args.env,

@@ -319,7 +319,7 @@ def check_model_spaces(model: Any, model_path: Path, env_id: str, observation_sp
 
     def shapes(space: Any) -> dict[str, tuple[int, ...]]:
         if isinstance(space, gym.spaces.Dict):
-            return {k: tuple(v.shape) for k, v in space.spaces.items()}
+            return {k: tuple(v.shape or ()) for k, v in space.spaces.items()}
         return {"": tuple(space.shape or ())}
 
     mine, theirs = shapes(model.observation_space), shapes(observation_space)
