@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -93,3 +94,23 @@ def test_the_sb3_error_carries_the_hint(monkeypatch: pytest.MonkeyPatch) -> None
     monkeypatch.setitem(sys.modules, "stable_baselines3", None)
     with pytest.raises(MissingDependencyError, match=re.escape(install_hint("train"))):
         extras.require_sb3()
+
+
+def test_the_hint_from_the_checkouts_own_built_metadata(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The metadata setuptools builds from pyproject.toml gives every extra's requirements, self-references expanded."""
+    import importlib.metadata
+
+    build_meta = pytest.importorskip("setuptools.build_meta")
+    monkeypatch.chdir(ROOT)
+    dist_info = build_meta.prepare_metadata_for_build_wheel(str(tmp_path))
+    for leftover in ROOT.glob("*.egg-info"):
+        shutil.rmtree(leftover)
+    dist = importlib.metadata.PathDistribution(tmp_path / dist_info)
+    assert dist.metadata["Name"] == DISTRIBUTION
+    monkeypatch.setattr(extras.importlib.metadata, "distribution", lambda name: dist)
+    monkeypatch.setattr(extras, "source_checkout", lambda: None)
+    declared = PYPROJECT["project"]["optional-dependencies"]
+    assert install_hint("train") == "pip install " + " ".join(f'"{r}"' for r in declared["train"])
+    everything = {Requirement(r).name for r in re.findall(r'"([^"]+)"', install_hint("all"))}
+    expected = {Requirement(r).name for extra in ("render", "train", "multiagent", "distributed", "test", "dev") for r in declared[extra]}
+    assert everything == expected - {DISTRIBUTION}
