@@ -119,6 +119,8 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
 
     """
     p = Path(path)
+    if p.suffix.lower() not in (".toml", ".json"):
+        raise ValueError(f"config file {p} must end in .toml or .json")
     if not p.is_file():
         raise ValueError(f"config file {p} not found")
     if p.suffix.lower() == ".toml":
@@ -134,15 +136,13 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
                 data = tomllib.load(f)
         except tomllib.TOMLDecodeError as exc:  # its message ends with "(at line L, column C)"
             raise ValueError(f"{p}: not valid TOML: {exc}") from None
-    elif p.suffix.lower() == ".json":
+    else:  # .json
         try:
             data = json.loads(p.read_text(encoding="utf-8"))
         except json.JSONDecodeError as exc:
             raise ValueError(f"{p}, line {exc.lineno}, column {exc.colno}: not valid JSON: {exc.msg}") from None
         if not isinstance(data, dict):
             raise ValueError(f"{p}: expected a JSON object with the sections run, algos, env_options")
-    else:
-        raise ValueError(f"config file {p} must end in .toml or .json")
     check_config(data, source=str(p))
     return data
 
