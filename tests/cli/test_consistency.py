@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 import bluesky_gym
-from bluesky_gym.cli import build_parser
-from bluesky_gym.cli.train import ppo_rounding
+from bluesky_gym.cli import build_parser, main
+from bluesky_gym.cli.train import check_device, ppo_rounding
 from bluesky_gym.core.extras import DISTRIBUTION
 
 from .conftest import TINY_CONFIG, needs_sb3, run_cli
@@ -80,12 +80,20 @@ def test_help_is_at_most_100_columns_on_a_wide_terminal(tmp_path: Path, monkeypa
         (["bench", "envs"], "--num-env", "--num-envs"),
     ],
 )
-def test_a_misspelled_or_abbreviated_option_shows_the_subcommands_usage(tmp_path: Path, words: list[str], typo: str, meant: str) -> None:
-    run = run_cli(*words, typo, "3", cwd=tmp_path)
-    assert run.returncode == 2
+def test_a_misspelled_or_abbreviated_option_shows_the_subcommands_usage(
+    tmp_path: Path, words: list[str], typo: str, meant: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     prog = "bluesky-gym " + " ".join(w for w in words if not w.startswith("-") and w[0].islower() and w not in ("random", "all"))
-    assert run.stderr.startswith(f"usage: {prog} "), run.stderr
-    line = _one_error_line(run.stderr, prog)
+    if typo == "--step" or words[0] == "eval":  # through the installed script
+        run = run_cli(*words, typo, "3", cwd=tmp_path)
+        code, stderr = run.returncode, run.stderr
+    else:
+        with pytest.raises(SystemExit) as exc:
+            main([*words, typo, "3"])
+        code, stderr = int(exc.value.code or 0), capsys.readouterr().err
+    assert code == 2
+    assert stderr.startswith(f"usage: {prog} "), stderr
+    line = _one_error_line(stderr, prog)
     assert f"did you mean {meant}?" in line, line
     assert not list(tmp_path.iterdir())
 
@@ -162,8 +170,14 @@ def test_the_positional_id_still_works_with_a_deprecation_warning(tmp_path: Path
     assert json.loads(old.stdout) == json.loads(new.stdout)
     assert new.stderr == ""
     assert old.stderr.strip() == "bluesky-gym info: warning: the positional environment id is deprecated; use --env DescentEnv-v0"
-    missing = run_cli("info", cwd=tmp_path)
-    assert missing.returncode == 2 and "the following arguments are required: --env" in _one_error_line(missing.stderr, "bluesky-gym info")
+
+
+def test_the_environment_is_required(capsys: pytest.CaptureFixture[str]) -> None:
+    for words in (["info"], ["train"], ["eval", "--model", "random"], ["render"], ["sweep"]):
+        with pytest.raises(SystemExit) as exc:
+            main(words)
+        assert exc.value.code == 2
+        assert "the following arguments are required: --env" in _one_error_line(capsys.readouterr().err, "bluesky-gym " + words[0])
 
 
 def test_a_bad_config_file_is_named_with_its_line(tmp_path: Path) -> None:
@@ -188,9 +202,10 @@ def test_a_device_that_is_not_here_is_refused(tmp_path: Path) -> None:
     run = run_cli("train", "--env", "DescentEnv-v0", "--device", "cuda", "--steps", "10", "--out", "runs", cwd=tmp_path)
     assert run.returncode == 2
     assert "no CUDA device" in _one_error_line(run.stderr, "bluesky-gym train")
-    run = run_cli("train", "--env", "DescentEnv-v0", "--device", "gpu0", "--steps", "10", "--out", "runs", cwd=tmp_path)
-    assert run.returncode == 2 and "is not a torch device" in _one_error_line(run.stderr, "bluesky-gym train")
     assert not (tmp_path / "runs").exists()
+    with pytest.raises(ValueError, match="'gpu0' is not a torch device"):
+        check_device("gpu0")
+    check_device("cpu")
 
 
 def test_ppo_rounding_is_stated() -> None:
@@ -201,16 +216,20 @@ def test_ppo_rounding_is_stated() -> None:
     assert ppo_rounding("SAC", {}, 1, 100) is None
 
 
-def test_centralised_ids_in_list_and_info(tmp_path: Path) -> None:
+def test_centralised_ids_in_list_and_info(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     listing = run_cli("list", cwd=tmp_path)
     assert listing.returncode == 0, listing.stderr
     head, _, section = listing.stdout.partition("Centralised multi-agent environments")
     assert section, listing.stdout
     for m in ("SectorCRCentralised-v0", "MergeCentralised-v0", "HorizontalCRCentralised-v0"):
         assert m in section and m not in head
-        info = run_cli("info", "--env", m, cwd=tmp_path)
-        assert info.returncode == 0 and info.stderr == "", info.stderr
-        assert "kind: centralised multi-agent" in info.stdout and "scenario options" in info.stdout
+    info = run_cli("info", "--env", "SectorCRCentralised-v0", cwd=tmp_path)
+    assert info.returncode == 0 and info.stderr == "", info.stderr
+    assert "kind: centralised multi-agent" in info.stdout and "ac_density_mode" in info.stdout
+    for m in ("MergeCentralised-v0", "HorizontalCRCentralised-v0"):
+        assert main(["info", "--env", m, "--json"]) == 0
+        d = json.loads(capsys.readouterr().out)
+        assert d["id"] == m and d["kind"] == "centralised multi-agent" and d["options"]
 
 
 @pytest.fixture(scope="module")
