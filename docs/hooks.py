@@ -16,7 +16,6 @@ import argparse
 import contextlib
 import importlib
 import inspect
-import io
 import os
 import re
 import sys
@@ -78,6 +77,28 @@ def _cell(value: Any, code: bool = False) -> str:
     return text.replace("[", "\\[") if text else " "
 
 
+_LIST_ITEM = re.compile(r"^\s*(?:\d+\.|[*-]) ")
+
+
+def separate_lists(text: str) -> str:
+    """Put a blank line before every list that directly follows a paragraph line.
+
+    Docstrings start lists on the line after their introduction, which Python-Markdown would read
+    as one paragraph.
+    """
+    out: list[str] = []
+    in_list = False
+    for line in text.split("\n"):
+        if _LIST_ITEM.match(line):
+            if not in_list and out and out[-1].strip() and not out[-1].lstrip().startswith("|"):
+                out.append("")
+            in_list = True
+        elif not line.strip():
+            in_list = False
+        out.append(line)
+    return "\n".join(out)
+
+
 def env_page(env_id: str) -> str:
     """The Markdown page of one environment."""
     from bluesky_gym.cli.catalog import describe
@@ -94,7 +115,7 @@ def env_page(env_id: str) -> str:
         out += [f"![{env_id}, flown by the classical controller](../gifs/{env_id}.gif)", ""]
     obs = ", ".join(f"`{k}` {tuple(v['shape'])}" for k, v in facts["observation"].items())
     out += [
-        "| | |",
+        "| property | value |",
         "|---|---|",
         f"| class | `{facts['class']}` |",
         f"| decision step | {facts['seconds_per_step']:g} s ({facts['substeps_per_action']} physics steps of {facts['dt_s']:g} s) |",
@@ -102,7 +123,7 @@ def env_page(env_id: str) -> str:
         f"| observation | {obs} |",
         f"| action | `Box` {tuple(facts['action']['shape'])}, low {facts['action']['low']}, high {facts['action']['high']} |",
         "",
-        body,
+        separate_lists(body),
         "",
         AVERAGING_NOTE,
         "## Options",
@@ -112,7 +133,8 @@ def env_page(env_id: str) -> str:
         "| option | type | default | meaning |",
         "|---|---|---|---|",
     ]
-    out += [f"| `{o['name']}` | {_cell(o['type'], code=True)} | {_cell(o['default'], code=True)} | {_cell(o['description'])} |" for o in facts["options"]]
+    for o in facts["options"]:
+        out.append(f"| `{o['name']}` | {_cell(o['type'], code=True)} | {_cell(o['default'], code=True)} | {_cell(o['description'])} |")
     out += [
         "",
         "## Vectorised usage",
@@ -184,7 +206,7 @@ def cli_page() -> str:
         "# The bluesky-gym command",
         "",
         "Training, evaluation, sweeps, plots, videos and throughput benchmarks. Installed with the",
-        'package; training and evaluation need the `train` extra, `sweep --address` the `distributed`',
+        "package; training and evaluation need the `train` extra, `sweep --address` the `distributed`",
         "extra. `python -m bluesky_gym` is the same command. This page is the `--help` of every",
         "subcommand, as the installed version prints it.",
         "",
