@@ -1,0 +1,65 @@
+"""The tutorials of the documentation site run: each page's python code blocks, in order, as one script.
+
+Budgets are shrunk with the variable the tutorials document, ``BLUESKY_GYM_TUTORIAL_SCALE``.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import types
+from pathlib import Path
+
+import gymnasium as gym
+import pytest
+
+TUTORIALS = Path(__file__).resolve().parents[2] / "docs" / "tutorials"
+SCALE = "0.02"
+
+
+def run_page(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> types.ModuleType:
+    """Execute the page's python blocks as one module in a temporary directory; returns the module."""
+    page = TUTORIALS / name
+    blocks = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), flags=re.DOTALL)
+    assert blocks, f"{page} has no python code"
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("BLUESKY_GYM_TUTORIAL_SCALE", SCALE)
+    module = types.ModuleType(f"tutorial_{page.stem.replace('-', '_')}")
+    module.__file__ = str(page)
+    sys.modules[module.__name__] = module  # dataclasses resolve their annotations through sys.modules
+    try:
+        exec(compile("\n\n".join(blocks), str(page), "exec"), module.__dict__)  # noqa: S102 - the project's own document
+    finally:
+        del sys.modules[module.__name__]
+    return module
+
+
+@pytest.mark.filterwarnings("ignore:rich is experimental")
+def test_train_ppo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("stable_baselines3", reason="the tutorial needs the 'train' extra")
+    page = run_page("train-ppo.md", tmp_path, monkeypatch)
+    assert (tmp_path / "ppo_descent.zip").is_file()
+    assert page.model.num_timesteps >= page.total_timesteps
+    assert len(page.trained.episodes) == len(page.random.episodes) == page.eval_episodes
+    assert page.trained.policy == "PPO" and "PPO" in page.format_table([page.trained, page.random])
+
+
+def test_own_environment(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    try:
+        page = run_page("own-environment.md", tmp_path, monkeypatch)
+        env = gym.make("SmoothHorizontalCR-v0")
+        assert isinstance(env.unwrapped.task, page.SmoothHorizontalCRTask)
+        env.reset(seed=0)
+        info = env.step([1.0])[4]
+        assert info["reward_turn"] == -0.05
+    finally:
+        gym.registry.pop("SmoothHorizontalCR-v0", None)
+
+
+def test_evaluate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    page = run_page("evaluate.md", tmp_path, monkeypatch)
+    assert [len(r.episodes) for r in (page.random, page.classical, page.mine)] == [page.episodes] * 3
+    assert page.classical.mean_return > page.random.mean_return
+    assert page.mine.summary["los"]["n"] == page.episodes
+    finite = page.finite
+    assert finite.size == page.random.summary["time_to_goal_s"]["n"]
