@@ -14,6 +14,7 @@ import os
 import subprocess
 import sys
 import threading
+import types
 import urllib.error
 import urllib.request
 from collections.abc import Iterator
@@ -25,14 +26,19 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = Path(os.environ.get("BLUESKY_GYM_CHROMIUM", "/usr/bin/chromium"))
 
-pytest.importorskip("mkdocs", reason="the documentation site needs the 'docs' extra")
-sync_api = pytest.importorskip("playwright.sync_api", reason="the browser check needs Playwright (the 'docs' extra)")
-if not CHROMIUM.is_file():
-    pytest.skip(f"no Chromium at {CHROMIUM} (apt-get install chromium); the site is not opened in a browser", allow_module_level=True)
+
+@pytest.fixture(scope="module")
+def sync_api() -> types.ModuleType:
+    """Playwright's synchronous API, once the site can be built and opened (skips with the reason otherwise)."""
+    pytest.importorskip("mkdocs", reason="the documentation site needs the 'docs' extra")
+    api = pytest.importorskip("playwright.sync_api", reason="the browser check needs Playwright (the 'docs' extra)")
+    if not CHROMIUM.is_file():
+        pytest.skip(f"no Chromium at {CHROMIUM} (apt-get install chromium); the site is not opened in a browser")
+    return api
 
 
 @pytest.fixture(scope="module")
-def site_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def site_dir(sync_api: types.ModuleType, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The built site: the build of scripts/test.sh, or a fresh strict build."""
     given = os.environ.get("BLUESKY_GYM_SITE_DIR")
     if given:
@@ -85,7 +91,7 @@ def http_status(url: str) -> int:
         return int(exc.code)
 
 
-def test_every_page_loads_with_its_images_and_links(site_dir: Path, base_url: str) -> None:
+def test_every_page_loads_with_its_images_and_links(sync_api: types.ModuleType, site_dir: Path, base_url: str) -> None:
     urls = page_urls(site_dir, base_url)
     expected = {"", "installation/", "environments/", "environments/DescentEnv-v0/", "cli/", "tutorials/train-ppo/", "api/envs/"}
     assert expected <= {u[len(base_url) :] for u in urls}, "pages missing from the site"

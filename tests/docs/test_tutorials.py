@@ -13,13 +13,14 @@ from pathlib import Path
 import gymnasium as gym
 import pytest
 
-TUTORIALS = Path(__file__).resolve().parents[2] / "docs" / "tutorials"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+TUTORIALS = DOCS / "tutorials"
 SCALE = "0.02"
 
 
 def run_page(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> types.ModuleType:
     """Execute the page's python blocks as one module in a temporary directory; returns the module."""
-    page = TUTORIALS / name
+    page = DOCS / name if (DOCS / name).is_file() else TUTORIALS / name
     blocks = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), flags=re.DOTALL)
     assert blocks, f"{page} has no python code"
     monkeypatch.chdir(tmp_path)
@@ -63,3 +64,14 @@ def test_evaluate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     assert page.mine.summary["los"]["n"] == page.episodes
     finite = page.finite
     assert finite.size == page.random.summary["time_to_goal_s"]["n"]
+
+
+@pytest.mark.parametrize("name", ["index.md", "core.md"])
+def test_the_snippets_of_a_page_run(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    page = run_page(name, tmp_path, monkeypatch)
+    if name == "index.md":
+        success, final_altitude = map(float, capsys.readouterr().out.split())  # the single episode ran to its end
+        assert success in (0.0, 1.0) and final_altitude != 0.0
+        assert page.reward.shape == (page.venv.num_envs,)
+    else:
+        assert page.sim.active[:, 0].all()
