@@ -106,11 +106,13 @@ def test_every_page_loads_with_its_images_and_links(sync_api: types.ModuleType, 
             page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
             page.on("pageerror", lambda e: errors.append(str(e)))
 
-            def visit(url: str) -> set[str]:
+            def visit(url: str, via: str = "") -> set[str]:
+                """Open a page; record its problems; return its element ids (the anchors it has)."""
                 errors.clear()
                 response = page.goto(url, wait_until="load")
                 if response is None or response.status != 200:
-                    problems.append(f"{url}: HTTP {None if response is None else response.status}")
+                    problems.append(f"{via}{url}: HTTP {None if response is None else response.status}")
+                    return set()
                 broken = page.evaluate("Array.from(document.images).filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.src)")
                 problems.extend(f"{url}: image does not load: {src}" for src in broken)
                 problems.extend(f"{url}: console error: {e}" for e in errors)
@@ -127,7 +129,7 @@ def test_every_page_loads_with_its_images_and_links(sync_api: types.ModuleType, 
                 if target not in ids:
                     path = urlsplit(target).path
                     if path.endswith("/") or path.endswith(".html"):
-                        ids[target] = visit(target)
+                        ids[target] = visit(target, via=f"{source}: link to ")
                     else:
                         status = http_status(target)
                         if status != 200:
