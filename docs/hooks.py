@@ -99,6 +99,13 @@ def separate_lists(text: str) -> str:
     return "\n".join(out)
 
 
+def with_averaging_note(body: str) -> str:
+    """The docstring body with :data:`AVERAGING_NOTE` at the end of its KPIs section (or at the end)."""
+    match = re.search(r"^## KPIs\n.*?(?=^## |\Z)", body, flags=re.MULTILINE | re.DOTALL)
+    end = match.end() if match else len(body)
+    return f"{body[:end].rstrip()}\n\n{AVERAGING_NOTE}\n{body[end:]}"
+
+
 def env_page(env_id: str) -> str:
     """The Markdown page of one environment."""
     from bluesky_gym.cli.catalog import describe
@@ -123,9 +130,8 @@ def env_page(env_id: str) -> str:
         f"| observation | {obs} |",
         f"| action | `Box` {tuple(facts['action']['shape'])}, low {facts['action']['low']}, high {facts['action']['high']} |",
         "",
-        separate_lists(body),
+        with_averaging_note(separate_lists(body)),
         "",
-        AVERAGING_NOTE,
         "## Options",
         "",
         f'Keyword arguments of `gym.make("{env_id}", ...)` and `gym.make_vec`; a bad value is refused with an error naming the option.',

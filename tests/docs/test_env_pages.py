@@ -112,3 +112,19 @@ def test_the_cli_page_shows_every_subcommand(hooks: types.ModuleType) -> None:
         usage = parser.format_usage().split("\n")[0]
         assert usage.split()[1:3] == ["bluesky-gym", name]
     assert build_parser().prog in page
+
+
+def test_the_averaging_note_follows_the_kpi_table(hooks: types.ModuleType) -> None:
+    body = "## Info\ntext\n\n## KPIs\n| k |\n|---|\n\n## Arguments\nargs"
+    out = hooks.with_averaging_note(body)
+    assert out.index("## KPIs") < out.index("Averaging KPIs") < out.index("## Arguments")
+    assert hooks.with_averaging_note("## Info\ntext").endswith(hooks.AVERAGING_NOTE + "\n")
+
+
+def test_sphinx_roles_become_code_spans() -> None:
+    spec = importlib.util.spec_from_file_location("docs_griffe_roles", HOOKS.parent / "griffe_roles.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    text = "See :class:`~bluesky_gym.core.Simulator`, :meth:`Task.step` and :mod:`bluesky_gym.tasks.compiled`."
+    assert module.plain_roles(text) == "See `Simulator`, `Task.step` and `bluesky_gym.tasks.compiled`."
