@@ -83,13 +83,17 @@ _LIST_ITEM = re.compile(r"^\s*(?:\d+\.|[*-]) ")
 def separate_lists(text: str) -> str:
     """Put a blank line before every list that directly follows a paragraph line.
 
-    Docstrings start lists on the line after their introduction, which Python-Markdown would read
-    as one paragraph.
+    Docstrings and the pages written for GitHub start lists on the line after their introduction,
+    which Python-Markdown would read as one paragraph. Fenced code is left alone.
     """
     out: list[str] = []
-    in_list = False
+    in_list = in_fence = False
     for line in text.split("\n"):
-        if _LIST_ITEM.match(line):
+        if line.lstrip().startswith("```"):
+            in_fence = not in_fence
+        elif in_fence:
+            pass
+        elif _LIST_ITEM.match(line):
             if not in_list and out and out[-1].strip() and not out[-1].lstrip().startswith("|"):
                 out.append("")
             in_list = True
@@ -130,7 +134,7 @@ def env_page(env_id: str) -> str:
         f"| observation | {obs} |",
         f"| action | `Box` {tuple(facts['action']['shape'])}, low {facts['action']['low']}, high {facts['action']['high']} |",
         "",
-        with_averaging_note(separate_lists(body)),
+        with_averaging_note(body),
         "",
         "## Options",
         "",
@@ -233,6 +237,11 @@ def on_config(config: Any) -> Any:
             section = item[NAV_SECTION]
             section[1:1] = [{env_id: f"{ENV_DIR}/{env_id}.md"} for env_id in env_ids()]
     return config
+
+
+def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
+    """Every page: lists that follow a paragraph line directly are lists (:func:`separate_lists`)."""
+    return separate_lists(markdown)
 
 
 def on_files(files: Any, config: Any) -> Any:

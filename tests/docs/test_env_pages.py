@@ -87,8 +87,8 @@ def test_the_environment_page_is_made_from_the_docstring_and_the_options(hooks: 
 
 
 def test_docstring_lists_are_separated_from_their_paragraph(hooks: types.ModuleType) -> None:
-    text = "In order:\n1. one;\n  more\n2. two.\n\n| a |\n|---|\n* x\n\nafter\n* y"
-    assert hooks.separate_lists(text) == "In order:\n\n1. one;\n  more\n2. two.\n\n| a |\n|---|\n* x\n\nafter\n\n* y"
+    text = "In order:\n1. one;\n  more\n2. two.\n\n| a |\n|---|\n* x\n\nafter\n* y\n\n```\nx = 1\n- 1\n```"
+    assert hooks.separate_lists(text) == "In order:\n\n1. one;\n  more\n2. two.\n\n| a |\n|---|\n* x\n\nafter\n\n* y\n\n```\nx = 1\n- 1\n```"
 
 
 @pytest.mark.parametrize("env_id", env_ids())

@@ -91,6 +91,7 @@ def http_status(url: str) -> int:
         return int(exc.code)
 
 
+@pytest.mark.slow
 def test_every_page_loads_with_its_images_and_links(sync_api: types.ModuleType, site_dir: Path, base_url: str) -> None:
     urls = page_urls(site_dir, base_url)
     expected = {"", "installation/", "environments/", "environments/DescentEnv-v0/", "cli/", "tutorials/train-ppo/", "api/envs/"}

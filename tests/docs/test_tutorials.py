@@ -35,6 +35,7 @@ def run_page(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> type
     return module
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:rich is experimental")
 def test_train_ppo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     pytest.importorskip("stable_baselines3", reason="the tutorial needs the 'train' extra")
