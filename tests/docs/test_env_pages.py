@@ -80,7 +80,9 @@ def test_the_environment_page_is_made_from_the_docstring_and_the_options(hooks: 
         assert f"| `{key}` |" in page
     assert "Averaging KPIs" in page
     assert "Animation:" not in page
-    assert f"](../gifs/{env_id}.gif)" in page
+    gif = HOOKS.parent / "gifs" / f"{env_id}.gif"
+    assert gif.is_file() or not env_id.endswith("-v0"), f"the paper's {env_id} has no GIF in docs/gifs"
+    assert (f"](../gifs/{env_id}.gif)" in page) == gif.is_file()
     config = entry(env_id).task_class().config_class()
     for field in dataclasses.fields(config):
         assert f"| `{field.name}` |" in page, f"{env_id}: option {field.name} missing"
