@@ -54,8 +54,14 @@ def test_own_environment(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Non
         env.reset(seed=0)
         info = env.step([1.0])[4]
         assert info["reward_turn"] == -0.05
+        env = gym.make("ComfortDescent-v0")
+        env.reset(seed=0)
+        for _ in range(3):
+            info = env.step([-1.0])[4]
+        assert info["reward_comfort"] == -0.02 * (abs(env.unwrapped.task.sim.vs[0, 0]) - 5.0) < 0.0
     finally:
         gym.registry.pop("SmoothHorizontalCR-v0", None)
+        gym.registry.pop("ComfortDescent-v0", None)
 
 
 def test_evaluate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
