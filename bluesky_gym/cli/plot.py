@@ -27,7 +27,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.train import non_negative_int
+from bluesky_gym.cli.arguments import non_negative_int
 from bluesky_gym.core.extras import MissingDependencyError
 
 

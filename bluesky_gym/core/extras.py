@@ -159,3 +159,12 @@ def require_ray() -> ModuleType:
         error = missing_extra("distributed sweeps need Ray", "distributed")
         raise MissingDependencyError(f"{error} (or run the sweep with --local)") from exc
     return ray
+
+
+def require_rliable() -> tuple[ModuleType, ModuleType]:
+    """Import ``rliable.library`` and ``rliable.metrics``, or raise :class:`MissingDependencyError` naming the extra."""
+    try:
+        from rliable import library, metrics
+    except ImportError as exc:
+        raise missing_extra("aggregate scores need rliable", "train") from exc
+    return library, metrics

@@ -301,7 +301,7 @@ def _documented_commands() -> list[tuple[str, str]]:
     from .conftest import ROOT
 
     found: list[tuple[str, str]] = []
-    for path in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+    for path in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]:
         in_code = False
         for line in path.read_text(encoding="utf-8").splitlines():
             if line.startswith("```"):
@@ -309,7 +309,7 @@ def _documented_commands() -> list[tuple[str, str]]:
                 continue
             m = re.match(r"^\s*(?:\$ )?(?:\S*/)?bluesky-gym (.*)$", line) if in_code else None
             if m:
-                found.append((path.name, m.group(1)))
+                found.append((str(path.relative_to(ROOT)), m.group(1)))
     for module in sorted((ROOT / "bluesky_gym" / "cli").glob("*.py")):
         text = module.read_text(encoding="utf-8").replace("\\\n", " ")
         for m in re.finditer(r"^    bluesky-gym (.*)$", text, flags=re.MULTILINE):
