@@ -332,6 +332,23 @@ class Task(abc.ABC):
         self.observation_terms: list[ObservationTerms] = []
         self.allocate()
 
+    def wrap_physics(self, wrapper: Callable[[Physics], Physics]) -> Physics:
+        """Put a wrapper around the physics, e.g. a :class:`~bluesky_gym.scenarios.export.ScenarioRecorder`.
+
+        Call it before the first reset; every later physics call of the task goes through the wrapper.
+
+        Args:
+            wrapper: Called with the current physics, returns the physics to use from now on.
+
+        Returns:
+            The new physics.
+        """
+        wrapped = wrapper(self.sim)
+        if wrapped.n_envs != self.n_envs:
+            raise ValueError(f"the wrapped physics has {wrapped.n_envs} airspaces, the task {self.n_envs}")
+        self.sim = wrapped
+        return wrapped
+
     # --- what a task defines --------------------------------------------------------------------
     def allocate(self) -> None:  # noqa: B027 - optional hook
         """Allocate the task's own per-episode arrays (called once by ``__init__``)."""
