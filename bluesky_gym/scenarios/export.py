@@ -163,7 +163,16 @@ class ScenarioRecorder:
             self.episodes[int(e)].append(Episode(self.inner.simt))
         self._pending = [(e, c) for e, c in self._pending if e not in set(int(i) for i in idx)]
 
-    def create(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike = 52.0, lon: ArrayLike = 4.0, hdg: ArrayLike = 0.0, alt: ArrayLike = 0.0, spd: ArrayLike = 0.0) -> None:
+    def create(
+        self,
+        env: ArrayLike,
+        slot: ArrayLike,
+        lat: ArrayLike = 52.0,
+        lon: ArrayLike = 4.0,
+        hdg: ArrayLike = 0.0,
+        alt: ArrayLike = 0.0,
+        spd: ArrayLike = 0.0,
+    ) -> None:
         """Create aircraft (logged as ``CRE`` with their state at the next step)."""
         self.inner.create(env, slot, lat, lon, hdg, alt, spd)
         self._created(env, slot)

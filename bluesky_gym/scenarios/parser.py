@@ -355,7 +355,9 @@ def _position(a: _Args, ctx: _Context) -> Position:
     if first.upper() in ctx.alive:
         return Position(aircraft=first.upper())
     if not is_latitude(first):
-        raise a.fail(f"position {first!r} is not a latitude/longitude or an aircraft (navaids, airports and waypoint names need BlueSky's navigation database)")
+        raise a.fail(
+            f"position {first!r} is not a latitude/longitude or an aircraft (navaids, airports and waypoint names need BlueSky's navigation database)"
+        )
     lat = parse_latitude_checked(a, first)
     lon = a.take("lon", parse_longitude)
     return Position(lat, float(lon))  # type: ignore[arg-type]
@@ -462,7 +464,9 @@ def _parse_command(t: float, src: Source, ctx: _Context) -> Command:
         acid = _acid(a, ctx)
         pos = _position(a, ctx)
         if a.more():
-            raise a.fail("altitude and speed constraints and named insert positions are not supported by the core (its routes are lat/lon fly-by waypoints)")
+            raise a.fail(
+                "altitude and speed constraints and named insert positions are not supported by the core (its routes are lat/lon fly-by waypoints)"
+            )
         route = ctx.routes[acid]
         if cmd == "ADDWPT":
             name = f"{acid}{len([w for w in route if w != '*DEST*']) + 1:03d}"

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.physics import Physics
+from bluesky_gym.core.physics import Physics, RouteCommands
 from bluesky_gym.scenarios.parser import (
     DEFAULT_ACTYPE,
     AddWaypoint,
@@ -290,9 +290,12 @@ class ScenarioPlayer:
             elif isinstance(cmd, Vnav):
                 p.set_autopilot(envs, self._slot(g, cmd, cmd.acid), swvnav=False)
             elif isinstance(cmd, (Direct, Lnav)):
-                raise ScenarioError(
-                    f"{cmd.source}: {'DIRECT' if isinstance(cmd, Direct) else 'LNAV'} is not available on the Physics interface yet; line: {cmd.source.text!r}"
-                )
+                if not isinstance(p, RouteCommands):
+                    raise ScenarioError(f"{cmd.source}: this physics has no DIRECT/LNAV commands (RouteCommands); line: {cmd.source.text!r}")
+                if isinstance(cmd, Direct):
+                    p.cmd_direct(envs, self._slot(g, cmd, cmd.acid), cmd.waypoint)
+                else:
+                    p.cmd_lnav(envs, self._slot(g, cmd, cmd.acid), cmd.on)
             elif isinstance(cmd, TimeStep):
                 if abs(cmd.dt - p.dt) > TIME_EPS:
                     raise ScenarioError(f"{cmd.source}: DT {cmd.dt} s differs from the replay's time step {p.dt} s")

@@ -24,6 +24,7 @@ SCN = {
     "scn_sphere3x4": ("sphere3x4.scn", 1.0, 150),
     "scn_commands": ("commands.scn", 1.0, 150),
     "scn_route": ("route.scn", 1.0, 400),
+    "scn_direct_lnav": ("direct_lnav.scn", 1.0, 400),
 }
 ANGLES = ("hdg", "trk", "ap_trk")
 
@@ -73,6 +74,6 @@ def test_copies_in_a_batch_equal_the_single_replay() -> None:
 def test_recordings_cover_the_scenario_commands() -> None:
     """The recorded files use the commands and argument forms the player claims to support."""
     text = " ".join((DATA / "scn" / f).read_text() for f, _, _ in SCN.values())
-    for word in ("CRE ", "CRECONFS", "DEL ", "HDG", "SPD", "ALT", "VS ", "ADDWPT", "DEST", "VNAV", "DT ", "M.6", "N52'", "FL", ";", "\\"):
+    for word in ("CRE ", "CRECONFS", "DEL ", "HDG", "SPD", "ALT", "VS ", "ADDWPT", "DEST", "VNAV", "DIRECT", "LNAV", "DT ", "M.6", "N52'", "FL", ";", "\\"):
         assert word in text, word
     assert np.isfinite([float(r["lat"]) for r in load("scn_route")]).all()
