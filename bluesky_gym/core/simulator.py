@@ -413,8 +413,11 @@ class Simulator:
         self._direct(e, s)
 
     def _find_active(self, env: int, slot: int) -> int:
-        """The waypoint LNAV activates when switched on: the nearest one not behind the active one, or
-        the next one when the turn to it takes longer than flying to it (BlueSky ``route.findact``)."""
+        """The waypoint LNAV activates when switched on (BlueSky ``route.findact``).
+
+        It is the nearest waypoint not behind the active one, or the one after it when the turn to
+        it takes longer than flying to it.
+        """
         nwp = int(self.nwp[env, slot])
         if nwp == 1:
             return 0

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from bluesky_gym.core.physics import Physics
+from bluesky_gym.core.physics import Physics, RouteCommands
 from bluesky_gym.core.state import aircraft_index
 from bluesky_gym.core.units import CASMACH_THRESHOLD, FPM, FT, KTS, MACH_MIN
 from bluesky_gym.core.wind import WindField
@@ -75,7 +75,7 @@ class Episode:
 
     def lines(self) -> list[str]:
         """The episode's scenario lines, in time order."""
-        out = []
+        out: list[str] = []
         for t, entry in self.entries:
             text = entry.line if isinstance(entry, _Created) else entry
             # one command per line: BlueSky's PCALL does not split ";" for commands due at once
@@ -248,6 +248,22 @@ class ScenarioRecorder:
         shape = self._index(env, slot)[0].shape
         la, lo = (np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (lat, lon))
         self._each(env, slot, lambda k, e, s: f"DEST {callsign(s)} {_num(la[k])} {_num(lo[k])}")
+
+    def cmd_direct(self, env: ArrayLike, slot: ArrayLike, waypoint: ArrayLike) -> None:
+        """``DIRECT``, written with BlueSky's name of the ``k``-th waypoint added by ``ADDWPT`` (callsign + ``k``)."""
+        if not isinstance(self.inner, RouteCommands):
+            raise TypeError(f"{type(self.inner).__name__} has no DIRECT command")
+        self.inner.cmd_direct(env, slot, waypoint)
+        w = np.broadcast_to(np.asarray(waypoint, dtype=np.int64), self._index(env, slot)[0].shape)
+        self._each(env, slot, lambda k, e, s: f"DIRECT {callsign(s)} {callsign(s)}{int(w[k]) + 1:03d}")
+
+    def cmd_lnav(self, env: ArrayLike, slot: ArrayLike, on: ArrayLike) -> None:
+        """``LNAV ON/OFF``."""
+        if not isinstance(self.inner, RouteCommands):
+            raise TypeError(f"{type(self.inner).__name__} has no LNAV command")
+        self.inner.cmd_lnav(env, slot, on)
+        f = np.broadcast_to(np.asarray(on, dtype=bool), self._index(env, slot)[0].shape)
+        self._each(env, slot, lambda k, e, s: f"LNAV {callsign(s)} {'ON' if f[k] else 'OFF'}")
 
     def set_autopilot(
         self,

@@ -1,7 +1,7 @@
-"""Reading BlueSky scenario files (``.scn``) into a typed, time-ordered list of commands.
+r"""Reading BlueSky scenario files (``.scn``) into a typed, time-ordered list of commands.
 
 A scenario line is ``HH:MM:SS.hh>COMMAND args`` (BlueSky 1.1.1's ``readscn``): ``#`` starts a
-comment, blank lines are skipped, a line ending in ``\\`` continues on the next one, and ``;``
+comment, blank lines are skipped, a line ending in ``\`` continues on the next one, and ``;``
 separates several commands with the same time. The lines are sorted by time (stable, as BlueSky
 does). Each command is parsed into one of the dataclasses below, with every value in SI units and
 the line it came from; aircraft are named by callsign. A command may also be written callsign
@@ -202,6 +202,8 @@ TYPED_COMMANDS = frozenset({"CRE", "CREATE", "CRECONFS", "DEL", "DELETE", "HDG",
 #: Every command word this reader knows.
 KNOWN_COMMANDS = TYPED_COMMANDS | DISPLAY_COMMANDS | CONTROL_COMMANDS | DETECTION_COMMANDS
 
+#: BlueSky's reader skips lines shorter than this (continuation lines included); this reader refuses them.
+MIN_LINE = 10
 _TIMESTAMP = re.compile(r"^\s*(\d+):(\d+):(\d+(?:\.\d*)?)\s*>(.*)$")
 
 
@@ -252,6 +254,10 @@ def read_lines(text: str, file: str) -> list[tuple[float, Source]]:
     pending = ""
     first = 0
     for number, raw in enumerate(text.splitlines(), start=1):
+        if raw.strip() and not raw.strip().startswith("#") and len(raw.strip()) < MIN_LINE:
+            raise ScenarioError(
+                f"{file}:{number}: line {raw.strip()!r} is shorter than {MIN_LINE} characters, which BlueSky ignores; join it to the line before"
+            )
         line = raw.split("#", 1)[0].strip()
         if not line:
             if pending:
@@ -271,9 +277,10 @@ def read_lines(text: str, file: str) -> list[tuple[float, Source]]:
         if int(minutes) >= 60 or float(seconds) >= 60.0:
             raise ScenarioError(f"{file}:{first}: invalid time stamp {line.split('>', 1)[0].strip()!r} (minutes and seconds below 60)")
         t = 3600.0 * int(hours) + 60.0 * int(minutes) + float(seconds)
-        for part in rest.split(";"):
-            if part.strip():
-                out.append((t, Source(file, first, part.strip())))
+        parts = [part.strip() for part in rest.split(";") if part.strip()]
+        if not parts:
+            raise ScenarioError(f"{file}:{first}: a time stamp without a command: {line!r}")
+        out.extend((t, Source(file, first, part)) for part in parts)
     if pending:
         raise ScenarioError(f"{file}:{first}: the last line ends with '\\' (continuation of nothing)")
     out.sort(key=lambda item: item[0])
@@ -358,16 +365,12 @@ def _position(a: _Args, ctx: _Context) -> Position:
         raise a.fail(
             f"position {first!r} is not a latitude/longitude or an aircraft (navaids, airports and waypoint names need BlueSky's navigation database)"
         )
-    lat = parse_latitude_checked(a, first)
-    lon = a.take("lon", parse_longitude)
-    return Position(lat, float(lon))  # type: ignore[arg-type]
-
-
-def parse_latitude_checked(a: _Args, text: str) -> float:
     try:
-        return parse_latitude(text)
+        lat = parse_latitude(first)
     except ValueError as exc:
         raise a.fail(str(exc)) from None
+    lon = a.take("lon", parse_longitude)
+    return Position(lat, float(lon))  # type: ignore[arg-type]
 
 
 USAGE = {

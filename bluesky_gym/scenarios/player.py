@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Sequence
-from typing import Any
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -291,7 +291,7 @@ class ScenarioPlayer:
                 p.set_autopilot(envs, self._slot(g, cmd, cmd.acid), swvnav=False)
             elif isinstance(cmd, (Direct, Lnav)):
                 if not isinstance(p, RouteCommands):
-                    raise ScenarioError(f"{cmd.source}: this physics has no DIRECT/LNAV commands (RouteCommands); line: {cmd.source.text!r}")
+                    raise ScenarioError(f"{cmd.source}: this physics has no DIRECT/LNAV commands; line: {cmd.source.text!r}")
                 if isinstance(cmd, Direct):
                     p.cmd_direct(envs, self._slot(g, cmd, cmd.acid), cmd.waypoint)
                 else:

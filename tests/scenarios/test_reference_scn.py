@@ -74,6 +74,25 @@ def test_copies_in_a_batch_equal_the_single_replay() -> None:
 def test_recordings_cover_the_scenario_commands() -> None:
     """The recorded files use the commands and argument forms the player claims to support."""
     text = " ".join((DATA / "scn" / f).read_text() for f, _, _ in SCN.values())
-    for word in ("CRE ", "CRECONFS", "DEL ", "HDG", "SPD", "ALT", "VS ", "ADDWPT", "DEST", "VNAV", "DIRECT", "LNAV", "DT ", "M.6", "N52'", "FL", ";", "\\"):
+    for word in (
+        "CRE ",
+        "CRECONFS",
+        "DEL ",
+        "HDG",
+        "SPD",
+        "ALT",
+        "VS ",
+        "ADDWPT",
+        "DEST",
+        "VNAV",
+        "DIRECT",
+        "LNAV",
+        "DT ",
+        "M.6",
+        "N52'",
+        "FL",
+        ";",
+        "\\",
+    ):
         assert word in text, word
     assert np.isfinite([float(r["lat"]) for r in load("scn_route")]).all()
