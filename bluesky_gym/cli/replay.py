@@ -87,7 +87,7 @@ def _replay(args: argparse.Namespace) -> int:
 
     files = [read_scenario(_resolve(f)) for f in args.files]
     scenarios = [s for s in files for _ in range(args.copies)]
-    names = [s.name if args.copies == 1 else f"{s.name}#{k}" for s in files for k in range(args.copies)]
+    names = [name if args.copies == 1 else f"{name}#{k}" for name in args.files for k in range(args.copies)]
     dt = common_dt(files, args.dt)
     duration = args.duration if args.duration is not None else max(s.end_time for s in files) + 60.0
     n_steps = int(round(duration / dt))
