@@ -213,7 +213,26 @@ def test_recorder_logs_every_command_and_episodes() -> None:
     rec.step()
     lines = rec.scenario_text(0).splitlines()
     body = [ln.split(">", 1)[1].split()[0] for ln in lines if ">" in ln]
-    assert body == ["DT", "CRE", "CRE", "WIND", "HDG", "SPD", "ALT", "VS", "ADDWPT", "DEST", "LNAV", "DIRECT", "VNAV", "VS", "ALT", "HDG", "MOVE", "DEL"]
+    assert body == [
+        "DT",
+        "CRE",
+        "CRE",
+        "WIND",
+        "HDG",
+        "SPD",
+        "ALT",
+        "VS",
+        "ADDWPT",
+        "DEST",
+        "LNAV",
+        "DIRECT",
+        "VNAV",
+        "VS",
+        "ALT",
+        "HDG",
+        "MOVE",
+        "DEL",
+    ]
     assert any(ln.startswith("00:00:02.00>HDG AC000 45.0") for ln in lines)
     assert "WIND 52.0 4.0 0.0 " in rec.scenario_text(0)  # wind from the north
     assert rec.logged_episodes(1) == 1 and rec.scenario_text(1).count(">CRE") == 1
