@@ -124,11 +124,11 @@ def test_replay_cli_writes_the_reference_columns(tmp_path: Path, capsys: pytest.
     out = tmp_path / "t.csv"
     assert main(["replay", str(DATA / "scn" / "route.scn"), "--duration", "20", "--out", str(out), "--quiet"]) == 0
     rows = _rows(out)
-    with open(DATA / "scn_route.csv", newline="") as fh:
+    with open(DATA / "pcall_route.csv", newline="") as fh:
         header = next(csv.reader(fh))
     assert list(rows[0]) == header == list(TRAJECTORY_COLUMNS)
     assert len(rows) == 2 * 21 and rows[0]["t"] == "0" and rows[-1]["t"] == "20"
-    ref = _rows(DATA / "scn_route.csv")[: len(rows)]
+    ref = _rows(DATA / "pcall_route.csv")[: len(rows)]
     assert [r["lat"] for r in rows] == [r["lat"] for r in ref]
     # several files and copies: one airspace each, a leading scenario column
     out2 = tmp_path / "many.csv"

@@ -1,6 +1,6 @@
 """Scenario files played by BlueSky 1.1.1 (PCALL) and by the scenario player, compared column by column.
 
-The recordings are ``tests/data/reference/scn_*.csv``, made by ``make_reference.py scn_<name>`` from
+The recordings are ``tests/data/reference/pcall_*.csv``, made by ``make_reference.py pcall_<name>`` from
 the files in ``tests/data/reference/scn`` (see the README there). Tolerances are those of the core's
 fidelity contract (tests/core/test_reference.py).
 """
@@ -20,13 +20,13 @@ from tests.core.test_reference import TOL
 
 #: name -> (file, dt [s], duration [s]), as in make_reference.py's SCN_SCENARIOS.
 SCN = {
-    "scn_super8": ("super8.scn", 1.0, 300),
-    "scn_sphere3x4": ("sphere3x4.scn", 1.0, 150),
-    "scn_commands": ("commands.scn", 1.0, 150),
-    "scn_route": ("route.scn", 1.0, 400),
-    "scn_direct_lnav": ("direct_lnav.scn", 1.0, 400),
-    "scn_export_descent": ("export_descent.scn", 1.0, 200),
-    "scn_export_vertical_cr": ("export_vertical_cr.scn", 1.0, 100),
+    "pcall_super8": ("super8.scn", 1.0, 300),
+    "pcall_sphere3x4": ("sphere3x4.scn", 1.0, 150),
+    "pcall_commands": ("commands.scn", 1.0, 150),
+    "pcall_route": ("route.scn", 1.0, 400),
+    "pcall_direct_lnav": ("direct_lnav.scn", 1.0, 400),
+    "pcall_export_descent": ("export_descent.scn", 1.0, 200),
+    "pcall_export_vertical_cr": ("export_vertical_cr.scn", 1.0, 100),
 }
 ANGLES = ("hdg", "trk", "ap_trk")
 
@@ -68,8 +68,8 @@ def test_scenario_file_matches_bluesky(name: str) -> None:
 
 def test_copies_in_a_batch_equal_the_single_replay() -> None:
     """Copy 2 of 3 of a scenario in one batch flies exactly as the scenario alone."""
-    alone = replay("scn_commands")
-    batched = replay("scn_commands", n_envs=3, env=2)
+    alone = replay("pcall_commands")
+    batched = replay("pcall_commands", n_envs=3, env=2)
     assert batched == alone
 
 
@@ -97,10 +97,10 @@ def test_recordings_cover_the_scenario_commands() -> None:
         "\\",
     ):
         assert word in text, word
-    assert np.isfinite([float(r["lat"]) for r in load("scn_route")]).all()
+    assert np.isfinite([float(r["lat"]) for r in load("pcall_route")]).all()
 
 
-@pytest.mark.parametrize("name", ["scn_commands", "scn_direct_lnav"])
+@pytest.mark.parametrize("name", ["pcall_commands", "pcall_direct_lnav"])
 def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
     """The same player on the BlueSky backend reproduces the PCALL recording (same commands, BlueSky's own physics)."""
     pytest.importorskip("bluesky")
