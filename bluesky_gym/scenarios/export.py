@@ -62,6 +62,7 @@ class _Created:
     """A creation whose state is read when the episode's first step starts."""
 
     slot: int
+    actype: str = "A320"
     line: str = ""
 
 
@@ -144,7 +145,7 @@ class ScenarioRecorder:
             s = created.slot
             if p.active[env, s]:
                 created.line = (
-                    f"CRE {callsign(s)} A320 {_num(p.lat[env, s])} {_num(p.lon[env, s])} {_num(p.hdg[env, s])} "
+                    f"CRE {callsign(s)} {created.actype} {_num(p.lat[env, s])} {_num(p.lon[env, s])} {_num(p.hdg[env, s])} "
                     f"{_num(p.alt[env, s] / FT)} {_num(p.cas[env, s] / KTS)}"
                 )
         self._pending.clear()
@@ -172,15 +173,20 @@ class ScenarioRecorder:
         hdg: ArrayLike = 0.0,
         alt: ArrayLike = 0.0,
         spd: ArrayLike = 0.0,
+        **kwargs: Any,
     ) -> None:
-        """Create aircraft (logged as ``CRE`` with their state at the next step)."""
-        self.inner.create(env, slot, lat, lon, hdg, alt, spd)
-        self._created(env, slot)
+        """Create aircraft (logged as ``CRE`` with their state at the next step).
 
-    def _created(self, env: ArrayLike, slot: ArrayLike) -> None:
+        Further keywords (an aircraft type ``actype``, where the inner physics takes one) are passed on.
+        """
+        self.inner.create(env, slot, lat, lon, hdg, alt, spd, **kwargs)
+        self._created(env, slot, kwargs.get("actype"))
+
+    def _created(self, env: ArrayLike, slot: ArrayLike, actype: Any = None) -> None:
         e, s = self._index(env, slot)
+        types = np.broadcast_to(np.asarray("A320" if actype is None else actype, dtype=object), e.shape)
         for k in range(e.size):
-            created = _Created(int(s[k]))
+            created = _Created(int(s[k]), str(types[k]).upper())
             ep = self._episode(int(e[k]))
             ep.entries.append((self.inner.simt - ep.start, created))
             self._pending.append((int(e[k]), created))
@@ -196,11 +202,12 @@ class ScenarioRecorder:
         dh: ArrayLike | None = None,
         tlosv: ArrayLike | None = None,
         spd: ArrayLike | None = None,
+        **kwargs: Any,
     ) -> None:
-        """Create conflicting intruders (logged as ``CRE`` with their placed state)."""
-        self.inner.creconfs(env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
+        """Create conflicting intruders (logged as ``CRE`` with their placed state); further keywords are passed on."""
+        self.inner.creconfs(env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd, **kwargs)
         e, s = self._index(env, slot)
-        self._created(e, s)
+        self._created(e, s, kwargs.get("actype"))
 
     def delete(self, env: ArrayLike, slot: ArrayLike) -> None:
         """``DEL``."""

@@ -242,3 +242,30 @@ def test_recorder_logs_every_command_and_episodes() -> None:
         rec.scenario_text(0, episode=5)
     # the delegated state is the inner physics' state
     assert np.shares_memory(rec.lat, sim.lat) and rec.n_envs == 2
+
+
+class _TypedSimulator(Simulator):
+    """A simulator whose create/creconfs take an aircraft type (the interface per-aircraft types add)."""
+
+    def __init__(self, *args, **kwargs) -> None:  # type: ignore[no-untyped-def]
+        super().__init__(*args, **kwargs)
+        self.types: dict[tuple[int, int], str] = {}
+
+    def create(self, env, slot, lat=52.0, lon=4.0, hdg=0.0, alt=0.0, spd=0.0, actype="A320") -> None:  # type: ignore[no-untyped-def, override]
+        super().create(env, slot, lat, lon, hdg, alt, spd)
+        for e, s in zip(np.atleast_1d(env), np.broadcast_to(np.atleast_1d(slot), np.atleast_1d(env).shape)):
+            self.types[int(e), int(s)] = actype
+
+    def creconfs(self, env, target, slot, dpsi, dcpa, tlosh, dh=None, tlosv=None, spd=None, actype="A320") -> None:  # type: ignore[no-untyped-def, override]
+        super().creconfs(env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
+        self.types[int(np.atleast_1d(env)[0]), int(np.atleast_1d(slot)[0])] = actype
+
+
+def test_aircraft_types_reach_a_physics_that_takes_them() -> None:
+    sc = parse_scenario("00:00:00.00>CRE AC1 B744 52 4 0 FL200 250\n00:00:00.00>CRECONFS I1 E190 AC1 90 1 120\n", "types.scn")
+    sim = _TypedSimulator(1, 2)
+    ScenarioPlayer([sc], sim)
+    assert sim.types == {(0, 0): "B744", (0, 1): "E190"}
+    rec = ScenarioRecorder(_TypedSimulator(1, 1))
+    rec.create(0, 0, actype="b744")
+    assert ">CRE AC000 B744 " in rec.scenario_text()
