@@ -2,10 +2,10 @@
 
 Examples::
 
-    bluesky-gym replay my_scenario.scn --duration 600 --out traj.csv
-    bluesky-gym replay super8.scn --duration 900 --out traj.csv          # a shipped geometry (see --list)
-    bluesky-gym replay a.scn b.scn --copies 100 --duration 600           # 200 airspaces in one batch
-    bluesky-gym replay a.scn --duration 600 --out bs.csv --backend bluesky
+    bluesky-gym replay --list                                           # the shipped geometries
+    bluesky-gym replay super8 --duration 900 --out super8.csv           # a shipped geometry, or a path
+    bluesky-gym replay super8 wall6 --copies 100 --duration 600         # 200 airspaces in one batch
+    bluesky-gym replay super8 --duration 600 --out bs.csv --backend bluesky
 
 Every scenario (each file, each copy) flies in its own airspace of one batch. The CSV has one row
 per aircraft per step with the columns, units (SI) and timing of the BlueSky reference recordings:

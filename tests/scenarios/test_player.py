@@ -269,3 +269,31 @@ def test_aircraft_types_reach_a_physics_that_takes_them() -> None:
     rec = ScenarioRecorder(_TypedSimulator(1, 1))
     rec.create(0, 0, actype="b744")
     assert ">CRE AC000 B744 " in rec.scenario_text()
+
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _replay_commands(page: Path) -> list[list[str]]:
+    """The ``bluesky-gym replay`` command lines of a page (without comments), native backend only."""
+    lines = [ln.split("#", 1)[0].split() for ln in page.read_text().splitlines() if ln.startswith("bluesky-gym replay")]
+    return [ln[1:] for ln in lines if "bluesky" not in ln[1:]]
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/scenarios.md"])
+def test_the_replay_commands_of_the_docs_run(page: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    commands = _replay_commands(ROOT / page)
+    assert len(commands) >= 3
+    monkeypatch.chdir(tmp_path)
+    for argv in commands:
+        assert main([*argv, "--quiet"]) == 0, argv
+    assert (tmp_path / "super8.csv").stat().st_size > 0
+
+
+def test_the_python_snippets_of_the_scenarios_page_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    from tests.docs.test_tutorials import run_page
+
+    page = run_page("scenarios.md", tmp_path, monkeypatch)
+    assert "32 rows at t=600 s" in capsys.readouterr().out
+    assert len(page.rows) == 4 * 8  # four copies of eight aircraft
+    assert parse_scenario((tmp_path / "episode.scn").read_text()).callsigns[0] == "AC000"
