@@ -15,11 +15,12 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import functools
 import inspect
 import os
 import re
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -244,12 +245,19 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
     return separate_lists(markdown)
 
 
+def generated_pages() -> dict[str, Callable[[], str]]:
+    """The pages made from the code: path below ``docs/`` -> function returning its Markdown."""
+    pages: dict[str, Callable[[], str]] = {f"{ENV_DIR}/index.md": overview_page}
+    for env_id in env_ids():
+        pages[f"{ENV_DIR}/{env_id}.md"] = functools.partial(env_page, env_id)
+    pages["cli.md"] = cli_page
+    return pages
+
+
 def on_files(files: Any, config: Any) -> Any:
     """Add the generated pages."""
     from mkdocs.structure.files import File
 
-    files.append(File.generated(config, f"{ENV_DIR}/index.md", content=overview_page()))
-    for env_id in env_ids():
-        files.append(File.generated(config, f"{ENV_DIR}/{env_id}.md", content=env_page(env_id)))
-    files.append(File.generated(config, "cli.md", content=cli_page()))
+    for path, make in generated_pages().items():
+        files.append(File.generated(config, path, content=make()))
     return files
