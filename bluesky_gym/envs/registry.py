@@ -74,6 +74,9 @@ class EnvEntry:
         vector_env: Natively batched environment class (Gymnasium ``vector_entry_point``).
         scene: Scene builder ``(task, env_index) -> Scene`` drawn by the renderer.
         multiagent: The multi-agent form, if the problem has one.
+        options: Configuration values of this id, ``(name, value)`` pairs of the task's config
+            (registered as the id's keyword arguments): a ``-v1`` id is its task with the
+            configuration fields that fix the ``-v0`` defects set.
     """
 
     id: str
@@ -82,6 +85,7 @@ class EnvEntry:
     vector_env: str
     scene: str = GENERIC_SCENE
     multiagent: MultiAgentEntry | None = None
+    options: tuple[tuple[str, Any], ...] = ()
 
     def task_class(self) -> type[Any]:
         """The batched task class."""
@@ -105,8 +109,9 @@ class EnvEntry:
 
     @property
     def max_episode_steps(self) -> int:
-        """Default episode limit in decision steps (the task's)."""
-        return int(self.task_class().max_episode_steps)
+        """Default episode limit in decision steps (the task's, for this id's configuration)."""
+        cls = self.task_class()
+        return int(cls.episode_limit(cls.make_config(dict(self.options))))
 
     def is_available(self) -> bool:
         """Whether the modules of the environment classes are present."""
