@@ -471,7 +471,7 @@ class Task(abc.ABC):
 
     @property
     def space_dtype(self) -> type[np.floating[Any]]:
-        """dtype of the observation and action spaces: float32 with ``config.float32_spaces`` (``-v1``), else float64."""
+        """The dtype of the observation and action spaces: float32 with ``config.float32_spaces`` (``-v1``), else float64."""
         return np.float32 if self.config.float32_spaces else np.float64
 
     # --- the episode loop ------------------------------------------------------------------------

@@ -133,7 +133,7 @@ def test_plan_waypoint_reach_shows_in_the_same_step() -> None:
 
 @pytest.mark.parametrize("family", ["SectorCREnv", "StaticObstacleEnv"])
 def test_flight_level_350_and_speed_step_in_knots(family: str) -> None:
-    """"FL350" was 350 m and the 20/3 "kt" speed step was 20/3 m/s in -v0."""
+    """ "FL350" was 350 m and the 20/3 "kt" speed step was 20/3 m/s in -v0."""
     for version, alt, step in (("v0", 350.0, 20 / 3), ("v1", 350 * FL, 20 / 3 * KTS)):
         task = _task(f"{family}-{version}", 2)
         active = task.sim.active
