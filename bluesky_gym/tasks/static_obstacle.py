@@ -240,7 +240,17 @@ class StaticObstacleTask(Task):
         self.remember(self.measure(envs))
 
     def _clear_start(
-        self, rng: np.random.Generator, j: int, e: int, lat0: Array, lon0: Array, d: Array, b: Array, clat: Array, clon: Array, polys: list[Array]
+        self,
+        rng: np.random.Generator,
+        j: int,
+        e: int,
+        lat0: Array,
+        lon0: Array,
+        d: NDArray[np.int64],
+        b: NDArray[np.int64],
+        clat: Array,
+        clon: Array,
+        polys: list[Array],
     ) -> None:
         """``-v1``: redraw (centre, then polygon) every obstacle whose circle comes within :data:`START_CLEARANCE_KM` of the start.
 
