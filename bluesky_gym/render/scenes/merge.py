@@ -14,6 +14,7 @@ from bluesky_gym.tasks.geometry import point_at_distance
 from bluesky_gym.tasks.merge import INTRUSION_DISTANCE, RWY_LAT, RWY_LON
 
 RUNWAY_HDG = 180.0  # deg: arrivals come from the FAF due north and land southbound
+FIT_RUNWAY_NM = 150.0  # NM: a FAF at most this far from the runway is drawn with it in one view
 
 
 def _callsign(slot: int) -> str:
@@ -34,8 +35,11 @@ def merge_scene(task: Any, i: int) -> MapScene:
         (pal.GOAL, f"FAF ({space.faf_margin_nm:.3g} NM) / runway ({space.goal_margin_nm:.3g} NM)"),
         (pal.ROUTE, "arrival sector and approach"),
     ]
-    lat_pts = [RWY_LAT, faf_lat]
-    lon_pts = [RWY_LON, faf_lon]
+    # The view holds the runway, the FAF and the start; with a FAF farther out than that fits
+    # (the -v1 200 NM) it holds the FAF, the start and the ownship, and the runway when targeted.
+    near = float(geo.kwikdist(faf_lat, faf_lon, RWY_LAT, RWY_LON)) <= FIT_RUNWAY_NM or int(task.wpt_reach[i]) != 0
+    lat_pts = [RWY_LAT, faf_lat] if near else [faf_lat, float(sim.lat[i, 0])]
+    lon_pts = [RWY_LON, faf_lon] if near else [faf_lon, float(sim.lon[i, 0])]
     if sim.active[i, 0]:
         lat_pts.append(float(task.start_lat[i]))
         lon_pts.append(float(task.start_lon[i]))
