@@ -180,6 +180,7 @@ def overview_page() -> str:
         summary = (inspect.getdoc(row.env_class()) or "").split("\n", 1)[0]
         out.append(f"| [{env_id}]({env_id}.md) | {_cell(summary)} | {task.dt * task.action_frequency:g} s | {row.max_episode_steps} steps |")
     out += ["", "The `-v0` ids are the paper's MDPs; [the -v0 contract](../environments-v0.md) specifies them.", ""]
+    out += ["The `-v1` ids are the same tasks without the paper's MDP defects; [the -v1 changes](../environments-v1.md) lists them.", ""]
     return "\n".join(out)
 
 
