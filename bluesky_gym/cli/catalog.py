@@ -104,7 +104,9 @@ def describe(env_id: str) -> dict[str, Any]:
         max_steps = env.spec.max_episode_steps if env.spec is not None and env.spec.max_episode_steps else task.max_episode_steps
     finally:
         env.close()
-    docs = _attribute_docs(type(config))
+    docs: dict[str, str] = {}
+    for base in reversed(type(config).__mro__):  # a base class's fields (float32_spaces) are documented there
+        docs.update(_attribute_docs(base))
     options = []
     for f in dataclasses.fields(config):
         default = getattr(config, f.name)

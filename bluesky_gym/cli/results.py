@@ -12,9 +12,9 @@ optimality gap, probability of improvement; ``rliable``). Figures go to a direct
 the page (``docs/results/`` for ``docs/results.md``). The page names the command that made it;
 rerunning the command on the same directories reproduces it.
 
-Reference scores are read from each sweep's ``references/`` directory (written by ``sweep``);
-``--reference-episodes N`` computes the missing ones (e.g. a reference policy added after the
-sweep) on ``N`` held-out episodes and caches them there.
+The reference policies are evaluated on the same held-out scenarios as the runs (as many
+episodes as the runs' evaluations, or ``--reference-episodes N``) where a sweep does not hold
+their per-episode records yet, and kept in its ``references/episodes/`` for the next time.
 """
 
 from __future__ import annotations
@@ -40,9 +40,8 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument(
         "--reference-episodes",
         type=non_negative_int,
-        default=0,
         metavar="N",
-        help="compute reference policies missing from a sweep's references/ on N held-out episodes (default: 0, use what is there)",
+        help="held-out episodes of the reference policies a sweep lacks (default: as many as the runs' evaluations)",
     )
     p.set_defaults(func=run)
 
@@ -53,9 +52,8 @@ def run(args: argparse.Namespace) -> int:
 
     command = ["bluesky-gym", "results", *map(str, args.sweeps), "--out", str(args.out)]
     try:
-        if args.reference_episodes:
-            for line in complete_references(args.sweeps, args.reference_episodes):
-                print(line, file=sys.stderr)
+        for line in complete_references(args.sweeps, args.reference_episodes):
+            print(line, file=sys.stderr)
         page = build_results(args.sweeps, args.out, command)
     except (MissingDependencyError, FileNotFoundError, ValueError) as exc:
         print(f"bluesky-gym results: error: {exc}", file=sys.stderr)

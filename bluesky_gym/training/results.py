@@ -64,9 +64,9 @@ class EnvResults:
     references: dict[str, float]  # reference policy -> mean held-out return
 
 
-def episode_table(run_dir: Path) -> dict[str, np.ndarray] | None:
+def episode_table(run_dir: Path, name: str = "eval_episodes.csv") -> dict[str, np.ndarray] | None:
     """The held-out episodes of a finished run (``eval_episodes.csv``), by column; None if absent."""
-    path = run_dir / "eval_episodes.csv"
+    path = run_dir / name
     if not path.exists():
         return None
     header, rows = read_csv_rows(path)
@@ -117,63 +117,52 @@ def seed_episode_bootstrap(groups: Sequence[np.ndarray], rng: np.random.Generato
     return (point, float(lo), float(hi))
 
 
-def _reference_row(name: str, data: dict[str, Any]) -> Row:
-    summary = data["summary"]
-    kpis = {}
-    for col, _, _ in KPI_COLUMNS:
-        s = summary.get(col)
-        if s and s.get("n"):
-            kpis[col] = (s["mean"], s["mean"] - s["ci95"], s["mean"] + s["ci95"])
-    return Row(name, 1, int(data.get("episodes", summary["return"]["n"])), kpis)
+def reference_episode_dir(sweep_dir: str | Path) -> Path:
+    """Where the per-episode records of a sweep's reference policies are kept."""
+    return Path(sweep_dir) / "references" / "episodes"
 
 
-def load_references(sweep_dirs: Sequence[Path], env_id: str) -> dict[str, dict[str, Any]]:
-    """The cached reference evaluations of ``env_id`` found in the sweeps' ``references/``."""
-    found: dict[str, dict[str, Any]] = {}
+def _reference_table(sweep_dirs: Sequence[Path], env_id: str, name: str) -> dict[str, np.ndarray] | None:
     for d in sweep_dirs:
-        path = d / "references" / f"{env_id}.json"
+        path = reference_episode_dir(d) / f"{env_id}_{name}_episodes.csv"
         if path.exists():
-            data = read_json(path)
-            for name in REFERENCE_ORDER:
-                if name in data and name not in found:
-                    found[name] = data[name]
-    return found
+            return episode_table(path.parent, path.name)
+    return None
 
 
-def complete_references(sweep_dirs: Sequence[str | Path], episodes: int) -> list[str]:
-    """Evaluate the reference policies missing from each sweep's ``references/`` and cache them.
+def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None = None) -> list[str]:
+    """Evaluate the reference policies whose per-episode records a sweep lacks, and keep them.
 
-    A sweep caches ``random`` and ``classical`` per environment; a reference policy added later
-    (or an environment whose cache is missing) is evaluated here on ``episodes`` held-out
-    episodes, the first ones, as the sweep does, and added to ``references/<env_id>.json``.
+    A sweep caches the summaries of ``random`` and ``classical`` per environment; the page needs
+    their per-episode records (for its intervals) and every reference policy that applies (one
+    added after the sweep too). Those missing are evaluated on the first held-out episodes, as
+    many as the runs' evaluations (or ``episodes``), and written to ``references/episodes/``.
 
     Returns:
         One line per evaluation made, for the user.
 
     """
-    from bluesky_gym.training.evaluation import evaluate, make_policy
-    from bluesky_gym.training.io import atomic_write_json
+    from bluesky_gym.training.evaluation import evaluate, make_policy, save_result
     from bluesky_gym.training.policies import REFERENCE_POLICIES
 
     done = []
     for d in map(Path, sweep_dirs):
-        env_ids = sorted({load_run(r).env_id for r in find_runs([d])})
-        for env_id in env_ids:
-            path = d / "references" / f"{env_id}.json"
-            data: dict[str, Any] = read_json(path) if path.exists() else {"env_id": env_id, "episodes": episodes}
+        runs = [load_run(r) for r in find_runs([d])]
+        for env_id in sorted({r.env_id for r in runs}):
+            n = episodes
+            if n is None:
+                n = max(int(read_json(r.path / "config.json").get("eval_episodes", 0)) for r in runs if r.env_id == env_id) or 50
             for name in REFERENCE_POLICIES:
-                if name in data:
+                if (reference_episode_dir(d) / f"{env_id}_{name}_episodes.csv").exists():
                     continue
-                n = int(data.get("episodes", episodes))
                 try:
                     policy = make_policy(name, env_id)
                 except ValueError as exc:  # the policy does not apply to this environment
                     done.append(f"{env_id}: no {name} reference ({exc})")
                     continue
                 result = evaluate(env_id, policy, n)
-                data[name] = result.to_json()
-                atomic_write_json(path, data)
-                done.append(f"{env_id}: evaluated {name} on {n} held-out episodes -> {path}")
+                save_result(result, reference_episode_dir(d), stem=f"{env_id}_{name}")
+                done.append(f"{env_id}: evaluated {name} on {n} held-out episodes -> {reference_episode_dir(d)}")
     return done
 
 
@@ -195,8 +184,19 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
         by_env.setdefault(run.env_id, []).append((run, episode_table(d)))
     out = []
     for env_id in sorted(by_env):
-        refs = load_references(dirs, env_id)
-        rows = [_reference_row(name, refs[name]) for name in REFERENCE_ORDER if name in refs]
+        rows = []
+        ref_returns = {}
+        for name in REFERENCE_ORDER:
+            table = _reference_table(dirs, env_id, name)
+            if table is None:
+                continue
+            row = Row(name, 1, len(next(iter(table.values()))))
+            for col, key, _ in KPI_COLUMNS:
+                values = _kpi_values(table, key)
+                if len(values):
+                    row.kpis[col] = seed_episode_bootstrap([values], rng, reps)
+            rows.append(row)
+            ref_returns[name] = row.kpis["return"][0]
         by_algo: dict[str, list[dict[str, np.ndarray]]] = {}
         for run, table in by_env[env_id]:
             if table is not None and table:
@@ -209,7 +209,6 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
                 if any(len(g) for g in groups):
                     row.kpis[col] = seed_episode_bootstrap(groups, rng, reps)
             rows.append(row)
-        ref_returns = {name: float(refs[name]["summary"]["return"]["mean"]) for name in refs}
         out.append(EnvResults(env_id, rows, [r for r, _ in by_env[env_id]], ref_returns))
     return out
 
@@ -412,7 +411,7 @@ def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Se
         "",
         "```bash",
         PAPER_GRID_COMMAND,
-        f"bluesky-gym results sweeps/paper --out {out.name}",
+        f"bluesky-gym results sweeps/paper --out {command[command.index('--out') + 1] if '--out' in command else out}",
         "```",
         "",
     ]

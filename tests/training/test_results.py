@@ -13,9 +13,9 @@ import pytest
 pytest.importorskip("matplotlib")
 pytest.importorskip("rliable")
 
-from bluesky_gym.training.evaluation import EvalResult, save_result, write_references  # noqa: E402
+from bluesky_gym.training.evaluation import EvalResult, save_result  # noqa: E402
 from bluesky_gym.training.io import atomic_write_csv, atomic_write_json  # noqa: E402
-from bluesky_gym.training.results import build_results, collect, seed_episode_bootstrap  # noqa: E402
+from bluesky_gym.training.results import build_results, collect, reference_episode_dir, seed_episode_bootstrap  # noqa: E402
 
 
 def _episodes(returns, success=None, min_sep=None):
@@ -39,15 +39,8 @@ def _run(root: Path, env_id: str, algo: str, seed: int, eval_returns, steps: int
 
 def _sweep(root: Path, ppo: dict[str, list[list[float]]], sac: dict[str, list[list[float]]] | None = None) -> Path:
     for env_id, seeds in ppo.items():
-        write_references(
-            root / "references",
-            env_id,
-            4,
-            {
-                "random": EvalResult(env_id, "random", _episodes([0, 0, 0, 0]), 0.1),
-                "classical": EvalResult(env_id, "classical", _episodes([10, 10, 10, 10]), 0.1),
-            },
-        )
+        for name, value in (("random", 0), ("classical", 10)):
+            save_result(EvalResult(env_id, name, _episodes([value] * 4), 0.1), reference_episode_dir(root), stem=f"{env_id}_{name}")
         for s, returns in enumerate(seeds):
             _run(root, env_id, "PPO", s, returns)
     for env_id, seeds in (sac or {}).items():
@@ -127,3 +120,17 @@ def test_cli_names_a_missing_directory_in_one_line(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0
     assert "nope" in proc.stderr and "bluesky-gym results: error" in proc.stderr
+
+
+def test_missing_reference_episodes_are_evaluated_once_and_kept(tmp_path):
+    from bluesky_gym.training.results import complete_references
+
+    sweep = tmp_path / "sweep"
+    _run(sweep, "DescentEnv-v0", "PPO", 0, [1.0, 2.0])
+    first = complete_references([sweep], episodes=2)
+    assert [line.split(":")[1].split()[1] for line in first] == ["random", "classical"]
+    for name in ("random", "classical"):
+        assert (reference_episode_dir(sweep) / f"DescentEnv-v0_{name}_episodes.csv").exists()
+    assert complete_references([sweep], episodes=2) == []
+    rows = collect([sweep], reps=50)[0].rows
+    assert [r.policy for r in rows] == ["random", "classical", "PPO"] and rows[0].episodes == 2
