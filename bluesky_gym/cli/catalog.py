@@ -19,6 +19,7 @@ import inspect
 import json
 import re
 import sys
+import warnings
 from typing import Any
 
 import numpy as np
@@ -94,7 +95,10 @@ def describe(env_id: str) -> dict[str, Any]:
 
     bluesky_gym.register_envs()
     known_env(env_id)
-    env = gym.make(env_id)
+    with warnings.catch_warnings():
+        # Describing a -v0 id is not using an outdated version: no "out of date" notice from Gymnasium.
+        warnings.filterwarnings("ignore", message=".*is out of date", category=DeprecationWarning)
+        env = gym.make(env_id)
     try:
         obs_space = env.observation_space
         act_space = env.action_space
@@ -156,8 +160,8 @@ def run_list(args: argparse.Namespace) -> int:
         return 0
     _print_table(single)
     print(f"\n{len(single)} environments; `bluesky-gym info --env ID` shows one in detail.")
-    print("\nCentralised multi-agent environments (one agent steers every aircraft; train them with")
-    print("Stable-Baselines3 on gym.make(ID), or train the multi-agent forms with `bluesky-gym train-ma`):\n")
+    print("\nCentralised multi-agent environments (one agent steers every aircraft; `train` and `eval`")
+    print("take them too; `bluesky-gym train-ma` trains a policy shared by the aircraft instead):\n")
     _print_table(centralised)
     return 0
 
