@@ -41,7 +41,7 @@ BOOTSTRAP = 2000
 #: Reference policies, in the order of the tables (those present in a sweep's references).
 REFERENCE_ORDER = ("random", "classical", "mvp")
 #: The command that reproduces the paper's full grid on a Ray cluster.
-PAPER_GRID_COMMAND = "bluesky-gym sweep --envs all --algos all --seeds 0 1 2 --steps 2e6 --address ray://HEAD:10001 --out sweeps/paper"
+PAPER_GRID_COMMAND = "bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6 --address ray://HEAD:10001 --out sweeps/paper"
 
 
 @dataclass
