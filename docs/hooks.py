@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib
 import functools
+import importlib
 import inspect
 import os
 import re
