@@ -57,3 +57,13 @@ def maximum(a: float, b: float) -> float:
     if b != b:
         return b
     return a if a >= b else b
+
+
+@jit
+def minimum(a: float, b: float) -> float:
+    """``np.minimum`` of two floats (NaN propagates)."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a <= b else b
