@@ -40,7 +40,8 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts
+from bluesky_gym.core.atmosphere import tas2cas
+from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect
 from bluesky_gym.core.jit import jit
 from bluesky_gym.core.performance import A320
 from bluesky_gym.core.scalar import DEG, RAD, maximum, minimum, mod, sign
@@ -299,6 +300,10 @@ class ResolutionState(Protocol):
     """The per-aircraft state MVP reads, shaped (n_envs, n_aircraft) (the :class:`~bluesky_gym.core.physics.Physics` arrays)."""
 
     active: BoolArray
+    lat: Array  # deg
+    lon: Array  # deg
+    cas: Array  # m/s
+    tas: Array  # m/s
     alt: Array  # m
     gseast: Array  # m/s
     gsnorth: Array  # m/s
@@ -437,8 +442,6 @@ def _resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist
 
 def resume(
     state: ResolutionState,
-    lat: Array,
-    lon: Array,
     pairs: BoolArray,
     *,
     rpz: float = PZ_RADIUS,
@@ -452,9 +455,7 @@ def resume(
     with a deleted aircraft ends.
 
     Args:
-        state: The aircraft state (``active``, ``gseast``, ``gsnorth``, ``trk``).
-        lat: (n_envs, n_aircraft) latitude [deg].
-        lon: (n_envs, n_aircraft) longitude [deg].
+        state: The aircraft state (``active``, ``lat``, ``lon``, ``gseast``, ``gsnorth``, ``trk``).
         pairs: (n_envs, n_aircraft, n_aircraft) pairs being resolved (earlier pairs and the
             current conflicts).
         rpz: Protected-zone radius [m].
@@ -466,9 +467,108 @@ def resume(
     active = np.ascontiguousarray(state.active, dtype=np.bool_)
     keep = np.zeros(pairs.shape, np.bool_)
     asas = np.zeros(active.shape, np.bool_)
-    c = [np.ascontiguousarray(x, dtype=np.float64) for x in (lat, lon, state.gseast, state.gsnorth, state.trk)]
+    c = [np.ascontiguousarray(x, dtype=np.float64) for x in (state.lat, state.lon, state.gseast, state.gsnorth, state.trk)]
     _resume_loop(np.ascontiguousarray(pairs, dtype=np.bool_), *c, active, float(rpz), float(rpz) * resofach, keep, asas)
     return keep, asas
 
 
-__all__ = ["RESO_FACTOR", "Resolution", "ResolutionSettings", "ResolutionState", "mvp", "mvp_pair", "resume"]
+@dataclass(frozen=True)
+class ResolutionCommand:
+    """What MVP asks of every aircraft, (n_envs, n_aircraft), as BlueSky's ASAS would fly it now.
+
+    Where ``follow`` is False the aircraft follows its own autopilot (no resolution active); the
+    other arrays are NaN or stale there.
+    """
+
+    follow: BoolArray  # the aircraft follows its resolution (BlueSky ``cr.active``)
+    trk: Array  # deg, resolution track
+    gs: Array  # m/s, resolution ground speed
+    vs: Array  # m/s, resolution vertical speed (a magnitude, see the module docstring)
+    alt: Array  # m, resolution altitude
+    track_change: Array  # deg, resolution track minus the current track, in [-180, 180)
+    cas_change: Array  # m/s, CAS change giving the resolution ground speed (same TAS change)
+    vertical_speed: Array  # m/s, signed vertical speed flown: ``vs`` towards ``alt``
+
+
+class MVPResolver:
+    """MVP as BlueSky's ASAS runs it, for batches of airspaces: detection, resolution, and when to stop.
+
+    Each :meth:`update` detects the conflicts of the current state (:func:`~bluesky_gym.core.conflicts.detect`),
+    computes :func:`mvp` and keeps BlueSky's bookkeeping per airspace: the resolution values are
+    renewed whenever the airspace has a conflict (BlueSky computes them for every aircraft then;
+    an aircraft without a conflict of its own gets its current velocity) and kept otherwise, and an
+    aircraft follows them while one of its pairs is still being resolved (:func:`resume`).
+
+    Args:
+        settings: RMETH switches and margins (default: BlueSky's after ``RESO MVP``).
+        rpz: Protected-zone radius [m].
+        hpz: Protected-zone half height [m].
+        lookahead: Look-ahead time [s].
+        vsmin: Lower vertical-speed limit [m/s].
+        vsmax: Upper vertical-speed limit [m/s].
+    """
+
+    def __init__(
+        self,
+        settings: ResolutionSettings | None = None,
+        *,
+        rpz: float = PZ_RADIUS,
+        hpz: float = PZ_HEIGHT,
+        lookahead: float = LOOKAHEAD,
+        vsmin: float = A320.vsmin,
+        vsmax: float = A320.vsmax,
+    ) -> None:
+        self.settings = settings or ResolutionSettings()
+        self.rpz, self.hpz, self.lookahead = float(rpz), float(hpz), float(lookahead)
+        self.vsmin, self.vsmax = float(vsmin), float(vsmax)
+        self.pairs = np.zeros((0, 0, 0), np.bool_)
+        self.held = np.zeros((4, 0, 0))  # trk, gs, vs, alt of the last resolution per airspace
+
+    def reset(self, envs: ArrayLike | None = None) -> None:
+        """Forget the resolutions of the airspaces ``envs`` (a boolean mask or indices; all when None)."""
+        if envs is None:
+            self.pairs = np.zeros((0, 0, 0), np.bool_)
+            self.held = np.zeros((4, 0, 0))
+            return
+        if self.pairs.size:
+            self.pairs[envs] = False
+            self.held[:, envs] = np.nan
+
+    def update(self, state: ResolutionState) -> ResolutionCommand:
+        """Detect, resolve and decide who follows a resolution, from the current state."""
+        shape = state.active.shape
+        if self.pairs.shape != shape + (shape[1],):
+            self.pairs = np.zeros(shape + (shape[1],), np.bool_)
+            self.held = np.full((4, *shape), np.nan)
+        c = detect(state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, state.active, self.rpz, self.hpz, self.lookahead)
+        res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=self.vsmin, vsmax=self.vsmax)
+        renew = c.conflict.any(axis=(1, 2))[None, :, None]
+        self.held = np.where(renew, np.stack([res.trk, res.gs, res.vs, res.alt]), self.held)
+        self.pairs, follow = resume(state, self.pairs | c.conflict, rpz=self.rpz, resofach=self.settings.resofach)
+        trk, gs, vs, alt = self.held
+        with np.errstate(invalid="ignore"):
+            tas = np.asarray(state.tas) + (gs - np.asarray(state.gs))
+            cas_change = tas2cas(np.where(np.isfinite(tas), tas, 0.0), state.alt) - np.asarray(state.cas)
+            return ResolutionCommand(
+                follow=follow,
+                trk=trk.copy(),
+                gs=gs.copy(),
+                vs=vs.copy(),
+                alt=alt.copy(),
+                track_change=np.asarray((trk - np.asarray(state.trk) + 180.0) % 360.0 - 180.0),
+                cas_change=np.where(np.isfinite(tas), cas_change, np.nan),
+                vertical_speed=np.asarray(np.sign(alt - np.asarray(state.alt)) * np.abs(vs)),
+            )
+
+
+__all__ = [
+    "RESO_FACTOR",
+    "MVPResolver",
+    "Resolution",
+    "ResolutionCommand",
+    "ResolutionSettings",
+    "ResolutionState",
+    "mvp",
+    "mvp_pair",
+    "resume",
+]
