@@ -302,7 +302,6 @@ class ResolutionState(Protocol):
     active: BoolArray
     lat: Array  # deg
     lon: Array  # deg
-    cas: Array  # m/s
     tas: Array  # m/s
     alt: Array  # m
     gseast: Array  # m/s
@@ -548,7 +547,7 @@ class MVPResolver:
         trk, gs, vs, alt = self.held
         with np.errstate(invalid="ignore"):
             tas = np.asarray(state.tas) + (gs - np.asarray(state.gs))
-            cas_change = tas2cas(np.where(np.isfinite(tas), tas, 0.0), state.alt) - np.asarray(state.cas)
+            cas_change = tas2cas(np.where(np.isfinite(tas), tas, 0.0), state.alt) - tas2cas(state.tas, state.alt)
             return ResolutionCommand(
                 follow=follow,
                 trk=trk.copy(),
