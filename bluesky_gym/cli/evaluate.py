@@ -42,7 +42,9 @@ def add_parser(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("env_id", metavar="ID", help="environment id")
-    p.add_argument("--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random', 'classical' or 'mvp' (repeatable)")
+    p.add_argument(
+        "--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random', 'classical' or 'mvp' (repeatable)"
+    )
     p.add_argument("--algo", type=algorithm, help="algorithm of the model files (default: from the run or the file)")
     p.add_argument("--episodes", type=positive_int, default=100, metavar="N", help="held-out episodes (default: 100)")
     p.add_argument("--seed-offset", type=non_negative_int, default=0, metavar="J", help="first evaluation scenario index (default: 0)")

@@ -44,7 +44,7 @@ from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect
 from bluesky_gym.core.jit import jit
 from bluesky_gym.core.performance import A320
-from bluesky_gym.core.scalar import DEG, RAD, maximum, minimum, mod, sign
+from bluesky_gym.core.scalar import RAD, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
 
 Array = NDArray[np.float64]
@@ -377,7 +377,7 @@ def mvp(
     pairs = shape + (shape[1],)
     if conflicts.conflict.shape != pairs:
         raise ValueError(f"conflicts are shaped {conflicts.conflict.shape}, the state needs {pairs}")
-    out = [np.full(shape, np.nan) for _ in range(4)]
+    trk, gs, vs, alt_out = (np.full(shape, np.nan) for _ in range(4))
     dv = np.full((*shape, 3), np.nan)
     tsolv = np.full(shape, np.nan)
     conflict = np.ascontiguousarray(conflicts.conflict, dtype=np.bool_)
@@ -406,11 +406,14 @@ def mvp(
         float(lookahead),
         s.mode,
         1.0 if s.swresohoriz else 0.0,
-        *out,
+        trk,
+        gs,
+        vs,
+        alt_out,
         dv,
         tsolv,
     )
-    return Resolution(out[0], out[1], out[2], out[3], dv, tsolv, conflict.any(axis=-1) & active, alt.copy())
+    return Resolution(trk, gs, vs, alt_out, dv, tsolv, conflict.any(axis=-1) & active, alt.copy())
 
 
 @jit
@@ -466,8 +469,8 @@ def resume(
     active = np.ascontiguousarray(state.active, dtype=np.bool_)
     keep = np.zeros(pairs.shape, np.bool_)
     asas = np.zeros(active.shape, np.bool_)
-    c = [np.ascontiguousarray(x, dtype=np.float64) for x in (state.lat, state.lon, state.gseast, state.gsnorth, state.trk)]
-    _resume_loop(np.ascontiguousarray(pairs, dtype=np.bool_), *c, active, float(rpz), float(rpz) * resofach, keep, asas)
+    lat, lon, ve, vn, trk = (np.ascontiguousarray(x, dtype=np.float64) for x in (state.lat, state.lon, state.gseast, state.gsnorth, state.trk))
+    _resume_loop(np.ascontiguousarray(pairs, dtype=np.bool_), lat, lon, ve, vn, trk, active, float(rpz), float(rpz) * resofach, keep, asas)
     return keep, asas
 
 
@@ -523,7 +526,7 @@ class MVPResolver:
         self.pairs = np.zeros((0, 0, 0), np.bool_)
         self.held = np.zeros((4, 0, 0))  # trk, gs, vs, alt of the last resolution per airspace
 
-    def reset(self, envs: ArrayLike | None = None) -> None:
+    def reset(self, envs: NDArray[np.bool_] | NDArray[np.int64] | None = None) -> None:
         """Forget the resolutions of the airspaces ``envs`` (a boolean mask or indices; all when None)."""
         if envs is None:
             self.pairs = np.zeros((0, 0, 0), np.bool_)
@@ -541,7 +544,7 @@ class MVPResolver:
             self.held = np.full((4, *shape), np.nan)
         c = detect(state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, state.active, self.rpz, self.hpz, self.lookahead)
         res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=self.vsmin, vsmax=self.vsmax)
-        renew = c.conflict.any(axis=(1, 2))[None, :, None]
+        renew = np.asarray(c.conflict.any(axis=(1, 2)))[None, :, None]
         self.held = np.where(renew, np.stack([res.trk, res.gs, res.vs, res.alt]), self.held)
         self.pairs, follow = resume(state, self.pairs | c.conflict, rpz=self.rpz, resofach=self.settings.resofach)
         trk, gs, vs, alt = self.held

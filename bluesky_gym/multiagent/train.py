@@ -13,9 +13,10 @@ drawn from live transitions only (:class:`~bluesky_gym.multiagent.sb3.LiveRowsRo
 The trained policy is then evaluated deterministically on ``--eval-episodes`` held-out scenarios
 (evaluation seeds, never used in training), together with the random policy, the classical
 geometric rule (:class:`~bluesky_gym.multiagent.policies.GeometricCRPolicy`) and MVP conflict
-resolution (:class:`~bluesky_gym.multiagent.policies.MVPPolicy`), on the same scenarios, and a KPI table is printed: losses of separation per episode and per agent, LoS
-pair-steps, minimum separation, mean |drift|, fraction of agents that completed (exit / arrival)
-and return per agent (mean +- 95% half-width over the episodes).
+resolution (:class:`~bluesky_gym.multiagent.policies.MVPPolicy`), on the same scenarios, and a
+KPI table is printed: losses of separation per episode and per agent, LoS pair-steps, minimum
+separation, mean |drift|, fraction of agents that completed (exit / arrival) and return per agent
+(mean +- 95% half-width over the episodes).
 
 Needs Stable-Baselines3 and PyTorch: ``pip install "bluesky-gym[train]"``.
 """
