@@ -36,6 +36,7 @@ import gymnasium as gym  # noqa: E402
 import bluesky_gym  # noqa: E402,F401  (registers the environments)
 from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics  # noqa: E402
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect  # noqa: E402
+from bluesky_gym.core.performance import A320  # noqa: E402
 from bluesky_gym.core.resolution import MVPResolver, Resolution, ResolutionSettings, mvp  # noqa: E402
 from bluesky_gym.core.units import FT, KTS  # noqa: E402
 
@@ -129,11 +130,9 @@ def _ours(sim: BlueSkyPhysics, settings: ResolutionSettings, conflicts: Conflict
     if conflicts is None:
         conflicts = detect(sim.lat, sim.lon, sim.alt, sim.gs, sim.trk, sim.vs, sim.active, PZ_RADIUS, PZ_HEIGHT, LOOKAHEAD)
     perf = sim.traffic.perf
-    slots = np.flatnonzero(sim.active[0])
-    idx = np.array(sim.traffic.id2idx([sim.acid(s) for s in slots]))
-    vsmin, vsmax = np.zeros(sim.lat.shape), np.zeros(sim.lat.shape)
-    vsmin[0, slots], vsmax[0, slots] = perf.vsmin[idx], perf.vsmax[idx]
-    return mvp(sim, conflicts, settings, vsmin=vsmin, vsmax=vsmax), conflicts
+    # The limits MVP caps with are the package's A320 constants (asserted, not copied from BlueSky).
+    assert np.all(perf.vsmin == A320.vsmin) and np.all(perf.vsmax == A320.vsmax)
+    return mvp(sim, conflicts, settings), conflicts
 
 
 def _bluesky_conflicts(sim: BlueSkyPhysics) -> Conflicts:
