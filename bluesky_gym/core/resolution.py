@@ -44,7 +44,7 @@ from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect
 from bluesky_gym.core.jit import jit
 from bluesky_gym.core.performance import A320
-from bluesky_gym.core.scalar import RAD, maximum, minimum, mod, sign
+from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
 
 Array = NDArray[np.float64]
@@ -176,16 +176,16 @@ def mvp_pair(
     ih = rpz_m - dabsh
     if dabsh <= HEAD_ON_MISS:  # head-on: resolve perpendicular to the line of sight
         dabsh = HEAD_ON_MISS
-        dcpa_e = drel_n / dist * dabsh
-        dcpa_n = -drel_e / dist * dabsh
+        dcpa_e = divide(drel_n, dist) * dabsh
+        dcpa_n = divide(-drel_e, dist) * dabsh
     if rpz_m < dist and dabsh < dist:
         # Outside the zone: aim at the tangent to the zone, not at its rim.
         erratum = math.cos(math.asin(rpz_m / dist) - math.asin(dabsh / dist))
-        dv1 = ((rpz_m / erratum - dabsh) * dcpa_e) / (abs(tcpa) * dabsh)
-        dv2 = ((rpz_m / erratum - dabsh) * dcpa_n) / (abs(tcpa) * dabsh)
+        dv1 = divide((rpz_m / erratum - dabsh) * dcpa_e, abs(tcpa) * dabsh)
+        dv2 = divide((rpz_m / erratum - dabsh) * dcpa_n, abs(tcpa) * dabsh)
     else:
-        dv1 = (ih * dcpa_e) / (abs(tcpa) * dabsh)
-        dv2 = (ih * dcpa_n) / (abs(tcpa) * dabsh)
+        dv1 = divide(ih * dcpa_e, abs(tcpa) * dabsh)
+        dv2 = divide(ih * dcpa_n, abs(tcpa) * dabsh)
     # Vertical.
     moving = abs(vrel_z) > 0.0
     iv = hpz_m if moving else hpz_m - abs(dalt)
@@ -193,7 +193,7 @@ def mvp_pair(
     if tsolv > dtlook:
         tsolv = tlos
         iv = hpz_m
-    dv3 = (iv / tsolv) * (-vrel_z / abs(vrel_z)) if moving else iv / tsolv
+    dv3 = divide(iv, tsolv) * (-vrel_z / abs(vrel_z)) if moving else divide(iv, tsolv)
     return dv1, dv2, dv3, tsolv
 
 

@@ -150,3 +150,23 @@ def test_resolver_holds_resolution_until_past_cpa_and_resets() -> None:
     sim.run(400)
     cmd = resolver.update(sim)
     assert not cmd.follow.any()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        (90.0, 0.0, 0.0, 0.0, 0.0, -100.0, 0.0, 0.0),  # co-located: 0/0 in the head-on rule
+        (90.0, 5000.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),  # no relative motion: tcpa 0
+        (45.0, 8000.0, 30.0, 10.0, 0.0, -150.0, -150.0, 2.0),  # same altitude, climbing apart: tsolv 0
+        (10.0, 12000.0, 60.0, 20.0, 150.0, -200.0, 10.0, 0.0),  # level, ordinary
+    ],
+)
+def test_pair_kernel_compiled_and_plain_python_agree_on_edge_cases(args: tuple[float, ...]) -> None:
+    """Zero divisors give numpy's inf / NaN in both forms (the plain form does not raise)."""
+    from bluesky_gym.core.jit import python_form
+    from bluesky_gym.core.resolution import mvp_pair
+
+    rest = (PZ_RADIUS * RESO_FACTOR, PZ_HEIGHT * RESO_FACTOR, LOOKAHEAD)
+    compiled = np.array(mvp_pair(*args, *rest))
+    plain = np.array(python_form(mvp_pair)(*args, *rest))
+    np.testing.assert_array_equal(compiled, plain)
