@@ -330,13 +330,6 @@ class Resolution:
     tsolv: Array  # s, shortest time to solve a conflict vertically (1e9 without conflict)
     in_conflict: BoolArray  # the aircraft has at least one conflict
 
-    alt_now: Array  # m, the altitude the resolution was computed at
-
-    @property
-    def vertical_speed(self) -> Array:
-        """The signed vertical speed BlueSky's autopilot flies: ``|vs|`` towards ``alt`` [m/s] (0 when level there)."""
-        return np.asarray(np.sign(self.alt - self.alt_now) * np.abs(self.vs))
-
 
 def mvp(
     state: ResolutionState,
@@ -413,7 +406,7 @@ def mvp(
         dv,
         tsolv,
     )
-    return Resolution(trk, gs, vs, alt_out, dv, tsolv, conflict.any(axis=-1) & active, alt.copy())
+    return Resolution(trk, gs, vs, alt_out, dv, tsolv, conflict.any(axis=-1) & active)
 
 
 @jit
