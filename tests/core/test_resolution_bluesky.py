@@ -19,6 +19,7 @@ extrapolates over up to 1e9 s for aircraft without a vertical conflict).
 * The creconfs scenarios: the recorded ``s9`` scenario flown for 200 s with MVP resolving (also
   checking which aircraft follow their resolution, BlueSky's ``resumenav``), and HorizontalCR and
   VerticalCR episodes on the BlueSky backend, state by state.
+* The ``mvp`` policy gives the same actions on the native and the BlueSky backend.
 """
 
 from __future__ import annotations
@@ -241,3 +242,28 @@ def test_creconfs_env_scenarios(env_id: str, settings: tuple[str | None, str | N
     finally:
         _command_defaults(env.unwrapped.task.sim)
         env.close()
+
+
+@pytest.mark.parametrize("env_id", ["HorizontalCREnv-v0", "SectorCREnv-v0"])
+def test_mvp_policy_flies_the_same_episode_on_both_backends(env_id: str) -> None:
+    """The mvp policy reads the state through the Physics interface: same seed, same actions on native and BlueSky."""
+    from bluesky_gym.training.policies import MVPPolicy
+
+    actions: dict[str, list[np.ndarray]] = {}
+    resolving = 0
+    for backend in ("native", "bluesky"):
+        env = gym.make(env_id, backend=backend)
+        policy = MVPPolicy(env_id)
+        policy.bind(env)
+        obs, _ = env.reset(seed=5)
+        actions[backend] = []
+        for _ in range(12):
+            a = policy.act({k: v[None] for k, v in obs.items()})[0]
+            resolving += int(policy.resolver.pairs.any())
+            actions[backend].append(a)
+            obs, _, terminated, truncated, _ = env.step(a)
+            if terminated or truncated:
+                break
+        env.close()
+    np.testing.assert_allclose(np.array(actions["bluesky"]), np.array(actions["native"]), rtol=0.0, atol=1e-9)
+    assert resolving > 0  # MVP resolved during the compared steps
