@@ -53,6 +53,23 @@ class DescentEnv(BlueSkyEnv):
     every step, and at the end of an episode the KPIs `kpi_*` (success = runway reached,
     time to goal, extra track, ...).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the runway was reached (no crash), else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the runway was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the runway leg (`runway_distance_km`) [km]; negative before the runway | never |
+    | `kpi_los_count` | losses of separation; always 0, there is no other aircraft | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | always `inf`: there is no other aircraft |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the goal heading [deg] | always `NaN`: the task has no heading goal |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("DescentEnv-v0", render_mode=None, backend="native", alt_min=2000, alt_max=4000,
     target_alt_dif=500, runway_distance_km=200.0)`.

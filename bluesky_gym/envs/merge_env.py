@@ -68,6 +68,23 @@ class MergeEnv(BlueSkyEnv):
     `reward_<component>` every step, and at the end of an episode the KPIs `kpi_*` (success =
     `faf_reach` 2, time to goal, extra track against start → FAF → 20 NM before the runway, ...).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the aircraft passed the FAF and came within 20 NM of the runway (`faf_reach` 2), else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until then [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the nominal route start → FAF → 20 NM before the runway [km] | never |
+    | `kpi_los_count` | new losses of separation: aircraft coming within 4 NM of the ownship | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | never |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift (from the bearing to the FAF, then the runway) [deg], over the decision steps | never |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("MergeEnv-v0", render_mode=None, backend="native", num_aircraft=20,
     spawn_distance_km=(50.0, 200.0), intruder_distance_km=(20.0, 500.0), spawn_bearing_deg=15.0,

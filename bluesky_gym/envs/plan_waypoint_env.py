@@ -63,6 +63,23 @@ class PlanWaypointEnv(BlueSkyEnv):
     traffic, so the separation KPIs are trivial, and no single heading goal, so the drift KPI is
     NaN.
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if every waypoint was reached, else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the last waypoint was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the shortest polyline through all waypoint centres [km]; can be negative | never |
+    | `kpi_los_count` | losses of separation; always 0, there is no other aircraft | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | always `inf`: there is no other aircraft |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift [deg] | always `NaN`: there is no single heading goal |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("PlanWaypointEnv-v0", render_mode=None, backend="native", num_waypoints=5,
     waypoint_distance_min=0, waypoint_distance_max=75, distance_margin_km=5.0)`. The waypoint

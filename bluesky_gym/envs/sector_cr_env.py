@@ -73,6 +73,20 @@ class SectorCREnv(BlueSkyEnv):
     step, and at the end of an episode the KPIs `kpi_*` (losses of separation, minimum separation,
     mean drift, track distance; the task has no goal, so there is no success KPI).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_los_count` | new losses of separation: aircraft coming within 5 NM of the ownship | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | never |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the heading to the exit point [deg], over the decision steps | never |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("SectorCREnv-v0", render_mode=None, backend="native", ac_density_mode="normal",
     ac_density_range=(0.003, 0.007), ac_density_mu=0.005, ac_density_sigma=0.001,

@@ -87,6 +87,24 @@ class StaticObstacleEnv(BlueSkyEnv):
     episode ended (0 without a crash; overlapping areas count separately). There is no
     traffic, so the separation KPIs are trivial.
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the waypoint was reached, else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the waypoint was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the start-to-waypoint kwik-distance [km] | never |
+    | `kpi_los_count` | losses of separation; always 0, there is no other aircraft | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | always `inf`: there is no other aircraft |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the heading to the waypoint [deg], over the decision steps | never |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+    | `kpi_obstacle_intrusions` | restricted areas the aircraft was inside at the end (0 without a crash) | never |
+
     ## Arguments
     `gym.make("StaticObstacleEnv-v0", render_mode=None, backend="native", num_obstacles=10,
     obstacle_distance_min=20, obstacle_distance_max=150, obstacle_area_min=50,

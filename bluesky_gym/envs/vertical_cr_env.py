@@ -75,6 +75,23 @@ class VerticalCREnv(BlueSkyEnv):
     5 NM / 1000 ft cylinder, minimum separation, success = runway reached, time to goal, extra
     track, ...).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the runway was reached (no crash), else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the runway was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the runway leg [km]; negative before the runway | never |
+    | `kpi_los_count` | new losses of separation: intruders entering the 5 NM / 1000 ft cylinder | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest horizontal distance to an intruder [NM] | never |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the goal heading [deg] | always `NaN`: the task has no heading goal |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("VerticalCREnv-v0", render_mode=None, backend="native", alt_min=2000,
     alt_max=4000, target_alt_dif=500, runway_distance_km=200.0, num_intruders=5, dpsi_min=45,

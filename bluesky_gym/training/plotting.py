@@ -162,7 +162,8 @@ def stratified_bootstrap_iqm(scores: dict[str, Array], rng: np.random.Generator,
     return point, np.percentile(s, 2.5, axis=0), np.percentile(s, 97.5, axis=0)
 
 
-def _pyplot() -> Any:
+def pyplot() -> Any:
+    """Import matplotlib's pyplot with the non-interactive Agg backend, or raise naming the extra."""
     try:
         import matplotlib
 
@@ -213,7 +214,7 @@ def _fill_gaps(curve: Array) -> Array:
 
 def plot_learning_curves(runs: Sequence[Run], out_dir: str | Path, seed: int = 0) -> list[Path]:
     """Write ``learning_curves.png`` and one ``kpis_<env>.png`` per environment."""
-    plt = _pyplot()
+    plt = pyplot()
     out = Path(out_dir)
     rng = np.random.default_rng(seed)
     groups = _groups(runs)
@@ -321,7 +322,7 @@ def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed
 
 def plot_aggregate(agg: dict[str, Any], out_dir: str | Path) -> list[Path]:
     """Write ``aggregate.png`` and ``aggregate.json``."""
-    plt = _pyplot()
+    plt = pyplot()
     out = Path(out_dir)
     atomic_write_json(out / "aggregate.json", agg)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
