@@ -15,11 +15,12 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import functools
 import inspect
 import os
 import re
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -179,6 +180,7 @@ def overview_page() -> str:
         summary = (inspect.getdoc(row.env_class()) or "").split("\n", 1)[0]
         out.append(f"| [{env_id}]({env_id}.md) | {_cell(summary)} | {task.dt * task.action_frequency:g} s | {row.max_episode_steps} steps |")
     out += ["", "The `-v0` ids are the paper's MDPs; [the -v0 contract](../environments-v0.md) specifies them.", ""]
+    out += ["The `-v1` ids are the same tasks without the paper's MDP defects; [the -v1 changes](../environments-v1.md) lists them.", ""]
     return "\n".join(out)
 
 
@@ -244,12 +246,19 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
     return separate_lists(markdown)
 
 
+def generated_pages() -> dict[str, Callable[[], str]]:
+    """The pages made from the code: path below ``docs/`` -> function returning its Markdown."""
+    pages: dict[str, Callable[[], str]] = {f"{ENV_DIR}/index.md": overview_page}
+    for env_id in env_ids():
+        pages[f"{ENV_DIR}/{env_id}.md"] = functools.partial(env_page, env_id)
+    pages["cli.md"] = cli_page
+    return pages
+
+
 def on_files(files: Any, config: Any) -> Any:
     """Add the generated pages."""
     from mkdocs.structure.files import File
 
-    files.append(File.generated(config, f"{ENV_DIR}/index.md", content=overview_page()))
-    for env_id in env_ids():
-        files.append(File.generated(config, f"{ENV_DIR}/{env_id}.md", content=env_page(env_id)))
-    files.append(File.generated(config, "cli.md", content=cli_page()))
+    for path, make in generated_pages().items():
+        files.append(File.generated(config, path, content=make()))
     return files

@@ -77,6 +77,12 @@ class DescentEnv(BlueSkyEnv):
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0). Fixed software defects: seeded generator, clean
       reset (no aircraft carried over after truncation), `terminated` is a bool, rgb_array frames.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      |a| ≤ 0.008 (|v| ≤ 0.1 m/s) holds the current altitude (`hold_altitude_at_zero`): BlueSky
+      replaces such a vertical speed by its default 7.62 m/s, so a = 0 climbed (bluesky-gym #59).
     """
 
     task_class = DescentTask

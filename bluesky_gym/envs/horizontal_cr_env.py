@@ -100,6 +100,12 @@ class HorizontalCREnv(BlueSkyEnv):
       `terminated` is a bool, `average_drift` is a number at reset, rgb_array frames, correct
       north-up pictures. The reference's deletion of (every other) aircraft on termination is
       not reproduced: every reset starts a clean scenario, so it has no effect.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      every aircraft starts at FL100 (`airborne_start`): at altitude 0 they were in BlueSky's ground
+      phase, capped at 89 m/s, which also stretched the conflict geometry in time.
     """
 
     task_class = HorizontalCRTask

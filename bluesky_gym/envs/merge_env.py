@@ -101,6 +101,17 @@ class MergeEnv(BlueSkyEnv):
     * The reference's intruder sort uses `kwikdist_matrix`, which with BlueSky 1.1.1's compiled
       geometry (its default) returns a single 0 and makes the reference crash at reset; v0
       implements the specified sort by kwik distance to each intruder.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      the FAF reached in a step shows in that step's observation, with the runway as the new target
+      (`faf_same_step`, bluesky-gym #13);
+      the FAF is 200 NM north of the runway (`faf_distance_in_nm`), the unit the reference's comment
+      gives (it was 200 km); the episode limit is 100 steps so that the runway stays within reach;
+      the FAF capture radius is 10 km and the runway goal 20 km (`margins_in_km`): the "km" were
+      compared with NM;
+      `airspeed` is (TAS − 150)/150 (`normalise_airspeed`): it was the raw TAS, about 168 m/s.
     """
 
     task_class = MergeTask

@@ -91,6 +91,14 @@ class PlanWaypointEnv(BlueSkyEnv):
       reset (the reference keeps a truncated episode's aircraft, so the next episode continued
       from its position, heading and speed; here every episode starts at 52°N 4°E);
       `terminated` is a bool; the reach flags are float64; rgb_array frames.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      the aircraft starts at FL100 (`airborne_start`): at altitude 0 it was in BlueSky's ground phase,
+      capped at 89 m/s instead of the scenario's CAS 150 m/s;
+      a waypoint reached in a step shows as reached in that step's observation (`reach_same_step`):
+      the flags lagged one step.
     """
 
     task_class = PlanWaypointTask

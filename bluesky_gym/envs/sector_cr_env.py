@@ -97,6 +97,18 @@ class SectorCREnv(BlueSkyEnv):
     * v0: the paper's MDP (bluesky-gym 0.2.0, after its 2025-01 fixes of the drift computation,
       the intruder altitude and the CAS-based speed action). Fixed software defects: seeded
       generator, `average_drift` is 0.0 at reset, rgb_array frames, many environments per process.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      traffic at FL350 (`flight_level_altitude`): the reference's "FL350" was used as 350 m; at FL350
+      BlueSky caps the CAS 150 m/s at M0.80 (TAS 237 m/s), and `airspeed` is (TAS − 180)/80 so that it
+      stays in [−1, 1];
+      the speed action changes CAS by 20/3 kt per unit (`speed_step_in_knots`): the "kts" were added
+      as m/s;
+      leaving the sector terminates the episode; within 5 NM of the own waypoint it is the exit,
+      elsewhere it costs 1 per decision step left (`exit_ends_episode`): leaving early used to
+      truncate without penalty, so it escaped the drift and intrusion penalties (bluesky-gym #44).
     """
 
     task_class = SectorCRTask

@@ -118,6 +118,19 @@ class StaticObstacleEnv(BlueSkyEnv):
       `terminated` is a bool, `average_drift` is 0.0 (not NaN) at reset, rgb_array frames. Not
       reproduced: the paper's training logs were recorded with an uncommitted variant without
       the drift penalty.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      the aircraft flies at FL350 (`flight_level_altitude`): "FL350" was 350 m; at FL350 (TAS 237 m/s)
+      the farthest waypoint (169 km) is reachable in the 100 steps, at 152 m/s many were not;
+      the speed action changes CAS by 20/3 kt per unit (`speed_step_in_knots`): the "kts" were added
+      as m/s;
+      the reward is evaluated once per decision step on the state after it (`step_reward`): it was
+      evaluated per sub-step with the previous observation's waypoint distance and drift and only the
+      last sub-step's value returned, so the waypoint was detected a step late;
+      an obstacle whose circle comes within 5 km of the start is redrawn (`clear_start`): about 6% of
+      the episodes started inside or at the edge of an obstacle.
     """
 
     task_class = StaticObstacleTask

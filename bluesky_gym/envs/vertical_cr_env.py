@@ -104,6 +104,14 @@ class VerticalCREnv(BlueSkyEnv):
       second value, 5, applies). Fixed software defects: seeded generator, `terminated` is a
       bool, rgb_array frames. The reference's deletion of (every other) aircraft on termination
       is not reproduced: every reset starts a clean scenario, so it has no effect.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      |a| ≤ 0.008 holds the current altitude (`hold_altitude_at_zero`, bluesky-gym #59: a = 0 climbed
+      at 7.62 m/s);
+      `z_difference_speed` is divided by 5 m/s as `vz` is (`normalise_vertical_speed`): it was raw
+      m/s.
     """
 
     task_class = VerticalCRTask
