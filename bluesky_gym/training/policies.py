@@ -489,8 +489,10 @@ class MVPPolicy(Policy):
 
     def bind(self, env: Any) -> None:
         """Use the physics of the batched environment ``env`` (its task's :class:`Physics`)."""
-        task = getattr(getattr(env, "unwrapped", env), "task", None)
-        if task is None or task.env_id != self.env_id:
+        base = getattr(env, "unwrapped", env)
+        task = getattr(base, "task", None)
+        spec = getattr(base, "spec", None)
+        if task is None or getattr(spec, "id", task.env_id) != self.env_id:
             raise ValueError(f"the mvp policy of {self.env_id} needs that environment, got {env!r}")
         self.physics = task.sim
         self.resolver.reset()
@@ -545,6 +547,23 @@ MVP: dict[str, MVPMapping] = {
         speed_step=merge.D_SPEED,
     ),
 }
+
+# The -v1 ids: the same mappings, except SectorCR, whose -v1 traffic flies at FL350 with a TAS of
+# about 230 m/s: BlueSky caps MVP's ground speed with the CAS envelope (163 m/s), so a speed
+# resolution there would first of all slow the aircraft down; -v1 resolves by heading only.
+MVP.update(
+    {
+        "HorizontalCREnv-v1": MVP["HorizontalCREnv-v0"],
+        "VerticalCREnv-v1": MVP["VerticalCREnv-v0"],
+        "SectorCREnv-v1": MVPMapping(
+            lambda: SteerToGoal("sin(drift)", "cos(drift)", sector_cr.D_HEADING, 2),
+            rmethh="HDG",
+            rpz_nm=sector_cr.INTRUSION_DISTANCE,
+            heading_step=sector_cr.D_HEADING,
+        ),
+        "MergeEnv-v1": MVP["MergeEnv-v0"],
+    }
+)
 
 #: Classical controller factory per environment id.
 CLASSICAL: dict[str, Callable[[], Policy]] = {

@@ -23,6 +23,7 @@ HEAD_ON = {
     "SectorCREnv-v0": (40, 60.0),
     "MergeEnv-v0": (8, 150.0),
 }
+HEAD_ON.update({env_id.replace("-v0", "-v1"): case for env_id, case in HEAD_ON.items()})
 
 
 def _head_on_separation(env_id: str, resolve: bool, n: int = 3) -> np.ndarray:
@@ -69,9 +70,10 @@ def test_mvp_resolves_a_head_on_conflict(env_id: str) -> None:
 
 
 def test_mvp_exists_for_the_envs_with_traffic_only() -> None:
-    assert set(MVP) == {"HorizontalCREnv-v0", "VerticalCREnv-v0", "SectorCREnv-v0", "MergeEnv-v0"}
-    assert reference_names("MergeEnv-v0") == ("random", "classical", "mvp")
-    assert reference_names("DescentEnv-v0") == ("random", "classical")
+    traffic = {"HorizontalCREnv", "VerticalCREnv", "SectorCREnv", "MergeEnv"}
+    assert set(MVP) == {f"{name}-{v}" for name in traffic for v in ("v0", "v1")}
+    assert reference_names("MergeEnv-v0") == reference_names("MergeEnv-v1") == ("random", "classical", "mvp")
+    assert reference_names("DescentEnv-v0") == reference_names("DescentEnv-v1") == ("random", "classical")
     with pytest.raises(ValueError, match="no MVP mapping for DescentEnv-v0"):
         reference_policy("mvp", "DescentEnv-v0", np.zeros(1), np.ones(1))
 
