@@ -44,6 +44,7 @@ A third reference exists for the environments with traffic (:data:`MVP`):
 from __future__ import annotations
 
 import abc
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -54,7 +55,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core.conflicts import PZ_HEIGHT
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
-from bluesky_gym.core.units import NM, NM2KM
+from bluesky_gym.core.units import KTS, NM, NM2KM
 from bluesky_gym.tasks import horizontal_cr, merge, sector_cr, vertical_cr
 
 Array = NDArray[np.float64]
@@ -548,19 +549,12 @@ MVP: dict[str, MVPMapping] = {
     ),
 }
 
-# The -v1 ids: the same mappings, except SectorCR, whose -v1 traffic flies at FL350 with a TAS of
-# about 230 m/s: BlueSky caps MVP's ground speed with the CAS envelope (163 m/s), so a speed
-# resolution there would first of all slow the aircraft down; -v1 resolves by heading only.
+# The -v1 ids: the same mappings; SectorCR-v1's speed action is in knots (speed_step_in_knots).
 MVP.update(
     {
         "HorizontalCREnv-v1": MVP["HorizontalCREnv-v0"],
         "VerticalCREnv-v1": MVP["VerticalCREnv-v0"],
-        "SectorCREnv-v1": MVPMapping(
-            lambda: SteerToGoal("sin(drift)", "cos(drift)", sector_cr.D_HEADING, 2),
-            rmethh="HDG",
-            rpz_nm=sector_cr.INTRUSION_DISTANCE,
-            heading_step=sector_cr.D_HEADING,
-        ),
+        "SectorCREnv-v1": dataclasses.replace(MVP["SectorCREnv-v0"], speed_step=sector_cr.D_VELOCITY * KTS),
         "MergeEnv-v1": MVP["MergeEnv-v0"],
     }
 )
