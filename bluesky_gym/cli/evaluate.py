@@ -5,10 +5,12 @@ Examples::
     bluesky-gym eval DescentEnv-v0 --model runs/DescentEnv-v0/PPO/seed_0 --episodes 100
     bluesky-gym eval MergeEnv-v0 --model random --model classical --model runs/MergeEnv-v0/SAC/seed_0/model.zip
     bluesky-gym eval SectorCREnv-v0 --model classical --episodes 200 --out results/sector
+    bluesky-gym eval HorizontalCREnv-v0 --model random --model classical --model mvp
 
 ``--model`` is a trained model (a run directory or a ``.zip``; its algorithm is read from the run's
 config or the file, or given with ``--algo``), ``random`` (uniform actions) or ``classical`` (the
-hand-written reference controller of the environment); repeat it to compare policies.
+hand-written reference controller of the environment) or ``mvp`` (BlueSky's MVP conflict resolution,
+for the environments with traffic; docs/baselines.md); repeat it to compare policies.
 
 Episode ``j`` is the scenario of ``reset(seed=2**31 + j)``: the evaluation seeds start at 2**31,
 while every training scenario seed is below 2**31, so evaluation scenarios are never trained on,
@@ -40,7 +42,9 @@ def add_parser(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("env_id", metavar="ID", help="environment id")
-    p.add_argument("--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random' or 'classical' (repeatable)")
+    p.add_argument(
+        "--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random', 'classical' or 'mvp' (repeatable)"
+    )
     p.add_argument("--algo", type=algorithm, help="algorithm of the model files (default: from the run or the file)")
     p.add_argument("--episodes", type=positive_int, default=100, metavar="N", help="held-out episodes (default: 100)")
     p.add_argument("--seed-offset", type=non_negative_int, default=0, metavar="J", help="first evaluation scenario index (default: 0)")
@@ -50,7 +54,7 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _stem(spec: str) -> str:
-    if spec in ("random", "classical"):
+    if spec in ("random", "classical", "mvp"):
         return f"eval_{spec}"
     p = Path(spec)
     parts = [x for x in (p.parent.parent.name, p.parent.name, p.stem) if x] if p.suffix == ".zip" else [p.parent.name, p.name]
