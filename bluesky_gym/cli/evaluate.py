@@ -6,12 +6,14 @@ Examples::
     bluesky-gym eval --env MergeEnv-v0 --model random --model classical \
         --model runs/MergeEnv-v0/SAC/seed_0/model.zip
     bluesky-gym eval --env SectorCREnv-v0 --model classical --episodes 200 --out results/sector
+    bluesky-gym eval --env HorizontalCREnv-v0 --model random --model classical --model mvp
 
 ``--model`` is a trained model (a run directory or a ``.zip``; its algorithm is read from the run's
-config or the file; ``--algo``, if given, must agree), ``random`` (uniform actions) or
-``classical`` (the hand-written reference controller of the environment); repeat it to compare
-policies. A model trained on another environment (its run's ``config.json`` says which) or whose
-observation space differs from the environment's is refused.
+config or the file; ``--algo``, if given, must agree), ``random`` (uniform actions),
+``classical`` (the hand-written reference controller of the environment) or ``mvp`` (BlueSky's
+MVP conflict resolution, for the environments with traffic; docs/baselines.md); repeat it to
+compare policies. A model trained on another environment (its run's ``config.json`` says which)
+or whose observation space differs from the environment's is refused.
 
 Episode ``j`` is the scenario of ``reset(seed=2**31 + j)``: the evaluation seeds start at 2**31,
 while every training scenario seed is below 2**31, so evaluation scenarios are never trained on,
@@ -43,7 +45,9 @@ def add_parser(subparsers: Any) -> None:
         description=__doc__,
     )
     add_env_option(p)
-    p.add_argument("--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random' or 'classical' (repeatable)")
+    p.add_argument(
+        "--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random', 'classical' or 'mvp' (repeatable)"
+    )
     p.add_argument("--algo", type=algorithm, help="algorithm of the model files (default: from the run or the file)")
     p.add_argument("--episodes", type=positive_int, default=100, metavar="N", help="held-out episodes (default: 100)")
     p.add_argument("--seed-offset", type=non_negative_int, default=0, metavar="J", help="first evaluation scenario index (default: 0)")
@@ -54,7 +58,7 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _stem(spec: str) -> str:
-    if spec in ("random", "classical"):
+    if spec in ("random", "classical", "mvp"):
         return f"eval_{spec}"
     p = Path(spec)
     parts = [x for x in (p.parent.parent.name, p.parent.name, p.stem) if x] if p.suffix == ".zip" else [p.parent.name, p.name]

@@ -8,7 +8,7 @@ Examples::
 The environments are the multi-agent forms (``horizontal_cr_v0``, ``sector_cr_v0``, ``merge_v0``;
 their single-agent or centralised ids are accepted too). Every agent slot of ``--num-envs``
 parallel multi-agent episodes is one row of an SB3 VecEnv; ``--steps`` counts row-steps (empty
-slots included). After training, the policy, a random policy and the classical
+slots included). After training, the policy, a random policy, MVP and the classical
 conflict-resolution rule are evaluated on ``--eval-episodes`` held-out scenarios and their KPIs
 printed. Needs the ``train`` and ``multiagent`` extras.
 """

@@ -43,6 +43,7 @@ class AircraftPerformance:
     v_rotate: float = 74.5  # m/s TAS; on the ground vs is forced to 0 below it
     hmax: float = 11060.0  # m, ceiling
     vsmax: float = 16.04  # m/s
+    vsmin: float = 3.6  # m/s: OpenAP's smallest climb rate, BlueSky's perf.vsmin (used by conflict resolution)
     mmo: float = 0.8  # maximum Mach number
     axmax_initial: float = 2.37  # m/s^2 until the first performance update
     axmax_ground: float = 2.0  # m/s^2

@@ -12,11 +12,12 @@ live rows (:class:`~bluesky_gym.multiagent.sb3.LiveRowsVecNormalize`) and PPO's 
 drawn from live transitions only (:class:`~bluesky_gym.multiagent.sb3.LiveRowsRolloutBuffer`).
 
 The trained policy is then evaluated deterministically on ``--eval-episodes`` held-out scenarios
-(evaluation seeds, never used in training), together with the random policy and the classical
-geometric rule (:class:`~bluesky_gym.multiagent.policies.GeometricCRPolicy`), on the same
-scenarios, and a KPI table is printed: losses of separation per episode and per agent, LoS
-pair-steps, minimum separation, mean |drift|, fraction of agents that completed (exit / arrival)
-and return per agent (mean +- 95% half-width over the episodes).
+(evaluation seeds, never used in training), together with the random policy, the classical
+geometric rule (:class:`~bluesky_gym.multiagent.policies.GeometricCRPolicy`) and MVP conflict
+resolution (:class:`~bluesky_gym.multiagent.policies.MVPPolicy`), on the same scenarios, and a
+KPI table is printed: losses of separation per episode and per agent, LoS pair-steps, minimum
+separation, mean |drift|, fraction of agents that completed (exit / arrival) and return per agent
+(mean +- 95% half-width over the episodes).
 
 Needs Stable-Baselines3 and PyTorch: ``pip install -e ".[train]"``.
 """
@@ -32,7 +33,7 @@ from typing import Any
 
 from bluesky_gym.multiagent import names
 from bluesky_gym.multiagent.evaluation import evaluate, kpi_table
-from bluesky_gym.multiagent.policies import GeometricCRPolicy, RandomPolicy, SharedSB3Policy
+from bluesky_gym.multiagent.policies import GeometricCRPolicy, MVPPolicy, RandomPolicy, SharedSB3Policy
 
 DEFAULTS: dict[str, Any] = {
     "timesteps": 1_000_000,
@@ -160,7 +161,12 @@ def train_and_compare(
         normalizer.save(f"{save}.pkl")
         print(f"saved {save}.zip and {save}.pkl")
     t1 = time.time()
-    policies = (RandomPolicy(seed=hyperparams.get("seed", 0)), GeometricCRPolicy(), SharedSB3Policy(model, normalizer=normalizer, name="shared PPO"))
+    policies = (
+        RandomPolicy(seed=hyperparams.get("seed", 0)),
+        GeometricCRPolicy(),
+        MVPPolicy(),
+        SharedSB3Policy(model, normalizer=normalizer, name="shared PPO"),
+    )
     results = {p.name: evaluate(env, p, eval_episodes) for p in policies}
     print(f"evaluation on {eval_episodes} held-out episodes ({time.time() - t1:.0f} s):")
     print(kpi_table(results))

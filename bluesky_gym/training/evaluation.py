@@ -26,7 +26,7 @@ import numpy as np
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, eval_seeds
 from bluesky_gym.training import algorithm_class, make_vector_env
 from bluesky_gym.training.io import atomic_write_csv, atomic_write_json, latest_checkpoint, read_json
-from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_policy
+from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_names, reference_policy
 
 #: (column, episode-record key, label) of the KPI table.
 KPI_COLUMNS: tuple[tuple[str, str, str], ...] = (
@@ -114,6 +114,7 @@ def evaluate(
 
 def _play_once(venv: Any, policy: Policy, seeds: list[int]) -> list[dict[str, Any]]:
     n = len(seeds)
+    policy.bind(venv)
     obs, _ = venv.reset(seed=seeds)
     policy.reset(None)
     ret = np.zeros(n)
@@ -391,7 +392,7 @@ def load_policy(path: str | Path, algo: str | None = None, device: str = "cpu", 
 
 
 def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
-    """Make a policy from a command-line spec: ``random``, ``classical`` or a model path."""
+    """Make a policy from a command-line spec: ``random``, ``classical``, ``mvp`` or a model path."""
     if spec in REFERENCE_POLICIES:
         venv = make_vector_env(env_id, 1)
         try:
@@ -404,23 +405,24 @@ def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
 
 # --- reference scores ------------------------------------------------------------------------------
 def reference_scores(env_id: str, episodes: int, cache_dir: str | Path | None = None) -> dict[str, dict[str, Any]]:
-    """Summaries of ``random`` and ``classical`` on the first ``episodes`` held-out scenarios.
+    """Summaries of the reference policies (``random``, ``classical``, and ``mvp`` with traffic) on the first ``episodes`` held-out scenarios.
 
     With ``cache_dir``, results are read from / written to ``<cache_dir>/<env_id>.json`` (reused
     only if computed on the same number of episodes by the same package version).
 
     Returns:
-        ``{"random": summary-json, "classical": summary-json}`` (the :meth:`EvalResult.to_json` form).
+        ``{"random": summary-json, "classical": summary-json, ...}`` (the :meth:`EvalResult.to_json` form).
 
     """
     import bluesky_gym
 
+    names = reference_names(env_id)
     path = Path(cache_dir) / f"{env_id}.json" if cache_dir is not None else None
     if path is not None and path.exists():
         cached = read_json(path)
-        if cached.get("episodes") == episodes and cached.get("version") == bluesky_gym.__version__:
-            return {k: cached[k] for k in REFERENCE_POLICIES}
-    results = {name: evaluate(env_id, make_policy(name, env_id), episodes) for name in REFERENCE_POLICIES}
+        if cached.get("episodes") == episodes and cached.get("version") == bluesky_gym.__version__ and all(k in cached for k in names):
+            return {k: cached[k] for k in names}
+    results = {name: evaluate(env_id, make_policy(name, env_id), episodes) for name in names}
     if cache_dir is not None:
         write_references(cache_dir, env_id, episodes, results)
     return {k: v.to_json() for k, v in results.items()}
