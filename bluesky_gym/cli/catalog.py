@@ -1,4 +1,4 @@
-"""``bluesky-gym list`` and ``bluesky-gym info ID``: the environments, their spaces and options.
+"""``bluesky-gym list`` and ``bluesky-gym info --env ID``: the environments, their spaces and options.
 
 Examples::
 
