@@ -21,7 +21,7 @@ import numpy as np
 from bluesky_gym.core.atmosphere import GAMMA_R, cas2tas_at, is_mach, isa, tas2cas_at
 from bluesky_gym.core.jit import jit, jit_inline
 from bluesky_gym.core.lnav import lnav_one
-from bluesky_gym.core.performance import PHASE_GD, performance
+from bluesky_gym.core.performance import C_HMAX, C_MMO, C_V_ROTATE, C_VSMAX, PHASE_GD, performance
 from bluesky_gym.core.scalar import DEG, RAD
 from bluesky_gym.core.scalar import maximum as _maximum
 from bluesky_gym.core.scalar import mod as _mod
@@ -82,9 +82,10 @@ MEMO_COLUMNS = 33
 
 
 @jit_inline
-def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
-    hmax, vsmax, mmo, v_rotate = limits
+    perf = table[actype[i]]  # the aircraft's row of the performance table
+    hmax, vsmax, mmo, v_rotate = perf[C_HMAX], perf[C_VSMAX], perf[C_MMO], perf[C_V_ROTATE]
     mm = memo[i]
     # Performance update from the start-of-step state [docs/dynamics.md §2.1].
     if do_perf:
@@ -235,7 +236,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
 
 @jit
-def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, active):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo, active):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance every aircraft by one step, in BlueSky's update order.
 
     Args:
@@ -247,19 +248,19 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         any_wind: Whether any airspace has wind.
         do_perf: Whether the performance model updates this step.
         dt: Time step [s].
-        perf: Performance constants (``perf_tuple``).
-        limits: (hmax, vsmax, mmo, v_rotate).
+        table: Performance table, (types, ``N_COEFFICIENTS``): one ``table_row`` per aircraft type.
+        actype: (aircraft,) row of ``table`` of each aircraft.
         memo: (aircraft, MEMO_COLUMNS) memo table.
         active: (aircraft,) slots holding an aircraft; empty slots are skipped (their values are
             meaningless).
     """
     for i in range(F.shape[1]):
         if active[i]:
-            step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo)
+            step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo)
 
 
 @jit
-def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, active, lnav, trace):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, table, actype, memo, active, lnav, trace):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
 
     Valid when aircraft do not interact within these steps, which holds for the physics and
@@ -277,7 +278,7 @@ def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, 
         for k in range(perf_due.shape[0]):
             if lnav is not None:
                 lnav_one(F, i, lnav[0], lnav[1], lnav[2], lnav[3], lnav[4], lnav[5], lnav[6], lnav[7], lnav[8], lnav[9])
-            step_one(F, i, phase, wn, we, haswind, any_wind, perf_due[k], dt, perf, limits, memo)
+            step_one(F, i, phase, wn, we, haswind, any_wind, perf_due[k], dt, table, actype, memo)
             if trace is not None:
                 trace[k, 0, i] = F[I_LAT, i]
                 trace[k, 1, i] = F[I_LON, i]
