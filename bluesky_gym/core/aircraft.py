@@ -76,7 +76,7 @@ def resolve_type(name: str) -> str:
     return upper if upper in supported_types() else FALLBACK_TYPE
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _load(resolved: str) -> AircraftPerformance:
     """Build the performance data of an OpenAP type (upper case), as BlueSky's OpenAP coefficient loader does."""
     import numpy as np

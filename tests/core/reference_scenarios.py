@@ -73,7 +73,25 @@ def _wind_s12(sim, env):
 
 
 # Aircraft types (tests/data/reference/README.md, s13-s16).
-TYPES_ENROUTE = ["A319", "A320", "A321", "B737", "B738", "B744", "B772", "A332", "A359", "B788", "E190", "E145", "CRJ9", "C550", "GLF6", "ZZZZ", "AT72"]
+TYPES_ENROUTE = [
+    "A319",
+    "A320",
+    "A321",
+    "B737",
+    "B738",
+    "B744",
+    "B772",
+    "A332",
+    "A359",
+    "B788",
+    "E190",
+    "E145",
+    "CRJ9",
+    "C550",
+    "GLF6",
+    "ZZZZ",
+    "AT72",
+]
 TYPES_TAKEOFF = ["A320", "B744", "E145", "C550", "A388", "ZZZZ"]
 
 
