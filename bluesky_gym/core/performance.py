@@ -61,15 +61,6 @@ class AircraftPerformance:
         return float(self.engine_count * self.engine_max_thrust)
 
 
-def __getattr__(name: str) -> AircraftPerformance:
-    """``A320``: the OpenAP A320, loaded on first use (importing openap takes about a second)."""
-    if name == "A320":
-        from bluesky_gym.core.aircraft import aircraft_performance
-
-        return aircraft_performance("A320")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 def perf_tuple(perf: AircraftPerformance) -> tuple[float, ...]:
     """The performance constants in the argument order of :func:`performance` (columns 0-18 of a table row)."""
     return (
