@@ -21,7 +21,7 @@ def test_bench_core_table_and_json(tmp_path: Path, capsys: pytest.CaptureFixture
     assert "BlueSky: not measured" in text
     rows = [line.split() for line in text.splitlines() if line.split()[:1] and line.split()[0] in available_kernels()]
     assert len(rows) == (4 + 2) * len(available_kernels())  # 2 x 2 A320 cells, 2 mixed-fleet cells at the largest batch
-    assert sum("mixed" in line for line in text.splitlines()) == 2 * len(available_kernels())
+    assert sum("mixed (10 types)" in line for line in text.splitlines()) == 2 * len(available_kernels())
     data = json.loads(out_json.read_text())
     assert data["meta"]["numpy"]
     assert {(r["kernel"], r["envs"], r["aircraft"]) for r in data["core"]["native"]} == {
