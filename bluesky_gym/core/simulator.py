@@ -137,6 +137,7 @@ class Simulator:
         # Memo table of the step kernel: (n_envs * max_aircraft, columns), NaN = nothing cached.
         self._memo = np.full((self.n_envs * self.max_aircraft, MEMO_COLUMNS), np.nan)
         self._empty_bool = np.zeros(0, dtype=np.bool_)
+        self._empty_int = np.zeros(0, dtype=np.int64)
 
     # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
     active: NDArray[np.bool_]
@@ -533,7 +534,7 @@ class Simulator:
             do_perf,
             self.dt,
             self._table,
-            self._type_flat,
+            self._type_args(),
             self._memo,
             self._active_flat,
         )
@@ -615,13 +616,17 @@ class Simulator:
             perf_due,
             self.dt,
             self._table,
-            self._type_flat,
+            self._type_args(),
             self._memo,
             self._active_flat,
             self._lnav_args() if self.swlnav.any() else None,
             None if track is None else track.reshape(n_steps, 2, -1),
         )
         return track
+
+    def _type_args(self) -> IntArray:
+        """Each aircraft's row of the performance table as the kernels take it (empty: all row 0)."""
+        return self._type_flat if len(self._type_names) > 1 else self._empty_int
 
     def _wind_args(self) -> tuple[Array, Array, NDArray[np.bool_], bool]:
         """Wind at every aircraft as the kernels take it: (north, east, has wind, any wind)."""

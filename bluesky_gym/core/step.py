@@ -84,13 +84,13 @@ MEMO_COLUMNS = 33
 @jit_inline
 def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
-    perf = table[actype[i]]  # the aircraft's row of the performance table
-    hmax, vsmax, mmo, v_rotate = perf[C_HMAX], perf[C_VSMAX], perf[C_MMO], perf[C_V_ROTATE]
+    t = actype[i] if actype.shape[0] else 0  # the aircraft's row of the performance table (no array: row 0)
+    hmax, vsmax, mmo, v_rotate = table[t, C_HMAX], table[t, C_VSMAX], table[t, C_MMO], table[t, C_V_ROTATE]
     mm = memo[i]
     # Performance update from the start-of-step state [docs/dynamics.md §2.1].
     if do_perf:
         if not (same(F[I_TAS, i], mm[M_PERF_TAS]) and same(F[I_VS, i], mm[M_PERF_VS]) and same(F[I_ALT, i], mm[M_PERF_ALT])):
-            ph, vmn, vmx, axm = performance(F[I_TAS, i], F[I_VS, i], F[I_ALT, i], perf)
+            ph, vmn, vmx, axm = performance(F[I_TAS, i], F[I_VS, i], F[I_ALT, i], table[t])
             mm[M_PERF_TAS], mm[M_PERF_VS], mm[M_PERF_ALT] = F[I_TAS, i], F[I_VS, i], F[I_ALT, i]
             mm[M_PHASE], mm[M_VMIN], mm[M_VMAX], mm[M_AXMAX] = ph, vmn, vmx, axm
         phase[i] = int(mm[M_PHASE])
@@ -249,7 +249,8 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype,
         do_perf: Whether the performance model updates this step.
         dt: Time step [s].
         table: Performance table, (types, ``N_COEFFICIENTS``): one ``table_row`` per aircraft type.
-        actype: (aircraft,) row of ``table`` of each aircraft.
+        actype: (aircraft,) row of ``table`` of each aircraft, or an empty array when every
+            aircraft is of the type of row 0 (the one-type fast path: one memory stream less).
         memo: (aircraft, MEMO_COLUMNS) memo table.
         active: (aircraft,) slots holding an aircraft; empty slots are skipped (their values are
             meaningless).

@@ -136,7 +136,7 @@ def _run_uncompiled(sim: Simulator, n: int) -> None:
         if sim.swlnav.any():
             python_form(lnav.lnav_kernel)(sim._float_flat, *sim._lnav_args())
         wn, we, haswind, any_wind = sim._wind_args()
-        args = (sim._phase_flat, wn, we, haswind, any_wind, do_perf, sim.dt, sim._table, sim._type_flat, sim._memo, sim._active_flat)
+        args = (sim._phase_flat, wn, we, haswind, any_wind, do_perf, sim.dt, sim._table, sim._type_args(), sim._memo, sim._active_flat)
         python_form(step.step_kernel)(sim._float_flat, *args)
 
 
