@@ -360,6 +360,7 @@ def run_env_episodes(
     time_limit: int,
     tol: float = ENV_TOL,
     wrap: Callable[[gym.Env], gym.Env] | None = None,
+    options: dict[str, Any] | None = None,
 ) -> tuple[Deviation, int]:
     """Run seeded episodes with seeded random actions on both backends side by side.
 
@@ -374,13 +375,14 @@ def run_env_episodes(
         time_limit: Truncation limit of both environments.
         tol: Scaled tolerance.
         wrap: Applied to both environments (e.g. a wind wrapper).
+        options: Scenario options given to both ``gym.make`` calls.
 
     Returns:
         The deviations seen and the number of steps compared.
     """
     dev = Deviation()
     steps = 0
-    envs = {b: gym.make(env_id, backend=b, max_episode_steps=time_limit) for b in ("native", "bluesky")}
+    envs = {b: gym.make(env_id, backend=b, max_episode_steps=time_limit, **(options or {})) for b in ("native", "bluesky")}
     sim = envs["native"].unwrapped.task.sim
     bsim = envs["bluesky"].unwrapped.task.sim
     if type(bsim).__name__ != "BlueSkyPhysics":

@@ -15,7 +15,7 @@ from bluesky_gym.core import Simulator  # noqa: E402
 from bluesky_gym.core.aircraft import ROTORCRAFT_TYPES, aircraft_performance, supported_types  # noqa: E402
 from tests.core.reference_scenarios import SCENARIOS, Scenario, _types_one_call  # noqa: E402
 
-from .parity import CORE_TOL, compare_states, random_core_scenario, run_core_scenario  # noqa: E402
+from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run_core_scenario, run_env_episodes  # noqa: E402
 
 pytestmark = pytest.mark.bluesky
 
@@ -118,3 +118,13 @@ def test_random_mixed_fleet_scenario(seed: int) -> None:
         assert nat.aircraft_type(0, act) == bs.aircraft_type(0, act)
     finally:
         bs.close()
+
+
+@pytest.mark.parametrize("env_id", ["HorizontalCREnv-v0", "VerticalCREnv-v0", "SectorCREnv-v0", "MergeEnv-v0"])
+def test_env_episodes_with_a_type_mix_match(env_id: str) -> None:
+    """The traffic environments with mixed intruder and ownship types, on both backends side by side."""
+    options = {"intruder_types": {"A320": 0.4, "B744": 0.3, "E190": 0.2, "C550": 0.1}, "ownship_types": ("B738", "A388")}
+    episodes = [(300 + k, 15 if k == 0 else 5) for k in range(3)]
+    dev, steps = run_env_episodes(env_id, episodes, 15, ENV_TOL, options=options)
+    assert steps >= len(episodes)
+    print(f"{env_id} with a type mix: {steps} steps; largest scaled deviation {dev.max:.2e}: {dev.summary()}")
