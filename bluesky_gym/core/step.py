@@ -82,15 +82,25 @@ MEMO_COLUMNS = 33
 
 
 @jit_inline
-def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
-    """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
-    t = actype[i] if actype.shape[0] else 0  # the aircraft's row of the performance table (no array: row 0)
-    hmax, vsmax, mmo, v_rotate = table[t, C_HMAX], table[t, C_VSMAX], table[t, C_MMO], table[t, C_V_ROTATE]
+def perf_row(table, t):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+    """Row ``t`` of the performance table as the tuples :func:`step_one` takes: (perf_tuple, (hmax, vsmax, mmo, v_rotate))."""
+    r = table[t]
+    perf = (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11], r[12], r[13], r[14], r[15], r[16], r[17], r[18])
+    return perf, (r[C_HMAX], r[C_VSMAX], r[C_MMO], r[C_V_ROTATE])
+
+
+@jit_inline
+def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+    """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`).
+
+    ``perf`` and ``limits`` are the aircraft's type's :func:`perf_row` tuples.
+    """
+    hmax, vsmax, mmo, v_rotate = limits
     mm = memo[i]
     # Performance update from the start-of-step state [docs/dynamics.md §2.1].
     if do_perf:
         if not (same(F[I_TAS, i], mm[M_PERF_TAS]) and same(F[I_VS, i], mm[M_PERF_VS]) and same(F[I_ALT, i], mm[M_PERF_ALT])):
-            ph, vmn, vmx, axm = performance(F[I_TAS, i], F[I_VS, i], F[I_ALT, i], table[t])
+            ph, vmn, vmx, axm = performance(F[I_TAS, i], F[I_VS, i], F[I_ALT, i], perf)
             mm[M_PERF_TAS], mm[M_PERF_VS], mm[M_PERF_ALT] = F[I_TAS, i], F[I_VS, i], F[I_ALT, i]
             mm[M_PHASE], mm[M_VMIN], mm[M_VMAX], mm[M_AXMAX] = ph, vmn, vmx, axm
         phase[i] = int(mm[M_PHASE])
@@ -255,9 +265,13 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype,
         active: (aircraft,) slots holding an aircraft; empty slots are skipped (their values are
             meaningless).
     """
+    one_type = actype.shape[0] == 0
+    perf, limits = perf_row(table, 0)  # every aircraft's, with one type
     for i in range(F.shape[1]):
         if active[i]:
-            step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo)
+            if not one_type:
+                perf, limits = perf_row(table, actype[i])
+            step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo)
 
 
 @jit
@@ -273,13 +287,17 @@ def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, table, actype,
     ``(steps, 2, aircraft)`` array that receives each aircraft's latitude and longitude after
     every step.
     """
+    one_type = actype.shape[0] == 0
+    perf, limits = perf_row(table, 0)  # every aircraft's, with one type
     for i in range(F.shape[1]):
         if not active[i]:
             continue
+        if not one_type:
+            perf, limits = perf_row(table, actype[i])
         for k in range(perf_due.shape[0]):
             if lnav is not None:
                 lnav_one(F, i, lnav[0], lnav[1], lnav[2], lnav[3], lnav[4], lnav[5], lnav[6], lnav[7], lnav[8], lnav[9])
-            step_one(F, i, phase, wn, we, haswind, any_wind, perf_due[k], dt, table, actype, memo)
+            step_one(F, i, phase, wn, we, haswind, any_wind, perf_due[k], dt, perf, limits, memo)
             if trace is not None:
                 trace[k, 0, i] = F[I_LAT, i]
                 trace[k, 1, i] = F[I_LON, i]
