@@ -18,7 +18,6 @@ a different model that the core does not implement).
 from __future__ import annotations
 
 import functools
-import math
 import warnings
 from typing import Any
 
@@ -142,10 +141,7 @@ def aircraft_performance(name: str) -> AircraftPerformance:
     Raises:
         ValueError: ``name`` is a rotorcraft.
     """
-    perf = _load(resolve_type(name))
-    if not all(math.isfinite(v) for v in (perf.mass, perf.vmax_enroute, perf.hmax, perf.vsmax, perf.mmo)):  # pragma: no cover - data check
-        raise ValueError(f"aircraft type {name!r}: OpenAP data incomplete")
-    return perf
+    return _load(resolve_type(name))
 
 
 def check_types(names: Any, what: str = "aircraft type") -> tuple[str, ...]:
