@@ -40,10 +40,10 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect
 from bluesky_gym.core.jit import jit
-from bluesky_gym.core.performance import A320
 from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
 
@@ -339,8 +339,8 @@ def mvp(
     rpz: float = PZ_RADIUS,
     hpz: float = PZ_HEIGHT,
     lookahead: float = LOOKAHEAD,
-    vsmin: ArrayLike = A320.vsmin,
-    vsmax: ArrayLike = A320.vsmax,
+    vsmin: ArrayLike | None = None,
+    vsmax: ArrayLike | None = None,
 ) -> Resolution:
     """MVP's resolution of every aircraft from the conflict picture (BlueSky ``MVP.resolve``).
 
@@ -354,13 +354,17 @@ def mvp(
         hpz: Protected-zone half height [m].
         lookahead: Look-ahead time [s].
         vsmin: Lower vertical-speed limit [m/s], scalar or (n_envs, n_aircraft) (default: the A320's
-            :attr:`~bluesky_gym.core.performance.AircraftPerformance.vsmin`).
+            :attr:`~bluesky_gym.core.performance.AircraftPerformance.vsmin`; give per-aircraft
+            values for a mixed fleet).
         vsmax: Upper vertical-speed limit [m/s] (default: the A320's ``vsmax``).
 
     Returns:
         The resolution of every active aircraft.
     """
     s = settings or ResolutionSettings()
+    default = aircraft_performance(DEFAULT_TYPE)
+    vsmin = default.vsmin if vsmin is None else vsmin
+    vsmax = default.vsmax if vsmax is None else vsmax
     active = np.ascontiguousarray(state.active, dtype=np.bool_)
     shape = active.shape
 
@@ -499,8 +503,8 @@ class MVPResolver:
         rpz: Protected-zone radius [m].
         hpz: Protected-zone half height [m].
         lookahead: Look-ahead time [s].
-        vsmin: Lower vertical-speed limit [m/s].
-        vsmax: Upper vertical-speed limit [m/s].
+        vsmin: Lower vertical-speed limit [m/s], scalar or per aircraft (default: the A320's).
+        vsmax: Upper vertical-speed limit [m/s], scalar or per aircraft (default: the A320's).
     """
 
     def __init__(
@@ -510,12 +514,12 @@ class MVPResolver:
         rpz: float = PZ_RADIUS,
         hpz: float = PZ_HEIGHT,
         lookahead: float = LOOKAHEAD,
-        vsmin: float = A320.vsmin,
-        vsmax: float = A320.vsmax,
+        vsmin: ArrayLike | None = None,
+        vsmax: ArrayLike | None = None,
     ) -> None:
         self.settings = settings or ResolutionSettings()
         self.rpz, self.hpz, self.lookahead = float(rpz), float(hpz), float(lookahead)
-        self.vsmin, self.vsmax = float(vsmin), float(vsmax)
+        self.vsmin, self.vsmax = vsmin, vsmax
         self.pairs = np.zeros((0, 0, 0), np.bool_)
         self.held = np.zeros((4, 0, 0))  # trk, gs, vs, alt of the last resolution per airspace
 

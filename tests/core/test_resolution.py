@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 
 from bluesky_gym.core import Simulator
+from bluesky_gym.core.aircraft import aircraft_performance
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, detect
-from bluesky_gym.core.performance import A320
 from bluesky_gym.core.resolution import RESO_FACTOR, MVPResolver, ResolutionSettings, mvp, resume
+
+A320 = aircraft_performance("A320")
 
 
 def _detect(sim: Simulator, rpz: float = PZ_RADIUS):  # noqa: ANN202

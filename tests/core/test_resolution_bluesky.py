@@ -36,10 +36,12 @@ import gymnasium as gym  # noqa: E402
 
 import bluesky_gym  # noqa: E402,F401  (registers the environments)
 from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics  # noqa: E402
+from bluesky_gym.core.aircraft import aircraft_performance  # noqa: E402
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect  # noqa: E402
-from bluesky_gym.core.performance import A320  # noqa: E402
 from bluesky_gym.core.resolution import MVPResolver, Resolution, ResolutionSettings, mvp  # noqa: E402
 from bluesky_gym.core.units import FT, KTS  # noqa: E402
+
+A320 = aircraft_performance("A320")
 
 pytestmark = pytest.mark.bluesky
 
