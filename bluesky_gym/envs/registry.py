@@ -74,6 +74,8 @@ class EnvEntry:
         vector_env: Natively batched environment class (Gymnasium ``vector_entry_point``).
         scene: Scene builder ``(task, env_index) -> Scene`` drawn by the renderer.
         multiagent: The multi-agent form, if the problem has one.
+        data: Import path of a no-argument callable telling whether the data the default
+            configuration needs is on this machine (None: the environment needs no data).
     """
 
     id: str
@@ -82,6 +84,7 @@ class EnvEntry:
     vector_env: str
     scene: str = GENERIC_SCENE
     multiagent: MultiAgentEntry | None = None
+    data: str | None = None
 
     def task_class(self) -> type[Any]:
         """The batched task class."""
@@ -111,6 +114,10 @@ class EnvEntry:
     def is_available(self) -> bool:
         """Whether the modules of the environment classes are present."""
         return all(importlib.util.find_spec(p.partition(":")[0]) is not None for p in (self.task, self.env, self.vector_env))
+
+    def data_ready(self) -> bool:
+        """Whether the data of the default configuration is present (always, for an environment without data)."""
+        return self.data is None or bool(resolve(self.data)())
 
 
 #: Every environment, in the order of the paper.
@@ -187,6 +194,14 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
             centralised_env="bluesky_gym.multiagent.centralised:MergeCentralisedEnv",
             scene="bluesky_gym.multiagent.render:merge_scene",
         ),
+    ),
+    EnvEntry(
+        id="RealTrafficCREnv-v0",
+        task="bluesky_gym.tasks.real_traffic:RealTrafficTask",
+        env="bluesky_gym.envs.real_traffic_env:RealTrafficCREnv",
+        vector_env="bluesky_gym.envs.real_traffic_env:RealTrafficCRVectorEnv",
+        scene="bluesky_gym.render.scenes.real_traffic:real_traffic_scene",
+        data="bluesky_gym.realtraffic.cache:default_data_ready",
     ),
 )
 
