@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-from bluesky_gym.envs.registry import ENVIRONMENTS, entry, env_ids
+from bluesky_gym.envs.registry import ENVIRONMENTS, env_ids
+from bluesky_gym.envs.registry import entry as env_entry
 
 
 def available_envs() -> list[str]:
@@ -13,7 +14,7 @@ def available_envs() -> list[str]:
     An environment built from data that is prepared at first use (``RealTrafficCREnv-v0``) is
     registered regardless, and listed here once its data is in place.
     """
-    return [i for i in env_ids() if entry(i).data_ready()]
+    return [i for i in env_ids() if env_entry(i).data_ready()]
 
 
 def register_envs() -> None:

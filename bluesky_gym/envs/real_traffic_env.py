@@ -32,10 +32,13 @@ class RealTrafficCREnv(BlueSkyEnv):
     ## Observation Space
     A `Dict` of float64 `Box`es:
 
-    | Key | Value |
-    |---|---|
-    | `ownship` (6,) | signed distance from the recorded route / 5 NM (clipped to ±10, positive: right of it), cos and sin of the heading minus the bearing to the recorded position 60 s ahead, (CAS − recorded CAS) / 20 m/s, (altitude − recorded altitude) / 3000 m, vertical speed / 10 m/s |
-    | `intruders` (5, 7) | the 5 closest aircraft: east, north offset / 20 NM, relative ground velocity east, north / 250 m/s, relative altitude / 3000 m, distance / 20 NM, present (1) or empty row (0, all zeros) |
+    * `ownship` (6,): signed distance from the recorded route / 5 NM (clipped to ±10, positive:
+      right of it); cos and sin of the heading minus the bearing to the recorded position 60 s
+      ahead; (CAS − recorded CAS) / 20 m/s; (altitude − recorded altitude) / 3000 m; vertical
+      speed / 10 m/s.
+    * `intruders` (5, 7), the 5 closest aircraft: east and north offset / 20 NM, relative ground
+      velocity east and north / 250 m/s, relative altitude / 3000 m, distance / 20 NM, present
+      (1; an empty row is all zeros).
 
     ## Action Space
     `Box(-1, 1, (2,))` (or `(3,)` with `altitude_action=True`), every 10 s:

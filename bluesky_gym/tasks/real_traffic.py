@@ -25,8 +25,8 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.cache import combine, load_collection
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
 from bluesky_gym.realtraffic.scenario import ScenarioPlayer, Window, split_windows, windows
+from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
 from bluesky_gym.tasks.base import (
     Array,
     BoolArray,
