@@ -18,7 +18,7 @@ from bluesky_gym.core.geo import qdrdist
 from bluesky_gym.core.simulator import Simulator
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import ScenarioPlayer, Window
+from bluesky_gym.realtraffic.scenario import SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window
 
 HORIZONS_S = (300.0, 600.0, 1200.0)  # s after creation: 5, 10, 20 minutes
 DT = 1.0  # s, simulation time step
@@ -41,6 +41,13 @@ class Fidelity:
     windows: int
     lateral_m: dict[float, NDArray[np.float64]] = field(default_factory=dict)
     vertical_m: dict[float, NDArray[np.float64]] = field(default_factory=dict)
+    conflicts: int = 0
+    aircraft_hours: float = 0.0
+
+    @property
+    def conflicts_per_flight_hour(self) -> float:
+        """Losses of separation (5 NM / 1000 ft pair events) per simulated aircraft-hour, with nobody acting."""
+        return self.conflicts / self.aircraft_hours if self.aircraft_hours > 0 else float("nan")
 
     def summary(self) -> list[dict[str, float]]:
         """One row per horizon: aircraft, median and 95th percentile lateral [NM] and vertical [ft] deviation."""
@@ -84,12 +91,17 @@ def fidelity(
         player = ScenarioPlayer(sim, flights, guided_ownship=True)
         player.load(np.arange(len(batch)), batch)
         n_steps = int(round(max(w.duration for w in batch) / DECISION_STEP))
+        in_los = np.zeros((len(batch), max_aircraft, max_aircraft), bool)
         for _ in range(n_steps):
             sim.run(sub)
             player.advance_clock(DECISION_STEP)
             now = player.now()[:, None]
             age = now - player.t_created
             live = sim.active & player.created & ~player.done & (now <= player.t_leave + 1e-6)
+            result.aircraft_hours += float(live.sum()) * DECISION_STEP / 3600.0
+            los = pair_los(sim.lat, sim.lon, sim.alt, live)
+            result.conflicts += int((los & ~in_los).sum()) // 2
+            in_los = los
             for h in horizons:
                 hit = live & (np.abs(age - h) < 1e-6)
                 if not hit.any():
@@ -104,6 +116,18 @@ def fidelity(
         result.lateral_m[h] = np.concatenate(lateral[h]) if lateral[h] else np.zeros(0)
         result.vertical_m[h] = np.concatenate(vertical[h]) if vertical[h] else np.zeros(0)
     return result
+
+
+def pair_los(lat: NDArray[np.float64], lon: NDArray[np.float64], alt: NDArray[np.float64], live: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """(n, m, m) whether two live aircraft of an airspace are within 5 NM and 1000 ft (flat-earth distance)."""
+    coslat = np.cos(np.radians(lat))
+    dy = (lat[:, :, None] - lat[:, None, :]) * 60.0
+    dx = ((lon[:, :, None] - lon[:, None, :] + 180.0) % 360.0 - 180.0) * 60.0 * coslat[:, :, None]
+    both = live[:, :, None] & live[:, None, :]
+    m = lat.shape[1]
+    return (
+        both & ~np.eye(m, dtype=bool)[None] & (np.hypot(dx, dy) < SEPARATION_NM) & (np.abs(alt[:, :, None] - alt[:, None, :]) < SEPARATION_VERTICAL)
+    )
 
 
 def format_markdown(results: list[Fidelity]) -> str:

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.units import NM
+from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.flights import RecordedFlights
 
 Array = NDArray[np.float64]
@@ -41,6 +41,9 @@ LEVEL_BAND = 30.0  # m: a recorded altitude change below this is flown level (no
 MIN_VS = 0.5  # m/s: smallest vertical speed commanded for a climb or descent
 MIN_CAS = 30.0  # m/s: floor of the commanded CAS (a speed below 2 would be read as a Mach number)
 EARTH_RADIUS = 6371000.0  # m, for the flat neighbourhood test of the window catalogue
+MAX_ROUTE_POINTS = 32  # route points given to an aircraft (those ahead of it, in order)
+SEPARATION_NM = 5.0  # NM, horizontal separation minimum
+SEPARATION_VERTICAL = 1000.0 * FT  # m, vertical separation minimum
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.core.units import FPM, FT, KTS
 from bluesky_gym.realtraffic.flights import SAMPLE_PERIOD, UNKNOWN_TYPE, RecordedFlights
 
@@ -57,11 +58,11 @@ MAX_GROUNDSPEED_KT = 700.0  # kt: a segment faster than this is a decoding error
 
 
 def require_traffic() -> Any:
-    """Import the ``traffic`` library, or raise ``ImportError`` naming the extra."""
+    """Import the ``traffic`` library, or raise :class:`~bluesky_gym.core.extras.MissingDependencyError` naming the extra."""
     try:
         import traffic.core
     except ImportError as exc:
-        raise ImportError(f"recorded traffic needs the 'traffic' library: {INSTALL_HINT} ({exc})") from exc
+        raise MissingDependencyError(f"recorded traffic needs the 'traffic' library, which is not installed: {INSTALL_HINT} ({exc})") from exc
     return traffic.core
 
 

@@ -25,7 +25,7 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.cache import combine, load_collection
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import ScenarioPlayer, Window, split_windows, windows
+from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window, split_windows, windows
 from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
 from bluesky_gym.tasks.base import (
     Array,
@@ -48,8 +48,8 @@ DECISION_STEP = 10.0  # s
 WINDOW_STRIDE = 60.0  # s between window starts
 
 # MDP
-INTRUSION_NM = 5.0  # NM horizontal separation
-INTRUSION_VERTICAL = 1000.0 * FT  # m vertical separation
+INTRUSION_NM = SEPARATION_NM  # NM horizontal separation
+INTRUSION_VERTICAL = SEPARATION_VERTICAL  # m vertical separation
 D_HEADING = 30.0  # deg of heading offset from the recorded path per unit action
 D_SPEED = 10.0  # m/s CAS offset from the recorded speed per unit action
 D_ALTITUDE = 1000.0 * FT  # m altitude offset from the recorded profile per unit action
@@ -319,7 +319,7 @@ class RealTrafficTask(Task):
 
     def max_waypoints(self) -> int:
         """Route points given to each aircraft."""
-        return 32
+        return MAX_ROUTE_POINTS
 
     def allocate(self) -> None:
         """Load the episode data and the per-episode arrays."""

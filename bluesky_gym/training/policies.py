@@ -40,7 +40,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.units import NM2KM
+from bluesky_gym.core.units import FT, NM, NM2KM
+from bluesky_gym.tasks import real_traffic as rt
 
 Array = NDArray[np.float64]
 Obs = dict[str, Array]
@@ -79,6 +80,10 @@ MERGE_POS_SCALE = 1e6  # m
 MERGE_VEL_SCALE = 150.0  # m/s
 MERGE_PZ_M = 4.0 * NM2KM * 1000.0
 MERGE_LOOKAHEAD_S = 300.0
+# RealTrafficCREnv-v0
+REAL_TRAFFIC_LOOKAHEAD_S = 300.0
+REAL_TRAFFIC_VERTICAL_ALERT_M = 2000.0 * FT  # traffic further above or below is not avoided
+REAL_TRAFFIC_FAR_M = 1e9  # m: where an ignored intruder is put
 CPA_MARGIN = 1.0  # alert when the predicted miss distance is below margin * protected zone
 
 # --- StaticObstacleEnv-v0 ----------------------------------------------------------------------
@@ -390,6 +395,28 @@ class StaticObstacleController(Policy):
         return np.stack([heading, np.ones_like(heading)], axis=1)
 
 
+class RealTrafficController(Policy):
+    """RealTrafficCREnv-v0: follow the recorded path; turn away from the most urgent conflict with traffic within 2000 ft."""
+
+    name = "classical"
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions (heading and speed; zero: the recorded path and speed)."""
+        intr = obs["intruders"]
+        near = (intr[..., 6] > 0.5) & (np.abs(intr[..., 4] * rt.ALTITUDE_SCALE) < REAL_TRAFFIC_VERTICAL_ALERT_M)
+        pos = rt.POSITION_SCALE * NM
+        alert, turn = _cpa_turn(
+            np.where(near, intr[..., 1] * pos, REAL_TRAFFIC_FAR_M),  # out of the vertical band: far away, never alerts
+            np.where(near, intr[..., 0] * pos, REAL_TRAFFIC_FAR_M),
+            intr[..., 3] * rt.VELOCITY_SCALE,
+            intr[..., 2] * rt.VELOCITY_SCALE,
+            rt.INTRUSION_NM * NM,
+            REAL_TRAFFIC_LOOKAHEAD_S,
+        )
+        heading = np.where(alert, turn, 0.0)
+        return np.stack([heading, np.zeros_like(heading)], axis=1)
+
+
 #: Classical controller factory per environment id.
 CLASSICAL: dict[str, Callable[[], Policy]] = {
     "DescentEnv-v0": DescentController,
@@ -399,6 +426,7 @@ CLASSICAL: dict[str, Callable[[], Policy]] = {
     "SectorCREnv-v0": SectorCRController,
     "StaticObstacleEnv-v0": StaticObstacleController,
     "MergeEnv-v0": MergeController,
+    "RealTrafficCREnv-v0": RealTrafficController,
 }
 
 REFERENCE_POLICIES = ("random", "classical")
