@@ -205,15 +205,21 @@ class RecordedFlights:
             with np.load(path, allow_pickle=False) as data:
                 version = int(data["format_version"])
                 if version != FORMAT_VERSION:
-                    raise ValueError(f"{path}: recorded-flights format {version}, expected {FORMAT_VERSION}")
+                    raise _WrongVersion(f"{path}: recorded-flights format {version}, expected {FORMAT_VERSION}")
                 return cls(
                     name=str(data["name"]),
                     epoch=str(data["epoch"]),
                     period=float(data["period"]),
                     **{name: data[name] for name in _ARRAYS},
                 )
-        except (OSError, KeyError) as exc:
+        except _WrongVersion:
+            raise
+        except (OSError, KeyError, ValueError) as exc:
             raise ValueError(f"{path}: not a recorded-flights file ({exc})") from exc
+
+
+class _WrongVersion(ValueError):
+    """A recorded-flights file of another format version."""
 
 
 _ARRAYS = ("t0", "offset", "lat", "lon", "alt", "gs", "trk", "vs", "wp_offset", "wp_index", "callsign", "icao24", "typecode", "flight_id")

@@ -37,7 +37,8 @@ IntArray = NDArray[np.int64]
 
 ALT_LOOKAHEAD = 60.0  # s: the altitude target is the recorded altitude this far ahead
 SPEED_LOOKAHEAD = 20.0  # s: the speed target is the recorded speed this far ahead
-LEVEL_BAND = 30.0  # m: a recorded altitude change below this is flown level (no VS command)
+PROFILE_STEP = 10.0  # s: the commanded vertical speed is the recorded one over this time ahead
+ALT_CORRECTION_TIME = 30.0  # s: an altitude error is corrected over this time
 MIN_VS = 0.5  # m/s: smallest vertical speed commanded for a climb or descent
 MIN_CAS = 30.0  # m/s: floor of the commanded CAS (a speed below 2 would be read as a Mach number)
 EARTH_RADIUS = 6371000.0  # m, for the flat neighbourhood test of the window catalogue
@@ -245,15 +246,27 @@ class ScenarioPlayer:
         return alt, tas2cas(sp["gs"], sp["alt"])
 
     def guide(self, e: IntArray, s: IntArray, t: Array, alt_offset: Array | float = 0.0, cas_offset: Array | float = 0.0) -> None:
-        """Command the recorded altitude and speed profile (plus offsets [m], [m/s]) to slots ``(e, s)``."""
+        """Command the recorded altitude and speed profile (plus offsets [m], [m/s]) to slots ``(e, s)``.
+
+        The altitude target is the recorded altitude :data:`ALT_LOOKAHEAD` ahead; the vertical speed
+        is the recorded one over the next :data:`PROFILE_STEP` plus a correction of the current
+        altitude error over :data:`ALT_CORRECTION_TIME`.
+        """
         alt_target, cas_target = self.targets(e, s, t)
         alt_target = alt_target + alt_offset
         sim = self.sim
+        fl = self.flight[e, s]
+        alt_now = self.flights.at(fl, t)["alt"] + alt_offset
+        rate = (self.flights.at(fl, t + PROFILE_STEP)["alt"] + alt_offset - alt_now) / PROFILE_STEP
+        vs = rate + (alt_now - sim.alt[e, s]) / ALT_CORRECTION_TIME
         dz = alt_target - sim.alt[e, s]
-        climbing = np.abs(dz) > LEVEL_BAND
-        vs = np.where(climbing, np.sign(dz) * np.maximum(np.abs(dz) / ALT_LOOKAHEAD, MIN_VS), 0.0)
-        if climbing.any():
-            sim.cmd_altitude(e[climbing], s[climbing], alt_target[climbing], vs[climbing])
-        if (~climbing).any():
-            sim.cmd_altitude(e[~climbing], s[~climbing], alt_target[~climbing])
+        level = np.abs(rate) < MIN_VS  # the recording is level now: hold its current altitude
+        hold = ~level & (vs * dz <= 0.0)  # ahead of the recorded profile: wait for it
+        move = ~level & ~hold
+        if level.any():
+            sim.cmd_altitude(e[level], s[level], alt_now[level])
+        if hold.any():
+            sim.cmd_altitude(e[hold], s[hold], sim.alt[e[hold], s[hold]])
+        if move.any():
+            sim.cmd_altitude(e[move], s[move], alt_target[move], np.sign(dz[move]) * np.maximum(np.abs(vs[move]), MIN_VS))
         sim.cmd_speed(e, s, np.maximum(cas_target + cas_offset, MIN_CAS))
