@@ -151,12 +151,14 @@ class ScenarioPlayer:
         flights: The recorded flights the windows refer to.
         guided_ownship: Whether slot 0 also gets the recorded vertical and speed profile (False
             when an agent flies it).
+        guided_traffic: Whether the other slots get it (False when every aircraft is an agent).
     """
 
-    def __init__(self, sim: Physics, flights: RecordedFlights, guided_ownship: bool = True) -> None:
+    def __init__(self, sim: Physics, flights: RecordedFlights, guided_ownship: bool = True, guided_traffic: bool = True) -> None:
         self.sim = sim
         self.flights = flights
         self.guided_ownship = guided_ownship
+        self.guided_traffic = guided_traffic
         shape = (sim.n_envs, sim.max_aircraft)
         self.flight = np.full(shape, -1, np.int64)  # recorded flight of each slot (-1: none)
         self.t_appear = np.full(shape, np.inf)  # s since epoch: first sample used
@@ -216,6 +218,8 @@ class ScenarioPlayer:
         guided = rows[:, None] & self.created & ~self.done
         if not self.guided_ownship:
             guided[:, 0] = False
+        if not self.guided_traffic:
+            guided[:, 1:] = False
         if guided.any():
             e, s = np.nonzero(guided)
             self.guide(e, s, now[e, 0])

@@ -301,6 +301,8 @@ class RealTrafficTask(Task):
     config_class: ClassVar[type[TaskConfig]] = RealTrafficConfig
     info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "total_intrusions", "average_route_deviation_nm")
     has_goal: ClassVar[bool] = False
+    #: Whether the recorded aircraft other than the ownship fly their recorded profiles (False: they are agents too).
+    guided_traffic: ClassVar[bool] = True
     config: RealTrafficConfig
 
     def __init__(
@@ -326,7 +328,7 @@ class RealTrafficTask(Task):
         data = episode_data(self.config)
         self.data = data
         self.flights = data.flights
-        self.player = ScenarioPlayer(self.sim, self.flights, guided_ownship=False)
+        self.player = ScenarioPlayer(self.sim, self.flights, guided_ownship=False, guided_traffic=self.guided_traffic)
         self.test_split = np.full(self.n_envs, self.config.split == "test")
         self.window_index = np.full(self.n_envs, -1, np.int64)
         self.route_sum = np.zeros(self.n_envs)
@@ -405,3 +407,14 @@ class RealTrafficTask(Task):
         out = super().kpis()
         out["kpi_mean_route_deviation_nm"] = np.where(self.stats.steps > 0, self.route_sum / np.maximum(self.stats.steps, 1), np.nan)
         return out
+
+
+class RealTrafficAllAgentsTask(RealTrafficTask):
+    """The real-traffic task with every recorded aircraft steered by an agent (the multi-agent form).
+
+    No aircraft gets the recorded profile from the scenario; each agent's action is applied with
+    :func:`steer` to its own slot, its observation and reward are :func:`observation` and
+    :func:`reward` of its own row (see :mod:`bluesky_gym.multiagent.real_traffic`).
+    """
+
+    guided_traffic: ClassVar[bool] = False
