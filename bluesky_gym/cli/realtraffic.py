@@ -27,6 +27,9 @@ from typing import Any
 from bluesky_gym.cli.train import positive_int
 from bluesky_gym.core.extras import MissingDependencyError
 
+HEADER = (
+    "| collection | flights | aircraft-hours | LoS per flight-hour (nobody acts) | policy | return | LoS / episode | min sep [NM] | route dev [NM] |"
+)
 FIDELITY_WINDOW_S = 1200.0  # s: long enough for the 20-minute horizon
 FIDELITY_STRIDE_S = 300.0  # s between candidate window starts
 
@@ -158,9 +161,7 @@ def run_stats(args: argparse.Namespace) -> int:
     except (MissingDependencyError, ValueError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
-    print(
-        "| collection | flights | aircraft-hours | LoS per flight-hour (nobody acts) | policy | return | LoS / episode | min sep [NM] | route dev. [NM] |"
-    )
+    print(HEADER)
     print("|---|---:|---:|---:|---|---:|---:|---:|---:|")
     for r in rows:
         for policy in ("random", "classical"):

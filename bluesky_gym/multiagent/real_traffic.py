@@ -131,7 +131,7 @@ class RealTrafficParallelEnv(ParallelEnv):
         truncations = {n: end or n not in now for n in acting}
         for n in acting:
             if n not in obs:
-                obs[n] = {k: np.zeros(v.shape) for k, v in self._obs_space.spaces.items()}
+                obs[n] = {k: np.zeros(spec.shape) for k, spec in self.task.observation_spec.items()}
         self._slot = {} if end else now
         self.agents = list(self._slot)
         return obs, rewards, terminations, truncations, infos
