@@ -6,6 +6,7 @@ Examples::
     bluesky-gym realtraffic prepare --table flights.csv --out my.npz  # a user's ADS-B table
     bluesky-gym realtraffic fidelity --windows 64                    # deviation from the recordings after 5, 10, 20 min
     bluesky-gym realtraffic stats --episodes 50                      # flights, aircraft-hours, conflicts, policy KPIs
+    bluesky-gym realtraffic scn --seed 0 --out episode.scn           # an episode's window as a BlueSky scenario
 
 ``prepare`` cleans with the ``traffic`` library (the ``realtraffic`` extra) and writes a ``.npz``
 file that the environments read with numpy alone (``gym.make("RealTrafficCREnv-v0",
@@ -57,6 +58,12 @@ def add_parser(subparsers: Any) -> None:
     fid.add_argument("--cache-dir", metavar="DIR", help="cache directory")
     fid.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON")
     fid.set_defaults(func=run_fidelity)
+    scn = sub.add_parser("scn", help="write the window of an episode of RealTrafficCREnv-v0 as a BlueSky .scn file")
+    scn.add_argument("--seed", type=int, default=0, help="episode seed (evaluation-range seeds, 2**31 and above, draw from the test split)")
+    scn.add_argument("--collections", nargs="+", default=None, metavar="NAME", help="collections (default: switzerland quickstart)")
+    scn.add_argument("--cache-dir", metavar="DIR", help="cache directory")
+    scn.add_argument("--out", type=Path, required=True, metavar="FILE.scn", help="output file")
+    scn.set_defaults(func=run_scn)
     st = sub.add_parser("stats", help="per collection: flights, aircraft-hours, conflicts per flight-hour, random/classical KPIs")
     st.add_argument("--collections", nargs="+", default=None, metavar="NAME", help="collections (default: switzerland quickstart)")
     st.add_argument("--windows", type=positive_int, default=64, metavar="N", help="windows replayed for the conflict rate (default: 64)")
@@ -113,6 +120,27 @@ def run_prepare(args: argparse.Namespace) -> int:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
     print(f"{out}: {flights.n_flights} flights, {flights.flight_hours():.1f} aircraft-hours")
+    return 0
+
+
+def run_scn(args: argparse.Namespace) -> int:
+    """Run ``realtraffic scn``."""
+    import gymnasium as gym
+
+    import bluesky_gym
+    from bluesky_gym.realtraffic.scn import write_scn
+
+    bluesky_gym.register_envs()
+    try:
+        env = gym.make("RealTrafficCREnv-v0", collections=tuple(_collections(args)), cache_dir=args.cache_dir)
+        env.reset(seed=args.seed)
+        task = env.unwrapped.task  # type: ignore[attr-defined]
+        window = task.window(0)
+        path = write_scn(task.flights, window, args.out)
+    except (MissingDependencyError, ValueError) as exc:
+        print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{path}: {len(window.flights)} aircraft, {window.duration:.0f} s")
     return 0
 
 

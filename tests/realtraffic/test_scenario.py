@@ -127,3 +127,23 @@ def test_save_load_round_trip_and_bad_file(tmp_path) -> None:
     with pytest.raises(ValueError, match="bad.npz: not a recorded-flights file"):
         RecordedFlights.load(tmp_path / "bad.npz")
     assert NM == 1852.0
+
+
+def test_scn_file_of_a_window(tmp_path) -> None:
+    from bluesky_gym.realtraffic.scn import write_scn
+
+    a = fly(47.0, 7.0, [(90.0, 60.0), (120.0, 60.0)], gs=230.0, alt=[10000.0, 10000.0, 9000.0])
+    b = fly(47.2, 7.0, [(90.0, 20.0)], gs=200.0, alt=9000.0)
+    flights = collection([(0.0, a), (120.0, b)])
+    path = write_scn(flights, Window(0.0, 900.0, 0, (1,)), tmp_path / "w.scn")
+    lines = path.read_text().splitlines()
+    assert lines[0].startswith("# synthetic: 2 recorded aircraft")
+    assert lines[1] == "00:00:00.00>CRE SYN000,A320,47.000000,7.000000,90.0,32808,273"
+    assert [line for line in lines if "ADDWPT SYN000" in line] == [line for line in lines if line.startswith("00:00:00.00>ADDWPT SYN000")] and len(
+        [line for line in lines if "ADDWPT SYN000" in line]
+    ) == 2
+    assert any(line.startswith("00:02:00.00>CRE SYN001,A320,47.200000,7.000000,90.0,29528,") for line in lines)
+    dels = [line for line in lines if "DEL" in line]
+    assert len(dels) == 1 and dels[0].endswith("DEL SYN001")
+    stamps = [line.split(">")[0] for line in lines[1:]]
+    assert stamps == sorted(stamps)
