@@ -168,3 +168,24 @@ def test_pettingzoo_every_recorded_aircraft_is_an_agent(options) -> None:
     oa, _ = a.reset(seed=9)
     ob, _ = b.reset(seed=9)
     assert oa.keys() == ob.keys() and all(np.array_equal(oa[k]["intruders"], ob[k]["intruders"]) for k in oa)
+
+
+def test_cache_directory_order_and_availability(tmp_path, monkeypatch) -> None:
+    from bluesky_gym.envs.registry import entry
+    from bluesky_gym.realtraffic.cache import cache_dir, collection_path
+    from bluesky_gym.registration import available_envs
+
+    monkeypatch.setenv("BLUESKY_GYM_CACHE", str(tmp_path / "env"))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir(str(tmp_path / "opt")) == tmp_path / "opt"
+    assert cache_dir() == tmp_path / "env"
+    monkeypatch.delenv("BLUESKY_GYM_CACHE")
+    assert cache_dir() == tmp_path / "xdg" / "bluesky-gym"
+    assert collection_path("switzerland") == tmp_path / "xdg" / "bluesky-gym" / "realtraffic" / "switzerland-v1.npz"
+    # no prepared data: registered, but not listed for the contract tests
+    assert not entry(ENV).data_ready() and ENV not in available_envs() and ENV in gym.registry
+    for name in ("switzerland", "quickstart"):
+        path = collection_path(name)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        traffic_collection(n_flights=2).save(path)
+    assert entry(ENV).data_ready() and ENV in available_envs()
