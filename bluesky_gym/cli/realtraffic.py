@@ -25,6 +25,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from bluesky_gym.cli.train import positive_int
 from bluesky_gym.core.extras import MissingDependencyError
 
@@ -180,10 +182,12 @@ def run_stats(args: argparse.Namespace) -> int:
             for policy in ("random", "classical"):
                 res = evaluate("RealTrafficCREnv-v0", make_policy(policy, "RealTrafficCREnv-v0"), args.episodes, env_options=options)
                 s = res.summary
+                route = [float(e.get("kpi_mean_route_deviation_nm", "nan")) for e in res.episodes]
                 row[policy] = {
-                    k: round(float(s[k]["mean"]), 3)
-                    for k in ("return", "kpi_los_count", "kpi_min_separation_nm", "kpi_mean_route_deviation_nm")
-                    if k in s
+                    "return": s["return"]["mean"],
+                    "los_per_episode": s["los"]["mean"],
+                    "min_separation_nm": s["min_sep_nm"]["mean"],
+                    "route_deviation_nm": float(np.nanmean(route)) if route else float("nan"),
                 }
             rows.append(row)
     except (MissingDependencyError, ValueError) as exc:
@@ -196,8 +200,7 @@ def run_stats(args: argparse.Namespace) -> int:
             k = r[policy]
             print(
                 f"| {r['collection']} | {r['flights']} | {r['aircraft_hours']} | {r['conflicts_per_flight_hour']} | {policy} | "
-                f"{k.get('return', float('nan')):.2f} | {k.get('kpi_los_count', float('nan')):.2f} | "
-                f"{k.get('kpi_min_separation_nm', float('nan')):.2f} | {k.get('kpi_mean_route_deviation_nm', float('nan')):.2f} |"
+                f"{k['return']:.2f} | {k['los_per_episode']:.2f} | {k['min_separation_nm']:.2f} | {k['route_deviation_nm']:.2f} |"
             )
     if args.json:
         args.json.write_text(json.dumps(rows, indent=2))
