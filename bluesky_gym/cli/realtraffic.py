@@ -14,7 +14,8 @@ collections=("my.npz",), ...)``). ``fidelity`` replays 20-minute windows with no
 prints, per collection, the median and 95th percentile of the lateral and vertical deviation from
 the recorded tracks 5, 10 and 20 minutes after each aircraft appeared, as a Markdown table.
 ``stats`` prints per collection: flights, aircraft-hours, losses of separation per flight-hour
-when nobody acts, and the KPIs of the ``random`` and ``classical`` policies on its test windows.
+when nobody acts, and the KPIs of the ``random`` and ``classical`` policies (and of ``--model``)
+on its test windows.
 """
 
 from __future__ import annotations
@@ -70,6 +71,7 @@ def add_parser(subparsers: Any) -> None:
     st.add_argument("--collections", nargs="+", default=None, metavar="NAME", help="collections (default: switzerland quickstart)")
     st.add_argument("--windows", type=positive_int, default=64, metavar="N", help="windows replayed for the conflict rate (default: 64)")
     st.add_argument("--episodes", type=positive_int, default=50, metavar="N", help="test episodes per policy (default: 50)")
+    st.add_argument("--model", metavar="PATH", help="also evaluate a trained model (run directory or .zip), e.g. the demo's PPO")
     st.add_argument("--cache-dir", metavar="DIR", help="cache directory")
     st.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON")
     st.set_defaults(func=run_stats)
@@ -169,7 +171,9 @@ def run_stats(args: argparse.Namespace) -> int:
     from bluesky_gym.training.evaluation import evaluate, make_policy
 
     rows = []
+    policies = ["random", "classical"] + ([args.model] if args.model else [])
     try:
+        made = {p: make_policy(p, "RealTrafficCREnv-v0") for p in policies}
         for name in _collections(args):
             flights, replay = _replay(name, args.windows, args.cache_dir)
             row: dict[str, Any] = {
@@ -179,8 +183,8 @@ def run_stats(args: argparse.Namespace) -> int:
                 "conflicts_per_flight_hour": round(replay.conflicts_per_flight_hour, 3),
             }
             options = {"collections": (name,), "split": "test", "cache_dir": args.cache_dir}
-            for policy in ("random", "classical"):
-                res = evaluate("RealTrafficCREnv-v0", make_policy(policy, "RealTrafficCREnv-v0"), args.episodes, env_options=options)
+            for policy in policies:
+                res = evaluate("RealTrafficCREnv-v0", made[policy], args.episodes, env_options=options)
                 s = res.summary
                 route = [float(e.get("kpi_mean_route_deviation_nm", "nan")) for e in res.episodes]
                 row[policy] = {
@@ -190,13 +194,13 @@ def run_stats(args: argparse.Namespace) -> int:
                     "route_deviation_nm": float(np.nanmean(route)) if route else float("nan"),
                 }
             rows.append(row)
-    except (MissingDependencyError, ValueError) as exc:
+    except (MissingDependencyError, ValueError, FileNotFoundError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
     print(HEADER)
     print("|---|---:|---:|---:|---|---:|---:|---:|---:|")
     for r in rows:
-        for policy in ("random", "classical"):
+        for policy in policies:
             k = r[policy]
             print(
                 f"| {r['collection']} | {r['flights']} | {r['aircraft_hours']} | {r['conflicts_per_flight_hour']} | {policy} | "
