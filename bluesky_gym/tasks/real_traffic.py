@@ -14,6 +14,7 @@ range, see :meth:`RealTrafficTask.set_test_split`).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import ClassVar
@@ -151,9 +152,15 @@ class EpisodeData:
     test: tuple[Window, ...]
 
 
-@lru_cache(maxsize=4)
 def episode_data(config: RealTrafficConfig) -> EpisodeData:
-    """Flights and train/test windows of ``config`` (computed once per process and configuration)."""
+    """Flights and train/test windows of ``config`` (computed once per process for the options that shape them)."""
+    return _episode_data(
+        dataclasses.replace(config, split="auto", altitude_action=False, labels="near"),
+    )
+
+
+@lru_cache(maxsize=4)
+def _episode_data(config: RealTrafficConfig) -> EpisodeData:
     parts = [load_collection(name, config.cache_dir) for name in config.collections]
     flights, shifts = combine(parts, "+".join(config.collections))
     train: list[Window] = []
