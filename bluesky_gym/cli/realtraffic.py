@@ -173,8 +173,8 @@ def run_stats(args: argparse.Namespace) -> int:
     rows = []
     policies = ["random", "classical"] + ([args.model] if args.model else [])
     try:
-        made = {p: make_policy(p, "RealTrafficCREnv-v0") for p in policies}
         for name in _collections(args):
+            made = {p: make_policy(p, "RealTrafficCREnv-v0") for p in policies}  # fresh: the random policy's generator restarts
             flights, replay = _replay(name, args.windows, args.cache_dir)
             row: dict[str, Any] = {
                 "collection": name,
