@@ -54,6 +54,11 @@ def add_parser(subparsers: Any) -> None:
     src.add_argument("--table", type=Path, metavar="FILE", help="a CSV or Parquet ADS-B table")
     prep.add_argument("--out", type=Path, metavar="FILE.npz", help="output file (default for --sample: the cache directory)")
     prep.add_argument("--cache-dir", metavar="DIR", help="cache directory (default: $BLUESKY_GYM_CACHE, else ~/.cache/bluesky-gym)")
+    prep.add_argument(
+        "--consistency",
+        action="store_true",
+        help="also apply traffic's FilterConsistency to flights with an altitude glitch (slow: ~20 s per such flight)",
+    )
     prep.set_defaults(func=run_prepare)
     fid = sub.add_parser("fidelity", help="deviation of the replay from the recorded tracks after 5, 10 and 20 minutes")
     fid.add_argument("--collections", nargs="+", default=None, metavar="NAME", help="collections (default: switzerland quickstart)")
@@ -112,12 +117,12 @@ def run_prepare(args: argparse.Namespace) -> int:
 
     try:
         if args.sample:
-            flights = load_sample(args.sample)
+            flights = load_sample(args.sample, consistency=args.consistency)
             out = args.out or collection_path(args.sample, args.cache_dir)
         else:
             if args.out is None:
                 raise ValueError("--table needs --out FILE.npz")
-            flights = load_table(args.table)
+            flights = load_table(args.table, consistency=args.consistency)
             out = args.out
         flights.save(out)
     except (MissingDependencyError, ValueError) as exc:

@@ -8,7 +8,8 @@ cleaning, done by the library's own tools:
 1. ``Traffic.clean_invalid()`` (faulty callsigns and repeated positions, where the data has them);
 2. ``Traffic.assign_id()``: one identifier per flight, separating flights that reuse a callsign;
 3. per flight: ground segments dropped (``query("not onground")`` where the data has the flag,
-   and samples below :data:`MIN_ALTITUDE_FT`), ``filter()`` (the default spike filter),
+   and samples below :data:`MIN_ALTITUDE_FT`), ``filter()`` (the default spike filter; with
+   ``consistency=True`` also ``FilterConsistency`` where an altitude glitch is left),
    ``split(GAP)`` at gaps in reception, ``resample()`` to one sample every
    :data:`~bluesky_gym.realtraffic.flights.SAMPLE_PERIOD` seconds;
 4. route points: ``simplify()`` (Douglas-Peucker on the 3-D track, tolerance
@@ -55,6 +56,7 @@ MIN_DURATION_S = 300.0  # s: shorter flight segments are dropped
 SIMPLIFY_TOLERANCE_M = 1000.0  # m: Douglas-Peucker tolerance of the route points
 SIMPLIFY_Z_FACTOR = 3.048  # traffic's default weight of altitude [ft] against distance [m]
 MAX_GROUNDSPEED_KT = 700.0  # kt: a segment faster than this is a decoding error
+MAX_PLAUSIBLE_VS_FPM = 8000.0  # ft/min: a flight whose filtered altitude changes faster has a glitch left
 
 
 def require_traffic() -> Any:
@@ -66,11 +68,12 @@ def require_traffic() -> Any:
     return traffic.core
 
 
-def load_sample(name: str) -> RecordedFlights:
+def load_sample(name: str, consistency: bool = False) -> RecordedFlights:
     """A sample collection shipped by the ``traffic`` package, cleaned (no network access).
 
     Args:
         name: One of :data:`SAMPLE_COLLECTIONS` (or another ``traffic.data.samples`` collection).
+        consistency: Also apply the library's consistency filter to flights with an altitude glitch (see :func:`clean`).
     """
     require_traffic()
     import traffic.data.samples as samples
@@ -79,10 +82,10 @@ def load_sample(name: str) -> RecordedFlights:
         raw = getattr(samples, name)
     except (AttributeError, RuntimeError) as exc:
         raise ValueError(f"unknown traffic sample collection {name!r}; the environments use {', '.join(SAMPLE_COLLECTIONS)}") from exc
-    return clean(raw, name)
+    return clean(raw, name, consistency)
 
 
-def load_table(path: str | Path, name: str | None = None) -> RecordedFlights:
+def load_table(path: str | Path, name: str | None = None, consistency: bool = False) -> RecordedFlights:
     """A user's ADS-B table (``.csv`` or ``.parquet``), cleaned.
 
     Columns: time (ISO 8601 or POSIX seconds, UTC), callsign, lat, lon [deg], altitude [ft],
@@ -136,15 +139,19 @@ def load_table(path: str | Path, name: str | None = None) -> RecordedFlights:
     df["callsign"] = df["callsign"].astype(str).str.strip()
     if "icao24" not in df.columns:
         df["icao24"] = df["callsign"]
-    return clean(core.Traffic(df), name or path.stem)
+    return clean(core.Traffic(df), name or path.stem, consistency)
 
 
-def clean(raw: Any, name: str) -> RecordedFlights:
+def clean(raw: Any, name: str, consistency: bool = False) -> RecordedFlights:
     """Clean a ``traffic.Traffic`` (or ``Flight``) with the library's tools and convert it (see the module docstring).
 
     Args:
         raw: The recorded trajectories.
         name: Collection name.
+        consistency: Flights whose altitude still changes faster than :data:`MAX_PLAUSIBLE_VS_FPM`
+            after the default filter are filtered again with the library's ``FilterConsistency``
+            (which keeps the longest mutually consistent sequence of samples; about 20 s per
+            flight, so it is off by default).
     """
     core = require_traffic()
     traffic = raw if isinstance(raw, core.Traffic) else core.Traffic(raw.data)
@@ -156,7 +163,7 @@ def clean(raw: Any, name: str) -> RecordedFlights:
     epoch = traffic.data["timestamp"].min().floor("h")
     flights: list[dict[str, Any]] = []
     for flight in traffic:
-        for segment in _clean_flight(flight):
+        for segment in _clean_flight(flight, consistency):
             flights.append(_arrays(segment, epoch))
     if not flights:
         raise ValueError(f"{name}: no flight of at least {MIN_DURATION_S:.0f} s above {MIN_ALTITUDE_FT:.0f} ft left after cleaning")
@@ -164,7 +171,7 @@ def clean(raw: Any, name: str) -> RecordedFlights:
     return _concatenate(flights, name, epoch.isoformat())
 
 
-def _clean_flight(flight: Any) -> Iterable[Any]:
+def _clean_flight(flight: Any, consistency: bool = False) -> Iterable[Any]:
     """The airborne, filtered, resampled segments of one flight, with their route points."""
     if "onground" in flight.data.columns:
         flight = flight.query("not onground")
@@ -174,6 +181,10 @@ def _clean_flight(flight: Any) -> Iterable[Any]:
     if flight is None or len(flight.data) < 3:
         return
     flight = flight.filter()
+    if consistency and _altitude_glitch(flight):
+        from traffic.algorithms.filters.consistency import FilterConsistency
+
+        flight = flight.filter(FilterConsistency())
     for segment in flight.split(GAP):
         if segment.duration.total_seconds() < MIN_DURATION_S:
             continue
@@ -191,6 +202,15 @@ def _clean_flight(flight: Any) -> Iterable[Any]:
             continue
         simplified = resampled.simplify(SIMPLIFY_TOLERANCE_M, altitude="altitude", z_factor=SIMPLIFY_Z_FACTOR)
         yield resampled, simplified
+
+
+def _altitude_glitch(flight: Any) -> bool:
+    """Whether the altitude changes faster than :data:`MAX_PLAUSIBLE_VS_FPM` between two samples."""
+    data = flight.data
+    dt = data["timestamp"].diff().dt.total_seconds().to_numpy()[1:]
+    dz = np.abs(np.diff(data["altitude"].to_numpy(dtype=float)))
+    ok = dt > 0
+    return bool(np.any(dz[ok] / dt[ok] * 60.0 > MAX_PLAUSIBLE_VS_FPM))
 
 
 def _arrays(pair: tuple[Any, Any], epoch: Any) -> dict[str, Any]:
