@@ -173,13 +173,24 @@ def run_fidelity(args: argparse.Namespace) -> int:
 
 def run_stats(args: argparse.Namespace) -> int:
     """Run ``realtraffic stats``."""
-    from bluesky_gym.training.evaluation import evaluate, make_policy
+    import gymnasium as gym
+
+    import bluesky_gym
+    from bluesky_gym.training.evaluation import evaluate, load_policy
+    from bluesky_gym.training.policies import reference_policy
+
+    bluesky_gym.register_envs()
 
     rows = []
     policies = ["random", "classical"] + ([args.model] if args.model else [])
     try:
         for name in _collections(args):
-            made = {p: make_policy(p, "RealTrafficCREnv-v0") for p in policies}  # fresh: the random policy's generator restarts
+            space = gym.make("RealTrafficCREnv-v0", collections=(name,), cache_dir=args.cache_dir).action_space
+            # fresh per collection: the random policy's generator restarts
+            low, high = np.asarray(getattr(space, "low")), np.asarray(getattr(space, "high"))  # noqa: B009 - a Box
+            made = {p: reference_policy(p, "RealTrafficCREnv-v0", low, high) for p in policies[:2]}
+            if args.model:
+                made[args.model] = load_policy(args.model)
             flights, replay = _replay(name, args.windows, args.cache_dir)
             row: dict[str, Any] = {
                 "collection": name,

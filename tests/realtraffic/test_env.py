@@ -138,10 +138,12 @@ def test_missing_collection_file(tmp_path) -> None:
 
 
 def test_classical_avoids_more_than_random(options) -> None:
-    from bluesky_gym.training.evaluation import evaluate, make_policy
+    from bluesky_gym.training.evaluation import evaluate
+    from bluesky_gym.training.policies import reference_policy
 
-    random = evaluate(ENV, make_policy("random", ENV), 8, env_options=options)
-    classical = evaluate(ENV, make_policy("classical", ENV), 8, env_options=options)
+    space = gym.make(ENV, **options).action_space
+    random = evaluate(ENV, reference_policy("random", ENV, space.low, space.high), 8, env_options=options)
+    classical = evaluate(ENV, reference_policy("classical", ENV, space.low, space.high), 8, env_options=options)
     assert classical.mean_return > random.mean_return
 
 
