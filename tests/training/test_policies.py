@@ -42,6 +42,7 @@ def test_every_paper_env_has_a_classical_controller() -> None:
         "SectorCREnv-v0",
         "StaticObstacleEnv-v0",
         "MergeEnv-v0",
+        "RealTrafficCREnv-v0",
     }
     with pytest.raises(ValueError):
         reference_policy("greedy", "DescentEnv-v0", np.array([-1.0]), np.array([1.0]))
