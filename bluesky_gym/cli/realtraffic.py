@@ -117,12 +117,12 @@ def run_prepare(args: argparse.Namespace) -> int:
 
     try:
         if args.sample:
-            flights = load_sample(args.sample, consistency=args.consistency)
+            flights = load_sample(args.sample, consistency=not args.no_consistency)
             out = args.out or collection_path(args.sample, args.cache_dir)
         else:
             if args.out is None:
                 raise ValueError("--table needs --out FILE.npz")
-            flights = load_table(args.table, consistency=args.consistency)
+            flights = load_table(args.table, consistency=not args.no_consistency)
             out = args.out
         flights.save(out)
     except (MissingDependencyError, ValueError) as exc:

@@ -1,7 +1,7 @@
 """Where the cleaned collections live, and how a collection is found, built once, and combined.
 
 A collection is named either by a ``traffic`` sample (``"switzerland"``, ``"quickstart"``), which
-is cleaned on first use (a few minutes, needs the ``realtraffic`` extra) and saved in the cache
+is cleaned on first use (several minutes, needs the ``realtraffic`` extra) and saved in the cache
 directory, or by the path of a ``.npz`` file written by ``bluesky-gym realtraffic prepare``
 (:meth:`~bluesky_gym.realtraffic.flights.RecordedFlights.save`), which needs numpy only.
 
@@ -58,7 +58,7 @@ def load_collection(name: str, directory: str | os.PathLike[str] | None = None, 
     from bluesky_gym.realtraffic.sources import load_sample
 
     if verbose:
-        print(f"bluesky-gym: cleaning the traffic sample collection {name!r} once into {path} (a few minutes)", flush=True)
+        print(f"bluesky-gym: cleaning the traffic sample collection {name!r} once into {path} (several minutes)", flush=True)
     flights = load_sample(name)
     flights.save(path)
     return flights

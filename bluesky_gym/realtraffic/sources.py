@@ -8,8 +8,8 @@ cleaning, done by the library's own tools:
 1. ``Traffic.clean_invalid()`` (faulty callsigns and repeated positions, where the data has them);
 2. ``Traffic.assign_id()``: one identifier per flight, separating flights that reuse a callsign;
 3. per flight: ground segments dropped (``query("not onground")`` where the data has the flag,
-   and samples below :data:`MIN_ALTITUDE_FT`), ``filter()`` (the default spike filter; with
-   ``consistency=True`` also ``FilterConsistency`` where an altitude glitch is left),
+   and samples below :data:`MIN_ALTITUDE_FT`), ``filter()`` (the default spike filter), and
+   ``filter(FilterConsistency())`` where the altitude still jumps (a glitch the default filter left),
    ``split(GAP)`` at gaps in reception, ``resample()`` to one sample every
    :data:`~bluesky_gym.realtraffic.flights.SAMPLE_PERIOD` seconds;
 4. route points: ``simplify()`` (Douglas-Peucker on the 3-D track, tolerance
@@ -68,12 +68,12 @@ def require_traffic() -> Any:
     return traffic.core
 
 
-def load_sample(name: str, consistency: bool = False) -> RecordedFlights:
+def load_sample(name: str, consistency: bool = True) -> RecordedFlights:
     """A sample collection shipped by the ``traffic`` package, cleaned (no network access).
 
     Args:
         name: One of :data:`SAMPLE_COLLECTIONS` (or another ``traffic.data.samples`` collection).
-        consistency: Also apply the library's consistency filter to flights with an altitude glitch (see :func:`clean`).
+        consistency: Also apply the library's consistency filter to flights with an altitude glitch left (see :func:`clean`).
     """
     require_traffic()
     import traffic.data.samples as samples
@@ -85,7 +85,7 @@ def load_sample(name: str, consistency: bool = False) -> RecordedFlights:
     return clean(raw, name, consistency)
 
 
-def load_table(path: str | Path, name: str | None = None, consistency: bool = False) -> RecordedFlights:
+def load_table(path: str | Path, name: str | None = None, consistency: bool = True) -> RecordedFlights:
     """A user's ADS-B table (``.csv`` or ``.parquet``), cleaned.
 
     Columns: time (ISO 8601 or POSIX seconds, UTC), callsign, lat, lon [deg], altitude [ft],
@@ -142,7 +142,7 @@ def load_table(path: str | Path, name: str | None = None, consistency: bool = Fa
     return clean(core.Traffic(df), name or path.stem, consistency)
 
 
-def clean(raw: Any, name: str, consistency: bool = False) -> RecordedFlights:
+def clean(raw: Any, name: str, consistency: bool = True) -> RecordedFlights:
     """Clean a ``traffic.Traffic`` (or ``Flight``) with the library's tools and convert it (see the module docstring).
 
     Args:
@@ -150,8 +150,8 @@ def clean(raw: Any, name: str, consistency: bool = False) -> RecordedFlights:
         name: Collection name.
         consistency: Flights whose altitude still changes faster than :data:`MAX_PLAUSIBLE_VS_FPM`
             after the default filter are filtered again with the library's ``FilterConsistency``
-            (which keeps the longest mutually consistent sequence of samples; about 20 s per
-            flight, so it is off by default).
+            (which keeps the longest mutually consistent sequence of samples; 10-30 s per such
+            flight, about a tenth of the flights of the samples).
     """
     core = require_traffic()
     traffic = raw if isinstance(raw, core.Traffic) else core.Traffic(raw.data)
@@ -171,7 +171,7 @@ def clean(raw: Any, name: str, consistency: bool = False) -> RecordedFlights:
     return _concatenate(flights, name, epoch.isoformat())
 
 
-def _clean_flight(flight: Any, consistency: bool = False) -> Iterable[Any]:
+def _clean_flight(flight: Any, consistency: bool = True) -> Iterable[Any]:
     """The airborne, filtered, resampled segments of one flight, with their route points."""
     if "onground" in flight.data.columns:
         flight = flight.query("not onground")
