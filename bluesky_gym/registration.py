@@ -5,11 +5,16 @@ from __future__ import annotations
 import gymnasium as gym
 
 from bluesky_gym.envs.registry import ENVIRONMENTS, env_ids
+from bluesky_gym.envs.registry import entry as env_entry
 
 
 def available_envs() -> list[str]:
-    """Ids of the single-agent environments whose implementation modules are present."""
-    return env_ids()
+    """Ids of the single-agent environments whose implementation modules are present and whose default data is ready.
+
+    An environment built from data that is prepared at first use (``RealTrafficCREnv-v0``) is
+    registered regardless, and listed here once its data is in place.
+    """
+    return [i for i in env_ids() if env_entry(i).data_ready()]
 
 
 def register_envs() -> None:

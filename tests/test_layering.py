@@ -23,6 +23,7 @@ LAYERS = {
     "backends": 1,
     "tasks": 2,
     "scenarios": 2,
+    "realtraffic": 2,
     "wrappers": 3,
     "render": 3,
     "envs": 4,

@@ -77,6 +77,8 @@ class EnvEntry:
         options: Configuration values of this id, ``(name, value)`` pairs of the task's config
             (registered as the id's keyword arguments): a ``-v1`` id is its task with the
             configuration fields that fix the ``-v0`` defects set.
+        data: Import path of a no-argument callable telling whether the data the default
+            configuration needs is on this machine (None: the environment needs no data).
     """
 
     id: str
@@ -86,6 +88,7 @@ class EnvEntry:
     scene: str = GENERIC_SCENE
     multiagent: MultiAgentEntry | None = None
     options: tuple[tuple[str, Any], ...] = ()
+    data: str | None = None
 
     def task_class(self) -> type[Any]:
         """The batched task class."""
@@ -116,6 +119,10 @@ class EnvEntry:
     def is_available(self) -> bool:
         """Whether the modules of the environment classes are present."""
         return all(importlib.util.find_spec(p.partition(":")[0]) is not None for p in (self.task, self.env, self.vector_env))
+
+    def data_ready(self) -> bool:
+        """Whether the data of the default configuration is present (always, for an environment without data)."""
+        return self.data is None or bool(resolve(self.data)())
 
 
 #: Every environment, in the order of the paper.
@@ -193,6 +200,14 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
             scene="bluesky_gym.multiagent.render:merge_scene",
         ),
     ),
+    EnvEntry(
+        id="RealTrafficCREnv-v0",
+        task="bluesky_gym.tasks.real_traffic:RealTrafficTask",
+        env="bluesky_gym.envs.real_traffic_env:RealTrafficCREnv",
+        vector_env="bluesky_gym.envs.real_traffic_env:RealTrafficCRVectorEnv",
+        scene="bluesky_gym.render.scenes.real_traffic:real_traffic_scene",
+        data="bluesky_gym.realtraffic.cache:default_data_ready",
+    ),
 )
 
 
@@ -221,8 +236,9 @@ def _v1(row: EnvEntry) -> EnvEntry:
     )
 
 
-#: Every environment: the paper's seven (``-v0``), then their ``-v1`` versions.
-ENVIRONMENTS = (*ENVIRONMENTS, *(_v1(row) for row in ENVIRONMENTS))
+#: Every environment: the paper's seven (``-v0``) and the recorded-traffic one, then the ``-v1``
+#: versions of the paper's seven.
+ENVIRONMENTS = (*ENVIRONMENTS, *(_v1(row) for row in ENVIRONMENTS if row.id in V1_OPTIONS))
 
 
 def env_ids() -> list[str]:

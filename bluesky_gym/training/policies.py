@@ -55,8 +55,9 @@ from numpy.typing import NDArray
 from bluesky_gym.core.conflicts import PZ_HEIGHT
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
-from bluesky_gym.core.units import KTS, NM, NM2KM
+from bluesky_gym.core.units import FT, KTS, NM, NM2KM
 from bluesky_gym.tasks import horizontal_cr, merge, sector_cr, vertical_cr
+from bluesky_gym.tasks import real_traffic as rt
 
 Array = NDArray[np.float64]
 Obs = dict[str, Array]
@@ -95,6 +96,10 @@ MERGE_POS_SCALE = 1e6  # m
 MERGE_VEL_SCALE = 150.0  # m/s
 MERGE_PZ_M = 4.0 * NM2KM * 1000.0
 MERGE_LOOKAHEAD_S = 300.0
+# RealTrafficCREnv-v0
+REAL_TRAFFIC_LOOKAHEAD_S = 300.0
+REAL_TRAFFIC_VERTICAL_ALERT_M = 2000.0 * FT  # traffic further above or below is not avoided
+REAL_TRAFFIC_FAR_M = 1e9  # m: where an ignored intruder is put
 CPA_MARGIN = 1.0  # alert when the predicted miss distance is below margin * protected zone
 
 # --- StaticObstacleEnv-v0 ----------------------------------------------------------------------
@@ -559,6 +564,29 @@ MVP.update(
     }
 )
 
+
+class RealTrafficController(Policy):
+    """RealTrafficCREnv-v0: follow the recorded path; turn away from the most urgent conflict with traffic within 2000 ft."""
+
+    name = "classical"
+
+    def act(self, obs: Obs) -> Array:
+        """Compute the controller's actions (heading and speed; zero: the recorded path and speed)."""
+        intr = obs["intruders"]
+        near = (intr[..., 6] > 0.5) & (np.abs(intr[..., 4] * rt.ALTITUDE_SCALE) < REAL_TRAFFIC_VERTICAL_ALERT_M)
+        pos = rt.POSITION_SCALE * NM
+        alert, turn = _cpa_turn(
+            np.where(near, intr[..., 1] * pos, REAL_TRAFFIC_FAR_M),  # out of the vertical band: far away, never alerts
+            np.where(near, intr[..., 0] * pos, REAL_TRAFFIC_FAR_M),
+            intr[..., 3] * rt.VELOCITY_SCALE,
+            intr[..., 2] * rt.VELOCITY_SCALE,
+            rt.INTRUSION_NM * NM,
+            REAL_TRAFFIC_LOOKAHEAD_S,
+        )
+        heading = np.where(alert, turn, 0.0)
+        return np.stack([heading, np.zeros_like(heading)], axis=1)
+
+
 #: Classical controller factory per environment id.
 CLASSICAL: dict[str, Callable[[], Policy]] = {
     "DescentEnv-v0": DescentController,
@@ -568,6 +596,7 @@ CLASSICAL: dict[str, Callable[[], Policy]] = {
     "SectorCREnv-v0": SectorCRController,
     "StaticObstacleEnv-v0": StaticObstacleController,
     "MergeEnv-v0": MergeController,
+    "RealTrafficCREnv-v0": RealTrafficController,
 }
 # The -v1 ids keep the observation scales these controllers read (docs/environments-v1.md).
 CLASSICAL.update({env_id.replace("-v0", "-v1"): controller for env_id, controller in list(CLASSICAL.items())})

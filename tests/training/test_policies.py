@@ -42,6 +42,7 @@ def test_every_paper_env_has_a_classical_controller() -> None:
         "SectorCREnv-v0",
         "StaticObstacleEnv-v0",
         "MergeEnv-v0",
+        "RealTrafficCREnv-v0",
     }
     # The -v1 ids (same observation scales where the controllers read them) use the same controllers.
     assert set(CLASSICAL) == paper | {e.replace("-v0", "-v1") for e in paper}

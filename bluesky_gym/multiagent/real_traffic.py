@@ -1,0 +1,142 @@
+"""Multi-agent real traffic: every recorded aircraft of a window is an agent (PettingZoo ``ParallelEnv``).
+
+The episode is a window of RealTrafficCREnv-v0 (the same windows, splits and options); every
+aircraft of it, named by its recorded flight id, is an agent from the step its recording starts
+until the step it ends. Each agent has the single-agent observation, action and reward from its
+own point of view (:func:`bluesky_gym.tasks.real_traffic.measure`, :func:`~bluesky_gym.tasks.real_traffic.observation`,
+:func:`~bluesky_gym.tasks.real_traffic.reward` and :func:`~bluesky_gym.tasks.real_traffic.steer`
+applied to its own slot): heading, speed (and optionally altitude) relative to its own recorded
+path, so that all-zero actions replay the recording.
+
+* ``agents`` grow when recorded aircraft appear and shrink when their recordings end (those agents
+  are truncated in that step); at the end of the window every agent is truncated.
+* ``step(actions)``: an agent missing from the dict flies its recording (action 0); names that
+  are not current agents are ignored.
+* ``reset(seed=s)``: seeds of the evaluation range (``2**31`` and above) draw from the test split
+  with ``split="auto"``.
+
+Example::
+
+    from bluesky_gym.multiagent.real_traffic import RealTrafficParallelEnv
+
+    env = RealTrafficParallelEnv()
+    obs, infos = env.reset(seed=0)
+    while env.agents:
+        obs, rew, term, trunc, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+
+from bluesky_gym.envs.seeds import is_eval_seed
+from bluesky_gym.multiagent import require_pettingzoo
+from bluesky_gym.tasks import real_traffic as rt
+from bluesky_gym.tasks.base import numeric_action
+
+require_pettingzoo()  # a clear error naming the extra when PettingZoo is missing
+from pettingzoo import ParallelEnv  # noqa: E402
+
+
+class RealTrafficParallelEnv(ParallelEnv):
+    """Every recorded aircraft of a real-traffic window is an agent.
+
+    Args:
+        max_episode_steps: Time limit in decision steps (default: the window).
+        **options: Options of RealTrafficCREnv-v0 (collections, split, window_s, ...).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"name": "real_traffic_cr_v0", "render_modes": [], "is_parallelizable": True}
+
+    def __init__(self, max_episode_steps: int | None = None, **options: Any) -> None:
+        self.task = rt.RealTrafficAllAgentsTask(1, rt.RealTrafficTask.make_config(options), max_episode_steps=max_episode_steps)
+        spec = self.task.observation_spec
+        self._obs_space = spaces.Dict({k: spaces.Box(v.low, v.high, v.shape, np.float64) for k, v in spec.items()})
+        a = self.task.action_spec
+        self._act_space = spaces.Box(a.low, a.high, a.shape, np.float64)
+        self.agents: list[str] = []
+        self.possible_agents: list[str] = []
+        self._slot: dict[str, int] = {}
+        self._np_random, _ = seeding.np_random(None)
+        self._steps = 0
+
+    def observation_space(self, agent: str) -> spaces.Space[Any]:
+        """Every agent's observation space (RealTrafficCREnv-v0's)."""
+        return self._obs_space
+
+    def action_space(self, agent: str) -> spaces.Space[Any]:
+        """Every agent's action space (RealTrafficCREnv-v0's)."""
+        return self._act_space
+
+    def _names(self) -> dict[str, int]:
+        task = self.task
+        active = np.flatnonzero(task.sim.active[0])
+        return {str(task.flights.flight_id[task.player.flight[0, s]]): int(s) for s in active}
+
+    def _observe(self, names: dict[str, int]) -> tuple[dict[str, dict[str, np.ndarray]], np.ndarray, rt.RealTrafficGeometry | None]:
+        if not names:
+            return {}, np.zeros(0), None
+        slots = np.fromiter(names.values(), dtype=np.int64)
+        g = rt.measure(self.task, np.zeros(len(slots), np.int64), slots)
+        obs = rt.observation(self.task, g)
+        reward, _ = rt.reward(g)
+        return {a: {k: v[i].copy() for k, v in obs.items()} for i, a in enumerate(names)}, reward, g
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Start an episode (seeded: the window of that seed)."""
+        if seed is not None:
+            self._np_random, _ = seeding.np_random(seed)
+        self.task.set_test_split(np.array([0]), np.array([seed is not None and is_eval_seed(int(seed))]))
+        self.task.seed(np.array([0]), [self._np_random])
+        self.task.reset()
+        self._steps = 0
+        self._slot = self._names()
+        self.agents = list(self._slot)
+        window = self.task.window(0)
+        self.possible_agents = [str(self.task.flights.flight_id[f]) for f in window.flights]
+        obs, _, _ = self._observe(self._slot)
+        return obs, {a: {} for a in self.agents}
+
+    def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float], dict[str, bool], dict[str, bool], dict[str, Any]]:
+        """Apply the agents' actions, fly 10 s, and report every agent that acted."""
+        if not self.agents:
+            raise RuntimeError("step() called before reset() or after the episode ended; call reset() first")
+        acting = dict(self._slot)
+        slots = np.fromiter(acting.values(), dtype=np.int64)
+        a = np.zeros((len(slots), *self._act_space.shape))
+        for i, name in enumerate(acting):
+            if name in actions:
+                act = numeric_action(actions[name], self._act_space.shape).reshape(self._act_space.shape)
+                if not np.isfinite(act).all():
+                    raise ValueError(f"action of {name} contains NaN or infinite values: {act.tolist()}")
+                a[i] = np.clip(act, self._act_space.low, self._act_space.high)
+        rt.steer(self.task, np.zeros(len(slots), np.int64), slots, a)
+        self.task.advance()
+        self._steps += 1
+        now = self._names()
+        stayed = {n: s for n, s in acting.items() if n in now}
+        obs, reward, g = self._observe(stayed)
+        end = self._steps >= self.task.time_limit
+        rewards = {n: 0.0 for n in acting}
+        infos: dict[str, Any] = {n: {} for n in acting}
+        for i, n in enumerate(stayed):
+            rewards[n] = float(reward[i])
+            if g is not None:
+                infos[n] = {"route_deviation_nm": float(g.route_nm[i]), "intrusions": int(g.los[i].sum())}
+        terminations = {n: False for n in acting}
+        truncations = {n: end or n not in now for n in acting}
+        for n in acting:
+            if n not in obs:
+                obs[n] = {k: np.zeros(spec.shape) for k, spec in self.task.observation_spec.items()}
+        self._slot = {} if end else now
+        self.agents = list(self._slot)
+        return obs, rewards, terminations, truncations, infos
+
+    def state(self) -> np.ndarray:
+        """Global state: per aircraft slot (active, lat, lon, altitude [m], heading [deg], ground speed [m/s])."""
+        sim = self.task.sim
+        return np.stack([sim.active[0].astype(float), sim.lat[0], sim.lon[0], sim.alt[0], sim.hdg[0], sim.gs[0]], axis=1).ravel()

@@ -1,0 +1,116 @@
+"""Where the cleaned collections live, and how a collection is found, built once, and combined.
+
+A collection is named either by a ``traffic`` sample (``"switzerland"``, ``"quickstart"``), which
+is cleaned on first use (several minutes, needs the ``realtraffic`` extra) and saved in the cache
+directory, or by the path of a ``.npz`` file written by ``bluesky-gym realtraffic prepare``
+(:meth:`~bluesky_gym.realtraffic.flights.RecordedFlights.save`), which needs numpy only.
+
+The cache directory is, in this order: the ``cache_dir`` argument (the environments' option of the
+same name), the ``BLUESKY_GYM_CACHE`` environment variable, ``$XDG_CACHE_HOME/bluesky-gym``, and
+``~/.cache/bluesky-gym`` (in the user's home directory).
+"""
+
+from __future__ import annotations
+
+import os
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from bluesky_gym.realtraffic.flights import FORMAT_VERSION, RecordedFlights
+
+CACHE_ENV = "BLUESKY_GYM_CACHE"
+GAP_BETWEEN_COLLECTIONS = 86400.0  # s: time put between combined collections (no window spans two)
+
+
+def cache_dir(explicit: str | os.PathLike[str] | None = None) -> Path:
+    """The directory of the cleaned collections (see the module docstring for the order)."""
+    if explicit:
+        return Path(explicit).expanduser()
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env).expanduser()
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg).expanduser() if xdg else Path.home() / ".cache"
+    return base / "bluesky-gym"
+
+
+def is_file_name(name: str) -> bool:
+    """Whether a collection name is a path to a ``.npz`` file rather than a sample name."""
+    return name.endswith(".npz") or os.sep in name or "/" in name
+
+
+def collection_path(name: str, directory: str | os.PathLike[str] | None = None) -> Path:
+    """The file of collection ``name`` (a sample name, cached, or a ``.npz`` path)."""
+    if is_file_name(name):
+        return Path(name).expanduser()
+    return cache_dir(directory) / "realtraffic" / f"{name}-v{FORMAT_VERSION}.npz"
+
+
+def load_collection(name: str, directory: str | os.PathLike[str] | None = None, verbose: bool = True) -> RecordedFlights:
+    """Collection ``name``: read from its file, or (a sample not cached yet) cleaned from the ``traffic`` samples and cached."""
+    path = collection_path(name, directory)
+    if path.exists():
+        return _load(str(path.resolve()), path.stat().st_mtime_ns)
+    if is_file_name(name):
+        raise ValueError(f"{path}: no such recorded-flights file (write one with `bluesky-gym realtraffic prepare`)")
+    from bluesky_gym.realtraffic.sources import load_sample
+
+    if verbose:
+        print(f"bluesky-gym: cleaning the traffic sample collection {name!r} once into {path} (several minutes)", flush=True)
+    flights = load_sample(name)
+    flights.save(path)
+    return flights
+
+
+def default_data_ready() -> bool:
+    """Whether the collections of the real-traffic environment's default configuration are in the cache directory."""
+    from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
+
+    return all(collection_path(name).exists() for name in SAMPLE_COLLECTIONS)
+
+
+@lru_cache(maxsize=8)
+def _load(path: str, mtime_ns: int) -> RecordedFlights:
+    del mtime_ns  # part of the cache key: a rewritten file is read again
+    return RecordedFlights.load(path)
+
+
+def combine(parts: list[RecordedFlights], name: str) -> tuple[RecordedFlights, list[float]]:
+    """One collection of several, each shifted in time after the previous one.
+
+    Returns:
+        The combined flights and each part's time shift [s] (its t = 0 in the combined clock).
+    """
+    shifts: list[float] = []
+    t = 0.0
+    for p in parts:
+        shifts.append(t - float(p.t0.min()))
+        t += float(p.t_end.max() - p.t0.min()) + GAP_BETWEEN_COLLECTIONS
+    counts = [int(p.offset[-1]) for p in parts]
+    wps = [int(p.wp_offset[-1]) for p in parts]
+    sample_base = np.concatenate([[0], np.cumsum(counts)])
+    wp_base = np.concatenate([[0], np.cumsum(wps)])
+    return (
+        RecordedFlights(
+            name=name,
+            epoch=parts[0].epoch,
+            period=parts[0].period,
+            t0=np.concatenate([p.t0 + s for p, s in zip(parts, shifts)]),
+            offset=np.concatenate([[0]] + [p.offset[1:] + b for p, b in zip(parts, sample_base)]).astype(np.int64),
+            lat=np.concatenate([p.lat for p in parts]),
+            lon=np.concatenate([p.lon for p in parts]),
+            alt=np.concatenate([p.alt for p in parts]),
+            gs=np.concatenate([p.gs for p in parts]),
+            trk=np.concatenate([p.trk for p in parts]),
+            vs=np.concatenate([p.vs for p in parts]),
+            wp_offset=np.concatenate([[0]] + [p.wp_offset[1:] + b for p, b in zip(parts, wp_base)]).astype(np.int64),
+            wp_index=np.concatenate([p.wp_index for p in parts]).astype(np.int64),
+            callsign=np.concatenate([p.callsign for p in parts]),
+            icao24=np.concatenate([p.icao24 for p in parts]),
+            typecode=np.concatenate([p.typecode for p in parts]),
+            flight_id=np.concatenate([p.flight_id for p in parts]),
+        ),
+        shifts,
+    )

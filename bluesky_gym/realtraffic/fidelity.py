@@ -1,0 +1,145 @@
+"""How closely the simulated aircraft follow their recorded paths when nobody acts.
+
+:func:`fidelity` replays windows with :class:`~bluesky_gym.realtraffic.scenario.ScenarioPlayer` on
+the native core and compares, for every aircraft, the simulated position with the recorded one
+at the same time, 5, 10 and 20 minutes after the aircraft was created: the lateral deviation
+(great-circle distance) and the vertical deviation (|altitude difference|). It reports the median
+and the 95th percentile over all aircraft still recorded at that age.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bluesky_gym.core.geo import qdrdist
+from bluesky_gym.core.simulator import Simulator
+from bluesky_gym.core.units import FT, NM
+from bluesky_gym.realtraffic.flights import RecordedFlights
+from bluesky_gym.realtraffic.scenario import SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window
+
+HORIZONS_S = (300.0, 600.0, 1200.0)  # s after creation: 5, 10, 20 minutes
+DT = 1.0  # s, simulation time step
+DECISION_STEP = 10.0  # s between the player's updates
+BATCH = 64  # windows simulated together
+
+
+@dataclass
+class Fidelity:
+    """Lateral and vertical deviations from the recorded tracks, per horizon.
+
+    Attributes:
+        collection: Collection name.
+        windows: Windows replayed.
+        lateral_m: Horizon [s] -> lateral deviations [m] of every aircraft recorded at that age.
+        vertical_m: Horizon [s] -> vertical deviations [m].
+    """
+
+    collection: str
+    windows: int
+    lateral_m: dict[float, NDArray[np.float64]] = field(default_factory=dict)
+    vertical_m: dict[float, NDArray[np.float64]] = field(default_factory=dict)
+    conflicts: int = 0
+    aircraft_hours: float = 0.0
+
+    @property
+    def conflicts_per_flight_hour(self) -> float:
+        """Losses of separation (5 NM / 1000 ft pair events) per simulated aircraft-hour, with nobody acting."""
+        return self.conflicts / self.aircraft_hours if self.aircraft_hours > 0 else float("nan")
+
+    def summary(self) -> list[dict[str, float]]:
+        """One row per horizon: aircraft, median and 95th percentile lateral [NM] and vertical [ft] deviation."""
+        rows = []
+        for h in sorted(self.lateral_m):
+            lat = self.lateral_m[h] / NM
+            ver = self.vertical_m[h] / FT
+            n = len(lat)
+            rows.append(
+                {
+                    "minutes": h / 60.0,
+                    "aircraft": float(n),
+                    "lateral_median_nm": float(np.median(lat)) if n else float("nan"),
+                    "lateral_p95_nm": float(np.percentile(lat, 95)) if n else float("nan"),
+                    "vertical_median_ft": float(np.median(ver)) if n else float("nan"),
+                    "vertical_p95_ft": float(np.percentile(ver, 95)) if n else float("nan"),
+                }
+            )
+        return rows
+
+
+def fidelity(
+    flights: RecordedFlights, chosen: list[Window], max_aircraft: int, max_waypoints: int, horizons: tuple[float, ...] = HORIZONS_S
+) -> Fidelity:
+    """Replay ``chosen`` windows with nobody acting and measure the deviation from the recordings.
+
+    Args:
+        flights: The recorded flights.
+        chosen: Windows to replay (each at least as long as the largest horizon to measure it).
+        max_aircraft: Aircraft slots per airspace (at least the largest window's aircraft).
+        max_waypoints: Route points given to each aircraft.
+        horizons: Ages at which to compare [s], multiples of the decision step.
+    """
+    result = Fidelity(flights.name, len(chosen), {h: np.zeros(0) for h in horizons}, {h: np.zeros(0) for h in horizons})
+    lateral: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
+    vertical: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
+    sub = int(round(DECISION_STEP / DT))
+    for b in range(0, len(chosen), BATCH):
+        batch = chosen[b : b + BATCH]
+        sim = Simulator(len(batch), max_aircraft, dt=DT, max_waypoints=max_waypoints)
+        player = ScenarioPlayer(sim, flights, guided_ownship=True)
+        player.load(np.arange(len(batch)), batch)
+        n_steps = int(round(max(w.duration for w in batch) / DECISION_STEP))
+        in_los = np.zeros((len(batch), max_aircraft, max_aircraft), bool)
+        for _ in range(n_steps):
+            sim.run(sub)
+            player.advance_clock(DECISION_STEP)
+            now = player.now()[:, None]
+            age = now - player.t_created
+            live = sim.active & player.created & ~player.done & (now <= player.t_leave + 1e-6)
+            result.aircraft_hours += float(live.sum()) * DECISION_STEP / 3600.0
+            los = pair_los(sim.lat, sim.lon, sim.alt, live)
+            result.conflicts += int((los & ~in_los).sum()) // 2
+            in_los = los
+            for h in horizons:
+                hit = live & (np.abs(age - h) < 1e-6)
+                if not hit.any():
+                    continue
+                e, s = np.nonzero(hit)
+                rec = flights.at(player.flight[e, s], now[e, 0])
+                _, dist_nm = qdrdist(sim.lat[e, s], sim.lon[e, s], rec["lat"], rec["lon"])
+                lateral[h].append(np.asarray(dist_nm) * NM)
+                vertical[h].append(np.abs(sim.alt[e, s] - rec["alt"]))
+            player.update()
+    for h in horizons:
+        result.lateral_m[h] = np.concatenate(lateral[h]) if lateral[h] else np.zeros(0)
+        result.vertical_m[h] = np.concatenate(vertical[h]) if vertical[h] else np.zeros(0)
+    return result
+
+
+def pair_los(lat: NDArray[np.float64], lon: NDArray[np.float64], alt: NDArray[np.float64], live: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """(n, m, m) whether two live aircraft of an airspace are within 5 NM and 1000 ft (flat-earth distance)."""
+    coslat = np.cos(np.radians(lat))
+    dy = (lat[:, :, None] - lat[:, None, :]) * 60.0
+    dx = ((lon[:, :, None] - lon[:, None, :] + 180.0) % 360.0 - 180.0) * 60.0 * coslat[:, :, None]
+    both = live[:, :, None] & live[:, None, :]
+    m = lat.shape[1]
+    return (
+        both & ~np.eye(m, dtype=bool)[None] & (np.hypot(dx, dy) < SEPARATION_NM) & (np.abs(alt[:, :, None] - alt[:, None, :]) < SEPARATION_VERTICAL)
+    )
+
+
+def format_markdown(results: list[Fidelity]) -> str:
+    """A Markdown table of the fidelity of each collection."""
+    lines = [
+        "| collection | after | aircraft | lateral median [NM] | lateral p95 [NM] | vertical median [ft] | vertical p95 [ft] |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in results:
+        for row in r.summary():
+            lines.append(
+                f"| {r.collection} | {row['minutes']:.0f} min | {row['aircraft']:.0f} | {row['lateral_median_nm']:.2f} | "
+                f"{row['lateral_p95_nm']:.2f} | {row['vertical_median_ft']:.0f} | {row['vertical_p95_ft']:.0f} |"
+            )
+    return "\n".join(lines)
