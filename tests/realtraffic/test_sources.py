@@ -83,3 +83,13 @@ def test_consistency_filter_removes_an_altitude_glitch(tmp_path) -> None:
     assert np.abs(np.diff(raw.alt[raw.samples(f)])).max() / FT > 20000.0  # left by the default filter
     assert np.abs(np.diff(fixed.alt[fixed.samples(g)])).max() / FT < 100.0
     assert np.allclose(fixed.alt[fixed.samples(g)][:60] / FT, 29527.6, atol=1.0)
+
+
+@pytest.mark.parametrize("flag", [[], ["--no-consistency"]])
+def test_prepare_command_writes_the_flights_of_a_table(tmp_path, flag) -> None:
+    from bluesky_gym.cli import main
+    from bluesky_gym.realtraffic.flights import RecordedFlights
+
+    out = tmp_path / "mine.npz"
+    assert main(["realtraffic", "prepare", "--table", str(_table(tmp_path)), "--out", str(out), *flag]) == 0
+    assert RecordedFlights.load(out).n_flights == 3
