@@ -41,6 +41,8 @@ def make_vector_env(env_id: str, num_envs: int, **kwargs: Any) -> Any:
     bluesky_gym.register_envs()
     if env_id not in gym.registry:
         raise ValueError(f"unknown environment {env_id!r}; available: {', '.join(bluesky_gym.available_envs())}")
+    if gym.registry[env_id].vector_entry_point is None:
+        raise ValueError(f"{env_id} has no batched version, which training needs; batched environments: {', '.join(bluesky_gym.available_envs())}")
     return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
 
 
