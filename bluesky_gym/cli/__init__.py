@@ -13,7 +13,7 @@ import sys
 from collections.abc import Sequence
 
 # Modules that define subcommands, in the order they appear in --help.
-SUBCOMMAND_MODULES = ("catalog", "train", "evaluate", "plot", "sweep", "render", "bench")
+SUBCOMMAND_MODULES = ("catalog", "train", "evaluate", "plot", "sweep", "render", "bench", "runs")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -79,6 +79,19 @@ def add_parser(subparsers: Any) -> None:
     add_run_options(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--quiet", action="store_true", help="no messages")
+    p.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard log (default: <run dir>/tensorboard)")
+    damaged = p.add_mutually_exclusive_group()
+    damaged.add_argument(
+        "--resume-from-last-intact",
+        dest="on_damage",
+        action="store_const",
+        const="resume",
+        default="error",
+        help="if the run directory is damaged, resume from its last intact checkpoint",
+    )
+    damaged.add_argument(
+        "--restart", dest="on_damage", action="store_const", const="restart", help="if the run directory is damaged, start the run over"
+    )
     p.set_defaults(func=run_train)
 
     d = subparsers.add_parser(
@@ -100,14 +113,21 @@ def add_parser(subparsers: Any) -> None:
 
 def run_train(args: argparse.Namespace) -> int:
     """Run the ``train`` subcommand."""
-    from bluesky_gym.training.runner import RunConfigMismatch, RunLocked, make_run_spec, run_dir_for, run_training
+    from bluesky_gym.training.runner import RunConfigMismatch, RunDamaged, RunLocked, make_run_spec, run_dir_for, run_training
 
     try:
         config = load_config(args.config)
         spec = make_run_spec(config, args.env_id, args.algo, args.seed, **run_overrides(args))
         run_dir = run_dir_for(args.out, args.env_id, args.algo, args.seed)
-        result = run_training(spec, run_dir, progress_bar=not (args.no_progress or args.quiet), verbose=0 if args.quiet else 1)
-    except (MissingDependencyError, RunConfigMismatch, RunLocked, ValueError, FileNotFoundError) as exc:
+        result = run_training(
+            spec,
+            run_dir,
+            progress_bar=not (args.no_progress or args.quiet),
+            verbose=0 if args.quiet else 1,
+            on_damage=args.on_damage,
+            tensorboard=not args.no_tensorboard,
+        )
+    except (MissingDependencyError, RunConfigMismatch, RunLocked, RunDamaged, ValueError, FileNotFoundError) as exc:
         print(f"bluesky-gym train: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

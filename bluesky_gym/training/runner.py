@@ -260,6 +260,10 @@ class RunLock:
         except OSError:
             pass
 
+    def is_held(self) -> bool:
+        """True if a live process holds the lock (a lock left by a dead process does not count)."""
+        return self.path.exists() and not self._stale()
+
     def _stale(self) -> bool:
         try:
             host, pid = self.path.read_text().split()
@@ -338,13 +342,13 @@ class RunHealth:
     log_rows: int | None
 
 
-def _checkpoint_damage(run_dir: Path, record: dict[str, Any], log_rows: int | None) -> list[str]:
+def _checkpoint_damage(run_dir: Path, record: dict[str, Any], log_rows: int | None, deep: bool = True) -> list[str]:
     where = run_dir / str(record.get("dir", "?"))
     step = record.get("timesteps", "?")
     if not where.is_dir():
         return [f"checkpoint.json names {where}, which is missing"]
     names = ["model.zip"] + (["replay_buffer.pkl"] if record.get("replay_buffer") else [])
-    out = [f"checkpoint at {step} steps: {bad}" for n in names if (bad := file_damage(where / n, record.get("files", {}).get(n)))]
+    out = [f"checkpoint at {step} steps: {bad}" for n in names if (bad := file_damage(where / n, record.get("files", {}).get(n), deep))]
     n = int(record.get("episodes_logged", 0))
     log = run_dir / EPISODE_LOG
     if n > 0 and log_rows is None:
@@ -354,11 +358,12 @@ def _checkpoint_damage(run_dir: Path, record: dict[str, Any], log_rows: int | No
     return out
 
 
-def inspect_run(run_dir: str | Path) -> RunHealth:
+def inspect_run(run_dir: str | Path, deep: bool = True) -> RunHealth:
     """Check a run directory for damage: JSON files, checkpoint files against their checksums, the episode log.
 
     Args:
         run_dir: The run directory.
+        deep: Compare checksums (else only the sizes of the files).
 
     """
     d = Path(run_dir)
@@ -386,13 +391,13 @@ def inspect_run(run_dir: str | Path) -> RunHealth:
         problems.append(f"{d / 'checkpoint.json'} is missing but {d / 'checkpoints'} holds checkpoints")
     intact = []
     for k, record in enumerate(records):
-        damage = _checkpoint_damage(d, record, log_rows)
+        damage = _checkpoint_damage(d, record, log_rows, deep)
         if not damage:
             intact.append(record)
         elif k == 0:
             problems.extend(damage)
     if result is not None:
-        bad = file_damage(d / "model.zip", result.get("files", {}).get("model.zip"))
+        bad = file_damage(d / "model.zip", result.get("files", {}).get("model.zip"), deep)
         if bad:
             problems.append(f"final model: {bad}")
         if log_rows is not None and log_rows < int(result.get("episodes", 0)):
@@ -603,10 +608,10 @@ def run_training(
 
 
 def _require_tensorboard() -> None:
-    try:
-        import tensorboard  # noqa: F401
-    except ImportError as exc:
-        raise MissingDependencyError(f"TensorBoard logging needs the tensorboard package: {TRAIN_EXTRA_HINT} (or train without it)") from exc
+    import importlib.util
+
+    if importlib.util.find_spec("tensorboard") is None:
+        raise MissingDependencyError(f"TensorBoard logging needs the tensorboard package: {TRAIN_EXTRA_HINT} (or train without it)")
 
 
 def _make_venv(spec: RunSpec) -> Any:
