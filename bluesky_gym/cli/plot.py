@@ -64,11 +64,11 @@ def run(args: argparse.Namespace) -> int:
             raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, args.run_dirs))}")
         runs = [load_run(d) for d in dirs]
         waiting = [r for r in runs if not r.timesteps.size]
-        for r in waiting:
-            print(f"skipping {r.path}: no episode logged yet (a run that is starting, or that failed before training)", file=sys.stderr)
         runs = [r for r in runs if r.timesteps.size]
         if not runs:
             raise ValueError(f"none of the {len(waiting)} runs below {', '.join(map(str, args.run_dirs))} has logged an episode yet; nothing to plot")
+        for r in waiting:
+            print(f"skipping {r.path}: no episode logged yet (a run that is starting, or that failed before training)", file=sys.stderr)
         unfinished = [r for r in runs if not r.finished]
         if unfinished:
             print(f"{len(unfinished)} of {len(runs)} runs are unfinished: plotted up to their last logged episode", file=sys.stderr)

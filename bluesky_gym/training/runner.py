@@ -617,7 +617,10 @@ def _require_tensorboard() -> None:
 def _make_venv(spec: RunSpec) -> Any:
     from bluesky_gym.training.sb3_vec_env import SB3VecEnv
 
-    return SB3VecEnv(spec.env_id, num_envs=spec.n_envs, **spec.env_options)
+    try:
+        return SB3VecEnv(spec.env_id, num_envs=spec.n_envs, **spec.env_options)
+    except TypeError as exc:  # unknown scenario option names
+        raise ValueError(f"env_options of {spec.env_id}: {exc}") from None
 
 
 def _nothing_trained(d: Path) -> bool:
