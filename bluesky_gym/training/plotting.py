@@ -351,15 +351,26 @@ def plot_learning_curves(
         ValueError: No run has logged an episode yet.
 
     """
+    plt = _pyplot()
+    written = []
+    for name, fig in learning_curve_figures(runs, seed, references).items():
+        path = Path(out_dir) / f"{name}.png"
+        _save(fig, path)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+def learning_curve_figures(runs: Sequence[Run], seed: int = 0, references: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
+    """The figures of :func:`plot_learning_curves`, by file stem (``learning_curves``, ``kpis_<env>``)."""
     runs = [r for r in runs if r.timesteps.size]
     if not runs:
         raise ValueError("no run has logged an episode yet: nothing to plot")
     refs = references or {}
     plt = _pyplot()
-    out = Path(out_dir)
     rng = np.random.default_rng(seed)
     groups = _groups(runs)
-    written = []
+    figures = {}
     n = len(groups)
     cols = min(n, 4)
     fig, axes = plt.subplots(math.ceil(n / cols), cols, figsize=(4.2 * cols, 3.2 * math.ceil(n / cols)), squeeze=False)
@@ -370,9 +381,7 @@ def plot_learning_curves(
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     fig.tight_layout()
-    _save(fig, out / "learning_curves.png")
-    plt.close(fig)
-    written.append(out / "learning_curves.png")
+    figures["learning_curves"] = fig
 
     for env_id, by_config in groups.items():
         metrics = kpi_panels(env_id, [r for rs in by_config.values() for r in rs])
@@ -388,11 +397,8 @@ def plot_learning_curves(
             ax.set_visible(False)
         fig.suptitle(env_id)
         fig.tight_layout()
-        path = out / f"kpis_{env_id}.png"
-        _save(fig, path)
-        plt.close(fig)
-        written.append(path)
-    return written
+        figures[f"kpis_{env_id}"] = fig
+    return figures
 
 
 def legend_label(label: str, runs: Sequence[Run]) -> str:
@@ -479,6 +485,15 @@ def plot_aggregate(agg: dict[str, Any], out_dir: str | Path) -> list[Path]:
     plt = _pyplot()
     out = Path(out_dir)
     atomic_write_json(out / "aggregate.json", agg)
+    fig = aggregate_figure(agg)
+    _save(fig, out / "aggregate.png")
+    plt.close(fig)
+    return [out / "aggregate.png", out / "aggregate.json"]
+
+
+def aggregate_figure(agg: dict[str, Any]) -> Any:
+    """The figure of :func:`plot_aggregate`: a bar per algorithm with its CI and value, and the IQM curves."""
+    plt = _pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
     algos = list(agg["final"])
     for k, algo in enumerate(algos):
@@ -517,9 +532,7 @@ def plot_aggregate(agg: dict[str, Any], out_dir: str | Path) -> list[Path]:
     else:
         fig.suptitle(f"Aggregate over {len(envs)} environments (95% stratified bootstrap CIs)")
     fig.tight_layout()
-    _save(fig, out / "aggregate.png")
-    plt.close(fig)
-    return [out / "aggregate.png", out / "aggregate.json"]
+    return fig
 
 
 def find_references(run_dirs: Sequence[Path], env_ids: Sequence[str]) -> dict[str, dict[str, float]]:

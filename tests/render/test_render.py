@@ -387,27 +387,27 @@ def test_mp4_without_ffmpeg_says_what_to_install(tmp_path, monkeypatch: pytest.M
 
 
 def test_record_video_wrapper(tmp_path) -> None:
-    """gymnasium's RecordVideo (needs moviepy); without moviepy, RenderCollection and our writer."""
-    env_id = IDS[0]
-    try:
-        import moviepy  # noqa: F401
-    except ImportError:
-        env = gym.wrappers.RenderCollection(gym.make(env_id, render_mode="rgb_array"))
-        env.reset(seed=0)
-        for _ in range(3):
-            env.step(env.action_space.sample())
-        frames = env.render()
-        assert len(frames) == 4 and all(f.dtype == np.uint8 for f in frames)
-        path = write_video(tmp_path / "collected.gif", frames)
-        assert path.stat().st_size > 0
-        env.close()
-        return
-    env = gym.wrappers.RecordVideo(gym.make(env_id, render_mode="rgb_array"), str(tmp_path), episode_trigger=lambda k: True)
+    """Gymnasium's RecordVideo works with the render extra (which installs MoviePy)."""
+    import moviepy  # noqa: F401  (the render extra installs it; a missing MoviePy is a broken install)
+
+    folder = tmp_path / "videos"  # a new folder: RecordVideo warns when it overwrites
+    env = gym.wrappers.RecordVideo(gym.make("SectorCREnv-v0", render_mode="rgb_array"), str(folder), episode_trigger=lambda k: True)
     env.reset(seed=0)
     for _ in range(3):
         env.step(env.action_space.sample())
     env.close()
-    assert list(tmp_path.glob("*.mp4"))
+    videos = list(folder.glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 1000
+
+
+def test_panel_shows_info_values_with_units() -> None:
+    from bluesky_gym.render.renderer import info_line
+
+    assert info_line("average_drift", 0.145) == ("mean |drift|", "8.3 deg")
+    assert info_line("final_altitude", 304.8) == ("final altitude", "305 m (1000 ft)")
+    assert info_line("faf_reach", True) == ("reached FAF", "yes")
+    assert info_line("average_drift", float("nan")) == ("mean |drift|", "-")
+    assert info_line("something_new", 2.5) == ("something_new", "2.500")
 
 
 # --- the command --------------------------------------------------------------------------------
