@@ -391,7 +391,7 @@ def test_record_video_wrapper(tmp_path) -> None:
     import moviepy  # noqa: F401  (the render extra installs it; a missing MoviePy is a broken install)
 
     folder = tmp_path / "videos"  # a new folder: RecordVideo warns when it overwrites
-    env = gym.wrappers.RecordVideo(gym.make("SectorCREnv-v0", render_mode="rgb_array"), str(folder), episode_trigger=lambda k: True)
+    env = gym.wrappers.RecordVideo(gym.make("DescentEnv-v0", render_mode="rgb_array"), str(folder), episode_trigger=lambda k: True)
     env.reset(seed=0)
     for _ in range(3):
         env.step(env.action_space.sample())
