@@ -13,6 +13,8 @@ import os
 import tempfile
 from pathlib import Path
 
+import pytest
+
 SCRATCH = Path(tempfile.gettempdir()) / f"bluesky-gym-tests-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
 
 os.environ.setdefault("BLUESKY_GYM_BLUESKY_WORKDIR", str(SCRATCH / "bluesky"))
@@ -20,3 +22,24 @@ os.environ.setdefault("RAY_TMPDIR", str(SCRATCH / "ray"))
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
 os.environ.setdefault("RAY_USAGE_STATS_CONFIG_PATH", str(SCRATCH / "ray-usage.json"))
 os.environ.setdefault("MPLCONFIGDIR", str(SCRATCH / "matplotlib"))
+
+
+def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
+    """Leave out test modules that the run's marker expression deselects entirely.
+
+    ``scripts/test.sh`` runs ``-m "not bluesky"`` in the main environment and ``-m bluesky`` in the
+    BlueSky one. A module is imported before its tests are deselected, and a module that needs a
+    package the environment lacks (BlueSky in the one, Stable-Baselines3 in the other) would be
+    reported as skipped although none of its tests was meant to run there.
+    """
+    if collection_path.suffix != ".py" or not collection_path.name.startswith("test_"):
+        return None
+    expression = " ".join(str(config.getoption("markexpr") or "").split())
+    if expression not in ("bluesky", "not bluesky"):
+        return None
+    text = collection_path.read_text(encoding="utf-8")
+    if expression == "not bluesky" and "pytestmark = pytest.mark.bluesky" in text:
+        return True
+    if expression == "bluesky" and "mark.bluesky" not in text:
+        return True
+    return None
