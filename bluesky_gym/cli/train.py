@@ -10,8 +10,12 @@ Examples::
 overrides them; command-line options override both. The run directory
 ``<out>/<ID>/<ALGO>/seed_<S>`` records the exact configuration, package versions and seeds, the
 episode log (return and KPIs per episode), checkpoints, the final model and its evaluation on
-held-out scenarios. Rerunning the same command resumes an interrupted run from its last
-checkpoint, or does nothing if the run is finished.
+held-out scenarios, and SB3's TensorBoard log (``tensorboard/``). Rerunning the same command
+resumes an interrupted run from its last checkpoint, or does nothing if the run is finished.
+The id, scenario options and hyperparameter names are checked before the run directory is
+created. A damaged run directory (a checkpoint file missing or cut off, an episode log shorter
+than its checkpoint, a JSON file that does not parse) is named and left alone until rerun with
+``--resume-from-last-intact`` (continue from the last intact checkpoint) or ``--restart``.
 
 ``demo`` trains PPO on 16 batched environments (``configs/demo.toml``), evaluates the policy
 against the ``random`` and ``classical`` reference policies on held-out scenarios, and writes the
