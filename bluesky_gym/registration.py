@@ -27,5 +27,5 @@ def register_envs() -> None:
 
     for entry in ENVIRONMENTS:
         if entry.id not in gym.registry and entry.is_available():
-            gym.register(id=entry.id, entry_point=entry.env, vector_entry_point=entry.vector_env, max_episode_steps=None)
+            gym.register(id=entry.id, entry_point=entry.env, vector_entry_point=entry.vector_env, max_episode_steps=None, kwargs=dict(entry.options))
     register_centralised()

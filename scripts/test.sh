@@ -17,6 +17,11 @@ if [ ! -x .venv-bluesky/bin/python ]; then "$PY" -m venv .venv-bluesky; fi
 # Lint, format check and type check (scripts/lint.sh).
 PYTHON=.venv/bin/python bash scripts/lint.sh
 
+# The documentation site (mkdocs.yml), warnings as errors, into the ignored site/ folder;
+# tests/docs/test_site.py then opens every page of this build in a headless browser.
+export BLUESKY_GYM_SITE_DIR="$PWD/site"
+NO_MKDOCS_2_WARNING=1 .venv/bin/python -m mkdocs build --strict --quiet --site-dir "$BLUESKY_GYM_SITE_DIR"
+
 export SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy MPLBACKEND=Agg
 # On CPUs with AVX-512, numpy >= 2 computes sin, cos, exp, pow... with its own SIMD loops, which
 # differ from the C library in the last bit. BlueSky itself computes with numpy, and the bit-exact

@@ -583,6 +583,23 @@ class BlueSkyPhysics:
         for s, la, lo in zip(slot, lat, lon):
             self.command(f"DEST {self._acid_of(s)} {_number(la)} {_number(lo)}")
 
+    def cmd_direct(self, env: ArrayLike, slot: ArrayLike, waypoint: ArrayLike) -> None:
+        """Stack ``DIRECT acid wpname`` with the name of route waypoint ``waypoint`` (0-based)."""
+        env, slot = self._begin(env, slot)
+        wp = np.broadcast_to(np.asarray(waypoint, dtype=np.int64), slot.shape)
+        for s, w in zip(slot, wp):
+            route = self._bs.traf.ap.route[self._tidx_of(s)]
+            if not 0 <= w < route.nwp:
+                raise ValueError("DIRECT: waypoint index outside the aircraft's route")
+            self.command(f"DIRECT {self._acid_of(s)} {route.wpname[w]}")
+
+    def cmd_lnav(self, env: ArrayLike, slot: ArrayLike, on: ArrayLike) -> None:
+        """Stack ``LNAV acid ON/OFF``."""
+        env, slot = self._begin(env, slot)
+        flags = np.broadcast_to(np.asarray(on, dtype=bool), slot.shape)
+        for s, f in zip(slot, flags):
+            self.command(f"LNAV {self._acid_of(s)} {'ON' if f else 'OFF'}")
+
     def creconfs(
         self,
         env: ArrayLike,

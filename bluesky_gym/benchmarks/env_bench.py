@@ -96,7 +96,7 @@ def _measure_row(
         say(f"{env_id} BlueSky backend")
         row["bluesky"] = _worker_cell(bluesky_python, "backend-env", env_id, seconds)
     row["reference"] = None
-    if reference_python:
+    if reference_python and env_id.endswith("-v0"):  # the reference package has the paper's ids only
         say(f"{env_id} reference")
         row["reference"] = _worker_cell(reference_python, "reference-env", env_id, seconds)
     largest = row["batched"].get(str(max(batch_sizes))) if batch_sizes else None

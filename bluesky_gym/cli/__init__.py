@@ -13,7 +13,7 @@ import sys
 from collections.abc import Sequence
 
 # Modules that define subcommands, in the order they appear in --help.
-SUBCOMMAND_MODULES = ("catalog", "train", "evaluate", "plot", "sweep", "render", "bench", "runs")
+SUBCOMMAND_MODULES = ("catalog", "train", "evaluate", "plot", "results", "sweep", "render", "bench", "replay", "runs")
 
 
 def build_parser() -> argparse.ArgumentParser:

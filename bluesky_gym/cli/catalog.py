@@ -88,7 +88,9 @@ def describe(env_id: str) -> dict[str, Any]:
         config = getattr(env.unwrapped, "config")  # noqa: B009 - every BlueSky-Gym environment has one; gym.Env does not declare it
     finally:
         env.close()
-    docs = _attribute_docs(type(config))
+    docs: dict[str, str] = {}
+    for base in reversed(type(config).__mro__):  # a base class's fields (float32_spaces) are documented there
+        docs.update(_attribute_docs(base))
     options = []
     for f in dataclasses.fields(config):
         default = getattr(config, f.name)

@@ -7,6 +7,7 @@ Examples::
     bluesky-gym render DescentEnv-v0 --policy runs/descent/model.zip --out descent.gif
     bluesky-gym render SectorCREnv-v0 --grid 4 --out sector_grid.gif     # 4 episodes side by side
     bluesky-gym render VerticalCREnv-v0 --human                          # watch in a window
+    bluesky-gym render MergeEnv-v0 --out merge.gif --scn merge.scn       # also a BlueSky scenario file
 
 The policy is ``random`` (uniform actions, seeded by ``--seed``), ``classical`` (the benchmark's
 hand-written controller) or the path of a Stable-Baselines3 model ``.zip`` (its algorithm is read
@@ -60,6 +61,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--colors", type=int, default=192, metavar="N", help="palette size of GIF frames, 2..256 (default: 192)")
     p.add_argument("--grid", type=positive_int, default=1, metavar="N", help="draw N episodes of a batched environment side by side")
     p.add_argument("--human", action="store_true", help="show the episodes in a window instead of writing a file")
+    p.add_argument("--scn", type=Path, metavar="OUT.scn", help="also write each episode as a BlueSky scenario file (OUT-k.scn for several)")
     p.add_argument("--option", type=_option, action="append", default=[], metavar="KEY=VALUE", help="scenario option (repeatable)")
     p.set_defaults(func=run)
 
@@ -85,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
             deterministic=not args.stochastic,
             options=dict(args.option),
             log=lambda s: print(s, file=sys.stderr),
+            scn=args.scn,
         )
     except (ValueError, TypeError, ImportError) as exc:  # bad id, option, policy, format or missing package
         print(f"bluesky-gym render: error: {exc}", file=sys.stderr)

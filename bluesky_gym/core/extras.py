@@ -33,3 +33,12 @@ def require_ray() -> ModuleType:
             f"distributed sweeps need Ray, which is not installed: {DISTRIBUTED_EXTRA_HINT} (or run the sweep with --local)"
         ) from exc
     return ray
+
+
+def require_rliable() -> tuple[ModuleType, ModuleType]:
+    """Import ``rliable.library`` and ``rliable.metrics``, or raise :class:`MissingDependencyError` naming the extra."""
+    try:
+        from rliable import library, metrics
+    except ImportError as exc:
+        raise MissingDependencyError(f"aggregate scores need rliable, which is not installed: {TRAIN_EXTRA_HINT}") from exc
+    return library, metrics

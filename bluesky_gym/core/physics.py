@@ -177,3 +177,16 @@ class Physics(Protocol):
         airspace ended, the clock stops at the largest ``j``.
         """
         ...
+
+
+@runtime_checkable
+class RouteCommands(Protocol):
+    """Route commands beyond :class:`Physics`: ``DIRECT`` and ``LNAV`` (the native core and BlueSky have them)."""
+
+    def cmd_direct(self, env: ArrayLike, slot: ArrayLike, waypoint: ArrayLike) -> None:
+        """``DIRECT``: make route waypoint ``waypoint`` (0-based index) active and fly to it; LNAV on."""
+        ...
+
+    def cmd_lnav(self, env: ArrayLike, slot: ArrayLike, on: ArrayLike) -> None:
+        """``LNAV ON/OFF``."""
+        ...

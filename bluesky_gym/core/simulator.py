@@ -12,6 +12,7 @@ The kernel skips inactive slots; their values are meaningless and readers must u
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -25,7 +26,7 @@ from bluesky_gym.core.conflicts import create_conflicts
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
 from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, aircraft_index, checked_index
 from bluesky_gym.core.step import MEMO_COLUMNS, run_kernel, step_kernel
-from bluesky_gym.core.units import NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
+from bluesky_gym.core.units import BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
@@ -385,6 +386,54 @@ class Simulator:
         self.route_lat[env, slot, idx], self.route_lon[env, slot, idx] = _route_position(lat, lon)
         self.route_has_dest[env, slot] = True
         self._after_route_insert(env, slot, grew=~has_dest)
+
+    def cmd_direct(self, env: ArrayLike, slot: ArrayLike, waypoint: ArrayLike) -> None:
+        """``DIRECT acid wpname``: make route waypoint ``waypoint`` (0-based) active and fly to it; LNAV on.
+
+        As BlueSky's ``route.direct``, the next-leg bearing and the last-waypoint flag stay as they were.
+        """
+        env, slot = self._index(env, slot)
+        wp = np.broadcast_to(np.asarray(waypoint, dtype=np.int64), env.shape)
+        if np.any((wp < 0) | (wp >= self.nwp[env, slot])):
+            raise ValueError("DIRECT: waypoint index outside the aircraft's route")
+        self.iactwp[env, slot] = wp
+        self._direct(env, slot)
+
+    def cmd_lnav(self, env: ArrayLike, slot: ArrayLike, on: ArrayLike) -> None:
+        """``LNAV acid ON/OFF``; ON (when off) goes direct to the best active waypoint (BlueSky's ``route.findact``)."""
+        env, slot = self._index(env, slot)
+        on_a = np.broadcast_to(np.asarray(on, dtype=bool), env.shape)
+        if np.any(on_a & (self.nwp[env, slot] <= 0)):
+            raise ValueError("LNAV ON: the aircraft has no waypoints or destination")
+        self.swlnav[env[~on_a], slot[~on_a]] = False
+        switch = on_a & ~self.swlnav[env, slot]
+        e, s = env[switch], slot[switch]
+        for k in range(e.size):
+            self.iactwp[e[k], s[k]] = self._find_active(int(e[k]), int(s[k]))
+        self._direct(e, s)
+
+    def _find_active(self, env: int, slot: int) -> int:
+        """The waypoint LNAV activates when switched on (BlueSky ``route.findact``).
+
+        It is the nearest waypoint not behind the active one, or the one after it when the turn to
+        it takes longer than flying to it.
+        """
+        nwp = int(self.nwp[env, slot])
+        if nwp == 1:
+            return 0
+        dy = self.route_lat[env, slot, :nwp] - self.lat[env, slot]
+        dx = (self.route_lon[env, slot, :nwp] - self.lon[env, slot]) * np.cos(np.deg2rad(self.lat[env, slot]))
+        dist2 = dx * dx + dy * dy
+        near = max(int(self.iactwp[env, slot]), int(np.argmin(dist2)))
+        if near + 1 < nwp:
+            qdr = math.degrees(math.atan2(dx[near], dy[near]))
+            delhdg = abs((self.trk[env, slot] - qdr + 180.0) % 360.0 - 180.0)
+            tas = max(0.01, float(self.tas[env, slot]))
+            time_turn = tas * math.radians(delhdg) / (G0 * math.tan(BANK_DEFAULT))
+            time_straight = math.sqrt(dist2[near]) * 60.0 * NM / tas
+            if time_turn > time_straight:
+                near += 1
+        return near
 
     def _check_route_room(self, env: IntArray, slot: IntArray) -> None:
         if np.any(self.nwp[env, slot] >= self.max_waypoints):

@@ -10,6 +10,7 @@ from __future__ import annotations
 # --- Units -------------------------------------------------------------------------------------
 KTS = 0.514444  # m/s per knot
 FT = 0.3048  # m per foot
+FL = 100 * FT  # m per flight level (FL350 = 350 * FL = 10668 m)
 FPM = FT / 60.0  # m/s per foot-per-minute (== 0.00508, OpenAP's literal)
 NM = 1852.0  # m per nautical mile
 DEG2RAD = 0.017453292519943295  # rad per deg, BlueSky's compiled geo module's constant (== np.radians(1))

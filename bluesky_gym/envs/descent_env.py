@@ -53,6 +53,23 @@ class DescentEnv(BlueSkyEnv):
     every step, and at the end of an episode the KPIs `kpi_*` (success = runway reached,
     time to goal, extra track, ...).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the runway was reached (no crash), else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the runway was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the runway leg (`runway_distance_km`) [km]; negative before the runway | never |
+    | `kpi_los_count` | losses of separation; always 0, there is no other aircraft | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | always `inf`: there is no other aircraft |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the goal heading [deg] | always `NaN`: the task has no heading goal |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("DescentEnv-v0", render_mode=None, backend="native", alt_min=2000, alt_max=4000,
     target_alt_dif=500, runway_distance_km=200.0)`.
@@ -60,6 +77,12 @@ class DescentEnv(BlueSkyEnv):
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0). Fixed software defects: seeded generator, clean
       reset (no aircraft carried over after truncation), `terminated` is a bool, rgb_array frames.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      |a| ≤ 0.008 (|v| ≤ 0.1 m/s) holds the current altitude (`hold_altitude_at_zero`): BlueSky
+      replaces such a vertical speed by its default 7.62 m/s, so a = 0 climbed (bluesky-gym #59).
     """
 
     task_class = DescentTask

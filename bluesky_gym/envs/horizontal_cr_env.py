@@ -72,6 +72,23 @@ class HorizontalCREnv(BlueSkyEnv):
     waypoint reached, time to goal, extra track = distance flown − (initial distance to the
     waypoint − the 5 km capture radius), ...).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the waypoint was reached, else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the waypoint was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus (initial distance to the waypoint − the 5 km capture radius) [km] | never |
+    | `kpi_los_count` | new losses of separation: intruders coming within 5 NM | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to an intruder [NM] | never |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the heading to the waypoint [deg], over the decision steps | never |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("HorizontalCREnv-v0", render_mode=None, backend="native", num_intruders=5,
     dpsi_min=45, dpsi_max=315, dcpa_min=0, dcpa_max=5, tlosh_min=100, tlosh_max=1000,
@@ -83,6 +100,12 @@ class HorizontalCREnv(BlueSkyEnv):
       `terminated` is a bool, `average_drift` is a number at reset, rgb_array frames, correct
       north-up pictures. The reference's deletion of (every other) aircraft on termination is
       not reproduced: every reset starts a clean scenario, so it has no effect.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      every aircraft starts at FL100 (`airborne_start`): at altitude 0 they were in BlueSky's ground
+      phase, capped at 89 m/s, which also stretched the conflict geometry in time.
     """
 
     task_class = HorizontalCRTask

@@ -68,6 +68,23 @@ class MergeEnv(BlueSkyEnv):
     `reward_<component>` every step, and at the end of an episode the KPIs `kpi_*` (success =
     `faf_reach` 2, time to goal, extra track against start → FAF → 20 NM before the runway, ...).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the aircraft passed the FAF and came within 20 NM of the runway (`faf_reach` 2), else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until then [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the nominal route start → FAF → 20 NM before the runway [km] | never |
+    | `kpi_los_count` | new losses of separation: aircraft coming within 4 NM of the ownship | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | never |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift (from the bearing to the FAF, then the runway) [deg], over the decision steps | never |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("MergeEnv-v0", render_mode=None, backend="native", num_aircraft=20,
     spawn_distance_km=(50.0, 200.0), intruder_distance_km=(20.0, 500.0), spawn_bearing_deg=15.0,
@@ -84,6 +101,17 @@ class MergeEnv(BlueSkyEnv):
     * The reference's intruder sort uses `kwikdist_matrix`, which with BlueSky 1.1.1's compiled
       geometry (its default) returns a single 0 and makes the reference crash at reset; v0
       implements the specified sort by kwik distance to each intruder.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      the FAF reached in a step shows in that step's observation, with the runway as the new target
+      (`faf_same_step`, bluesky-gym #13);
+      the FAF is 200 NM north of the runway (`faf_distance_in_nm`), the unit the reference's comment
+      gives (it was 200 km); the episode limit is 100 steps so that the runway stays within reach;
+      the FAF capture radius is 10 km and the runway goal 20 km (`margins_in_km`): the "km" were
+      compared with NM;
+      `airspeed` is (TAS − 150)/150 (`normalise_airspeed`): it was the raw TAS, about 168 m/s.
     """
 
     task_class = MergeTask

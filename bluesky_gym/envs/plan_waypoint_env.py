@@ -63,6 +63,23 @@ class PlanWaypointEnv(BlueSkyEnv):
     traffic, so the separation KPIs are trivial, and no single heading goal, so the drift KPI is
     NaN.
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if every waypoint was reached, else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the last waypoint was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the shortest polyline through all waypoint centres [km]; can be negative | never |
+    | `kpi_los_count` | losses of separation; always 0, there is no other aircraft | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | always `inf`: there is no other aircraft |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift [deg] | always `NaN`: there is no single heading goal |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("PlanWaypointEnv-v0", render_mode=None, backend="native", num_waypoints=5,
     waypoint_distance_min=0, waypoint_distance_max=75, distance_margin_km=5.0)`. The waypoint
@@ -74,6 +91,14 @@ class PlanWaypointEnv(BlueSkyEnv):
       reset (the reference keeps a truncated episode's aircraft, so the next episode continued
       from its position, heading and speed; here every episode starts at 52°N 4°E);
       `terminated` is a bool; the reach flags are float64; rgb_array frames.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      the aircraft starts at FL100 (`airborne_start`): at altitude 0 it was in BlueSky's ground phase,
+      capped at 89 m/s instead of the scenario's CAS 150 m/s;
+      a waypoint reached in a step shows as reached in that step's observation (`reach_same_step`):
+      the flags lagged one step.
     """
 
     task_class = PlanWaypointTask

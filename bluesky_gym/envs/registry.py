@@ -74,6 +74,9 @@ class EnvEntry:
         vector_env: Natively batched environment class (Gymnasium ``vector_entry_point``).
         scene: Scene builder ``(task, env_index) -> Scene`` drawn by the renderer.
         multiagent: The multi-agent form, if the problem has one.
+        options: Configuration values of this id, ``(name, value)`` pairs of the task's config
+            (registered as the id's keyword arguments): a ``-v1`` id is its task with the
+            configuration fields that fix the ``-v0`` defects set.
     """
 
     id: str
@@ -82,6 +85,7 @@ class EnvEntry:
     vector_env: str
     scene: str = GENERIC_SCENE
     multiagent: MultiAgentEntry | None = None
+    options: tuple[tuple[str, Any], ...] = ()
 
     def task_class(self) -> type[Any]:
         """The batched task class."""
@@ -105,8 +109,9 @@ class EnvEntry:
 
     @property
     def max_episode_steps(self) -> int:
-        """Default episode limit in decision steps (the task's)."""
-        return int(self.task_class().max_episode_steps)
+        """Default episode limit in decision steps (the task's, for this id's configuration)."""
+        cls = self.task_class()
+        return int(cls.episode_limit(cls.make_config(dict(self.options))))
 
     def is_available(self) -> bool:
         """Whether the modules of the environment classes are present."""
@@ -189,6 +194,35 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
         ),
     ),
 )
+
+
+#: The configuration of every ``-v1`` id: float32 spaces with finite bounds that hold, and the
+#: fields that fix the ``-v0`` defects of its task (docs/environments-v1.md lists them with reasons).
+V1_OPTIONS: dict[str, tuple[tuple[str, Any], ...]] = {
+    "DescentEnv-v0": (("hold_altitude_at_zero", True),),
+    "VerticalCREnv-v0": (("hold_altitude_at_zero", True), ("normalise_vertical_speed", True)),
+    "PlanWaypointEnv-v0": (("airborne_start", True), ("reach_same_step", True)),
+    "HorizontalCREnv-v0": (("airborne_start", True),),
+    "SectorCREnv-v0": (("flight_level_altitude", True), ("speed_step_in_knots", True), ("exit_ends_episode", True)),
+    "StaticObstacleEnv-v0": (("flight_level_altitude", True), ("speed_step_in_knots", True), ("step_reward", True), ("clear_start", True)),
+    "MergeEnv-v0": (("faf_same_step", True), ("faf_distance_in_nm", True), ("margins_in_km", True), ("normalise_airspeed", True)),
+}
+
+
+def _v1(row: EnvEntry) -> EnvEntry:
+    """The ``-v1`` row of a ``-v0`` row: the same classes and scene, the ``-v1`` configuration."""
+    return EnvEntry(
+        id=row.id.replace("-v0", "-v1"),
+        task=row.task,
+        env=row.env,
+        vector_env=row.vector_env,
+        scene=row.scene,
+        options=(("float32_spaces", True), *V1_OPTIONS[row.id]),
+    )
+
+
+#: Every environment: the paper's seven (``-v0``), then their ``-v1`` versions.
+ENVIRONMENTS = (*ENVIRONMENTS, *(_v1(row) for row in ENVIRONMENTS))
 
 
 def env_ids() -> list[str]:

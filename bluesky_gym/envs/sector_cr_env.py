@@ -73,6 +73,20 @@ class SectorCREnv(BlueSkyEnv):
     step, and at the end of an episode the KPIs `kpi_*` (losses of separation, minimum separation,
     mean drift, track distance; the task has no goal, so there is no success KPI).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_los_count` | new losses of separation: aircraft coming within 5 NM of the ownship | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | never |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the heading to the exit point [deg], over the decision steps | never |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("SectorCREnv-v0", render_mode=None, backend="native", ac_density_mode="normal",
     ac_density_range=(0.003, 0.007), ac_density_mu=0.005, ac_density_sigma=0.001,
@@ -83,6 +97,18 @@ class SectorCREnv(BlueSkyEnv):
     * v0: the paper's MDP (bluesky-gym 0.2.0, after its 2025-01 fixes of the drift computation,
       the intruder altitude and the CAS-based speed action). Fixed software defects: seeded
       generator, `average_drift` is 0.0 at reset, rgb_array frames, many environments per process.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      traffic at FL350 (`flight_level_altitude`): the reference's "FL350" was used as 350 m; at FL350
+      BlueSky caps the CAS 150 m/s at M0.80 (TAS 237 m/s), and `airspeed` is (TAS − 180)/80 so that it
+      stays in [−1, 1];
+      the speed action changes CAS by 20/3 kt per unit (`speed_step_in_knots`): the "kts" were added
+      as m/s;
+      leaving the sector terminates the episode; within 5 NM of the own waypoint it is the exit,
+      elsewhere it costs 1 per decision step left (`exit_ends_episode`): leaving early used to
+      truncate without penalty, so it escaped the drift and intrusion penalties (bluesky-gym #44).
     """
 
     task_class = SectorCRTask

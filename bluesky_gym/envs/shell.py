@@ -31,13 +31,19 @@ RENDER_MODES = ["rgb_array", "human"]
 RENDER_FPS = 30
 
 
-def _box(spec: BoxSpec) -> spaces.Box:
-    return spaces.Box(low=spec.low, high=spec.high, shape=spec.shape, dtype=np.float64)
+def _box(spec: BoxSpec, dtype: type[np.floating[Any]] = np.float64) -> spaces.Box:
+    return spaces.Box(low=spec.low, high=spec.high, shape=spec.shape, dtype=dtype)
 
 
 def observation_space(task: Task) -> spaces.Dict:
-    """The single-episode observation space of a task."""
-    return spaces.Dict({k: _box(v) for k, v in task.observation_spec.items()})
+    """The single-episode observation space of a task (float32 for a ``-v1`` configuration)."""
+    return spaces.Dict({k: _box(v, task.space_dtype) for k, v in task.observation_spec.items()})
+
+
+def _typed(task: Task, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``obs`` in the dtype of the task's observation space (a copy for float32, the arrays themselves for float64)."""
+    dtype = task.space_dtype
+    return obs if dtype is np.float64 else {k: v.astype(dtype) for k, v in obs.items()}
 
 
 def _split_kwargs(task_class: type[Task], kwargs: dict[str, Any]) -> Any:
@@ -115,7 +121,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
         limit = requested_time_limit(max_episode_steps)
         self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
         self._observation_space = (self.task.observation_spec, observation_space(self.task))
-        self.action_space = _box(self.task.action_spec)
+        self.action_space = _box(self.task.action_spec, self.task.space_dtype)
         self._renderer: Any = None
         self._needs_reset = True
         self._reset_once = False
@@ -146,7 +152,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
         self._needs_reset = False
         self._reset_once = True
         self._last_reward = 0.0
-        obs = {k: v[0].copy() for k, v in self.task.observation().items()}
+        obs = {k: v[0].copy() for k, v in _typed(self.task, self.task.observation()).items()}
         info = {k: _scalar(v[0]) for k, v in self.task.episode_info().items()}
         self._last_info = info
         if self.render_mode == "human":
@@ -164,7 +170,7 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
             else:
                 raise ValueError(f"action has shape {a.shape}, expected {self.action_space.shape} for {self.task.env_id}")
         res = self.task.step(a[None])
-        obs = {k: v[0].copy() for k, v in res.observation.items()}
+        obs = {k: v[0].copy() for k, v in _typed(self.task, res.observation).items()}
         terminated, truncated = bool(res.terminated[0]), bool(res.truncated[0])
         info = {k: _scalar(v[0]) for k, v in res.info.items()}
         self._needs_reset = terminated or truncated
@@ -259,7 +265,7 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
             single,
             batch_space(single, self.num_envs),
         )
-        self.single_action_space = _box(self.task.action_spec)
+        self.single_action_space = _box(self.task.action_spec, self.task.space_dtype)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._renderer: Any = None
         self._reset_once = False
@@ -312,7 +318,7 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         self._last_info = info
         if self.render_mode == "human":
             self.render()
-        return self.task.observation(), info
+        return _typed(self.task, self.task.observation()), info
 
     def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every episode; ended episodes are reset in the same call (SAME_STEP)."""
@@ -324,13 +330,13 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         for k in res.info:
             if k.startswith("kpi_"):
                 info[f"_{k}"] = done.copy()
-        obs = res.observation
+        obs = _typed(self.task, res.observation)
         if done.any():
             ended = np.flatnonzero(done)
             final_obs = {k: v.copy() for k, v in obs.items()}
             final_info = {k: v.copy() for k, v in res.info.items()}
             self.task.reset(ended)
-            new_obs = self.task.observation(ended)
+            new_obs = _typed(self.task, self.task.observation(ended))
             obs = {k: v.copy() for k, v in obs.items()}
             for k, v in obs.items():
                 v[ended] = new_obs[k]

@@ -87,6 +87,24 @@ class StaticObstacleEnv(BlueSkyEnv):
     episode ended (0 without a crash; overlapping areas count separately). There is no
     traffic, so the separation KPIs are trivial.
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the waypoint was reached, else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the waypoint was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the start-to-waypoint kwik-distance [km] | never |
+    | `kpi_los_count` | losses of separation; always 0, there is no other aircraft | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | always `inf`: there is no other aircraft |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the heading to the waypoint [deg], over the decision steps | never |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+    | `kpi_obstacle_intrusions` | restricted areas the aircraft was inside at the end (0 without a crash) | never |
+
     ## Arguments
     `gym.make("StaticObstacleEnv-v0", render_mode=None, backend="native", num_obstacles=10,
     obstacle_distance_min=20, obstacle_distance_max=150, obstacle_area_min=50,
@@ -100,6 +118,19 @@ class StaticObstacleEnv(BlueSkyEnv):
       `terminated` is a bool, `average_drift` is 0.0 (not NaN) at reset, rgb_array frames. Not
       reproduced: the paper's training logs were recorded with an uncommitted variant without
       the drift penalty.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      the aircraft flies at FL350 (`flight_level_altitude`): "FL350" was 350 m; at FL350 (TAS 237 m/s)
+      the farthest waypoint (169 km) is reachable in the 100 steps, at 152 m/s many were not;
+      the speed action changes CAS by 20/3 kt per unit (`speed_step_in_knots`): the "kts" were added
+      as m/s;
+      the reward is evaluated once per decision step on the state after it (`step_reward`): it was
+      evaluated per sub-step with the previous observation's waypoint distance and drift and only the
+      last sub-step's value returned, so the waypoint was detected a step late;
+      an obstacle whose circle comes within 5 km of the start is redrawn (`clear_start`): about 6% of
+      the episodes started inside or at the edge of an obstacle.
     """
 
     task_class = StaticObstacleTask

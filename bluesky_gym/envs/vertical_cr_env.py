@@ -75,6 +75,23 @@ class VerticalCREnv(BlueSkyEnv):
     5 NM / 1000 ft cylinder, minimum separation, success = runway reached, time to goal, extra
     track, ...).
 
+    ## KPIs
+    At the end of an episode `info` (`final_info` in batched environments) carries these keys.
+    Some are not finite by design; average them over the finite values (see the note on averaging
+    on the environment's documentation page).
+
+    | key | meaning | not finite when |
+    |---|---|---|
+    | `kpi_success` | 1.0 if the runway was reached (no crash), else 0.0 | never |
+    | `kpi_time_to_goal_s` | simulated time until the runway was reached [s] | `NaN` when the goal was not reached |
+    | `kpi_extra_track_km` | distance flown minus the runway leg [km]; negative before the runway | never |
+    | `kpi_los_count` | new losses of separation: intruders entering the 5 NM / 1000 ft cylinder | never |
+    | `kpi_los_steps` | decision steps with the ownship in a loss of separation | never |
+    | `kpi_min_separation_nm` | smallest horizontal distance to an intruder [NM] | never |
+    | `kpi_mean_abs_drift_deg` | mean absolute drift from the goal heading [deg] | always `NaN`: the task has no heading goal |
+    | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_episode_time_s` | simulated time of the episode [s] | never |
+
     ## Arguments
     `gym.make("VerticalCREnv-v0", render_mode=None, backend="native", alt_min=2000,
     alt_max=4000, target_alt_dif=500, runway_distance_km=200.0, num_intruders=5, dpsi_min=45,
@@ -87,6 +104,14 @@ class VerticalCREnv(BlueSkyEnv):
       second value, 5, applies). Fixed software defects: seeded generator, `terminated` is a
       bool, rgb_array frames. The reference's deletion of (every other) aircraft on termination
       is not reproduced: every reset starts a clean scenario, so it has no effect.
+    * v1 (`-v1` ids; the same task with these configuration fields set, selected by the registry):
+      float32 observation and action spaces with finite bounds that the observations keep (SB3 and
+      `check_env` warned about float64 and infinite bounds; the bounds are in
+      docs/environments-v1.md);
+      |a| ≤ 0.008 holds the current altitude (`hold_altitude_at_zero`, bluesky-gym #59: a = 0 climbed
+      at 7.62 m/s);
+      `z_difference_speed` is divided by 5 m/s as `vz` is (`normalise_vertical_speed`): it was raw
+      m/s.
     """
 
     task_class = VerticalCRTask

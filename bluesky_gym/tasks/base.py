@@ -77,7 +77,15 @@ class BoxSpec:
 
 @dataclass(frozen=True)
 class TaskConfig:
-    """Base of every task's frozen configuration (the paper's "boundary conditions")."""
+    """Base of every task's frozen configuration (the paper's "boundary conditions").
+
+    Attributes:
+        float32_spaces: ``-v1``: float32 observation and action spaces with finite declared
+            bounds, every observation entry clipped to its bound (``-v0``: float64, the
+            reference's bounds, infinite for most entries).
+    """
+
+    float32_spaces: bool = False
 
     def replace(self, **changes: Any) -> TaskConfig:
         """A copy with ``changes`` applied, validated."""
@@ -305,12 +313,12 @@ class Task(abc.ABC):
         self.n_envs = int(n_envs)
         if max_episode_steps is not None:
             check_int("max_episode_steps", max_episode_steps, 1)
-        #: Decision steps after which an episode is truncated (the reference's limit by default).
-        self.time_limit = int(max_episode_steps) if max_episode_steps is not None else self.max_episode_steps
         self.config = config if config is not None else self.config_class()
         if not isinstance(self.config, self.config_class):
             raise TypeError(f"config must be a {self.config_class.__name__}, got {type(self.config).__name__}")
         self.config.validate()
+        #: Decision steps after which an episode is truncated (the configuration's limit by default).
+        self.time_limit = int(max_episode_steps) if max_episode_steps is not None else self.episode_limit(self.config)
         self.sim: Physics
         if isinstance(backend, str):
             from bluesky_gym.backends import make_physics
@@ -332,7 +340,29 @@ class Task(abc.ABC):
         self.observation_terms: list[ObservationTerms] = []
         self.allocate()
 
+    def wrap_physics(self, wrapper: Callable[[Physics], Physics]) -> Physics:
+        """Put a wrapper around the physics, e.g. a :class:`~bluesky_gym.scenarios.export.ScenarioRecorder`.
+
+        Call it before the first reset; every later physics call of the task goes through the wrapper.
+
+        Args:
+            wrapper: Called with the current physics, returns the physics to use from now on.
+
+        Returns:
+            The new physics.
+        """
+        wrapped = wrapper(self.sim)
+        if wrapped.n_envs != self.n_envs:
+            raise ValueError(f"the wrapped physics has {wrapped.n_envs} airspaces, the task {self.n_envs}")
+        self.sim = wrapped
+        return wrapped
+
     # --- what a task defines --------------------------------------------------------------------
+    @classmethod
+    def episode_limit(cls, config: TaskConfig) -> int:
+        """Default episode limit in decision steps for ``config`` (the reference's :attr:`max_episode_steps`)."""
+        return int(cls.max_episode_steps)
+
     def allocate(self) -> None:  # noqa: B027 - optional hook
         """Allocate the task's own per-episode arrays (called once by ``__init__``)."""
 
@@ -436,15 +466,30 @@ class Task(abc.ABC):
         return self.with_observation_terms(obs, envs)
 
     def with_observation_terms(self, obs: dict[str, Array], envs: NDArray[np.int64] | None = None) -> dict[str, Array]:
-        """``obs`` (the task's own entries for ``envs``, all when None) followed by the extra terms' current values."""
-        if not self.observation_terms:
-            return obs
-        rows = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
-        obs = dict(obs)
-        for terms in self.observation_terms:
-            values = terms.value(self, rows)
-            obs.update((name, values[name]) for name in terms.spec)
-        return obs
+        """``obs`` (the task's own entries for ``envs``, all when None) followed by the extra terms' current values.
+
+        With ``config.float32_spaces`` every entry is clipped to its declared bound (:meth:`bounded`).
+        """
+        if self.observation_terms:
+            rows = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
+            obs = dict(obs)
+            for terms in self.observation_terms:
+                values = terms.value(self, rows)
+                obs.update((name, values[name]) for name in terms.spec)
+        return self.bounded(obs) if self.config.float32_spaces else obs
+
+    def bounded(self, obs: dict[str, Array]) -> dict[str, Array]:
+        """``obs`` with every entry clipped to the finite bounds of :attr:`observation_spec` (the ``-v1`` contract).
+
+        The bounds are chosen to hold for the task's reachable states; the clip keeps the
+        contract for the rare state beyond them (an aircraft far outside the scenario's area).
+        """
+        return {k: np.minimum(np.maximum(v, self.observation_spec[k].low), self.observation_spec[k].high) for k, v in obs.items()}
+
+    @property
+    def space_dtype(self) -> type[np.floating[Any]]:
+        """The dtype of the observation and action spaces: float32 with ``config.float32_spaces`` (``-v1``), else float64."""
+        return np.float32 if self.config.float32_spaces else np.float64
 
     # --- the episode loop ------------------------------------------------------------------------
     def seed(self, envs: NDArray[np.int64], generators: list[np.random.Generator]) -> None:

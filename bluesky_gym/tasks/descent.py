@@ -8,7 +8,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.units import NM2KM
+from bluesky_gym.core.units import NM2KM, VS_SELECT_EPS
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import ref_kwikdist
 
@@ -26,6 +26,11 @@ AC_SPD = 150.0  # m/s CAS
 DEFAULT_RWY_DIS = 200.0  # km from the start point to the runway
 RWY_LAT, RWY_LON = 52.0, 4.0  # deg: the start point the runway distance is measured from
 CLIMB_TARGET = 1e6  # m: selected altitude for a climb (clipped by the ceiling)
+# -v1 declared bounds of the normalised entries: altitudes within [0, 15000] m, |vz| <= 20 m/s
+# (the A320's vsmax is 16 m/s), the runway at most one step past its threshold.
+ALT_BOUNDS = (-1.0, 5.0)
+VZ_BOUND = 4.0
+RUNWAY_BOUND_LOW = -1.0
 
 
 @dataclass(frozen=True)
@@ -49,12 +54,16 @@ class DescentConfig(TaskConfig):
         alt_max: Upper bound of the initial altitude draw [m].
         target_alt_dif: Target altitude offset bound [m] (integer draw in [-dif, dif)).
         runway_distance_km: Distance from the start to the runway [km].
+        hold_altitude_at_zero: ``-v1``: a vertical speed of at most 0.1 m/s in magnitude
+            (|a| <= 0.008) holds the current altitude; ``-v0``: BlueSky then flies its default
+            7.62 m/s, so a = 0 climbs (bluesky-gym #59).
     """
 
     alt_min: int = 2000
     alt_max: int = 4000
     target_alt_dif: int = 500
     runway_distance_km: float = DEFAULT_RWY_DIS
+    hold_altitude_at_zero: bool = False
 
     def validate(self) -> None:
         """Check every option."""
@@ -80,8 +89,16 @@ class DescentTask(Task):
         return 1
 
     def build_observation_spec(self) -> dict[str, BoxSpec]:
-        """Four scalar entries."""
-        return {k: BoxSpec((1,)) for k in ("altitude", "vz", "target_altitude", "runway_distance")}
+        """Four scalar entries (unbounded in ``-v0``)."""
+        if not self.config.float32_spaces:
+            return {k: BoxSpec((1,)) for k in ("altitude", "vz", "target_altitude", "runway_distance")}
+        runway_high = (self.config.runway_distance_km - RWY_DIS_MEAN) / RWY_DIS_STD
+        return {
+            "altitude": BoxSpec((1,), *ALT_BOUNDS),
+            "vz": BoxSpec((1,), -VZ_BOUND, VZ_BOUND),
+            "target_altitude": BoxSpec((1,), *ALT_BOUNDS),
+            "runway_distance": BoxSpec((1,), RUNWAY_BOUND_LOW, max(1.0, float(np.ceil(runway_high)))),
+        }
 
     def build_action_spec(self) -> BoxSpec:
         """One normalised vertical-speed command."""
@@ -109,7 +126,12 @@ class DescentTask(Task):
     def apply_action(self, action: Array) -> None:
         """Vertical speed 12.5 a m/s: the reference's direct ``selalt``/``selvs`` writes."""
         v = action[:, 0] * ACTION_2_MS
-        self.sim.set_autopilot(self.all_envs, 0, selalt=np.where(v >= 0, CLIMB_TARGET, 0.0), selvs=v)
+        selalt = np.where(v >= 0, CLIMB_TARGET, 0.0)
+        if self.config.hold_altitude_at_zero:
+            # BlueSky replaces |selvs| <= 0.1 m/s by its default 7.62 m/s towards selalt: select
+            # the current altitude instead, so that such an action holds it.
+            selalt = np.where(np.abs(v) <= VS_SELECT_EPS, self.sim.alt[:, 0], selalt)
+        self.sim.set_autopilot(self.all_envs, 0, selalt=selalt, selvs=v)
 
     # --- measure --------------------------------------------------------------------------------
     def runway_distance(self, envs: NDArray[np.int64] | slice | None = None) -> Array:

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.units import NM2KM
+from bluesky_gym.core.units import FL, NM2KM
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, kwik_separation, wrap180
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist, ref_kwikqdrdist
@@ -27,6 +27,11 @@ START_LAT, START_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 START_HDG = 0.0  # deg: BlueSky's default creation heading (north)
 START_ALT = 0.0  # m: no altitude is given to ``cre``, so the ownship is in the ground phase
 WAYPOINT_BEARING = 0.0  # deg: the waypoint is due north of the start
+AIRBORNE_ALT = 100 * FL  # m: -v1 start altitude (FL100), above the ground phase, so CAS 150 m/s holds
+# -v1 declared bounds: distances within 40 x 150 km (300 steps of 50 s at twice the TAS), speed
+# differences within twice the fastest TAS.
+DISTANCE_BOUND = 40.0
+SPEED_DIFFERENCE_BOUND = 4.0
 
 
 @dataclass(frozen=True)
@@ -46,6 +51,8 @@ class HorizontalCRConfig(TaskConfig):
         waypoint_distance_min: Lowest distance of the waypoint from the start [km].
         waypoint_distance_max: Upper bound of the waypoint distance draw [km]. The observation's
             distance normalisation stays 150 km whatever this value.
+        airborne_start: ``-v1``: every aircraft starts at FL100, where it flies the CAS 150 m/s
+            of the scenario; ``-v0``: at altitude 0, in BlueSky's ground phase, capped at 89 m/s.
 
     """
 
@@ -58,6 +65,7 @@ class HorizontalCRConfig(TaskConfig):
     tlosh_max: int = 1000
     waypoint_distance_min: int = 100
     waypoint_distance_max: int = 150
+    airborne_start: bool = False
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid option."""
@@ -164,6 +172,15 @@ def reward(g: HorizontalCRGeometry) -> tuple[Array, NDArray[np.int64], dict[str,
     return reach + drift_reward + intrusion, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
 
 
+def bounds_v1(key: str) -> tuple[float, float]:
+    """The ``-v1`` declared (low, high) of an observation entry of HorizontalCR (its multi-agent form too)."""
+    if key in ("intruder_distance", "waypoint_distance"):
+        return 0.0, DISTANCE_BOUND
+    if key in ("x_difference_speed", "y_difference_speed"):
+        return -SPEED_DIFFERENCE_BOUND, SPEED_DIFFERENCE_BOUND
+    return -1.0, 1.0
+
+
 class HorizontalCRTask(Task):
     """Batched horizontal CR task; see :class:`bluesky_gym.envs.horizontal_cr_env.HorizontalCREnv`."""
 
@@ -186,6 +203,9 @@ class HorizontalCRTask(Task):
             k: BoxSpec((n,)) for k in ("intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed")
         }
         spec.update({k: BoxSpec((1,)) for k in ("waypoint_distance", "cos_drift", "sin_drift")})
+        if self.config.float32_spaces:
+            for k in spec:
+                spec[k] = BoxSpec(spec[k].shape, *bounds_v1(k))
         return spec
 
     def build_action_spec(self) -> BoxSpec:
@@ -215,7 +235,7 @@ class HorizontalCRTask(Task):
         """Create the scenarios of the episodes ``envs``, drawing from their generators only."""
         c = self.config
         n = c.num_intruders
-        self.sim.create(envs, 0, START_LAT, START_LON, START_HDG, START_ALT, AC_SPD)
+        self.sim.create(envs, 0, START_LAT, START_LON, START_HDG, AIRBORNE_ALT if c.airborne_start else START_ALT, AC_SPD)
         dpsi = np.empty((envs.size, n))
         dcpa = np.empty((envs.size, n))
         tlosh = np.empty((envs.size, n))

@@ -32,6 +32,9 @@ FAF_DISTANCE = 200.0  # km (the reference comments NM) due north of the runway
 FAF_BEARING = 0.0  # deg
 _faf = point_at_distance(RWY_LAT, RWY_LON, FAF_DISTANCE, FAF_BEARING)
 FAF_LAT, FAF_LON = float(_faf[0]), float(_faf[1])  # deg: final approach fix (54.161036, 4.713196)
+FAF_DISTANCE_NM = 200.0  # NM: -v1 FAF distance due north of the runway, the unit the reference meant
+_faf_v1 = point_at_distance(RWY_LAT, RWY_LON, FAF_DISTANCE_NM * NM2KM, FAF_BEARING)
+FAF_LAT_V1, FAF_LON_V1 = float(_faf_v1[0]), float(_faf_v1[1])  # deg
 
 # Scenario defaults (reference values).
 NUM_AC = 20  # ownship + 19 intruders
@@ -61,6 +64,15 @@ INTRUDER_KEYS = ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "dist
 MAX_NUM_AC = 200  # largest supported traffic count
 ALT_MAX = 11060.0  # m: the A320's altitude ceiling
 CAS_RANGE = (67.0, 163.0)  # m/s: the A320's CAS envelope away from the ground
+# -v1 (see MergeConfig).
+DISTANCE_MARGIN_KM = 10.0  # km: FAF capture radius as the reference's comment states (goal: twice it)
+MAX_EPISODE_STEPS_V1 = 100  # decision steps: start -> FAF at 200 NM -> runway takes up to ~66 at the initial TAS
+# -v1 declared bounds: distances within 8 x 250 NM, positions within 4000 km, relative speeds
+# within twice the fastest TAS.
+WAYPOINT_DIST_BOUND = 8.0
+POSITION_BOUND = 4.0
+SPEED_BOUND = 4.0
+AIRSPEED_BOUND = 1.0  # (TAS - 150) / 150: TAS within [0, 300] m/s
 
 
 @dataclass(frozen=True)
@@ -75,6 +87,16 @@ class MergeConfig(TaskConfig):
         spawn_bearing_deg: Spawn radials from the FAF are uniform in [-b, b] [deg, true].
         ac_speed: CAS of every aircraft at creation [m/s] (the paper's logs used 150).
         altitude: Altitude of every aircraft [m].
+        faf_same_step: ``-v1``: the FAF reached in a step shows in that step's observation
+            (``faf_reached`` 1, the target then the runway); ``-v0``: from the next one
+            (bluesky-gym #13).
+        faf_distance_in_nm: ``-v1``: the FAF is 200 NM north of the runway, the unit the
+            reference's comment gives, and the episode limit is 100 steps so that the runway stays
+            within reach; ``-v0``: 200 km, 50 steps.
+        margins_in_km: ``-v1``: the FAF capture radius is 10 km and the runway goal 20 km, as the
+            reference's comment states; ``-v0``: 10 and 20 NM (the "km" compared with NM).
+        normalise_airspeed: ``-v1``: ``airspeed`` is (TAS - 150) / 150; ``-v0``: raw TAS [m/s]
+            (about 168).
 
     """
 
@@ -84,6 +106,10 @@ class MergeConfig(TaskConfig):
     spawn_bearing_deg: float = SPAWN_BEARING
     ac_speed: float = AC_SPD
     altitude: float = AC_ALT
+    faf_same_step: bool = False
+    faf_distance_in_nm: bool = False
+    margins_in_km: bool = False
+    normalise_airspeed: bool = False
 
     def __post_init__(self) -> None:
         # Lists given through gym.make keyword arguments are stored as tuples (hashable config).
@@ -127,29 +153,72 @@ class MergeGeometry(StepGeometry):
     airspeed: Array
     intruders: Array
     n_others: NDArray[np.int64]
+    faf_now: BoolArray | None = None  # (rows,) -v1: the FAF reached in this step (then already in after_faf)
 
 
-def target(after_faf: BoolArray) -> tuple[Array, Array]:
+@dataclass(frozen=True)
+class Airspace:
+    """Where Merge's fixes are and how close counts as reached (``-v0``: the reference's values).
+
+    Attributes:
+        faf_lat: FAF latitude [deg].
+        faf_lon: FAF longitude [deg].
+        faf_margin_nm: FAF capture radius [NM].
+        goal_margin_nm: Distance from the runway, after the FAF, that ends the episode [NM].
+    """
+
+    faf_lat: float = FAF_LAT
+    faf_lon: float = FAF_LON
+    faf_margin_nm: float = DISTANCE_MARGIN
+    goal_margin_nm: float = GOAL_MARGIN
+
+
+AIRSPACE_V0 = Airspace()
+
+
+def airspace(config: MergeConfig) -> Airspace:
+    """The fixes and margins of ``config``."""
+    faf = (FAF_LAT_V1, FAF_LON_V1) if config.faf_distance_in_nm else (FAF_LAT, FAF_LON)
+    margin = DISTANCE_MARGIN_KM / NM2KM if config.margins_in_km else DISTANCE_MARGIN
+    return Airspace(faf[0], faf[1], margin, 2 * margin)
+
+
+def target(after_faf: BoolArray, space: Airspace = AIRSPACE_V0) -> tuple[Array, Array]:
     """Lat, lon [deg] of the current target: the FAF, then the runway once the FAF was reached."""
-    return np.where(after_faf, RWY_LAT, FAF_LAT), np.where(after_faf, RWY_LON, FAF_LON)
+    return np.where(after_faf, RWY_LAT, space.faf_lat), np.where(after_faf, RWY_LON, space.faf_lon)
 
 
-def measure(sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], after_faf: BoolArray) -> MergeGeometry:
+def measure(
+    sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], after_faf: BoolArray, space: Airspace = AIRSPACE_V0, faf_same_step: bool = False
+) -> MergeGeometry:
     """Drift and distance to the current target, the 5 closest other aircraft and the separation of each row.
 
     BlueSky's Python kwik forms (bearing mod 360, degrees subtracted first), which the reference
     runs use; intruders sorted by ``kwikdist_matrix``; separation by kwik distance, 4 NM.
+    With ``faf_same_step`` (``-v1``) a row within the FAF's capture radius is measured again
+    against the runway, its next target, and flagged in ``faf_now``.
     """
     n = len(envs)
-    tlat, tlon = target(after_faf)
+    tlat, tlon = target(after_faf, space)
     features = np.empty((n, 4))
     intruders = np.empty((n, 7, NUM_AC_STATE))
     n_others = np.empty(n, np.int64)
     compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, _OBS_SCALES, features, intruders, n_others)
+    faf_now = None
+    if faf_same_step:
+        faf_now = ~after_faf & (features[:, 1] < space.faf_margin_nm)
+        if faf_now.any():
+            after_faf = after_faf | faf_now
+            tlat, tlon = target(after_faf, space)
+            compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, _OBS_SCALES, features, intruders, n_others)
     separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
     dist = features[:, 1]
-    reached = after_faf & (dist < GOAL_MARGIN)
-    return MergeGeometry(envs, separation, los, features[:, 0], reached, own, after_faf, dist, features, sim.tas[envs, own], intruders, n_others)
+    reached = after_faf & (dist < space.goal_margin_nm)
+    if faf_now is not None:
+        reached &= ~faf_now  # the runway goal counts from the step after the FAF, as in -v0
+    return MergeGeometry(
+        envs, separation, los, features[:, 0], reached, own, after_faf, dist, features, sim.tas[envs, own], intruders, n_others, faf_now
+    )
 
 
 def observation(g: MergeGeometry) -> dict[str, Array]:
@@ -167,13 +236,13 @@ def observation(g: MergeGeometry) -> dict[str, Array]:
     return obs
 
 
-def reward(g: MergeGeometry) -> tuple[Array, BoolArray, BoolArray, NDArray[np.int64], dict[str, Array]]:
+def reward(g: MergeGeometry, space: Airspace = AIRSPACE_V0) -> tuple[Array, BoolArray, BoolArray, NDArray[np.int64], dict[str, Array]]:
     """FAF reach reward, drift and intrusion penalties of every row.
 
     Returns:
         Reward, FAF reached now, runway goal reached now (termination), intrusion count, components.
     """
-    reach_faf = (g.target_nm < DISTANCE_MARGIN) & ~g.after_faf
+    reach_faf = g.faf_now if g.faf_now is not None else (g.target_nm < space.faf_margin_nm) & ~g.after_faf
     near_runway = ~reach_faf & g.goal_reached
     reach = np.where(reach_faf, REACH_REWARD, 0.0)
     assert g.drift_deg is not None
@@ -181,6 +250,20 @@ def reward(g: MergeGeometry) -> tuple[Array, BoolArray, BoolArray, NDArray[np.in
     count = g.los.sum(axis=1)
     intrusion = count * INTRUSION_PENALTY + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
     return reach + drift_reward + intrusion, reach_faf, near_runway, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+
+
+def bounds_v1(key: str) -> tuple[float, float]:
+    """The ``-v1`` declared (low, high) of an observation entry of Merge."""
+    return {
+        "airspeed": (-AIRSPEED_BOUND, AIRSPEED_BOUND),
+        "waypoint_dist": (0.0, WAYPOINT_DIST_BOUND),
+        "faf_reached": (0.0, 1.0),
+        "x_r": (-POSITION_BOUND, POSITION_BOUND),
+        "y_r": (-POSITION_BOUND, POSITION_BOUND),
+        "vx_r": (-SPEED_BOUND, SPEED_BOUND),
+        "vy_r": (-SPEED_BOUND, SPEED_BOUND),
+        "distances": (0.0, WAYPOINT_DIST_BOUND),
+    }.get(key, (-1.0, 1.0))
 
 
 class MergeTask(Task):
@@ -208,7 +291,15 @@ class MergeTask(Task):
         spec.update({k: BoxSpec((1,)) for k in ("airspeed", "waypoint_dist")})
         spec["faf_reached"] = BoxSpec((1,), 0.0, 1.0)
         spec.update({k: BoxSpec((NUM_AC_STATE,)) for k in ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")})
+        if self.config.float32_spaces:
+            spec = {k: BoxSpec(v.shape, *bounds_v1(k)) for k, v in spec.items()}
         return spec
+
+    @classmethod
+    def episode_limit(cls, config: TaskConfig) -> int:
+        """50 steps; 100 with the FAF at 200 NM (``-v1``), so that the runway stays within reach."""
+        assert isinstance(config, MergeConfig)
+        return MAX_EPISODE_STEPS_V1 if config.faf_distance_in_nm else int(cls.max_episode_steps)
 
     def build_action_spec(self) -> BoxSpec:
         """Heading change and speed change, each in [-1, 1]."""
@@ -225,6 +316,8 @@ class MergeTask(Task):
         self.drift_rad_n = np.zeros(n, np.int64)
         self.start_lat = np.zeros(n)  # deg, ownship start (extra-track KPI)
         self.start_lon = np.zeros(n)
+        #: The fixes and margins of the configuration.
+        self.airspace = airspace(self.config)
 
     def generate(self, envs: NDArray[np.int64]) -> None:
         """Ownship north of the FAF, intruders on the same radial sector flying LNAV FAF -> runway."""
@@ -239,17 +332,18 @@ class MergeTask(Task):
             # order: ownship bearing, distance, then bearing and distance of each intruder.
             own[k] = rng.uniform((-b, c.spawn_distance_km[0]), (b, c.spawn_distance_km[1]))
             intr[k] = rng.uniform((-b, c.intruder_distance_km[0]), (b, c.intruder_distance_km[1]), size=(n_int, 2))
-        lat, lon = point_at_distance(FAF_LAT, FAF_LON, own[:, 1], own[:, 0])
+        faf_lat, faf_lon = self.airspace.faf_lat, self.airspace.faf_lon
+        lat, lon = point_at_distance(faf_lat, faf_lon, own[:, 1], own[:, 0])
         # Heading b - 180 points back at the FAF; it is stored unwrapped (e.g. -170), as BlueSky does.
         self.sim.create(envs, 0, lat, lon, own[:, 0] - 180, c.altitude, c.ac_speed)
         self.start_lat[envs] = lat
         self.start_lon[envs] = lon
         env = np.repeat(envs, n_int)
         slot = np.tile(np.arange(1, n_int + 1), envs.size)
-        ilat, ilon = point_at_distance(FAF_LAT, FAF_LON, intr[..., 1].ravel(), intr[..., 0].ravel())
+        ilat, ilon = point_at_distance(faf_lat, faf_lon, intr[..., 1].ravel(), intr[..., 0].ravel())
         self.sim.create(env, slot, ilat, ilon, intr[..., 0].ravel() - 180, c.altitude, c.ac_speed)
         # "INTi addwpt FAF" then "INTi dest RWY": LNAV direct to the FAF, then the runway; VNAV stays off.
-        self.sim.add_waypoint(env, slot, FAF_LAT, FAF_LON)
+        self.sim.add_waypoint(env, slot, faf_lat, faf_lon)
         self.sim.set_destination(env, slot, RWY_LAT, RWY_LON)
         self.wpt_reach[envs] = 0
         self.faf_reached[envs] = 0
@@ -265,20 +359,23 @@ class MergeTask(Task):
     # --- the step -----------------------------------------------------------------------------
     def target(self) -> tuple[Array, Array]:
         """(n_envs,) lat, lon [deg] of the current target: the FAF, then the runway once reached."""
-        return target(self.wpt_reach != 0)
+        return target(self.wpt_reach != 0, self.airspace)
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> MergeGeometry:
         """The ownship's (slot 0) geometry of episodes ``envs`` (all when None): :func:`measure`."""
         envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
-        return measure(self.sim, envs, self.ownship[: len(envs)], self.wpt_reach[envs] != 0)
+        return measure(self.sim, envs, self.ownship[: len(envs)], self.wpt_reach[envs] != 0, self.airspace, self.config.faf_same_step)
 
     def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
         """Ownship drift, airspeed and target distance, and the 5 closest intruders by kwik distance."""
-        return observation(self.measure() if g is None else g)  # type: ignore[arg-type]
+        obs = observation(self.measure() if g is None else g)  # type: ignore[arg-type]
+        if self.config.normalise_airspeed:
+            obs["airspeed"] = (obs["airspeed"] - SPEED_SCALE) / SPEED_SCALE
+        return obs
 
     def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """FAF reach reward, runway goal, drift and intrusion penalties."""
-        r, reach_faf, near_runway, count, components = reward(g)  # type: ignore[arg-type]
+        r, reach_faf, near_runway, count, components = reward(g, self.airspace)  # type: ignore[arg-type]
         self.wpt_reach = np.where(reach_faf, 1, self.wpt_reach)
         self.faf_reached = np.where(reach_faf, 1, np.where(near_runway, 2, self.faf_reached))
         assert g.drift_deg is not None
@@ -301,7 +398,8 @@ class MergeTask(Task):
     # --- KPIs -----------------------------------------------------------------------------------
     def extra_track_km(self) -> Array:
         """(n_envs,) distance flown minus the nominal route start -> FAF -> 20 NM before the runway [km]."""
-        to_faf = ref_kwikdist(self.start_lat, self.start_lon, FAF_LAT, FAF_LON)
-        faf_to_rwy = ref_kwikdist(FAF_LAT, FAF_LON, RWY_LAT, RWY_LON)
-        nominal_km = (to_faf + faf_to_rwy - GOAL_MARGIN) * NM2KM
+        a = self.airspace
+        to_faf = ref_kwikdist(self.start_lat, self.start_lon, a.faf_lat, a.faf_lon)
+        faf_to_rwy = ref_kwikdist(a.faf_lat, a.faf_lon, RWY_LAT, RWY_LON)
+        nominal_km = (to_faf + faf_to_rwy - a.goal_margin_nm) * NM2KM
         return self.sim.distflown[:, 0] / M_PER_KM - nominal_km

@@ -13,6 +13,7 @@ from bluesky_gym.core import geo
 from bluesky_gym.core.units import NM2KM
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikqdrdist, wrap180
+from bluesky_gym.tasks.horizontal_cr import AIRBORNE_ALT
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 AC_HDG = 0.0  # deg: creation heading (BlueSky's default, north)
@@ -24,6 +25,9 @@ REACH_REWARD = 1.0  # per waypoint newly within the capture radius
 WAYPOINT_BEARING_END = 359  # deg, exclusive upper bound of the bearing draw
 MAX_WAYPOINTS = 8  # the shortest-tour KPI enumerates all n! visiting orders
 TOUR_CHUNK = 1 << 20  # leg lengths evaluated at once by the tour KPI (bounds its memory)
+# -v1: how far the aircraft can get from a waypoint beyond the farthest draw in 300 steps of 10 s
+# at 250 m/s [km]; waypoint_distance's declared bound follows from it.
+WANDER_KM = 750.0
 
 
 @dataclass(frozen=True)
@@ -49,6 +53,10 @@ class PlanWaypointConfig(TaskConfig):
         waypoint_distance_max: Exclusive upper bound of that draw [km]; also the distance
             normalisation of the observation.
         distance_margin_km: Capture radius of a waypoint [km].
+        airborne_start: ``-v1``: the aircraft starts at FL100, where it flies the CAS 150 m/s of
+            the scenario; ``-v0``: at altitude 0, in BlueSky's ground phase, capped at 89 m/s.
+        reach_same_step: ``-v1``: a waypoint reached in a step shows as reached (and masked) in
+            that step's observation; ``-v0``: from the next one (the reference's one-step lag).
 
     """
 
@@ -56,6 +64,8 @@ class PlanWaypointConfig(TaskConfig):
     waypoint_distance_min: int = 0
     waypoint_distance_max: int = 75
     distance_margin_km: float = 5.0
+    airborne_start: bool = False
+    reach_same_step: bool = False
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid option."""
@@ -83,6 +93,13 @@ class PlanWaypointTask(Task):
     def build_observation_spec(self) -> dict[str, BoxSpec]:
         """Four vectors of one entry per waypoint, in the reference's key order."""
         w = (self.config.num_waypoints,)
+        if self.config.float32_spaces:
+            return {
+                "waypoint_distance": BoxSpec(w, 0.0, float(np.ceil(1.0 + WANDER_KM / self.config.waypoint_distance_max))),
+                "cos_difference": BoxSpec(w, -1.0, 1.0),
+                "sin_difference": BoxSpec(w, -1.0, 1.0),
+                "waypoint_reached": BoxSpec(w, 0.0, 1.0),
+            }
         return {
             "waypoint_distance": BoxSpec(w),
             "cos_difference": BoxSpec(w),
@@ -109,7 +126,7 @@ class PlanWaypointTask(Task):
     def generate(self, envs: NDArray[np.int64]) -> None:
         """Create the aircraft, then draw the waypoints (distance, bearing) one by one."""
         c = self.config
-        self.sim.create(envs, 0, AC_LAT, AC_LON, AC_HDG, AC_ALT, AC_SPD)
+        self.sim.create(envs, 0, AC_LAT, AC_LON, AC_HDG, AIRBORNE_ALT if c.airborne_start else AC_ALT, AC_SPD)
         for e in envs:
             rng = self.rngs[e]
             for i in range(c.num_waypoints):  # distance then bearing, waypoint by waypoint
@@ -174,13 +191,15 @@ class PlanWaypointTask(Task):
         # The reference masks with the integer (1 - reached), so a masked entry is 0.0 times the
         # value: -0.0 where the value is negative (docs/environments-v0.md §4). A waypoint reached in this step still
         # shows as unreached (the one-step lag, docs/environments-v0.md §4).
-        m = np.where(g.reached_before, 0.0, 1.0)
+        # -v1 shows this step's reaches at once.
+        reached = g.reached_before | g.newly_reached if self.config.reach_same_step else g.reached_before
+        m = np.where(reached, 0.0, 1.0)
         rad = np.deg2rad(g.drift)
         return {
             "waypoint_distance": m * g.dist_km / self.config.waypoint_distance_max,
             "cos_difference": m * np.cos(rad),
             "sin_difference": m * np.sin(rad),
-            "waypoint_reached": g.reached_before.astype(np.float64),
+            "waypoint_reached": reached.astype(np.float64),
         }
 
     # --- reward and termination -----------------------------------------------------------------

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.physics import Physics
+from bluesky_gym.core.units import FL, KTS
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
     Array,
@@ -24,7 +25,7 @@ from bluesky_gym.tasks.base import (
     command_heading_and_speed,
     kwik_separation,
 )
-from bluesky_gym.tasks.geometry import initial_bearing, nm_to_latlon, polygon_area, random_convex_polygon
+from bluesky_gym.tasks.geometry import initial_bearing, nm_to_latlon, polygon_area, random_convex_polygon, ref_kwikdist
 
 # Scenario (reference values).
 AC_DENSITY_RANGE = (0.003, 0.007)  # aircraft per NM^2 ("uniform" mode)
@@ -61,6 +62,18 @@ MAX_AREA_RATIO = 0.9  # min area / circle area: above this the polygon generator
 INITIAL_VERTEX_CAPACITY = 16  # polygon vertex slots, grown when a polygon needs more
 CANDIDATES_PER_AIRCRAFT = 2  # rejection-sampling candidates drawn per missing aircraft and round
 
+# -v1 (see SectorCRConfig).
+FLIGHT_LEVEL_ALTITUDE = 350 * FL  # m: FL350, the reference's intended ALTITUDE
+AIRSPEED_MEAN_V1 = 180.0  # m/s: airspeed observation (TAS - 180) / 80, TAS at FL350 in [120, 237] m/s
+AIRSPEED_STD_V1 = 80.0  # m/s
+EXIT_MARGIN = INTRUSION_DISTANCE  # NM: leaving the sector within this distance of the own waypoint is the exit
+EARLY_EXIT_PENALTY = INTRUSION_PENALTY  # per decision step left, when the sector is left elsewhere
+# -v1 declared bounds: positions within 50 x 13 km, relative speeds within twice the fastest TAS.
+POSITION_BOUND = 50.0
+VX_BOUND = 16.0
+VY_BOUND = 8.0
+DISTANCE_BOUNDS = (-4.0, 50.0)
+
 
 @dataclass(frozen=True)
 class SectorCRConfig(TaskConfig):
@@ -73,6 +86,15 @@ class SectorCRConfig(TaskConfig):
         ac_density_mu: Mean of the normal density draw [aircraft / NM^2].
         ac_density_sigma: Standard deviation of the normal density draw [aircraft / NM^2].
         poly_area_range: (minimum polygon area, area of the circle the vertices lie on) [NM^2].
+        flight_level_altitude: ``-v1``: traffic at FL350 (10668 m), where BlueSky's envelope
+            caps the CAS 150 m/s at M0.80 (TAS 237 m/s), and ``airspeed`` is (TAS - 180) / 80;
+            ``-v0``: at 350 m (the reference's "FL350" used as metres) and (TAS - 150) / 6.
+        speed_step_in_knots: ``-v1``: the speed action changes CAS by 20/3 kt per unit;
+            ``-v0``: by 20/3 m/s (the reference's "kts" added to m/s).
+        exit_ends_episode: ``-v1``: leaving the sector terminates the episode; within 5 NM of the
+            own waypoint it is the exit (no penalty), elsewhere it costs 1 per decision step left
+            (bluesky-gym #44: leaving early no longer escapes the penalties); ``-v0``: leaving
+            truncates the episode without a penalty.
 
     """
 
@@ -81,6 +103,9 @@ class SectorCRConfig(TaskConfig):
     ac_density_mu: float = AC_DENSITY_MU
     ac_density_sigma: float = AC_DENSITY_SIGMA
     poly_area_range: tuple[float, float] = POLY_AREA_RANGE
+    flight_level_altitude: bool = False
+    speed_step_in_knots: bool = False
+    exit_ends_episode: bool = False
 
     def __post_init__(self) -> None:
         # Lists given through gym.make keyword arguments are stored as tuples (hashable config).
@@ -135,6 +160,23 @@ def worst_case_aircraft(config: SectorCRConfig) -> int:
 
 
 INTRUDER_KEYS = ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")
+_OBS_SCALES_V1 = (AIRSPEED_MEAN_V1, AIRSPEED_STD_V1, *_OBS_SCALES[2:])
+
+
+def observation_scales(config: SectorCRConfig) -> tuple[float, ...]:
+    """The normalisation constants of the compiled observation for ``config`` (airspeed's differ at FL350)."""
+    return _OBS_SCALES_V1 if config.flight_level_altitude else _OBS_SCALES
+
+
+def bounds_v1(key: str) -> tuple[float, float]:
+    """The ``-v1`` declared (low, high) of an observation entry of SectorCR (its multi-agent form too)."""
+    return {
+        "x_r": (-POSITION_BOUND, POSITION_BOUND),
+        "y_r": (-POSITION_BOUND, POSITION_BOUND),
+        "vx_r": (-VX_BOUND, VX_BOUND),
+        "vy_r": (-VY_BOUND, VY_BOUND),
+        "distances": DISTANCE_BOUNDS,
+    }.get(key, (-1.0, 1.0))
 
 
 # --- the step's geometry, observation and reward, for a set of ownship slots ----------------------
@@ -162,7 +204,8 @@ def measure(sim: Physics, sector: SectorCRTask, envs: NDArray[np.int64], own: ND
 
     The drift is wrap180(heading - kwik bearing to the aircraft's waypoint) (BlueSky's Python kwik
     form); intruders are sorted by flat distance around :data:`CENTER`; separation is the kwik
-    distance with a 5 NM horizontal intrusion test.
+    distance with a 5 NM horizontal intrusion test. The airspeed normalisation is the
+    configuration's (:func:`observation_scales`).
     """
     n = len(envs)
     drift = np.empty(n)
@@ -180,7 +223,7 @@ def measure(sim: Physics, sector: SectorCRTask, envs: NDArray[np.int64], own: ND
         sector.wpt_lat[envs, own],
         sector.wpt_lon[envs, own],
         _FLAT_CENTER,
-        _OBS_SCALES,
+        observation_scales(sector.config),
         drift,
         features,
         intruders,
@@ -234,6 +277,8 @@ class SectorCRTask(Task):
         """Declare the reference's keys; cos/sin(drift) and airspeed are bounded by [-1, 1]."""
         spec = {k: BoxSpec((1,), -1.0, 1.0) for k in ("cos(drift)", "sin(drift)", "airspeed")}
         spec.update({k: BoxSpec((NUM_AC_STATE,)) for k in ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")})
+        if self.config.float32_spaces:
+            spec = {k: BoxSpec(v.shape, *bounds_v1(k)) for k, v in spec.items()}
         return spec
 
     def build_action_spec(self) -> BoxSpec:
@@ -325,7 +370,7 @@ class SectorCRTask(Task):
         hdg0 = initial_bearing(lat0, lon0, self.wpt_lat[cre_env, cre_slot], self.wpt_lon[cre_env, cre_slot])
         # Everyone flies straight at its waypoint's initial bearing, CAS 150 m/s, at 350 m (the
         # reference's ALTITUDE 350 "FL" used as metres). No routes: they never turn.
-        self.sim.create(cre_env, cre_slot, lat0, lon0, hdg0, ALTITUDE, AC_SPD)
+        self.sim.create(cre_env, cre_slot, lat0, lon0, hdg0, FLIGHT_LEVEL_ALTITUDE if c.flight_level_altitude else ALTITUDE, AC_SPD)
         self.total_intrusions[envs] = 0
         self.drift_rad_sum[envs] = 0.0
         self.drift_rad_n[envs] = 0
@@ -398,7 +443,8 @@ class SectorCRTask(Task):
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt (docs/environments-v0.md §5)."""
-        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, D_VELOCITY)
+        d_speed = D_VELOCITY * KTS if self.config.speed_step_in_knots else D_VELOCITY
+        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, d_speed)
 
     # --- the step -----------------------------------------------------------------------------
     def measure(self, envs: NDArray[np.int64] | None = None) -> SectorGeometry:
@@ -411,19 +457,34 @@ class SectorCRTask(Task):
         return observation(self.measure() if g is None else g)  # type: ignore[arg-type]
 
     def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Drift and intrusion penalties; never terminates (leaving the sector truncates)."""
+        """Drift and intrusion penalties; ``-v0`` never terminates (leaving the sector truncates).
+
+        ``-v1`` (``exit_ends_episode``): leaving the sector terminates, with a penalty of 1 per
+        decision step left unless the agent left within 5 NM of its own waypoint (component ``exit``).
+        """
         r, count, components = reward(g)  # type: ignore[arg-type]
-        assert g.drift_deg is not None
+        assert isinstance(g, SectorGeometry) and g.drift_deg is not None
         self.drift_rad_sum += np.abs(np.deg2rad(g.drift_deg))
         self.drift_rad_n += 1
         self.total_intrusions += count
-        return r, np.zeros(self.n_envs, bool), components
+        if not self.config.exit_ends_episode:
+            return r, np.zeros(self.n_envs, bool), components
+        left = ~g.inside
+        at_exit = self.exit_distance_nm() < EXIT_MARGIN
+        steps_left = np.maximum(self.time_limit - (self.stats.steps + 1), 0)  # stats count this step after the reward
+        exit_penalty = np.where(left & ~at_exit, EARLY_EXIT_PENALTY * steps_left, 0.0)
+        components["exit"] = exit_penalty
+        return r + exit_penalty, left, components
+
+    def exit_distance_nm(self) -> Array:
+        """(n_envs,) kwik distance from the agent to its own waypoint (the sector exit) now [NM]."""
+        return ref_kwikdist(self.sim.lat[:, 0], self.sim.lon[:, 0], self.wpt_lat[:, 0], self.wpt_lon[:, 0])
 
     def truncate(self, g: StepGeometry) -> BoolArray:
-        """Truncate when the agent has left the sector (the reference's ``truncated``)."""
+        """``-v0``: truncate when the agent has left the sector (the reference's ``truncated``); ``-v1`` terminates instead."""
         assert isinstance(g, SectorGeometry)
         inside: BoolArray = g.inside
-        return ~inside
+        return np.zeros(self.n_envs, bool) if self.config.exit_ends_episode else ~inside
 
     def agent_inside(self) -> BoolArray:
         """(n_envs,) whether the agent is inside its sector now (2-D even-odd test on lat/lon)."""

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
-from bluesky_gym.core.units import KTS, MPS2KT, NM2KM
+from bluesky_gym.core.units import FL, KTS, MPS2KT, NM2KM
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import (
@@ -37,6 +37,12 @@ BEARING_END = 360  # deg, exclusive upper bound of the integer bearing draws: [0
 VIEW_SIZE_KM = 350.0  # width of the reference's square view, centred on the start position
 VIEW_ORIGIN_BEARING = 315.0  # deg: the view's top-left corner as seen from the start
 VERTEX_CAPACITY = 16  # initial vertex slots per polygon (grown when a polygon needs more)
+# -v1 (see StaticObstacleConfig).
+FLIGHT_LEVEL_ALTITUDE = 350 * FL  # m: FL350, the reference's intended ALTITUDE
+START_CLEARANCE_KM = 5.0  # km between the start and the circle an obstacle polygon is drawn in
+MAX_OBSTACLE_TRIES = 1000  # obstacle redraws per obstacle before giving up
+# -v1 declared bound of the distances (/ waypoint_distance_max): 3 x the farthest draw.
+DISTANCE_BOUND = 3.0
 
 
 @dataclass(frozen=True)
@@ -51,8 +57,8 @@ class StaticObstacleMeasurement(StepGeometry):
     centre_km: Array  # (rows, num_obstacles) kwik distance to each obstacle centre
     centre_bearing: Array  # (rows, num_obstacles) deg, wrap180(hdg - qdr) to each centre
     obstacle_count: NDArray[np.int64]  # (rows,) obstacles containing the aircraft now
-    newly_reached: BoolArray  # (rows,) reached in this step, by the last observation's distance
-    stale_drift_rad: Array  # (rows,) |drift| [rad] of the last observation
+    newly_reached: BoolArray  # (rows,) reached in this step, by the last observation's distance (-v1: the distance now)
+    stale_drift_rad: Array  # (rows,) |drift| [rad] the reward charges: the last observation's (-v1: now)
 
 
 @dataclass(frozen=True)
@@ -71,6 +77,19 @@ class StaticObstacleConfig(TaskConfig):
         waypoint_distance_max: Exclusive upper bound of that draw [km]; also the distance
             normalisation of the observation.
         distance_margin_km: Capture radius of the waypoint [km].
+        flight_level_altitude: ``-v1``: the aircraft flies at FL350 (10668 m), where BlueSky's
+            envelope caps the CAS 150 m/s at M0.80 (TAS 237 m/s), so that the farthest waypoint
+            (169 km) is within reach of the 100 steps of 10 s; ``-v0``: at 350 m (the reference's
+            "FL350" used as metres), TAS 152 m/s, many goals out of reach.
+        speed_step_in_knots: ``-v1``: the speed action changes CAS by 20/3 kt per unit;
+            ``-v0``: by 20/3 m/s (the reference's "kts" added to m/s).
+        step_reward: ``-v1``: the reward is evaluated once per decision step on the state after
+            it (waypoint reached the same step, drift now; an obstacle entered in a sub-step ends
+            the episode there); ``-v0``: per sub-step on the last observation's stale waypoint
+            distance and drift, only the last sub-step's reward returned.
+        clear_start: ``-v1``: an obstacle whose circle comes within 5 km of the start is redrawn
+            (centre and polygon), so that no episode starts inside or at the edge of one;
+            ``-v0``: no check (about 6% of the reference's episodes crash on step 1).
 
     """
 
@@ -82,6 +101,10 @@ class StaticObstacleConfig(TaskConfig):
     waypoint_distance_min: int = 100
     waypoint_distance_max: int = 170
     distance_margin_km: float = 5.0
+    flight_level_altitude: bool = False
+    speed_step_in_knots: bool = False
+    step_reward: bool = False
+    clear_start: bool = False
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid option."""
@@ -115,6 +138,17 @@ class StaticObstacleTask(Task):
     def build_observation_spec(self) -> dict[str, BoxSpec]:
         """Waypoint and obstacle observation, in the reference's key order."""
         k = (self.config.num_obstacles,)
+        if self.config.float32_spaces:
+            far = float(np.ceil(DISTANCE_BOUND * max(1.0, self.config.obstacle_distance_max / self.config.waypoint_distance_max)))
+            return {
+                "destination_waypoint_distance": BoxSpec((1,), 0.0, far),
+                "destination_waypoint_cos_drift": BoxSpec((1,), -1.0, 1.0),
+                "destination_waypoint_sin_drift": BoxSpec((1,), -1.0, 1.0),
+                "restricted_area_radius": BoxSpec(k, 0.0, 1.0),
+                "restricted_area_distance": BoxSpec(k, 0.0, far),
+                "cos_difference_restricted_area_pos": BoxSpec(k, -1.0, 1.0),
+                "sin_difference_restricted_area_pos": BoxSpec(k, -1.0, 1.0),
+            }
         return {
             "destination_waypoint_distance": BoxSpec((1,)),
             "destination_waypoint_cos_drift": BoxSpec((1,)),
@@ -159,7 +193,7 @@ class StaticObstacleTask(Task):
         """Aircraft, obstacle centres, polygons, waypoint, then the initial heading (docs/environments-v0.md §6)."""
         c = self.config
         k = c.num_obstacles
-        self.sim.create(envs, 0, AC_LAT, AC_LON, AC_HDG, AC_ALT, AC_SPD)
+        self.sim.create(envs, 0, AC_LAT, AC_LON, AC_HDG, FLIGHT_LEVEL_ALTITUDE if c.flight_level_altitude else AC_ALT, AC_SPD)
         lat0, lon0 = self.sim.lat[envs, 0], self.sim.lon[envs, 0]
         view_km = np.sqrt(2 * (VIEW_SIZE_KM / 2) ** 2)
         self.view_origin_lat[envs], self.view_origin_lon[envs] = geo.kwikpos(lat0, lon0, VIEW_ORIGIN_BEARING, view_km / NM2KM)
@@ -180,6 +214,8 @@ class StaticObstacleTask(Task):
                 polys.append(random_convex_polygon(rng, radius, c.obstacle_area_min))
                 self.obstacle_radius[e, i] = radius
                 self.obstacle_area[e, i] = polygon_area(polys[-1])
+            if c.clear_start:
+                self._clear_start(rng, j, e, lat0, lon0, d, b, clat, clon, polys)
             self._store_polygons(e, clat, clon, polys)
             self.wpt_lat[e], self.wpt_lon[e] = sample_waypoint(
                 rng,
@@ -203,6 +239,45 @@ class StaticObstacleTask(Task):
         self.drift_count[envs] = 0
         self.remember(self.measure(envs))
 
+    def _clear_start(
+        self,
+        rng: np.random.Generator,
+        j: int,
+        e: int,
+        lat0: Array,
+        lon0: Array,
+        d: NDArray[np.int64],
+        b: NDArray[np.int64],
+        clat: Array,
+        clon: Array,
+        polys: list[Array],
+    ) -> None:
+        """``-v1``: redraw (centre, then polygon) every obstacle whose circle comes within :data:`START_CLEARANCE_KM` of the start.
+
+        The polygon lies in the circle of ``obstacle_radius`` around its centre, so a centre
+        farther than radius + clearance leaves the start outside the obstacle with that margin.
+        Updates ``clat``, ``clon``, ``polys`` and the episode's radius and area in place.
+        """
+        c = self.config
+        for i in range(len(polys)):
+            for _ in range(MAX_OBSTACLE_TRIES):
+                if d[i] > self.obstacle_radius[e, i] * NM2KM + START_CLEARANCE_KM:
+                    break
+                d[i] = rng.integers(c.obstacle_distance_min, c.obstacle_distance_max)
+                b[i] = rng.integers(0, BEARING_END)
+                circle_area = rng.integers(2 * c.obstacle_area_min, c.obstacle_area_max)
+                radius = math.sqrt(int(circle_area) / math.pi)
+                polys[i] = random_convex_polygon(rng, radius, c.obstacle_area_min)
+                self.obstacle_radius[e, i] = radius
+                self.obstacle_area[e, i] = polygon_area(polys[i])
+            else:
+                raise RuntimeError(
+                    f"no obstacle clear of the start after {MAX_OBSTACLE_TRIES} draws: raise obstacle_distance_max or lower obstacle_area_max"
+                )
+            lat, lon = point_at_distance(lat0[j], lon0[j], d[i], b[i])
+            clat[i], clon[i] = float(lat), float(lon)
+        self.obstacle_centre_lat[e], self.obstacle_centre_lon[e] = clat, clon
+
     def _store_polygons(self, e: int, clat: Array, clon: Array, polys: list[Array]) -> None:
         """Store episode ``e``'s polygons, (north, east) NM around their centres, as (lat, lon)."""
         nv = np.array([len(p) for p in polys])
@@ -224,7 +299,8 @@ class StaticObstacleTask(Task):
     def apply_action(self, action: Array) -> None:
         """Heading wrap180(hdg + 45 a0) and speed (CAS + 20/3 a1) * 1.94384 kts."""
         hdg = wrap180(self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
-        spd_kts = (self.sim.cas[:, 0] + action[:, 1] * D_SPEED) * MPS2KT
+        d_speed = D_SPEED * KTS if self.config.speed_step_in_knots else D_SPEED  # m/s per unit action
+        spd_kts = (self.sim.cas[:, 0] + action[:, 1] * d_speed) * MPS2KT
         # "HDG KL001 <hdg>" then "SPD KL001 <kts>": BlueSky converts the speed with kts.
         self.sim.cmd_heading(self.all_envs, 0, hdg)
         self.sim.cmd_speed(self.all_envs, 0, spd_kts * KTS)
@@ -240,6 +316,9 @@ class StaticObstacleTask(Task):
         :class:`SubstepEnd` gets from the physics' traced run. Every evaluated sub-step adds one
         |drift| sample to ``average_drift``.
         """
+        if self.config.step_reward:  # -v1: only an obstacle entered stops the sub-steps; the reward samples the state after them
+            self.sim.run(self.action_frequency, stop=SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, np.zeros(self.n_envs, bool)))
+            return
         reached = self.reached_by_last_observation()
         end = SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, self.wpt_reached | reached)
         self.sim.run(self.action_frequency, stop=end)
@@ -275,7 +354,12 @@ class StaticObstacleTask(Task):
         s = self.sim
         dist_km, drift = self.waypoint_geometry(rows)
         qdr_c, dist_c = ref_kwikqdrdist(s.lat[rows, :1], s.lon[rows, :1], self.obstacle_centre_lat[rows], self.obstacle_centre_lon[rows])
-        reached = self.reached_by_last_observation(rows)
+        if self.config.step_reward:  # -v1: the distance and drift now
+            reached = (dist_km < self.config.distance_margin_km) & ~self.wpt_reached[rows]
+            stale_drift_rad = np.abs(np.deg2rad(drift))
+        else:
+            reached = self.reached_by_last_observation(rows)
+            stale_drift_rad = np.abs(np.deg2rad(self.last_drift[rows]))
         shape = (ids.size, s.max_aircraft)
         return StaticObstacleMeasurement(
             envs=ids,
@@ -288,7 +372,7 @@ class StaticObstacleTask(Task):
             centre_bearing=wrap180(s.hdg[rows, :1] - qdr_c),
             obstacle_count=self.inside_obstacles(rows).sum(axis=1),
             newly_reached=reached,
-            stale_drift_rad=np.abs(np.deg2rad(self.last_drift[rows])),
+            stale_drift_rad=stale_drift_rad,
         )
 
     # --- observation ----------------------------------------------------------------------------
@@ -323,6 +407,9 @@ class StaticObstacleTask(Task):
         self.crashed |= g.obstacle_count > 0
         self.intrusions += g.obstacle_count
         self.remember(g)
+        if self.config.step_reward:  # -v1: one |drift| sample per decision step
+            self.drift_sum_rad += g.stale_drift_rad
+            self.drift_count += 1
         reach = np.where(g.newly_reached, REACH_REWARD, 0.0)
         drift = g.stale_drift_rad * DRIFT_PENALTY
         intrusion = g.obstacle_count * RESTRICTED_AREA_INTRUSION_PENALTY

@@ -12,7 +12,7 @@ from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core.units import FT
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, TaskConfig, check_int, check_range, kwik_separation
-from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, DescentConfig, DescentMeasurement, DescentTask
+from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, VZ_BOUND, VZ_STD, DescentConfig, DescentMeasurement, DescentTask
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
 INTRUSION_DISTANCE = 5.0  # NM, horizontal radius of the intrusion cylinder
@@ -22,6 +22,11 @@ SPEED_SCALE = AC_SPD  # m/s: x/y_difference_speed are divided by 150
 TLOSV = 1e11  # s: vertical time to loss of separation given to creconfs (intruder vs ~ 0)
 KM = 1000.0  # m per km
 INTRUDER_STATE = ("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif")  # rows of compiled.intruder_relative_state
+# -v1 declared bounds: intruders within 5 x 200 km, altitude differences within 15000 m, speed
+# differences within twice the fastest TAS (about 270 m/s), vertical ones within 2 x 20 m/s.
+INTRUDER_DISTANCE_BOUND = 5.0
+ALT_DIFFERENCE_BOUND = 5.0
+SPEED_DIFFERENCE_BOUND = 4.0
 
 
 def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Array) -> dict[str, Array]:
@@ -77,6 +82,8 @@ class VerticalCRConfig(DescentConfig):
         late_dh_above_target: ... and below the target altitude plus this margin [m].
         early_dh_band: An intruder met before the average top of descent is within this band
             around the target altitude [m].
+        normalise_vertical_speed: ``-v1``: ``z_difference_speed`` is divided by 5 m/s as the
+            ownship's ``vz`` is; ``-v0``: raw m/s (the reference's).
 
     """
 
@@ -90,6 +97,7 @@ class VerticalCRConfig(DescentConfig):
     late_dh_floor: int = 500
     late_dh_above_target: int = 100
     early_dh_band: int = 500
+    normalise_vertical_speed: bool = False
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid option."""
@@ -155,6 +163,12 @@ class VerticalCRTask(DescentTask):
             "z_difference_speed",
         ):
             spec[k] = BoxSpec((n,))
+        if self.config.float32_spaces:
+            spec["intruder_distance"] = BoxSpec((n,), 0.0, INTRUDER_DISTANCE_BOUND)
+            spec["cos_difference_pos"] = spec["sin_difference_pos"] = BoxSpec((n,), -1.0, 1.0)
+            spec["altitude_difference"] = BoxSpec((n,), -ALT_DIFFERENCE_BOUND, ALT_DIFFERENCE_BOUND)
+            spec["x_difference_speed"] = spec["y_difference_speed"] = BoxSpec((n,), -SPEED_DIFFERENCE_BOUND, SPEED_DIFFERENCE_BOUND)
+            spec["z_difference_speed"] = BoxSpec((n,), -2 * VZ_BOUND, 2 * VZ_BOUND)
         return spec
 
     # --- generator ------------------------------------------------------------------------------
@@ -246,7 +260,8 @@ class VerticalCRTask(DescentTask):
         obs["altitude_difference"] = g.alt_difference / ALT_STD
         obs["x_difference_speed"] = rel["x_dif"] / SPEED_SCALE
         obs["y_difference_speed"] = rel["y_dif"] / SPEED_SCALE
-        obs["z_difference_speed"] = g.vs_difference  # m/s, not normalised (reference quirk)
+        # m/s, not normalised in -v0 (reference quirk); -v1 divides by vz's 5 m/s.
+        obs["z_difference_speed"] = g.vs_difference / VZ_STD if self.config.normalise_vertical_speed else g.vs_difference
         return obs
 
     # --- reward ---------------------------------------------------------------------------------

@@ -63,7 +63,7 @@ PAPER: dict[str, Any] = {
             "ent_coef": 0.0,
             "vf_coef": 0.5,
             "max_grad_norm": 0.5,
-            "envs": {"StaticObstacleEnv-v0": {"learning_rate": 1e-4}},
+            "envs": {"StaticObstacleEnv-v0": {"learning_rate": 1e-4}, "StaticObstacleEnv-v1": {"learning_rate": 1e-4}},
         },
         "SAC": {
             "learning_rate": 3e-4,

@@ -243,7 +243,8 @@ def stratified_bootstrap_iqm(scores: dict[str, Array], rng: np.random.Generator,
     return point, np.percentile(s, 2.5, axis=0), np.percentile(s, 97.5, axis=0)
 
 
-def _pyplot() -> Any:
+def pyplot() -> Any:
+    """Import matplotlib's pyplot with the non-interactive Agg backend, or raise naming the extra."""
     try:
         import matplotlib
 
@@ -322,7 +323,7 @@ def kpi_panels(env_id: str, runs: Sequence[Run]) -> list[tuple[str, str]]:
 
     Metrics without a finite value in any run are left out.
     """
-    table = ENV_KPIS.get(env_id)
+    table = ENV_KPIS.get(env_id, ENV_KPIS.get(env_id.rsplit("-v", 1)[0] + "-v0"))  # later versions: the same quantities
     candidates = table if table is not None else CURVE_METRICS
     out = []
     for metric, label in candidates:
@@ -351,7 +352,7 @@ def plot_learning_curves(
         ValueError: No run has logged an episode yet.
 
     """
-    plt = _pyplot()
+    plt = pyplot()
     written = []
     for name, fig in learning_curve_figures(runs, seed, references).items():
         path = Path(out_dir) / f"{name}.png"
@@ -367,7 +368,7 @@ def learning_curve_figures(runs: Sequence[Run], seed: int = 0, references: dict[
     if not runs:
         raise ValueError("no run has logged an episode yet: nothing to plot")
     refs = references or {}
-    plt = _pyplot()
+    plt = pyplot()
     rng = np.random.default_rng(seed)
     groups = _groups(runs)
     figures = {}
@@ -482,7 +483,7 @@ def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed
 
 def plot_aggregate(agg: dict[str, Any], out_dir: str | Path) -> list[Path]:
     """Write ``aggregate.png`` and ``aggregate.json``."""
-    plt = _pyplot()
+    plt = pyplot()
     out = Path(out_dir)
     atomic_write_json(out / "aggregate.json", agg)
     fig = aggregate_figure(agg)
@@ -493,7 +494,7 @@ def plot_aggregate(agg: dict[str, Any], out_dir: str | Path) -> list[Path]:
 
 def aggregate_figure(agg: dict[str, Any]) -> Any:
     """The figure of :func:`plot_aggregate`: a bar per algorithm with its CI and value, and the IQM curves."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
     algos = list(agg["final"])
     for k, algo in enumerate(algos):

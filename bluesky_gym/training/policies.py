@@ -400,6 +400,8 @@ CLASSICAL: dict[str, Callable[[], Policy]] = {
     "StaticObstacleEnv-v0": StaticObstacleController,
     "MergeEnv-v0": MergeController,
 }
+# The -v1 ids keep the observation scales these controllers read (docs/environments-v1.md).
+CLASSICAL.update({env_id.replace("-v0", "-v1"): controller for env_id, controller in list(CLASSICAL.items())})
 
 REFERENCE_POLICIES = ("random", "classical")
 RANDOM_POLICY_SEED = 0

@@ -84,8 +84,12 @@ def record(
     deterministic: bool = True,
     options: dict[str, Any] | None = None,
     log: Callable[[str], None] | None = None,
+    scn: Path | None = None,
 ) -> tuple[Path | None, int]:
     """Fly ``episodes`` episodes of ``env_id`` and write their frames (or show them).
+
+    With ``scn``, each episode is also written as a BlueSky scenario file: ``scn`` itself for one
+    episode, ``<stem>-<k>.scn`` for episode ``k`` (from 1) of several (see :mod:`bluesky_gym.scenarios.export`).
 
     Returns:
         The file written (None with ``human``) and the number of frames.
@@ -113,6 +117,8 @@ def record(
         n_frames += 1
         return max_frames is not None and n_frames >= max_frames
 
+    if scn is not None and grid > 1:
+        raise ValueError("scenario export (scn) writes single environments; use grid=1")
     if grid > 1:
         env: Any = gym.make_vec(env_id, num_envs=grid, vectorization_mode="vector_entry_point", render_mode=mode, render_grid=grid, **kwargs)
         actor = make_actor(policy, env_id, env.single_action_space, seed, algo, deterministic)
@@ -132,6 +138,11 @@ def record(
         else:
             env = gym.make(env_id, render_mode=mode, **kwargs)
         actor = make_actor(policy, env_id, env.action_space, seed, algo, deterministic)
+        recorder = None
+        if scn is not None:
+            from bluesky_gym.scenarios.export import ScenarioRecorder
+
+            recorder = env.unwrapped.task.wrap_physics(ScenarioRecorder)
         stop = False
         for k in range(episodes):
             obs, _ = env.reset(seed=seed if k == 0 else None)
@@ -147,6 +158,11 @@ def record(
                     stop = emit(env)
             if log is not None:
                 log(f"episode {k + 1}: {step} steps, return {float(env.unwrapped.task.stats.total_reward[0]):+.2f}")
+            if recorder is not None and scn is not None:
+                target = scn if episodes == 1 else scn.with_name(f"{scn.stem}-{k + 1}{scn.suffix or '.scn'}")
+                recorder.write(target, title=f"{env_id} episode {k + 1} (seed {seed}), policy {policy}")
+                if log is not None:
+                    log(f"wrote {target}")
             if stop:
                 break
     env.close()

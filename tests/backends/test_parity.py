@@ -100,7 +100,10 @@ def test_core_reference_like_scenario_is_bit_identical_without_routes() -> None:
         bs.close()
 
 
-ENVS = available_envs()
+# The -v1 versions with their own physics or geometry (FL350 traffic, the FAF at 200 NM, per-step
+# obstacle reward); the other -v1 versions differ from their -v0 only in the task layer.
+PARITY_V1 = ("SectorCREnv-v1", "StaticObstacleEnv-v1", "MergeEnv-v1")
+ENVS = [e for e in available_envs() if e.endswith("-v0") or e in PARITY_V1]
 EPISODES = 20
 CHUNKS = 2  # each env's episodes run as two tests (contiguous halves), for pytest-xdist
 # env id -> (time limit, number of full episodes, length of the others). Full episodes run to
@@ -116,6 +119,9 @@ EPISODE_PLAN = {
     "SectorCREnv-v0": (80, 8, 15),
     "StaticObstacleEnv-v0": (50, 8, 15),
     "MergeEnv-v0": (25, 6, 8),
+    "SectorCREnv-v1": (60, 6, 10),
+    "StaticObstacleEnv-v1": (50, 6, 10),
+    "MergeEnv-v1": (25, 6, 8),
 }
 
 

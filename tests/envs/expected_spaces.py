@@ -79,3 +79,64 @@ REFERENCE_INFO_KEYS = {
     "StaticObstacleEnv-v0": {"total_reward", "waypoint_reached", "crashed", "average_drift"},
     "MergeEnv-v0": {"total_reward", "faf_reach", "average_drift", "total_intrusions"},
 }
+
+# The -v1 versions: float32, finite bounds that hold (docs/environments-v1.md).
+OBSERVATION_V1 = {
+    "DescentEnv-v1": {
+        **_k((1,), "altitude", "target_altitude", bounds=(-1.0, 5.0)),
+        **_k((1,), "runway_distance", bounds=(-1.0, 1.0)),
+        **_k((1,), "vz", bounds=(-4.0, 4.0)),
+    },
+    "VerticalCREnv-v1": {
+        **_k((1,), "altitude", "target_altitude", bounds=(-1.0, 5.0)),
+        **_k((5,), "altitude_difference", bounds=(-5.0, 5.0)),
+        **_k((5,), "cos_difference_pos", "sin_difference_pos", bounds=(-1.0, 1.0)),
+        **_k((5,), "intruder_distance", bounds=(0.0, 5.0)),
+        **_k((1,), "runway_distance", bounds=(-1.0, 1.0)),
+        **_k((1,), "vz", bounds=(-4.0, 4.0)),
+        **_k((5,), "x_difference_speed", "y_difference_speed", bounds=(-4.0, 4.0)),
+        **_k((5,), "z_difference_speed", bounds=(-8.0, 8.0)),
+    },
+    "PlanWaypointEnv-v1": {
+        **_k((5,), "cos_difference", "sin_difference", bounds=(-1.0, 1.0)),
+        **_k((5,), "waypoint_distance", bounds=(0.0, 11.0)),
+        **_k((5,), "waypoint_reached", bounds=(0.0, 1.0)),
+    },
+    "HorizontalCREnv-v1": {
+        **_k((5,), "cos_difference_pos", "sin_difference_pos", bounds=(-1.0, 1.0)),
+        **_k((1,), "cos_drift", "sin_drift", bounds=(-1.0, 1.0)),
+        **_k((5,), "intruder_distance", bounds=(0.0, 40.0)),
+        **_k((1,), "waypoint_distance", bounds=(0.0, 40.0)),
+        **_k((5,), "x_difference_speed", "y_difference_speed", bounds=(-4.0, 4.0)),
+    },
+    "SectorCREnv-v1": {
+        **_k((1,), "airspeed", "cos(drift)", "sin(drift)", bounds=(-1.0, 1.0)),
+        **_k((4,), "cos(track)", "sin(track)", bounds=(-1.0, 1.0)),
+        **_k((4,), "distances", bounds=(-4.0, 50.0)),
+        **_k((4,), "vx_r", bounds=(-16.0, 16.0)),
+        **_k((4,), "vy_r", bounds=(-8.0, 8.0)),
+        **_k((4,), "x_r", "y_r", bounds=(-50.0, 50.0)),
+    },
+    "StaticObstacleEnv-v1": {
+        **_k((10,), "cos_difference_restricted_area_pos", "sin_difference_restricted_area_pos", bounds=(-1.0, 1.0)),
+        **_k((1,), "destination_waypoint_cos_drift", "destination_waypoint_sin_drift", bounds=(-1.0, 1.0)),
+        **_k((1,), "destination_waypoint_distance", bounds=(0.0, 3.0)),
+        **_k((10,), "restricted_area_distance", bounds=(0.0, 3.0)),
+        **_k((10,), "restricted_area_radius", bounds=(0.0, 1.0)),
+    },
+    "MergeEnv-v1": {
+        **_k((1,), "airspeed", "cos(drift)", "sin(drift)", bounds=(-1.0, 1.0)),
+        **_k((5,), "cos(track)", "sin(track)", bounds=(-1.0, 1.0)),
+        **_k((5,), "distances", bounds=(0.0, 8.0)),
+        **_k((1,), "faf_reached", bounds=(0.0, 1.0)),
+        **_k((5,), "vx_r", "vy_r", "x_r", "y_r", bounds=(-4.0, 4.0)),
+        **_k((1,), "waypoint_dist", bounds=(0.0, 8.0)),
+    },
+}
+OBSERVATION.update(OBSERVATION_V1)
+ACTION_SHAPE.update({k.replace("-v0", "-v1"): v for k, v in list(ACTION_SHAPE.items())})
+MAX_EPISODE_STEPS.update({k.replace("-v0", "-v1"): v for k, v in list(MAX_EPISODE_STEPS.items())})
+MAX_EPISODE_STEPS["MergeEnv-v1"] = 100  # the FAF at 200 NM needs up to ~66 steps
+REFERENCE_INFO_KEYS.update({k.replace("-v0", "-v1"): v for k, v in list(REFERENCE_INFO_KEYS.items())})
+#: dtype of the observation and action spaces.
+DTYPE = {k: (np.float32 if k.endswith("-v1") else np.float64) for k in OBSERVATION}

@@ -10,7 +10,7 @@ from gymnasium.utils.env_checker import check_env
 import bluesky_gym
 from bluesky_gym.registration import available_envs
 
-from .expected_spaces import ACTION_SHAPE, MAX_EPISODE_STEPS, OBSERVATION, REFERENCE_INFO_KEYS
+from .expected_spaces import ACTION_SHAPE, DTYPE, MAX_EPISODE_STEPS, OBSERVATION, REFERENCE_INFO_KEYS
 
 IDS = available_envs()
 
@@ -75,15 +75,15 @@ def test_spaces_match_specification(env_id: str) -> None:
     for key, (shape, low, high) in OBSERVATION[env_id].items():
         box = space[key]
         assert box.shape == shape, key
-        assert box.dtype == np.float64, key
+        assert box.dtype == DTYPE[env_id], key
         assert np.all(box.low == low) and np.all(box.high == high), key
     assert env.action_space.shape == ACTION_SHAPE[env_id]
     assert np.all(env.action_space.low == -1) and np.all(env.action_space.high == 1)
-    assert env.action_space.dtype == np.float64
+    assert env.action_space.dtype == DTYPE[env_id]
     obs, info = env.reset(seed=3)
     assert REFERENCE_INFO_KEYS[env_id] <= set(info)
     for key, value in obs.items():
-        assert value.dtype == np.float64 and value.shape == OBSERVATION[env_id][key][0]
+        assert value.dtype == DTYPE[env_id] and value.shape == OBSERVATION[env_id][key][0]
     obs, r, te, tr, info = env.step(env.action_space.sample())
     assert type(te) is bool and type(tr) is bool and isinstance(r, float)
     assert REFERENCE_INFO_KEYS[env_id] <= set(info)
@@ -168,7 +168,7 @@ def test_out_of_range_actions_are_clipped(env_id: str) -> None:
 def test_step_after_episode_end_raises(env_id: str) -> None:
     env = gym.make(env_id).unwrapped
     env.reset(seed=0)
-    for _ in range(env.task.max_episode_steps):
+    for _ in range(env.task.time_limit):
         _, _, te, tr, info = env.step(env.action_space.sample())
         if te or tr:
             break

@@ -34,7 +34,7 @@ def test_random_policy_is_seeded_and_in_bounds() -> None:
 
 
 def test_every_paper_env_has_a_classical_controller() -> None:
-    assert set(CLASSICAL) == {
+    paper = {
         "DescentEnv-v0",
         "VerticalCREnv-v0",
         "HorizontalCREnv-v0",
@@ -43,6 +43,9 @@ def test_every_paper_env_has_a_classical_controller() -> None:
         "StaticObstacleEnv-v0",
         "MergeEnv-v0",
     }
+    # The -v1 ids (same observation scales where the controllers read them) use the same controllers.
+    assert set(CLASSICAL) == paper | {e.replace("-v0", "-v1") for e in paper}
+    assert all(CLASSICAL[e] is CLASSICAL[e.replace("-v0", "-v1")] for e in paper)
     with pytest.raises(ValueError):
         reference_policy("greedy", "DescentEnv-v0", np.array([-1.0]), np.array([1.0]))
 

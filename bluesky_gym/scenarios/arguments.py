@@ -1,0 +1,180 @@
+"""BlueSky's stack argument forms, converted to SI: altitudes, speeds, headings, positions and times.
+
+Each function takes one argument text as it appears in a ``.scn`` line and returns the value in
+the core's units (m, m/s, deg, s), or raises :class:`ValueError` with a one-line message. The
+accepted forms are those of BlueSky 1.1.1's stack:
+
+* altitude: ``FL350`` (flight level, hundreds of feet) or a number of feet (``5000``);
+* speed: a number of knots CAS (``250``), or a Mach number written ``M.78``, ``M78``, ``M0.78`` or
+  ``0.78`` (a plain number between 0.1 and 1 is a Mach number);
+* vertical speed: feet per minute (``-1500``);
+* heading: degrees true, optionally ``T``-suffixed (``090``, ``90T``); magnetic headings (``M``)
+  need BlueSky's magnetic-variation model and are refused;
+* latitude: ``52.3``, ``N52.3``, ``S12.5``, or degrees'minutes'seconds ``N52'18'0.5"`` (``'``, ``"``
+  or the degree sign separate the parts);
+* longitude: ``4.5``, ``E4.5``, ``W004.5``, ``E004'30'00"``;
+* time: ``SS.hh``, ``MM:SS.hh`` or ``HH:MM:SS.hh``.
+"""
+
+from __future__ import annotations
+
+from bluesky_gym.core.units import FPM, FT, KTS
+
+#: Characters separating degrees, minutes and seconds in a latitude or longitude.
+DMS_SEPARATORS = ("'", '"', "\N{DEGREE SIGN}")
+
+
+def split_arguments(text: str) -> list[str]:
+    """Split a command's argument text as BlueSky does: on blanks and commas.
+
+    One comma may follow an argument (with blanks around it); a comma with nothing before it is an
+    omitted argument, returned as ``""``. Quotes around an argument are removed.
+
+    Args:
+        text: The argument text (everything after the command word).
+
+    Returns:
+        The arguments.
+    """
+    args: list[str] = []
+    i, n = 0, len(text)
+    while True:
+        while i < n and text[i].isspace():
+            i += 1
+        if i >= n:
+            return args
+        if text[i] in "'\"":
+            end = text.find(text[i], i + 1)
+            end = n if end < 0 else end
+            args.append(text[i + 1 : end])
+            i = end + 1
+        else:
+            start = i
+            while i < n and not text[i].isspace() and text[i] != ",":
+                i += 1
+            args.append(text[start:i])
+        while i < n and text[i].isspace():
+            i += 1
+        if i < n and text[i] == ",":
+            i += 1
+
+
+def parse_altitude(text: str) -> float:
+    """Altitude [m] from ``FLnnn`` or feet."""
+    t = text.strip().upper()
+    try:
+        if t.startswith("FL") and len(t) >= 4:
+            return 100.0 * int(t[2:]) * FT
+        return float(t) * FT
+    except ValueError:
+        raise ValueError(f"cannot read {text!r} as an altitude (FL350 or feet)") from None
+
+
+def parse_speed(text: str) -> float:
+    """CAS [m/s] from knots, or a Mach number from ``M.78``/``M78``/``0.78``."""
+    t = text.strip().upper()
+    try:
+        if t.startswith("M"):
+            digits = t[1:]
+            value = float(digits if digits.startswith(".") or "." in digits else "." + digits)
+            return value
+        value = float(t)
+    except ValueError:
+        raise ValueError(f"cannot read {text!r} as a speed (knots CAS or a Mach number like M.78)") from None
+    return value if 0.1 < value < 1.0 else value * KTS
+
+
+def parse_vertical_speed(text: str) -> float:
+    """Vertical speed [m/s] from feet per minute."""
+    try:
+        return float(text) * FPM
+    except ValueError:
+        raise ValueError(f"cannot read {text!r} as a vertical speed (feet per minute)") from None
+
+
+def parse_heading(text: str) -> float:
+    """True heading [deg] from ``090`` or ``90T``."""
+    t = text.strip().upper()
+    if "M" in t:
+        raise ValueError(f"magnetic heading {text!r} is not supported (it needs BlueSky's magnetic-variation model); give a true heading")
+    try:
+        return float(t.replace("T", ""))
+    except ValueError:
+        raise ValueError(f"cannot read {text!r} as a heading in degrees") from None
+
+
+def is_latitude(text: str) -> bool:
+    """Whether ``text`` has the form of a latitude (as opposed to a waypoint or aircraft name)."""
+    t = text.strip().upper().lstrip("+-")
+    for sep in (*DMS_SEPARATORS, "."):
+        t = t.replace(sep, "")
+    if len(t) > 1 and t[0] in "NS":
+        t = t[1:]
+    return t.isdigit()
+
+
+def _degrees(text: str, negative: bool) -> float:
+    """Decimal degrees of an unsigned decimal or degrees'minutes'seconds text."""
+    if any(sep in text for sep in DMS_SEPARATORS):
+        for sep in DMS_SEPARATORS:
+            text = text.replace(sep, "'")
+        parts = [p for p in text.split("'") if p]
+        value = sum(abs(float(p)) / 60.0**k for k, p in enumerate(parts))
+        return -value if negative else value
+    value = float(text)
+    return -abs(value) if negative and value > 0 else value
+
+
+def parse_latitude(text: str) -> float:
+    """Latitude [deg] from ``52.3``, ``N52.3``, ``S52.3`` or ``N52'18'0"``."""
+    t = text.strip().upper()
+    try:
+        negative = t.startswith("S") or t.startswith("-")
+        value = _degrees(t.lstrip("NS+-"), negative)
+    except ValueError:
+        raise ValueError(f"cannot read {text!r} as a latitude") from None
+    if not -90.0 <= value <= 90.0:
+        raise ValueError(f"latitude {text!r} is outside [-90, 90] degrees")
+    return value
+
+
+def parse_longitude(text: str) -> float:
+    """Longitude [deg] from ``4.5``, ``E4.5``, ``W4.5`` or ``E004'30'0"``."""
+    t = text.strip().upper()
+    try:
+        try:
+            value = float(t)
+        except ValueError:
+            negative = t.startswith("W") or t.startswith("-")
+            value = _degrees(t.lstrip("EW+-"), negative)
+    except ValueError:
+        raise ValueError(f"cannot read {text!r} as a longitude") from None
+    if not -360.0 <= value <= 360.0:
+        raise ValueError(f"longitude {text!r} is outside [-360, 360] degrees")
+    return value
+
+
+def parse_time(text: str) -> float:
+    """Time [s] from ``SS.hh``, ``MM:SS.hh`` or ``HH:MM:SS.hh``."""
+    parts = text.strip().split(":")
+    try:
+        if len(parts) > 3:
+            raise ValueError
+        seconds = float(parts[-1])
+        if len(parts) > 1 and parts[-2]:
+            seconds += 60.0 * int(parts[-2])
+        if len(parts) > 2 and parts[-3]:
+            seconds += 3600.0 * int(parts[-3])
+    except ValueError:
+        raise ValueError(f"cannot read {text!r} as a time (SS.hh, MM:SS.hh or HH:MM:SS.hh)") from None
+    return seconds
+
+
+def parse_switch(text: str) -> bool:
+    """ON/OFF (also TRUE/FALSE, YES/NO, 1/0)."""
+    t = text.strip().upper()
+    if t in ("ON", "TRUE", "YES", "Y", "1"):
+        return True
+    if t in ("OFF", "FALSE", "NO", "N", "0"):
+        return False
+    raise ValueError(f"expected ON or OFF, got {text!r}")

@@ -1,0 +1,453 @@
+"""The results page: KPI tables, learning curves and aggregate scores of sweeps, as Markdown.
+
+:func:`build_results` reads one or more sweep directories (``bluesky-gym sweep --out DIR``) and
+writes a Markdown page with its figures; ``bluesky-gym results`` is its command line. The page is
+generated, never edited by hand: it names the command that made it, and regenerating it from the
+same directories gives the same text.
+
+Per environment the page has a KPI table: one row per reference policy (``random``,
+``classical`` and, where it exists, ``mvp``) and per trained algorithm, each cell the mean with a
+95% confidence interval. For a reference policy the interval is over the held-out episodes (the
+policies are deterministic given the scenario); for a trained algorithm it is a two-level
+bootstrap over seeds and, within each resampled seed, over its held-out episodes, so both
+sources of variation are in it. Below the table, the learning curves of the environment (mean
+over seeds with a 95% bootstrap band) and its KPI curves.
+
+The aggregate compares the trained algorithms across the environments of one environment
+version (``-v0`` and ``-v1`` apart: different MDPs), on the normalised held-out score
+``(score - random) / (classical - random)`` (0 = random, 1 = classical controller): interquartile
+mean (IQM), mean, median and optimality gap with 95% stratified bootstrap intervals, and the
+probability that one algorithm improves on another, computed with ``rliable``.
+"""
+
+from __future__ import annotations
+
+import math
+import shlex
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bluesky_gym.core.extras import require_rliable
+from bluesky_gym.training.evaluation import KPI_COLUMNS, normalised_score
+from bluesky_gym.training.io import atomic_path, read_csv_rows, read_json
+from bluesky_gym.training.plotting import Run, find_runs, load_run, plot_learning_curves
+
+#: Bootstrap resamples of every confidence interval on the page.
+BOOTSTRAP = 2000
+#: Reference policies, in the order of the tables (those present in a sweep's references).
+REFERENCE_ORDER = ("random", "classical", "mvp")
+#: The command that reproduces the paper's full grid on a Ray cluster.
+PAPER_GRID_COMMAND = "bluesky-gym sweep --envs all --algos all --seeds 0 1 2 --steps 2e6 --address ray://HEAD:10001 --out sweeps/paper"
+
+
+@dataclass
+class Row:
+    """One line of a KPI table: a policy's KPI means and 95% intervals on one environment."""
+
+    policy: str
+    runs: int  # seeds (1 for a reference policy)
+    episodes: int  # held-out episodes in all
+    kpis: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # column -> (mean, low, high)
+
+
+@dataclass
+class EnvResults:
+    """Everything the page shows for one environment."""
+
+    env_id: str
+    rows: list[Row]
+    runs: list[Run]
+    references: dict[str, float]  # reference policy -> mean held-out return
+
+
+def episode_table(run_dir: Path, name: str = "eval_episodes.csv") -> dict[str, np.ndarray] | None:
+    """The held-out episodes of a finished run (``eval_episodes.csv``), by column; None if absent."""
+    path = run_dir / name
+    if not path.exists():
+        return None
+    header, rows = read_csv_rows(path)
+    return {h: np.array([_num(r[j]) for r in rows], dtype=np.float64) for j, h in enumerate(header)}
+
+
+def _num(x: str) -> float:
+    try:
+        return float(x) if x != "" else math.nan
+    except ValueError:
+        return math.nan
+
+
+def _kpi_values(table: dict[str, np.ndarray], key: str) -> np.ndarray:
+    """One KPI column with the conventions of the evaluation summaries (non-finite values dropped)."""
+    n = len(next(iter(table.values()))) if table else 0
+    vals = table.get(key, np.full(n, np.nan))
+    if key == "kpi_los_count":  # a LoS count is a KPI only in episodes with traffic
+        vals = vals[np.isfinite(table.get("kpi_min_separation_nm", np.full(n, np.nan)))]
+    return vals[np.isfinite(vals)]
+
+
+def seed_episode_bootstrap(groups: Sequence[np.ndarray], rng: np.random.Generator, n_boot: int = BOOTSTRAP) -> tuple[float, float, float]:
+    """Mean over seeds of per-seed episode means, with a two-level 95% bootstrap interval.
+
+    Each resample draws the seeds with replacement, then each drawn seed's episodes with
+    replacement, and takes the mean over seeds of the episode means.
+
+    Args:
+        groups: One array of episode values per seed (empty arrays are left out).
+        rng: The bootstrap's generator.
+        n_boot: Number of resamples.
+
+    Returns:
+        ``(mean, low, high)``; all NaN when there is no value.
+
+    """
+    groups = [np.asarray(g, dtype=np.float64) for g in groups if len(g)]
+    if not groups:
+        return (math.nan, math.nan, math.nan)
+    point = float(np.mean([g.mean() for g in groups]))
+    stats = np.empty(n_boot)
+    k = len(groups)
+    for b in range(n_boot):
+        picked = rng.integers(0, k, size=k)
+        stats[b] = np.mean([groups[i][rng.integers(0, len(groups[i]), size=len(groups[i]))].mean() for i in picked])
+    lo, hi = np.percentile(stats, [2.5, 97.5])
+    return (point, float(lo), float(hi))
+
+
+def reference_episode_dir(sweep_dir: str | Path) -> Path:
+    """Where the per-episode records of a sweep's reference policies are kept."""
+    return Path(sweep_dir) / "references" / "episodes"
+
+
+def _reference_table(sweep_dirs: Sequence[Path], env_id: str, name: str) -> dict[str, np.ndarray] | None:
+    for d in sweep_dirs:
+        path = reference_episode_dir(d) / f"{env_id}_{name}_episodes.csv"
+        if path.exists():
+            return episode_table(path.parent, path.name)
+    return None
+
+
+def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None = None) -> list[str]:
+    """Evaluate the reference policies whose per-episode records a sweep lacks, and keep them.
+
+    A sweep caches the summaries of ``random`` and ``classical`` per environment; the page needs
+    their per-episode records (for its intervals) and every reference policy that applies (one
+    added after the sweep too). Those missing are evaluated on the first held-out episodes, as
+    many as the runs' evaluations (or ``episodes``), and written to ``references/episodes/``.
+
+    Returns:
+        One line per evaluation made, for the user.
+
+    """
+    from bluesky_gym.training.evaluation import evaluate, make_policy, save_result
+    from bluesky_gym.training.policies import REFERENCE_POLICIES
+
+    done = []
+    for d in map(Path, sweep_dirs):
+        runs = [load_run(r) for r in find_runs([d])]
+        for env_id in sorted({r.env_id for r in runs}):
+            n = episodes
+            if n is None:
+                n = max(int(read_json(r.path / "config.json").get("eval_episodes", 0)) for r in runs if r.env_id == env_id) or 50
+            for name in REFERENCE_POLICIES:
+                if (reference_episode_dir(d) / f"{env_id}_{name}_episodes.csv").exists():
+                    continue
+                try:
+                    policy = make_policy(name, env_id)
+                except ValueError as exc:  # the policy does not apply to this environment
+                    done.append(f"{env_id}: no {name} reference ({exc})")
+                    continue
+                result = evaluate(env_id, policy, n)
+                save_result(result, reference_episode_dir(d), stem=f"{env_id}_{name}")
+                done.append(f"{env_id}: evaluated {name} on {n} held-out episodes -> {reference_episode_dir(d)}")
+    return done
+
+
+def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTRAP) -> list[EnvResults]:
+    """Read the runs and references of the sweeps, per environment (sorted by id).
+
+    Raises:
+        FileNotFoundError: If a directory holds no run.
+
+    """
+    dirs = [Path(d) for d in sweep_dirs]
+    run_dirs = find_runs(dirs)
+    if not run_dirs:
+        raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, dirs))}")
+    rng = np.random.default_rng(seed)
+    by_env: dict[str, list[tuple[Run, dict[str, np.ndarray] | None]]] = {}
+    for d in run_dirs:
+        run = load_run(d)
+        by_env.setdefault(run.env_id, []).append((run, episode_table(d)))
+    out = []
+    for env_id in sorted(by_env):
+        rows = []
+        ref_returns = {}
+        for name in REFERENCE_ORDER:
+            table = _reference_table(dirs, env_id, name)
+            if table is None:
+                continue
+            row = Row(name, 1, len(next(iter(table.values()))))
+            for col, key, _ in KPI_COLUMNS:
+                values = _kpi_values(table, key)
+                if len(values):
+                    row.kpis[col] = seed_episode_bootstrap([values], rng, reps)
+            rows.append(row)
+            ref_returns[name] = row.kpis["return"][0]
+        by_algo: dict[str, list[dict[str, np.ndarray]]] = {}
+        for run, table in by_env[env_id]:
+            if table is not None and table:
+                by_algo.setdefault(run.algo, []).append(table)
+        for algo in sorted(by_algo):
+            tables = by_algo[algo]
+            row = Row(algo, len(tables), sum(len(next(iter(t.values()))) for t in tables))
+            for col, key, _ in KPI_COLUMNS:
+                groups = [_kpi_values(t, key) for t in tables]
+                if any(len(g) for g in groups):
+                    row.kpis[col] = seed_episode_bootstrap(groups, rng, reps)
+            rows.append(row)
+        out.append(EnvResults(env_id, rows, [r for r, _ in by_env[env_id]], ref_returns))
+    return out
+
+
+def env_version(env_id: str) -> str:
+    """The version suffix of an id (``"v0"`` for ``DescentEnv-v0``)."""
+    return env_id.rsplit("-", 1)[-1] if "-" in env_id else ""
+
+
+def normalised_matrix(results: Sequence[EnvResults], algo: str) -> tuple[np.ndarray, list[str]]:
+    """Normalised held-out scores of ``algo``: array (seeds, environments) and the environment ids.
+
+    Environments without both ``random`` and ``classical`` references, or where the two are
+    equal, are left out; with unequal seed counts, each environment keeps its first ``min``
+    seeds (by seed number) so the matrix is rectangular.
+    """
+    columns: list[list[float]] = []
+    envs = []
+    for er in results:
+        if "random" not in er.references or "classical" not in er.references:
+            continue
+        scores = [
+            (r.seed, normalised_score(r.final_return, er.references["random"], er.references["classical"]))
+            for r in er.runs
+            if r.algo == algo and r.final_return is not None
+        ]
+        scores = [s for s in sorted(scores) if np.isfinite(s[1])]
+        if scores:
+            columns.append([s for _, s in scores])
+            envs.append(er.env_id)
+    if not columns:
+        return np.zeros((0, 0)), []
+    k = min(map(len, columns))
+    return np.array([c[:k] for c in columns], dtype=np.float64).T, envs
+
+
+def aggregate_scores(results: Sequence[EnvResults], seed: int = 0, reps: int = BOOTSTRAP) -> dict[str, Any]:
+    """IQM, mean, median, optimality gap and probability of improvement with ``rliable``.
+
+    Returns:
+        ``{"algos": {algo: {metric: (point, low, high), "seeds": n, "envs": [...]}},
+        "improvement": {(a, b): (p, low, high)}}``; empty when no algorithm has scores.
+
+    """
+    library, metrics = require_rliable()
+    matrices = {}
+    for algo in sorted({r.algo for er in results for r in er.runs}):
+        m, envs = normalised_matrix(results, algo)
+        if m.size:
+            matrices[algo] = (m, envs)
+    out: dict[str, Any] = {"algos": {}, "improvement": {}}
+    if not matrices:
+        return out
+    names = ("IQM", "mean", "median", "optimality gap")
+
+    def four(x: np.ndarray) -> np.ndarray:
+        return np.array([metrics.aggregate_iqm(x), metrics.aggregate_mean(x), metrics.aggregate_median(x), metrics.aggregate_optimality_gap(x)])
+
+    scores = {a: m for a, (m, _) in matrices.items()}
+    points, intervals = _interval_estimates(library, scores, four, reps, seed)
+    for algo, (m, envs) in matrices.items():
+        out["algos"][algo] = {
+            **{name: (float(points[algo][j]), float(intervals[algo][0, j]), float(intervals[algo][1, j])) for j, name in enumerate(names)},
+            "seeds": int(m.shape[0]),
+            "envs": envs,
+        }
+    algos = list(matrices)
+    for i, a in enumerate(algos):
+        for b in algos[i + 1 :]:
+            if matrices[a][1] != matrices[b][1]:
+                continue  # probability of improvement needs the same environments
+            pairs = {f"{a},{b}": (matrices[a][0], matrices[b][0])}
+            p, ci = _interval_estimates(library, pairs, metrics.probability_of_improvement, reps, seed)
+            key = f"{a},{b}"
+            out["improvement"][(a, b)] = (float(np.ravel(p[key])[0]), float(np.ravel(ci[key])[0]), float(np.ravel(ci[key])[1]))
+    return out
+
+
+def _interval_estimates(library: Any, scores: dict[str, Any], func: Any, reps: int, seed: int) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``rliable``'s stratified bootstrap, seeded (its seeding argument is deprecated in ``arch``, which warns)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="random_state is deprecated", category=FutureWarning)
+        points, intervals = library.get_interval_estimates(scores, func, reps=reps, random_state=np.random.RandomState(seed))
+    return points, intervals
+
+
+def _fmt(x: float) -> str:
+    if x is None or not np.isfinite(x):
+        return "–"
+    if x != 0 and (abs(x) >= 1e4 or abs(x) < 1e-2):
+        return f"{x:.3g}"
+    return f"{x:.3f}" if abs(x) < 10 else f"{x:.1f}"
+
+
+def _cell(v: tuple[float, float, float] | None) -> str:
+    if v is None or not np.isfinite(v[0]):
+        return "–"
+    return f"{_fmt(v[0])} [{_fmt(v[1])}, {_fmt(v[2])}]"
+
+
+def kpi_table(er: EnvResults) -> list[str]:
+    """Markdown lines of an environment's KPI table."""
+    cols = [(c, label) for c, _, label in KPI_COLUMNS if any(c in r.kpis for r in er.rows)]
+    lines = ["| policy | seeds | episodes | " + " | ".join(label for _, label in cols) + " |"]
+    lines.append("|---|---:|---:|" + "---:|" * len(cols))
+    for r in er.rows:
+        seeds = "–" if r.policy in REFERENCE_ORDER else str(r.runs)
+        lines.append(f"| {r.policy} | {seeds} | {r.episodes} | " + " | ".join(_cell(r.kpis.get(c)) for c, _ in cols) + " |")
+    return lines
+
+
+def _budget(runs: Sequence[Run], run_configs: dict[Path, dict[str, Any]]) -> list[str]:
+    """Markdown lines stating exactly what was run."""
+    lines = ["| environment | algorithm | seeds | steps per run | batched envs | held-out episodes | finished |", "|---|---|---|---:|---:|---:|---:|"]
+    groups: dict[tuple[str, str], list[Run]] = {}
+    for r in runs:
+        groups.setdefault((r.env_id, r.algo), []).append(r)
+    for (env_id, algo), rs in sorted(groups.items()):
+        cfgs = [run_configs[r.path] for r in rs]
+        steps = sorted({int(c["total_timesteps"]) for c in cfgs})
+        n_envs = sorted({int(c.get("n_envs", 1)) for c in cfgs})
+        episodes = sorted({int(c.get("eval_episodes", 0)) for c in cfgs})
+        finished = sum(r.final_return is not None for r in rs)
+        lines.append(
+            f"| {env_id} | {algo} | {' '.join(str(r.seed) for r in sorted(rs, key=lambda r: r.seed))} | "
+            f"{'/'.join(f'{s:,}' for s in steps)} | {'/'.join(map(str, n_envs))} | {'/'.join(map(str, episodes))} | {finished}/{len(rs)} |"
+        )
+    return lines
+
+
+def _plot_aggregate(agg: dict[str, Any], version: str, path: Path) -> None:
+    from bluesky_gym.training.plotting import ALGO_COLOURS, pyplot
+
+    plt = pyplot()
+    algos = list(agg["algos"])
+    names = ("IQM", "mean", "median", "optimality gap")
+    fig, axes = plt.subplots(1, len(names), figsize=(3.2 * len(names), 0.6 * len(algos) + 1.4), squeeze=False)
+    for ax, name in zip(axes[0], names, strict=True):
+        for k, algo in enumerate(algos):
+            p, lo, hi = agg["algos"][algo][name]
+            ax.barh([k], [hi - lo], left=[lo], height=0.6, color=ALGO_COLOURS.get(algo, "tab:grey"), alpha=0.6)
+            ax.plot([p, p], [k - 0.3, k + 0.3], color="black", lw=1.5)
+        ax.set_yticks(range(len(algos)), algos if name == "IQM" else [""] * len(algos))
+        ax.set_title(name)
+        ax.grid(alpha=0.3, axis="x")
+    fig.supxlabel(f"normalised held-out score on the -{version} environments (0 = random, 1 = classical); bars: 95% CIs")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+
+
+def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Sequence[str], seed: int = 0, reps: int = BOOTSTRAP) -> Path:
+    """Write the results page ``out`` (Markdown) and its figures in ``<out stem>/``.
+
+    Args:
+        sweep_dirs: Sweep (or run) directories.
+        out: The Markdown file to write (e.g. ``docs/results.md``).
+        command: The command line that made the page, written at its top.
+        seed: Seed of the bootstraps (the page is reproducible).
+        reps: Bootstrap resamples per interval.
+
+    Returns:
+        The path of the page.
+
+    """
+    import bluesky_gym
+
+    out = Path(out)
+    fig_dir = out.parent / out.stem
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    results = collect(sweep_dirs, seed, reps)
+    runs = [r for er in results for r in er.runs]
+    configs = {r.path: read_json(r.path / "config.json") for r in runs}
+    rel = f"{fig_dir.name}"
+    lines = [
+        "# Results",
+        "",
+        "<!-- Generated by the command below from the run directories it names; do not edit by hand. -->",
+        "",
+        "This page is generated from training runs and evaluations, never edited by hand:",
+        "",
+        "```bash",
+        shlex.join(command),
+        "```",
+        "",
+        f"bluesky-gym {bluesky_gym.__version__}. Every number is measured on held-out scenarios (evaluation seeds from 2**31,"
+        " never used in training), the same ones for every policy. Cells are means with 95% confidence intervals in brackets:"
+        " over the held-out episodes for the reference policies, and a two-level bootstrap over seeds and their held-out"
+        " episodes for trained agents. KPIs that are undefined in an episode (no traffic: no separation; goal not reached: no"
+        " time to goal) are left out of that KPI's statistics; `–` means the environment has no such KPI.",
+        "",
+        "## What was run",
+        "",
+        *_budget(runs, configs),
+        "",
+        "The full grid of the paper (all environments and algorithms, 3 seeds, 2e6 steps each) on a Ray cluster:",
+        "",
+        "```bash",
+        PAPER_GRID_COMMAND,
+        f"bluesky-gym results sweeps/paper --out {command[command.index('--out') + 1] if '--out' in command else out}",
+        "```",
+        "",
+    ]
+    for version in sorted({env_version(er.env_id) for er in results}):
+        group = [er for er in results if env_version(er.env_id) == version]
+        agg = aggregate_scores(group, seed, reps)
+        lines += [f"## Aggregate over the -{version} environments", ""]
+        if not agg["algos"]:
+            lines += ["No trained run has a held-out score with references yet.", ""]
+        else:
+            _plot_aggregate(agg, version, fig_dir / f"aggregate_{version}.png")
+            lines += [
+                "Normalised held-out score `(score - random) / (classical - random)`: 0 is the random policy, 1 the classical"
+                " controller. Intervals are 95% stratified bootstrap intervals (rliable).",
+                "",
+                "| algorithm | seeds | environments | IQM | mean | median | optimality gap |",
+                "|---|---:|---:|---:|---:|---:|---:|",
+            ]
+            for algo, s in agg["algos"].items():
+                cells = " | ".join(_cell(s[name]) for name in ("IQM", "mean", "median", "optimality gap"))
+                lines.append(f"| {algo} | {s['seeds']} | {len(s['envs'])} | {cells} |")
+            lines += ["", f"![aggregate -{version}]({rel}/aggregate_{version}.png)", ""]
+            if agg["improvement"]:
+                lines += ["Probability of improvement P(X > Y) over environments and seeds:", "", "| X | Y | P(X > Y) |", "|---|---|---:|"]
+                lines += [f"| {a} | {b} | {_cell(v)} |" for (a, b), v in agg["improvement"].items()]
+                lines.append("")
+            else:
+                lines += ["Probability of improvement needs two trained algorithms on the same environments; this page has one.", ""]
+    lines += ["## Per environment", ""]
+    for er in results:
+        env_dir = fig_dir / er.env_id
+        written = plot_learning_curves(er.runs, env_dir, seed=seed)
+        lines += [f"### {er.env_id}", "", *kpi_table(er), ""]
+        lines += [f"![{er.env_id} learning curves]({rel}/{er.env_id}/{written[0].name})", ""]
+        lines += [f"![{er.env_id} KPIs]({rel}/{er.env_id}/{p.name})" for p in written[1:]]
+        lines.append("")
+    with atomic_path(out) as tmp:
+        Path(tmp).write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
+    return out

@@ -1,0 +1,84 @@
+"""The tutorials of the documentation site run: each page's python code blocks, in order, as one script.
+
+Budgets are shrunk with the variable the tutorials document, ``BLUESKY_GYM_TUTORIAL_SCALE``.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import types
+from pathlib import Path
+
+import gymnasium as gym
+import pytest
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+TUTORIALS = DOCS / "tutorials"
+SCALE = "0.02"
+
+
+def run_page(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> types.ModuleType:
+    """Execute the page's python blocks as one module in a temporary directory; returns the module."""
+    page = DOCS / name if (DOCS / name).is_file() else TUTORIALS / name
+    blocks = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), flags=re.DOTALL)
+    assert blocks, f"{page} has no python code"
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("BLUESKY_GYM_TUTORIAL_SCALE", SCALE)
+    module = types.ModuleType(f"tutorial_{page.stem.replace('-', '_')}")
+    module.__file__ = str(page)
+    sys.modules[module.__name__] = module  # dataclasses resolve their annotations through sys.modules
+    try:
+        exec(compile("\n\n".join(blocks), str(page), "exec"), module.__dict__)  # noqa: S102 - the project's own document
+    finally:
+        del sys.modules[module.__name__]
+    return module
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore:rich is experimental")
+def test_train_ppo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("stable_baselines3", reason="the tutorial needs the 'train' extra")
+    page = run_page("train-ppo.md", tmp_path, monkeypatch)
+    assert (tmp_path / "ppo_descent.zip").is_file()
+    assert page.model.num_timesteps >= page.total_timesteps
+    assert len(page.trained.episodes) == len(page.random.episodes) == page.eval_episodes
+    assert page.trained.policy == "PPO" and "PPO" in page.format_table([page.trained, page.random])
+
+
+def test_own_environment(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    try:
+        page = run_page("own-environment.md", tmp_path, monkeypatch)
+        env = gym.make("SmoothHorizontalCR-v0")
+        assert isinstance(env.unwrapped.task, page.SmoothHorizontalCRTask)
+        env.reset(seed=0)
+        info = env.step([1.0])[4]
+        assert info["reward_turn"] == -0.05
+        env = gym.make("ComfortDescent-v0")
+        env.reset(seed=0)
+        for _ in range(3):
+            info = env.step([-1.0])[4]
+        assert info["reward_comfort"] == -0.02 * (abs(env.unwrapped.task.sim.vs[0, 0]) - 5.0) < 0.0
+    finally:
+        gym.registry.pop("SmoothHorizontalCR-v0", None)
+        gym.registry.pop("ComfortDescent-v0", None)
+
+
+def test_evaluate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    page = run_page("evaluate.md", tmp_path, monkeypatch)
+    assert [len(r.episodes) for r in (page.random, page.classical, page.mine)] == [page.episodes] * 3
+    assert page.classical.mean_return > page.random.mean_return
+    assert page.mine.summary["los"]["n"] == page.episodes
+    finite = page.finite
+    assert finite.size == page.random.summary["time_to_goal_s"]["n"]
+
+
+@pytest.mark.parametrize("name", ["index.md", "core.md"])
+def test_the_snippets_of_a_page_run(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    page = run_page(name, tmp_path, monkeypatch)
+    if name == "index.md":
+        success, final_altitude = map(float, capsys.readouterr().out.split())  # the single episode ran to its end
+        assert success in (0.0, 1.0) and final_altitude != 0.0
+        assert page.reward.shape == (page.venv.num_envs,)
+    else:
+        assert page.sim.active[:, 0].all()

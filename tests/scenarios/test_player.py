@@ -1,0 +1,299 @@
+"""The scenario player, the replay command, the benchmark geometries and the episode export."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import bluesky_gym
+from bluesky_gym.cli import main
+from bluesky_gym.core import Simulator
+from bluesky_gym.core.geo import qdrdist
+from bluesky_gym.core.units import FT, KTS, NM
+from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioError, ScenarioPlayer, parse_scenario, read_scenario
+from bluesky_gym.scenarios.export import ScenarioRecorder, scn_time, speed_text
+from bluesky_gym.scenarios.geometries import shipped_scenario, shipped_scenarios, sphere_conflict, super_conflict, wall_conflict, write_shipped
+from bluesky_gym.scenarios.player import common_dt, slots_needed, waypoints_needed
+from tests.core.reference_scenarios import DATA
+
+TIMED = """00:00:00.00>CRE AC1 A320 52 4 0 FL100 250
+00:00:02.50>HDG AC1 90
+00:00:04.00>SPD AC1 200
+"""
+
+
+def test_commands_act_in_the_first_step_starting_at_or_after_their_time() -> None:
+    sc = parse_scenario(TIMED)
+    sim = Simulator(1, 1, dt=1.0)
+    player = ScenarioPlayer([sc], sim)
+    ap_trk, selspd = [], []
+    for _ in range(6):
+        player.step()
+        ap_trk.append(sim.ap_trk[0, 0])
+        selspd.append(sim.selspd[0, 0])
+    # HDG at 2.5 s runs before the step from 3 to 4 s; SPD at 4 s before the step from 4 to 5 s.
+    assert ap_trk == [0.0, 0.0, 0.0, 90.0, 90.0, 90.0]
+    assert selspd[3] == pytest.approx(250 * KTS) and selspd[4] == pytest.approx(200 * KTS)
+
+
+def test_advance_equals_stepping() -> None:
+    sc = read_scenario(DATA / "scn" / "commands.scn")
+    a, b = Simulator(1, slots_needed(sc)), Simulator(1, slots_needed(sc))
+    pa, pb = ScenarioPlayer([sc], a), ScenarioPlayer([sc], b)
+    for _ in range(150):
+        pa.step()
+    pb.advance(150)
+    for name in ("lat", "lon", "alt", "tas", "hdg", "vs"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert pa.snapshot(150) == pb.snapshot(150)
+
+
+def test_player_errors() -> None:
+    sc = parse_scenario("00:00:00.00>CRE AC1 B744 52 4\n", "types.scn")
+    with pytest.raises(ScenarioError, match="types.scn:1: aircraft type 'B744': aircraft types other than A320 need"):
+        ScenarioPlayer([sc], Simulator(1, 1))
+    two = parse_scenario("00:00:00.00>CRE AC1 A320 52 4\n00:00:00.00>CRE AC2 A320 52 5\n", "two.scn")
+    with pytest.raises(ScenarioError, match="creates 2 aircraft, the physics has 1 slots"):
+        ScenarioPlayer([two], Simulator(1, 1))
+    with pytest.raises(ScenarioError, match="2 scenarios need 2 airspaces"):
+        ScenarioPlayer([two, two], Simulator(1, 2))
+    dt = parse_scenario("00:00:00.00>DT 2\n", "dt.scn")
+    with pytest.raises(ScenarioError, match="DT 2.0 s differs"):
+        ScenarioPlayer([dt], Simulator(1, 1, dt=1.0))
+    assert common_dt([dt, two], None) == 2.0 and common_dt([two], None) == 1.0
+    with pytest.raises(ScenarioError, match="differs from the requested time step"):
+        common_dt([dt], 1.0)
+    full = parse_scenario("00:00:00.00>CRE AC1 A320 52 4\n" + "".join(f"00:00:00.00>ADDWPT AC1 52.{k} 4\n" for k in range(5)), "route.scn")
+    assert waypoints_needed(full) == 5
+    with pytest.raises(ScenarioError, match="needs 5 route waypoints"):
+        ScenarioPlayer([full], Simulator(1, 1, max_waypoints=4))
+
+
+def test_geometries() -> None:
+    sc = parse_scenario(super_conflict(8, radius_nm=40.0), "super")
+    assert len(sc.callsigns) == 8
+    for c in sc.commands:
+        qdr, dist = qdrdist(c.position.lat, c.position.lon, 52.0, 4.0)  # type: ignore[attr-defined]
+        assert dist == pytest.approx(40.0, rel=2e-3)  # the ellipsoid vs the sphere of the generator
+        assert abs((float(qdr) - c.hdg + 180.0) % 360.0 - 180.0) < 0.01  # type: ignore[attr-defined]
+        assert c.alt == 20000 * FT  # type: ignore[attr-defined]
+    sphere = parse_scenario(sphere_conflict(4, 3), "sphere")
+    alts = sorted({c.alt for c in sphere.commands if hasattr(c, "hdg") and hasattr(c, "position")})  # type: ignore[attr-defined]
+    assert alts == pytest.approx([18000 * FT, 20000 * FT, 22000 * FT])
+    climbs = [c for c in sphere.commands if type(c).__name__ == "Altitude"]
+    assert len(climbs) == 8 and all(c.vs * (c.alt - 20000 * FT) > 0 for c in climbs)  # type: ignore[attr-defined]
+    wall = parse_scenario(wall_conflict(3, spacing_nm=2.0), "wall")
+    hdgs = [c.hdg for c in wall.commands]  # type: ignore[attr-defined]
+    assert hdgs == [90.0] * 3 + [270.0] * 3
+    for bad in (lambda: super_conflict(1), lambda: sphere_conflict(4, 2), lambda: wall_conflict(0), lambda: super_conflict(4, radius_nm=-1.0)):
+        with pytest.raises(ValueError):
+            bad()
+
+
+def test_shipped_scenarios_are_the_generated_ones(tmp_path: Path) -> None:
+    fresh = {p.name: p.read_text() for p in write_shipped(tmp_path)}
+    shipped = {p.name: p.read_text() for p in shipped_scenarios()}
+    assert shipped == fresh
+    assert shipped_scenario("super8") == shipped_scenario("super8.scn")
+    with pytest.raises(FileNotFoundError, match="no shipped scenario"):
+        shipped_scenario("nothing")
+
+
+def test_super_conflict_converges() -> None:
+    """All aircraft of the shipped super conflict meet near the centre at the same time."""
+    sc = read_scenario(shipped_scenario("super8"))
+    sim = Simulator(1, 8)
+    player = ScenarioPlayer([sc], sim)
+    t_centre = 40 * NM / sim.tas[0, 0]
+    player.advance(int(t_centre))
+    _, dist = qdrdist(sim.lat[0], sim.lon[0], 52.0, 4.0)
+    assert np.all(dist < 1.0)
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_replay_cli_writes_the_reference_columns(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "t.csv"
+    assert main(["replay", str(DATA / "scn" / "route.scn"), "--duration", "20", "--out", str(out), "--quiet"]) == 0
+    rows = _rows(out)
+    with open(DATA / "pcall_route.csv", newline="") as fh:
+        header = next(csv.reader(fh))
+    assert list(rows[0]) == header == list(TRAJECTORY_COLUMNS)
+    assert len(rows) == 2 * 21 and rows[0]["t"] == "0" and rows[-1]["t"] == "20"
+    ref = _rows(DATA / "pcall_route.csv")[: len(rows)]
+    assert [r["lat"] for r in rows] == [r["lat"] for r in ref]
+    # several files and copies: one airspace each, a leading scenario column
+    out2 = tmp_path / "many.csv"
+    assert main(["replay", "super8", str(DATA / "scn" / "route.scn"), "--copies", "2", "--duration", "3", "--out", str(out2)]) == 0
+    many = _rows(out2)
+    assert list(many[0])[0] == "scenario" and len(many) == 4 * (2 * 8 + 2 * 2)
+    names = {r["scenario"] for r in many}
+    assert names == {"super8#0", "super8#1", f"{DATA / 'scn' / 'route.scn'}#0", f"{DATA / 'scn' / 'route.scn'}#1"}
+    err = capsys.readouterr().err
+    assert "replayed 4 scenario(s), 20 aircraft, 3 steps" in err and "simulated seconds per wall second" in err
+
+
+def test_replay_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.scn"
+    bad.write_text("00:00:00.00>CRE AC1 A320 52 4\n00:00:01.00>RESO MVP\n")
+    assert main(["replay", str(bad), "--duration", "5"]) == 2
+    assert "bad.scn:2: RESO: RESO MVP: conflict resolution is not supported" in capsys.readouterr().err
+    assert main(["replay", "nothing.scn", "--duration", "5"]) == 2
+    assert "no shipped scenario" in capsys.readouterr().err
+    assert main(["replay", "super8", "--duration", "2.5", "--dt", "1"]) == 2
+    assert "not a whole number of steps" in capsys.readouterr().err
+    assert main(["replay"]) == 2
+    assert main(["replay", "--list"]) == 0
+    assert "super8.scn" in capsys.readouterr().out
+
+
+def test_export_helpers() -> None:
+    assert scn_time(0.0) == "00:00:00.00" and scn_time(3725.256) == "01:02:05.26"
+    assert speed_text(0.78) == "M0.78" and speed_text(150 * KTS) == repr(150 * KTS / KTS)
+
+
+@pytest.mark.parametrize("env_id", ["HorizontalCREnv-v0", "MergeEnv-v0", "DescentEnv-v0", "VerticalCREnv-v0", "SectorCREnv-v0"])
+def test_exported_episode_replays_exactly(env_id: str) -> None:
+    """An episode written by the recorder and played back on the core flies the same trajectories."""
+    bluesky_gym.register_envs()
+    env = gym.make(env_id)
+    rec = env.unwrapped.task.wrap_physics(ScenarioRecorder)  # type: ignore[attr-defined]
+    assert isinstance(rec, ScenarioRecorder)
+    env.reset(seed=3)
+    env.action_space.seed(3)
+    sim = env.unwrapped.task.sim  # type: ignore[attr-defined]
+    track = []
+    for _ in range(25):
+        _, _, te, tr, _ = env.step(env.action_space.sample())
+        track.append((sim.simt - rec.episodes[0][-1].start, sim.lat[0].copy(), sim.lon[0].copy(), sim.alt[0].copy(), sim.active[0].copy()))
+        if te or tr:
+            break
+    text = rec.scenario_text(title=env_id)
+    assert text.startswith(f"# {env_id}") and ">CRE AC000 A320" in text
+    sc = parse_scenario(text, env_id)
+    replay = Simulator(1, max(slots_needed(sc), 1), dt=sim.dt, max_waypoints=max(4, waypoints_needed(sc)))
+    player = ScenarioPlayer([sc], replay)
+    for t, lat, lon, alt, active in track:
+        player.advance(int(round(t / sim.dt)) - player.steps_done)
+        slot_of = {acid: s for s, acid in player.slots(0)}
+        for s in np.flatnonzero(active):
+            j = slot_of[f"AC{s:03d}"]
+            assert (replay.lat[0, j], replay.lon[0, j]) == (lat[s], lon[s])
+            assert math.isclose(replay.alt[0, j], alt[s], abs_tol=1e-6)
+    env.close()
+
+
+def test_recorder_logs_every_command_and_episodes() -> None:
+    sim = Simulator(2, 3)
+    rec = ScenarioRecorder(sim)
+    rec.reset_envs()
+    rec.create([0, 1], 0, 52.0, 4.0, 10.0, 3000.0, 150.0)
+    rec.creconfs(0, 0, 1, 90.0, 1.0, 120.0)
+    rec.wind.add_points(0, [52.0], [4.0], [-10.0], [0.0])
+    rec.run(2)
+    rec.cmd_heading(0, 0, 45.0)
+    rec.cmd_speed(0, 0, 0.7)
+    rec.cmd_altitude(0, 0, 2000.0, -5.0)
+    rec.cmd_vertical_speed(0, 1, 3.0)
+    rec.add_waypoint(0, 0, 52.5, 4.5)
+    rec.set_destination(0, 0, 53.0, 4.5)
+    rec.cmd_lnav(0, 0, False)
+    rec.cmd_direct(0, 0, 0)
+    rec.set_autopilot(0, 1, selalt=1000.0, selvs=-2.0, swvnav=False, ap_trk=10.0)
+    rec.set_state(0, 1, alt=2500.0)
+    rec.delete(0, 1)
+    rec.step()
+    lines = rec.scenario_text(0).splitlines()
+    body = [ln.split(">", 1)[1].split()[0] for ln in lines if ">" in ln]
+    assert body == [
+        "DT",
+        "CRE",
+        "CRE",
+        "WIND",
+        "HDG",
+        "SPD",
+        "ALT",
+        "VS",
+        "ADDWPT",
+        "DEST",
+        "LNAV",
+        "DIRECT",
+        "VNAV",
+        "VS",
+        "ALT",
+        "HDG",
+        "MOVE",
+        "DEL",
+    ]
+    assert any(ln.startswith("00:00:02.00>HDG AC000 45.0") for ln in lines)
+    assert "WIND 52.0 4.0 0.0 " in rec.scenario_text(0)  # wind from the north
+    assert rec.logged_episodes(1) == 1 and rec.scenario_text(1).count(">CRE") == 1
+    rec.reset_envs([1])
+    assert rec.logged_episodes(1) == 1  # the new episode has nothing logged yet
+    with pytest.raises(ValueError, match="not episode 5"):
+        rec.scenario_text(0, episode=5)
+    # the delegated state is the inner physics' state
+    assert np.shares_memory(rec.lat, sim.lat) and rec.n_envs == 2
+
+
+class _TypedSimulator(Simulator):
+    """A simulator whose create/creconfs take an aircraft type (the interface per-aircraft types add)."""
+
+    def __init__(self, *args, **kwargs) -> None:  # type: ignore[no-untyped-def]
+        super().__init__(*args, **kwargs)
+        self.types: dict[tuple[int, int], str] = {}
+
+    def create(self, env, slot, lat=52.0, lon=4.0, hdg=0.0, alt=0.0, spd=0.0, actype="A320") -> None:  # type: ignore[no-untyped-def, override]
+        super().create(env, slot, lat, lon, hdg, alt, spd)
+        for e, s in zip(np.atleast_1d(env), np.broadcast_to(np.atleast_1d(slot), np.atleast_1d(env).shape)):
+            self.types[int(e), int(s)] = actype
+
+    def creconfs(self, env, target, slot, dpsi, dcpa, tlosh, dh=None, tlosv=None, spd=None, actype="A320") -> None:  # type: ignore[no-untyped-def, override]
+        super().creconfs(env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
+        self.types[int(np.atleast_1d(env)[0]), int(np.atleast_1d(slot)[0])] = actype
+
+
+def test_aircraft_types_reach_a_physics_that_takes_them() -> None:
+    sc = parse_scenario("00:00:00.00>CRE AC1 B744 52 4 0 FL200 250\n00:00:00.00>CRECONFS I1 E190 AC1 90 1 120\n", "types.scn")
+    sim = _TypedSimulator(1, 2)
+    ScenarioPlayer([sc], sim)
+    assert sim.types == {(0, 0): "B744", (0, 1): "E190"}
+    rec = ScenarioRecorder(_TypedSimulator(1, 1))
+    rec.create(0, 0, actype="b744")
+    assert ">CRE AC000 B744 " in rec.scenario_text()
+
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _replay_commands(page: Path) -> list[list[str]]:
+    """The ``bluesky-gym replay`` command lines of a page (without comments), native backend only."""
+    lines = [ln.split("#", 1)[0].split() for ln in page.read_text().splitlines() if ln.startswith("bluesky-gym replay")]
+    return [ln[1:] for ln in lines if "bluesky" not in ln[1:]]
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/scenarios.md"])
+def test_the_replay_commands_of_the_docs_run(page: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    commands = _replay_commands(ROOT / page)
+    assert len(commands) >= 3
+    monkeypatch.chdir(tmp_path)
+    for argv in commands:
+        assert main([*argv, "--quiet"]) == 0, argv
+    assert (tmp_path / "super8.csv").stat().st_size > 0
+
+
+def test_the_python_snippets_of_the_scenarios_page_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    from tests.docs.test_tutorials import run_page
+
+    page = run_page("scenarios.md", tmp_path, monkeypatch)
+    assert "32 rows at t=600 s" in capsys.readouterr().out
+    assert len(page.rows) == 4 * 8  # four copies of eight aircraft
+    assert parse_scenario((tmp_path / "episode.scn").read_text()).callsigns[0] == "AC000"

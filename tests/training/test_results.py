@@ -1,0 +1,136 @@
+"""The results page: statistics, tables and the aggregate, on synthetic sweeps with known answers."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")
+pytest.importorskip("rliable")
+
+from bluesky_gym.training.evaluation import EvalResult, save_result  # noqa: E402
+from bluesky_gym.training.io import atomic_write_csv, atomic_write_json  # noqa: E402
+from bluesky_gym.training.results import build_results, collect, reference_episode_dir, seed_episode_bootstrap  # noqa: E402
+
+
+def _episodes(returns, success=None, min_sep=None):
+    out = []
+    for j, r in enumerate(returns):
+        e = {"seed": 2**31 + j, "return": float(r), "length": 10, "kpi_success": 1.0 if success is None else success[j]}
+        e["kpi_min_separation_nm"] = math.inf if min_sep is None else min_sep[j]
+        e["kpi_los_count"] = 0.0
+        out.append(e)
+    return out
+
+
+def _run(root: Path, env_id: str, algo: str, seed: int, eval_returns, steps: int = 1000) -> Path:
+    d = root / env_id / algo / f"seed_{seed}"
+    atomic_write_json(d / "config.json", {"env_id": env_id, "algo": algo, "seed": seed, "total_timesteps": steps, "n_envs": 1, "eval_episodes": 4})
+    ts = np.arange(1, 21) * steps // 20
+    atomic_write_csv(d / "episodes.csv", ["timesteps", "return", "length"], [[int(t), float(t) / steps, 10] for t in ts])
+    save_result(EvalResult(env_id, algo, _episodes(eval_returns), 0.1), d, stem="eval")
+    return d
+
+
+def _sweep(root: Path, ppo: dict[str, list[list[float]]], sac: dict[str, list[list[float]]] | None = None) -> Path:
+    for env_id, seeds in ppo.items():
+        for name, value in (("random", 0), ("classical", 10)):
+            save_result(EvalResult(env_id, name, _episodes([value] * 4), 0.1), reference_episode_dir(root), stem=f"{env_id}_{name}")
+        for s, returns in enumerate(seeds):
+            _run(root, env_id, "PPO", s, returns)
+    for env_id, seeds in (sac or {}).items():
+        for s, returns in enumerate(seeds):
+            _run(root, env_id, "SAC", s, returns)
+    return root
+
+
+def test_bootstrap_point_is_the_mean_of_seed_means_and_the_interval_holds_it():
+    rng = np.random.default_rng(0)
+    groups = [np.array([1.0, 3.0]), np.array([10.0, 10.0, 10.0, 10.0])]
+    point, lo, hi = seed_episode_bootstrap(groups, rng, n_boot=500)
+    assert point == pytest.approx((2.0 + 10.0) / 2)
+    assert lo < point < hi
+    assert lo >= 1.0 and hi <= 10.0
+    # no variation at all: the interval collapses on the value
+    assert seed_episode_bootstrap([np.full(3, 4.0), np.full(5, 4.0)], rng, n_boot=50) == (4.0, 4.0, 4.0)
+    # episode-level variation alone widens it even with one seed
+    p, lo1, hi1 = seed_episode_bootstrap([np.array([0.0, 10.0, 0.0, 10.0])], rng, n_boot=500)
+    assert p == 5.0 and lo1 < 5.0 < hi1
+    assert all(math.isnan(x) for x in seed_episode_bootstrap([np.zeros(0)], rng))
+
+
+def test_kpi_table_rows_and_normalised_aggregate(tmp_path):
+    sweep = _sweep(
+        tmp_path / "sweep",
+        {"AEnv-v0": [[5, 5, 5, 5], [7, 7, 7, 7], [3, 3, 3, 3]], "BEnv-v0": [[2, 2, 2, 2], [4, 4, 4, 4], [9, 9, 9, 9]]},
+        {"AEnv-v0": [[1, 1, 1, 1], [1, 1, 1, 1], [1, 1, 1, 1]], "BEnv-v0": [[1, 1, 1, 1], [1, 1, 1, 1], [1, 1, 1, 1]]},
+    )
+    results = collect([sweep], reps=300)
+    a = next(er for er in results if er.env_id == "AEnv-v0")
+    assert [r.policy for r in a.rows] == ["random", "classical", "PPO", "SAC"]
+    ppo = a.rows[2]
+    assert ppo.runs == 3 and ppo.episodes == 12
+    assert ppo.kpis["return"][0] == pytest.approx(5.0)
+    assert ppo.kpis["return"][1] < 5.0 < ppo.kpis["return"][2]
+    assert a.rows[0].kpis["return"] == (0.0, 0.0, 0.0)
+    assert "min_sep_nm" not in ppo.kpis  # no traffic: no separation KPI
+
+    page = build_results([sweep], tmp_path / "site" / "results.md", ["bluesky-gym", "results", "SWEEP", "--out", "results.md"], reps=300)
+    text = page.read_text()
+    assert "bluesky-gym results SWEEP --out results.md" in text
+    assert "| PPO | 3 | 12 | 5.000 [" in text
+    # normalised PPO scores (random 0, classical 10): A 0.5 0.7 0.3, B 0.2 0.4 0.9
+    scores = np.sort([0.5, 0.7, 0.3, 0.2, 0.4, 0.9])
+    from scipy.stats import trim_mean
+
+    iqm = trim_mean(scores, 0.25)  # rliable's IQM, computed independently
+    line = next(ln for ln in text.splitlines() if ln.startswith("| PPO | 3 | 2 |"))
+    assert line.split("|")[4].strip().startswith(f"{iqm:.3f}")
+    # SAC: every normalised score is 0.1, so PPO is better with certainty bounds well above 0.5
+    poi = next(ln for ln in text.splitlines() if ln.startswith("| PPO | SAC |"))
+    assert float(poi.split("|")[3].split("[")[0]) > 0.8
+    for png in ["aggregate_v0.png", "AEnv-v0/learning_curves.png", "BEnv-v0/learning_curves.png"]:
+        p = tmp_path / "site" / "results" / png
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", png
+        assert f"results/{png}" in text
+
+
+def test_page_is_reproducible_and_versions_are_aggregated_apart(tmp_path):
+    sweep = _sweep(tmp_path / "sweep", {"AEnv-v0": [[5, 6, 5, 6]], "AEnv-v1": [[1, 2, 3, 4]]})
+    out = tmp_path / "results.md"
+    first = build_results([sweep], out, ["bluesky-gym", "results", "x"], reps=100).read_text()
+    second = build_results([sweep], out, ["bluesky-gym", "results", "x"], reps=100).read_text()
+    assert first == second
+    assert "## Aggregate over the -v0 environments" in first and "## Aggregate over the -v1 environments" in first
+    assert "Probability of improvement needs two trained algorithms" in first
+
+
+def test_cli_names_a_missing_directory_in_one_line(tmp_path):
+    proc = subprocess.run(
+        [sys.executable, "-m", "bluesky_gym", "results", str(tmp_path / "nope"), "--out", str(tmp_path / "r.md")],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip().count("\n") == 0
+    assert "nope" in proc.stderr and "bluesky-gym results: error" in proc.stderr
+
+
+def test_missing_reference_episodes_are_evaluated_once_and_kept(tmp_path):
+    from bluesky_gym.training.results import complete_references
+
+    sweep = tmp_path / "sweep"
+    _run(sweep, "DescentEnv-v0", "PPO", 0, [1.0, 2.0])
+    first = complete_references([sweep], episodes=2)
+    assert [line.split(":")[1].split()[1] for line in first] == ["random", "classical"]
+    for name in ("random", "classical"):
+        assert (reference_episode_dir(sweep) / f"DescentEnv-v0_{name}_episodes.csv").exists()
+    assert complete_references([sweep], episodes=2) == []
+    rows = collect([sweep], reps=50)[0].rows
+    assert [r.policy for r in rows] == ["random", "classical", "PPO"] and rows[0].episodes == 2
