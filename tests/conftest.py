@@ -25,6 +25,9 @@ os.environ.setdefault("RAY_USAGE_STATS_CONFIG_PATH", str(SCRATCH / "ray-usage.js
 # clusters live only as long as one test, on this machine, so they run without one.
 os.environ.setdefault("RAY_AUTH_MODE", "disabled")
 os.environ.setdefault("MPLCONFIGDIR", str(SCRATCH / "matplotlib"))
+# One intra-op thread for PyTorch (read when torch is imported): the tests' networks are small, and
+# on a loaded 2-core machine threads that wait for each other made one training test 10x slower.
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 
 def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
