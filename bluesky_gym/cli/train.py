@@ -53,6 +53,22 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--device", help="torch device (default: config, cpu)")
 
 
+def add_damage_options(p: argparse.ArgumentParser) -> None:
+    """Add the choice for a damaged run directory (``train`` and ``sweep``): ``args.on_damage``."""
+    damaged = p.add_mutually_exclusive_group()
+    damaged.add_argument(
+        "--resume-from-last-intact",
+        dest="on_damage",
+        action="store_const",
+        const="resume",
+        default="error",
+        help="if a run directory is damaged, resume from its last intact checkpoint",
+    )
+    damaged.add_argument(
+        "--restart", dest="on_damage", action="store_const", const="restart", help="if a run directory is damaged, start the run over"
+    )
+
+
 def load_config(path: Path | None) -> dict[str, Any]:
     """Return the paper's defaults merged with a config file."""
     from bluesky_gym.training.hyperparams import PAPER, load_config_file, merge
@@ -84,18 +100,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--quiet", action="store_true", help="no messages")
     p.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard log (default: <run dir>/tensorboard)")
-    damaged = p.add_mutually_exclusive_group()
-    damaged.add_argument(
-        "--resume-from-last-intact",
-        dest="on_damage",
-        action="store_const",
-        const="resume",
-        default="error",
-        help="if the run directory is damaged, resume from its last intact checkpoint",
-    )
-    damaged.add_argument(
-        "--restart", dest="on_damage", action="store_const", const="restart", help="if the run directory is damaged, start the run over"
-    )
+    add_damage_options(p)
     p.set_defaults(func=run_train)
 
     d = subparsers.add_parser(

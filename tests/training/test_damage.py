@@ -168,3 +168,20 @@ def test_a_truncated_reference_cache_is_named_and_computed_again(tmp_path: Path,
     again = reference_scores(ENV, 2, tmp_path)
     assert str(cache) in capsys.readouterr().err
     assert reference_returns(again) == reference_returns(first) and read_json(cache)["episodes"] == 2
+
+
+def test_a_sweep_names_a_damaged_run_and_takes_the_same_choice(
+    killed_run: Path, tmp_path: Path, tiny_config: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "sweep"
+    run_dir = out / ENV / "SAC" / "seed_0"
+    shutil.copytree(killed_run, run_dir)
+    (_latest(run_dir) / "model.zip").unlink()
+    sweep = ["sweep", "--envs", ENV, "--algos", "SAC", "--out", str(out), "--config", str(tiny_config), "--local", "--quiet"]
+    assert main(sweep) == 1  # a run failed
+    summary = read_json(out / "sweep.json")["runs"]
+    assert summary[0]["status"] == "failed" and "model.zip is missing" in summary[0]["error"]
+    assert not (run_dir / "result.json").exists()
+    assert main([*sweep, "--resume-from-last-intact"]) == 0
+    capsys.readouterr()
+    assert read_json(run_dir / "result.json")["resumed_from"] == read_json(killed_run / "checkpoint.json")["previous"]["timesteps"]
