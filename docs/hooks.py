@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib
 import functools
+import importlib
 import inspect
 import os
 import re
@@ -200,8 +200,9 @@ def _columns(width: str) -> Iterator[None]:
 def subcommand_parsers() -> dict[str, argparse.ArgumentParser]:
     """Every ``bluesky-gym`` subcommand's parser, by name, in the order of ``--help``."""
     from bluesky_gym.cli import SUBCOMMAND_MODULES
+    from bluesky_gym.cli.arguments import Parser
 
-    sub = argparse.ArgumentParser(prog="bluesky-gym").add_subparsers()
+    sub = Parser(prog="bluesky-gym").add_subparsers()
     for name in SUBCOMMAND_MODULES:
         importlib.import_module(f"bluesky_gym.cli.{name}").add_parser(sub)
     return dict(sub.choices)

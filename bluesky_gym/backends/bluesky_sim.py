@@ -21,7 +21,7 @@ BlueSky keeps its simulator in module-level singletons, so a process holds one o
 each, e.g. ``gymnasium.make_vec(env_id, num_envs=4, vectorization_mode="async",
 backend="bluesky")``.
 
-The ``bluesky`` extra (``pip install "bluesky-gym[bluesky]"``) installs BlueSky 1.1.1 with
+The ``bluesky`` extra (``pip install -e ".[bluesky]"``) installs BlueSky 1.1.1 with
 ``numpy<2.4``: BlueSky 1.1.1's scalar wind look-up, used by every ``creconfs``, fails on numpy 2.4.
 """
 
@@ -42,13 +42,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bluesky_gym.core.aircraft import DEFAULT_TYPE, resolve_type
+from bluesky_gym.core.extras import missing_extra
 from bluesky_gym.core.state import STATE_FIELDS, aircraft_index
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
 
-ACTYPE = "A320"
-INSTALL_HINT = 'pip install "bluesky-gym[bluesky]"'
+ACTYPE = DEFAULT_TYPE  # the type of an aircraft created without one
 
 # State array -> (object under bs.traf, or "" for bs.traf itself; attribute). These are read
 # after every step, creation and command.
@@ -97,6 +98,16 @@ _TRAFFIC_SOURCE = {name: (owner, attr) for name, owner, attr in TRAFFIC_FIELDS}
 _owner: weakref.ReferenceType[BlueSkyPhysics] | None = None
 
 
+def _type_list(actype: str | Sequence[str] | NDArray[np.str_] | None, n: int) -> list[str]:
+    """``n`` type names from one name, one per aircraft, or None (A320); rotorcraft are refused."""
+    names = [ACTYPE] * n if actype is None else [actype] * n if isinstance(actype, str) else [str(a) for a in actype]
+    if len(names) != n:
+        raise ValueError(f"actype: expected one type or {n} types (one per aircraft), got {len(names)}")
+    for name in set(names):
+        resolve_type(name)  # refuses rotorcraft and non-strings
+    return names
+
+
 def load_bluesky() -> ModuleType:
     """Import BlueSky and initialise it headless (once per process).
 
@@ -109,12 +120,10 @@ def load_bluesky() -> ModuleType:
     try:
         import bluesky
     except ImportError as exc:
-        raise ImportError(f"the 'bluesky' backend needs the BlueSky simulator (bluesky-simulator 1.1.1): {INSTALL_HINT}") from exc
+        raise missing_extra("the 'bluesky' backend needs the BlueSky simulator (bluesky-simulator 1.1.1)", "bluesky") from exc
     major, minor = (int(x) for x in np.__version__.split(".")[:2])
     if (major, minor) >= (2, 4):
-        raise ImportError(
-            f"BlueSky 1.1.1 needs numpy<2.4 (its wind look-up, used by every creconfs, fails on numpy {np.__version__}): {INSTALL_HINT}"
-        )
+        raise missing_extra(f"BlueSky 1.1.1 needs numpy<2.4 (its wind look-up, used by every creconfs, fails on numpy {np.__version__})", "bluesky")
     if bluesky.sim is None:
         out = io.StringIO()
         workdir = bluesky_workdir()
@@ -251,8 +260,8 @@ class BlueSkyPhysics:
 
     The state arrays, their shapes (``(1, max_aircraft)``) and meaning are those of
     :class:`~bluesky_gym.core.Simulator`; only active slots hold BlueSky aircraft. They are
-    read-only: state changes go through the commands. Every aircraft is an A320 (OpenAP
-    performance), as in the native core.
+    read-only: state changes go through the commands. Aircraft are A320s unless created with
+    another type (OpenAP performance, as in the native core).
 
     Args:
         max_aircraft: Aircraft slots.
@@ -260,7 +269,7 @@ class BlueSkyPhysics:
         max_waypoints: Route capacity per aircraft (BlueSky has none; kept for the interface).
 
     Raises:
-        ImportError: BlueSky is not installed (``pip install "bluesky-gym[bluesky]"``).
+        ImportError: BlueSky is not installed (``pip install -e ".[bluesky]"``).
         RuntimeError: Another :class:`BlueSkyPhysics` is open in this process.
     """
 
@@ -407,8 +416,13 @@ class BlueSkyPhysics:
         hdg: ArrayLike = 0.0,
         alt: ArrayLike = 0.0,
         spd: ArrayLike = 0.0,
+        actype: str | Sequence[str] | NDArray[np.str_] | None = None,
     ) -> None:
-        """Create aircraft with ``traf.cre(acid, "A320", lat, lon, hdg, alt, spd)``.
+        """Create aircraft with ``traf.cre(acids, types, lat, lon, hdg, alt, spd)``.
+
+        BlueSky 1.1.1's OpenAP model gives all aircraft of one ``traf.cre`` call the performance
+        data of the last one's type, so a mixed batch is created in runs of equal type (one call
+        per run, in slot order): every aircraft flies with its own type's data, as on the core.
 
         Args:
             env: Airspace index of each new aircraft (0).
@@ -418,6 +432,8 @@ class BlueSkyPhysics:
             hdg: Heading [deg].
             alt: Altitude [m].
             spd: CAS [m/s], or Mach when 0.1 < spd < 2.
+            actype: Aircraft type, one for all or one per aircraft (None: A320). Unknown types fly
+                as BlueSky's B744; rotorcraft are refused (the core has no rotor model).
         """
         env, slot = self._begin(env, slot)
         if np.any(self.active[env, slot]) or np.unique(slot).size != slot.size:
@@ -425,11 +441,16 @@ class BlueSkyPhysics:
         n = slot.size
         if n == 0:
             return
+        types = _type_list(actype, n)
         values = [np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)).copy() for x in (lat, lon, hdg, alt, spd)]
         acids = [self._acid[s] for s in slot]
-        ok = self._bs.traf.cre(acids, [ACTYPE] * n, *values)
-        if ok is not True:
-            raise RuntimeError(f"BlueSky traf.cre failed: {ok}")
+        start = 0
+        for stop in range(1, n + 1):
+            if stop == n or types[stop].upper() != types[start].upper():
+                ok = self._bs.traf.cre(acids[start:stop], types[start:stop], *(v[start:stop] for v in values))
+                if ok is not True:
+                    raise RuntimeError(f"BlueSky traf.cre failed: {ok}")
+                start = stop
         self._defaults_for(slot)
         self._data["active"][0, slot] = True
         self._remap()
@@ -611,8 +632,9 @@ class BlueSkyPhysics:
         dh: ArrayLike | None = None,
         tlosv: ArrayLike | None = None,
         spd: ArrayLike | None = None,
+        actype: str | Sequence[str] | NDArray[np.str_] | None = None,
     ) -> None:
-        """Create intruders with ``traf.creconfs(acid, "A320", target, dpsi, dcpa, tlosh, dH, tlosv, spd)``.
+        """Create intruders with ``traf.creconfs(acid, actype, target, dpsi, dcpa, tlosh, dH, tlosv, spd)``, one at a time.
 
         Args:
             env: Airspace of each intruder (0).
@@ -624,10 +646,12 @@ class BlueSkyPhysics:
             dh: Altitude offset [m], or None.
             tlosv: Time to vertical loss of separation [s], or None (= tlosh).
             spd: Intruder CAS [m/s] or Mach, or None (the target's ground speed).
+            actype: Intruder type, one for all or one per intruder (None: A320).
         """
         env, target = self._begin(env, target)
         _, slot = self._index(env, slot)
         n = slot.size
+        types = _type_list(actype, n)
         if not np.all(self.active[env, target]):
             raise ValueError("creconfs: a target slot holds no aircraft")
         if np.any(self.active[env, slot]) or np.unique(slot).size != n:
@@ -638,11 +662,11 @@ class BlueSkyPhysics:
                 return [None] * n
             return [float(v) for v in np.broadcast_to(np.asarray(x, dtype=np.float64), (n,))]
 
-        for t, s, a, c, th, h, tv, v in zip(target, slot, per(dpsi), per(dcpa), per(tlosh), per(dh), per(tlosv), per(spd)):
+        for t, s, a, c, th, h, tv, v, typ in zip(target, slot, per(dpsi), per(dcpa), per(tlosh), per(dh), per(tlosv), per(spd), types):
             with warnings.catch_warnings():
                 # BlueSky 1.1.1's scalar wind look-up converts a 1-element array with float().
                 warnings.filterwarnings("ignore", "Conversion of an array with ndim > 0", DeprecationWarning)
-                self._bs.traf.creconfs(self._acid[s], ACTYPE, self._tidx_of(t), a, c, th, h, tv, v)
+                self._bs.traf.creconfs(self._acid[s], typ, self._tidx_of(t), a, c, th, h, tv, v)
             self._defaults_for(np.array([s]))
             self._data["active"][0, s] = True
             self._remap()
@@ -725,6 +749,16 @@ class BlueSkyPhysics:
     def state_fields(self) -> Sequence[str]:
         """Names of the per-aircraft state arrays."""
         return [name for name, _, _ in STATE_FIELDS]
+
+    def aircraft_type(self, env: ArrayLike, slot: ArrayLike) -> list[str]:
+        """Type names of aircraft as BlueSky holds them (``traf.type``, upper case).
+
+        Args:
+            env: Airspace indices (0).
+            slot: Aircraft slots (holding aircraft).
+        """
+        env, slot = self._begin(env, slot)
+        return [str(self._bs.traf.type[self._tidx_of(s)]).upper() for s in slot]
 
     def _acid_of(self, slot: int) -> str:
         if not self.active[0, slot]:

@@ -9,6 +9,9 @@ The work is the same on both sides: A320s spread over about 200 km around 52°N 
 altitudes (1000-11000 m), CAS 120-140 m/s, level, with every third aircraft turning (it gets a
 heading target 120° away, alternately left and right, before every timed block, so turns go
 on throughout the measurement), DT 1 s, no wind, no conflict detection.
+
+The mixed-fleet lines fly the same traffic with each aircraft of a type drawn from
+:data:`MIXED_FLEET` (ten types from business jets to the B744), at the largest batch size.
 """
 
 from __future__ import annotations
@@ -36,6 +39,9 @@ DEFAULT_SECONDS = 0.8  # time budget per cell [s]: the default run takes well un
 TARGET_RATE = 1.0e7
 TARGET_CELL = (4096, 20)
 TARGET_BLUESKY_RATIO = 400.0
+#: Types of the mixed-fleet lines: narrow-body, wide-body, regional and business jets.
+MIXED_FLEET: tuple[str, ...] = ("A320", "B738", "A321", "B744", "B772", "A332", "E190", "CRJ9", "C550", "GLF6")
+MIXED_FLEET_SEED = 1
 
 Array = NDArray[np.float64]
 
@@ -124,8 +130,13 @@ def available_kernels() -> list[str]:
     return kernels
 
 
-def populate(sim: Simulator, scenario: CoreScenario) -> tuple[NDArray[np.int64], NDArray[np.int64], Array]:
+def populate(sim: Simulator, scenario: CoreScenario, fleet: Sequence[str] | None = None) -> tuple[NDArray[np.int64], NDArray[np.int64], Array]:
     """Create the scenario's aircraft in every airspace and command the first turns.
+
+    Args:
+        sim: The simulator.
+        scenario: The traffic.
+        fleet: Aircraft types to draw each aircraft's type from (None: every aircraft an A320).
 
     Returns:
         ``(env, slot, turn)`` of the turning aircraft, for :func:`recommand_turns`.
@@ -134,7 +145,10 @@ def populate(sim: Simulator, scenario: CoreScenario) -> tuple[NDArray[np.int64],
     n_envs, n_aircraft = scenario.lat.shape
     env_grid, slot_grid = np.meshgrid(np.arange(n_envs), np.arange(n_aircraft), indexing="ij")
     env, slot = env_grid.ravel(), slot_grid.ravel()
-    sim.create(env, slot, scenario.lat.ravel(), scenario.lon.ravel(), scenario.hdg.ravel(), scenario.alt.ravel(), scenario.cas.ravel())
+    types: dict[str, Any] = {}
+    if fleet is not None:
+        types["actype"] = [fleet[i] for i in np.random.default_rng(MIXED_FLEET_SEED).integers(0, len(fleet), env.size)]
+    sim.create(env, slot, scenario.lat.ravel(), scenario.lon.ravel(), scenario.hdg.ravel(), scenario.alt.ravel(), scenario.cas.ravel(), **types)
     turning = scenario.turn.ravel() != 0.0
     turns = (env[turning], slot[turning], scenario.turn.ravel()[turning])
     recommand_turns(sim, *turns)
@@ -147,7 +161,7 @@ def recommand_turns(sim: Simulator, env: NDArray[np.int64], slot: NDArray[np.int
         sim.cmd_heading(env, slot, (sim.hdg[env, slot] + turn) % 360.0)
 
 
-def native_core_rate(n_envs: int, n_aircraft: int, seconds: float, kernel: str | None = None) -> dict[str, Any]:
+def native_core_rate(n_envs: int, n_aircraft: int, seconds: float, kernel: str | None = None, fleet: Sequence[str] | None = None) -> dict[str, Any]:
     """Measure aircraft-sub-steps per second of the native core for one batch size.
 
     Args:
@@ -155,18 +169,19 @@ def native_core_rate(n_envs: int, n_aircraft: int, seconds: float, kernel: str |
         n_aircraft: Aircraft per airspace.
         seconds: Time budget of the timed blocks [s].
         kernel: Step kernel (None: the simulator's default).
+        fleet: Aircraft types of a mixed fleet (None: A320 only).
 
     Returns:
-        The :func:`~bluesky_gym.benchmarks.timing.measure` result plus ``kernel``, ``envs`` and
-        ``aircraft``.
+        The :func:`~bluesky_gym.benchmarks.timing.measure` result plus ``kernel``, ``envs``,
+        ``aircraft`` and ``fleet`` (``"A320"`` or ``"mixed (N types)"``).
 
     """
     sim = make_simulator(n_envs, n_aircraft, kernel)
-    turns = populate(sim, core_scenario(n_envs, n_aircraft))
+    turns = populate(sim, core_scenario(n_envs, n_aircraft), fleet)
     result: dict[str, Any] = measure(sim.step, float(n_envs * n_aircraft), seconds, between=lambda: recommand_turns(sim, *turns))
     if not np.all(sim.active) or not np.all(np.isfinite(sim.lat)):
         raise RuntimeError("the benchmark traffic left the valid state (inactive slot or non-finite position)")
-    result.update(kernel=kernel_of(sim), envs=n_envs, aircraft=n_aircraft)
+    result.update(kernel=kernel_of(sim), envs=n_envs, aircraft=n_aircraft, fleet="A320" if fleet is None else f"mixed ({len(fleet)} types)")
     return result
 
 
@@ -215,26 +230,33 @@ def run_core(
         repeats: Number of runs.
 
     Returns:
-        ``{"native": [...], "bluesky": {...} | None, "target": {...}, "settings": {...}}``.
+        ``{"native": [...], "mixed": [...], "bluesky": {...} | None, "target": {...}, "settings": {...}}``
+        (``mixed``: the mixed-fleet cells, at the largest batch size).
 
     """
     kernels = list(kernels) if kernels else available_kernels()
     say = progress or (lambda _msg: None)
     runs: list[tuple[list[dict[str, Any]], dict[str, Any] | None]] = []
+    mixed_runs: list[list[dict[str, Any]]] = []
     for rep in range(repeats):
         tag = f"run {rep + 1}/{repeats}: " if repeats > 1 else ""
         native = []
+        mixed = []
         for kernel in kernels:
             for n_envs in batch_sizes:
                 for n_ac in aircraft_counts:
                     say(f"core: {tag}{kernel} kernel, {n_envs} x {n_ac} aircraft")
                     native.append(native_core_rate(n_envs, n_ac, seconds, kernel))
+            for n_ac in aircraft_counts:  # the same traffic as a mixed fleet, at the largest batch
+                say(f"core: {tag}{kernel} kernel, {max(batch_sizes)} x {n_ac} aircraft, mixed fleet")
+                mixed.append(native_core_rate(max(batch_sizes), n_ac, seconds, kernel, MIXED_FLEET))
+        mixed_runs.append(mixed)
         bluesky = None
         if bluesky_python:
             say(f"core: {tag}BlueSky with {', '.join(map(str, aircraft_counts))} aircraft")
             bluesky = bluesky_core_rates(bluesky_python, aircraft_counts, seconds)
         bs_rate = {r["aircraft"]: r["rate"] for r in (bluesky or {}).get("results", [])}
-        for row in native:
+        for row in native + mixed:
             base = bs_rate.get(row["aircraft"])
             row["vs_bluesky"] = row["rate"] / base if base else None
         runs.append((native, bluesky))
@@ -247,9 +269,11 @@ def run_core(
         row["vs_bluesky"] = statistics.median(ratios) if ratios else None
         row["vs_bluesky_runs"] = ratios
         native.append(row)
+    mixed = [combine([run[i] for run in mixed_runs]) for i in range(len(mixed_runs[0]))]
     bluesky = _combine_bluesky([run[1] for run in runs]) if bluesky_python else None
     return {
         "native": native,
+        "mixed": mixed,
         "bluesky": bluesky,
         "target": {"envs": TARGET_CELL[0], "aircraft": TARGET_CELL[1], "rate": TARGET_RATE, "vs_bluesky": TARGET_BLUESKY_RATIO},
         "settings": {"dt": DT, "seconds": seconds, "repeats": repeats, "turn_angle": TURN_ANGLE, "turn_every": TURN_EVERY},

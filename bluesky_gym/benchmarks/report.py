@@ -103,18 +103,19 @@ def format_core(core: dict[str, Any]) -> str:
     settings = core["settings"]
     out = [
         "Simulation core: aircraft-sub-steps per second (one aircraft advanced by one time step)",
-        f"DT {settings['dt']:g} s; A320s at 1000-11000 m, 1 in {settings['turn_every']} turning; {_how(settings, spread=True)}",
+        f"DT {settings['dt']:g} s; A320s (or a mixed fleet) at 1000-11000 m, 1 in {settings['turn_every']} turning; {_how(settings, spread=True)}",
         "",
     ]
     rows = []
-    for r in core["native"]:
+    for r in [*core["native"], *core.get("mixed", [])]:
         note = ""
-        if (r["envs"], r["aircraft"]) == (target["envs"], target["aircraft"]):
+        if (r["envs"], r["aircraft"]) == (target["envs"], target["aircraft"]) and r.get("fleet", "A320") == "A320":
             met = r["rate"] >= target["rate"]
             note = f"target >= {fmt_rate(target['rate'])} (~{target['vs_bluesky']:.0f}x BlueSky): {'met' if met else 'NOT MET'}"
         rows.append(
             [
                 r["kernel"],
+                r.get("fleet", "A320"),
                 str(r["envs"]),
                 str(r["aircraft"]),
                 fmt_rate(r["rate"]),
@@ -126,9 +127,9 @@ def format_core(core: dict[str, Any]) -> str:
         )
     out.append(
         table(
-            ["kernel", "airspaces", "aircraft", "ac-sub-steps/s", "spread", "step time", "vs BlueSky", ""],
+            ["kernel", "fleet", "airspaces", "aircraft", "ac-sub-steps/s", "spread", "step time", "vs BlueSky", ""],
             rows,
-            [False, True, True, True, True, True, True, False],
+            [False, False, True, True, True, True, True, True, False],
         )
     )
     bs = core.get("bluesky")

@@ -2,11 +2,11 @@
 
 Examples::
 
-    bluesky-gym bench core                                  # native core; BlueSky if importable here
-    bluesky-gym bench core --bluesky-python /path/to/python  # BlueSky measured in that interpreter
-    bluesky-gym bench envs --ids DescentEnv-v0 --reference-python /path/to/python
+    bluesky-gym bench core                          # native core; BlueSky if importable here
+    bluesky-gym bench core --bluesky-python /path/to/python   # BlueSky in that interpreter
+    bluesky-gym bench envs --env DescentEnv-v0 --num-envs 1 64 --reference-python /path/to/python
     bluesky-gym bench all --bluesky-python P --reference-python P --json results.json
-    bluesky-gym bench profile                               # where the core's step time goes
+    bluesky-gym bench profile                       # where the core's step time goes
 
 The interpreters can also be given by the environment variables ``BLUESKY_PYTHON`` and
 ``BLUESKY_GYM_REFERENCE_PYTHON``.
@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.arguments import positive_float, positive_int
+from bluesky_gym.cli.arguments import deprecated_alias, env_list, positive_float, positive_int
 
 #: Environment variables giving the default of ``--bluesky-python`` and ``--reference-python``.
 BLUESKY_PYTHON_VAR = "BLUESKY_PYTHON"
@@ -58,20 +58,25 @@ def _add_bluesky(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-bluesky", action="store_true", help="do not measure BlueSky")
 
 
-def _add_core(p: argparse.ArgumentParser, seconds_flag: str = "--seconds") -> None:
+def _add_core(p: argparse.ArgumentParser, seconds_flag: str = "--seconds", num_envs_flag: str = "--num-envs") -> None:
     from bluesky_gym.benchmarks.core_bench import AIRCRAFT_COUNTS, BATCH_SIZES, DEFAULT_SECONDS
 
-    p.add_argument("--envs", nargs="+", type=positive_int, default=list(BATCH_SIZES), metavar="N", help="batch sizes (airspaces)")
+    p.add_argument(
+        num_envs_flag, dest="core_num_envs", nargs="+", type=positive_int, default=list(BATCH_SIZES), metavar="N", help="batch sizes (airspaces)"
+    )
+    deprecated_alias(p, "--envs", num_envs_flag, "core_num_envs", nargs="+", type=positive_int, metavar="N")
     p.add_argument("--aircraft", nargs="+", type=positive_int, default=list(AIRCRAFT_COUNTS), metavar="N", help="aircraft per airspace")
     p.add_argument("--kernel", action="append", metavar="NAME", help="core step kernel to measure (repeatable; default: every available one)")
     p.add_argument(seconds_flag, dest="core_seconds", type=positive_float, default=DEFAULT_SECONDS, metavar="S", help="time budget per core cell [s]")
 
 
-def _add_envs(p: argparse.ArgumentParser, seconds_flag: str = "--seconds") -> None:
+def _add_envs(p: argparse.ArgumentParser, seconds_flag: str = "--seconds", num_envs_flag: str = "--num-envs") -> None:
     from bluesky_gym.benchmarks.env_bench import BATCH_SIZES, DEFAULT_SECONDS
 
-    p.add_argument("--ids", nargs="+", metavar="ID", help="environment ids (default: every available one)")
-    p.add_argument("--batch", nargs="+", type=positive_int, default=list(BATCH_SIZES), metavar="N", help="vector environment sizes")
+    p.add_argument("--env", action="extend", type=env_list, metavar="ID", help="environment ids (repeatable, comma-separated; default: all)")
+    deprecated_alias(p, "--ids", "--env", "env", extend=True, nargs="+", metavar="ID")
+    p.add_argument(num_envs_flag, dest="env_num_envs", nargs="+", type=positive_int, default=list(BATCH_SIZES), metavar="N", help="batch sizes")
+    deprecated_alias(p, "--batch", num_envs_flag, "env_num_envs", nargs="+", type=positive_int, metavar="N")
     p.add_argument(
         "--reference-python",
         metavar="PATH",
@@ -88,7 +93,7 @@ def add_parser(subparsers: Any) -> None:
     bench = subparsers.add_parser(
         "bench",
         help="measure simulation and environment throughput",
-        description="Throughput of the native core and of the environments, compared with BlueSky and the reference bluesky-gym 0.2.0.",
+        description="Throughput of the native core and of the environments,\ncompared with BlueSky and the reference bluesky-gym 0.2.0.",
     )
     sub = bench.add_subparsers(dest="bench_command", metavar="WHAT")
     sub.required = True
@@ -108,24 +113,26 @@ def add_parser(subparsers: Any) -> None:
     envs.set_defaults(func=run_envs_command)
 
     both = sub.add_parser("all", help="core and envs")
-    _add_core(both, "--core-seconds")
-    _add_envs(both, "--env-seconds")
+    _add_core(both, "--core-seconds", "--core-num-envs")
+    _add_envs(both, "--env-seconds", "--env-num-envs")
     _add_bluesky(both)
     _add_repeat(both)
     _add_common(both)
     both.set_defaults(func=run_all_command)
 
     prof = sub.add_parser("profile", help="cProfile of the core step: where the time goes")
-    prof.add_argument("--envs", type=positive_int, default=4096, metavar="N", help="airspaces")
+    prof.add_argument("--num-envs", type=positive_int, default=4096, metavar="N", help="airspaces (batch size)")
+    deprecated_alias(prof, "--envs", "--num-envs", "num_envs", type=positive_int, metavar="N")
     prof.add_argument("--aircraft", type=positive_int, default=20, metavar="N", help="aircraft per airspace")
     prof.add_argument("--kernel", action="append", metavar="NAME", help="kernel to profile (repeatable; default: every available one)")
     prof.add_argument("--steps", type=positive_int, default=30, help="profiled steps")
     prof.add_argument("--top", type=positive_int, default=15, help="functions listed")
     prof.add_argument(
         "--env",
-        action="append",
+        action="extend",
+        type=env_list,
         metavar="ID",
-        help="profile a batched environment step instead (physics against task layer; repeatable); --envs is then the batch size",
+        help="profile a batched environment step instead (physics against task layer; repeatable, comma-separated)",
     )
     _add_common(prof)
     prof.set_defaults(func=run_profile_command)
@@ -158,18 +165,19 @@ def _core(args: argparse.Namespace) -> dict[str, Any]:
     from bluesky_gym.benchmarks.core_bench import run_core
 
     _check_kernels(args.kernel)
-    return run_core(args.envs, args.aircraft, args.kernel, args.core_seconds, _bluesky_python(args), _progress(args), args.repeat)
+    return run_core(args.core_num_envs, args.aircraft, args.kernel, args.core_seconds, _bluesky_python(args), _progress(args), args.repeat)
 
 
 def _envs(args: argparse.Namespace) -> dict[str, Any]:
     from bluesky_gym.benchmarks.env_bench import run_envs
     from bluesky_gym.registration import available_envs
 
-    if args.ids:
-        unknown = [i for i in args.ids if i not in available_envs()]
+    ids = None if not args.env or [e.lower() for e in args.env] == ["all"] else list(dict.fromkeys(args.env))
+    if ids:
+        unknown = [i for i in ids if i not in available_envs()]
         if unknown:
             raise SystemExit(f"bluesky-gym bench: unknown or unavailable id(s) {unknown}; available: {', '.join(available_envs())}")
-    return run_envs(args.ids, args.batch, args.env_seconds, _bluesky_python(args), args.reference_python, _progress(args), args.repeat)
+    return run_envs(ids, args.env_num_envs, args.env_seconds, _bluesky_python(args), args.reference_python, _progress(args), args.repeat)
 
 
 def _failed_core(core: dict[str, Any]) -> bool:
@@ -237,8 +245,8 @@ def run_profile_command(args: argparse.Namespace) -> int:
     say = _progress(args)
     for kernel in args.kernel or available_kernels():
         if say is not None:
-            say(f"profile: {kernel} kernel, {args.envs} x {args.aircraft}")
-        prof = profile_core(args.envs, args.aircraft, kernel, args.steps, args.top)
+            say(f"profile: {kernel} kernel, {args.num_envs} x {args.aircraft}")
+        prof = profile_core(args.num_envs, args.aircraft, kernel, args.steps, args.top)
         profiles.append(prof)
         print(format_profile(prof), end="\n\n", flush=True)
     return _finish(args, {"profile": profiles}, False)
@@ -257,8 +265,8 @@ def _run_env_profiles(args: argparse.Namespace) -> int:
     profiles = []
     for env_id in args.env:
         if say is not None:
-            say(f"profile: {env_id} x {args.envs}")
-        prof = profile_env(env_id, args.envs, args.steps, args.top)
+            say(f"profile: {env_id} x {args.num_envs}")
+        prof = profile_env(env_id, args.num_envs, args.steps, args.top)
         profiles.append(prof)
         print(format_env_profile(prof), end="\n\n", flush=True)
     return _finish(args, {"env_profile": profiles}, False)

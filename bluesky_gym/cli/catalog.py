@@ -1,10 +1,11 @@
-"""``bluesky-gym list`` and ``bluesky-gym info ID``: the environments, their spaces and options.
+"""``bluesky-gym list`` and ``bluesky-gym info --env ID``: the environments, their spaces and options.
 
 Examples::
 
-    bluesky-gym list                    # every environment: steps, timing, observation and action
-    bluesky-gym info SectorCREnv-v0     # spaces, timing and scenario options with defaults
-    bluesky-gym info MergeEnv-v0 --json
+    bluesky-gym list                          # every environment: steps, timing, spaces
+    bluesky-gym info --env SectorCREnv-v0     # spaces, timing and scenario options with defaults
+    bluesky-gym info --env MergeEnv-v0 --json
+    bluesky-gym info --env SectorCRCentralised-v0
 
 The scenario options are the fields of the task's configuration dataclass; pass them to
 ``gym.make(ID, option=value)`` (or ``--option KEY=VALUE`` where a command accepts it).
@@ -18,32 +19,28 @@ import inspect
 import json
 import re
 import sys
+import warnings
 from typing import Any
 
 import numpy as np
 
-from bluesky_gym.envs.registry import entry
+from bluesky_gym.cli.arguments import add_env_option
+from bluesky_gym.envs.registry import multiagent_entries
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``list`` and ``info`` subcommands."""
-    p = subparsers.add_parser("list", help="list the environments", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser("list", help="list the environments", description=__doc__)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(func=run_list)
     q = subparsers.add_parser(
         "info",
         help="spaces, timing and scenario options of an environment",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    q.add_argument("env_id", metavar="ID", help="environment id, e.g. DescentEnv-v0")
+    add_env_option(q)
     q.add_argument("--json", action="store_true", help="print JSON instead of text")
     q.set_defaults(func=run_info)
-
-
-def env_class(env_id: str) -> type:
-    """Return the single-environment class of ``env_id`` (from the environment table)."""
-    return entry(env_id).env_class()
 
 
 def _box(space: Any) -> dict[str, Any]:
@@ -74,18 +71,41 @@ def _attribute_docs(cls: type) -> dict[str, str]:
     return out
 
 
+def centralised_ids() -> list[str]:
+    """Ids of the centralised multi-agent environments (one agent steering every aircraft)."""
+    return [m.centralised_id for m in multiagent_entries()]
+
+
+def known_env(env_id: str) -> str:
+    """Return ``env_id`` if it is a single-agent or centralised id, else raise ``ValueError`` listing both kinds."""
+    import bluesky_gym
+
+    if env_id in bluesky_gym.available_envs() or env_id in centralised_ids():
+        return env_id
+    raise ValueError(
+        f"unknown environment {env_id!r}; available: {', '.join(bluesky_gym.available_envs())}; centralised: {', '.join(centralised_ids())}"
+    )
+
+
 def describe(env_id: str) -> dict[str, Any]:
-    """Return everything ``info`` shows about an environment, as plain data."""
+    """Return everything ``info`` shows about an environment (single-agent or centralised), as plain data."""
     import gymnasium as gym
 
-    row = entry(env_id)
-    cls = row.env_class()
-    task_class = row.task_class()
-    env = gym.make(env_id)
+    import bluesky_gym
+
+    bluesky_gym.register_envs()
+    known_env(env_id)
+    with warnings.catch_warnings():
+        # Describing a -v0 id is not using an outdated version: no "out of date" notice from Gymnasium.
+        warnings.filterwarnings("ignore", message=".*is out of date", category=DeprecationWarning)
+        env = gym.make(env_id)
     try:
         obs_space = env.observation_space
         act_space = env.action_space
-        config = getattr(env.unwrapped, "config")  # noqa: B009 - every BlueSky-Gym environment has one; gym.Env does not declare it
+        cls = type(env.unwrapped)
+        task = getattr(env.unwrapped, "task")  # noqa: B009 - every BlueSky-Gym environment has one; gym.Env does not declare it
+        config = task.config
+        max_steps = env.spec.max_episode_steps if env.spec is not None and env.spec.max_episode_steps else task.max_episode_steps
     finally:
         env.close()
     docs: dict[str, str] = {}
@@ -103,16 +123,18 @@ def describe(env_id: str) -> dict[str, Any]:
             }
         )
     summary = (inspect.getdoc(cls) or "").split("\n", 1)[0]
+    summary = summary.removeprefix(f"{env_id}: ")
     return {
         "id": env_id,
         "summary": summary,
+        "kind": "centralised multi-agent" if env_id in centralised_ids() else "single-agent",
         "class": f"{cls.__module__}.{cls.__name__}",
-        "max_episode_steps": row.max_episode_steps,
-        "dt_s": float(task_class.dt),
-        "substeps_per_action": int(task_class.action_frequency),
-        "seconds_per_step": float(task_class.dt * task_class.action_frequency),
-        "has_goal": bool(task_class.has_goal),
-        "reference_info_keys": list(task_class.info_keys),
+        "max_episode_steps": int(max_steps),
+        "dt_s": float(task.dt),
+        "substeps_per_action": int(task.action_frequency),
+        "seconds_per_step": float(task.dt * task.action_frequency),
+        "has_goal": bool(getattr(task, "has_goal", True)),
+        "reference_info_keys": list(task.info_keys),
         "observation": {k: _box(v) for k, v in obs_space.items()} if isinstance(obs_space, gym.spaces.Dict) else {},
         "action": _box(act_space),
         "options": options,
@@ -131,10 +153,20 @@ def run_list(args: argparse.Namespace) -> int:
     """Print every available environment."""
     import bluesky_gym
 
-    rows = [describe(e) for e in bluesky_gym.available_envs()]
+    single = [describe(e) for e in bluesky_gym.available_envs()]
+    centralised = [describe(e) for e in centralised_ids()]
     if args.json:
-        print(json.dumps(rows, indent=2, default=str))
+        print(json.dumps(single + centralised, indent=2, default=str))
         return 0
+    _print_table(single)
+    print(f"\n{len(single)} environments; `bluesky-gym info --env ID` shows one in detail.")
+    print("\nCentralised multi-agent environments (one agent steers every aircraft; `train` and `eval`")
+    print("take them too; `bluesky-gym train-ma` trains a policy shared by the aircraft instead):\n")
+    _print_table(centralised)
+    return 0
+
+
+def _print_table(rows: list[dict[str, Any]]) -> None:
     header = ("id", "steps", "s/step", "observation", "action", "options")
     table = []
     for d in rows:
@@ -145,14 +177,12 @@ def run_list(args: argparse.Namespace) -> int:
     widths = [max(len(r[i]) for r in [header, *table]) for i in range(len(header) - 1)]
     for r in [header, *table]:
         print("  ".join(c.ljust(w) for c, w in zip(r[:-1], widths, strict=True)) + "  " + r[-1])
-    print(f"\n{len(rows)} environments; `bluesky-gym info ID` shows one in detail.")
-    return 0
 
 
 def run_info(args: argparse.Namespace) -> int:
     """Print one environment's spaces, timing and options."""
     try:
-        d = describe(args.env_id)
+        d = describe(args.env)
     except ValueError as exc:
         print(f"bluesky-gym info: error: {exc}", file=sys.stderr)
         return 2
@@ -160,6 +190,7 @@ def run_info(args: argparse.Namespace) -> int:
         print(json.dumps(d, indent=2, default=str))
         return 0
     print(f"{d['id']}: {d['summary']}")
+    print(f"  kind: {d['kind']}")
     print(f"  class: {d['class']}")
     print(
         f"  timing: {d['max_episode_steps']} steps max, {d['substeps_per_action']} x {d['dt_s']:g} s = {d['seconds_per_step']:g} s simulated per step"

@@ -1,14 +1,19 @@
-"""``bluesky-gym eval``: deterministic evaluation on held-out scenarios, as a KPI table.
+r"""``bluesky-gym eval``: deterministic evaluation on held-out scenarios, as a KPI table.
 
 Examples::
 
-    bluesky-gym eval DescentEnv-v0 --model runs/DescentEnv-v0/PPO/seed_0 --episodes 100
-    bluesky-gym eval MergeEnv-v0 --model random --model classical --model runs/MergeEnv-v0/SAC/seed_0/model.zip
-    bluesky-gym eval SectorCREnv-v0 --model classical --episodes 200 --out results/sector
+    bluesky-gym eval --env DescentEnv-v0 --model runs/DescentEnv-v0/PPO/seed_0 --episodes 100
+    bluesky-gym eval --env MergeEnv-v0 --model random --model classical \
+        --model runs/MergeEnv-v0/SAC/seed_0/model.zip
+    bluesky-gym eval --env SectorCREnv-v0 --model classical --episodes 200 --out results/sector
+    bluesky-gym eval --env HorizontalCREnv-v0 --model random --model classical --model mvp
 
 ``--model`` is a trained model (a run directory or a ``.zip``; its algorithm is read from the run's
-config or the file, or given with ``--algo``), ``random`` (uniform actions) or ``classical`` (the
-hand-written reference controller of the environment); repeat it to compare policies.
+config or the file; ``--algo``, if given, must agree), ``random`` (uniform actions),
+``classical`` (the hand-written reference controller of the environment) or ``mvp`` (BlueSky's
+MVP conflict resolution, for the environments with traffic; docs/baselines.md); repeat it to
+compare policies. A model trained on another environment (its run's ``config.json`` says which)
+or whose observation space differs from the environment's is refused.
 
 Episode ``j`` is the scenario of ``reset(seed=2**31 + j)``: the evaluation seeds start at 2**31,
 while every training scenario seed is below 2**31, so evaluation scenarios are never trained on,
@@ -27,7 +32,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.train import algorithm, non_negative_int, positive_int
+from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int
+from bluesky_gym.cli.train import algorithm
 from bluesky_gym.core.extras import MissingDependencyError
 
 
@@ -37,20 +43,22 @@ def add_parser(subparsers: Any) -> None:
         "eval",
         help="evaluate policies on held-out scenarios (KPI table)",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("env_id", metavar="ID", help="environment id")
-    p.add_argument("--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random' or 'classical' (repeatable)")
+    add_env_option(p)
+    p.add_argument(
+        "--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random', 'classical' or 'mvp' (repeatable)"
+    )
     p.add_argument("--algo", type=algorithm, help="algorithm of the model files (default: from the run or the file)")
     p.add_argument("--episodes", type=positive_int, default=100, metavar="N", help="held-out episodes (default: 100)")
     p.add_argument("--seed-offset", type=non_negative_int, default=0, metavar="J", help="first evaluation scenario index (default: 0)")
-    p.add_argument("--batch", type=positive_int, default=64, metavar="K", help="episodes simulated together (default: 64)")
+    p.add_argument("--num-envs", type=positive_int, default=64, metavar="K", help="episodes simulated together (default: 64)")
+    deprecated_alias(p, "--batch", "--num-envs", "num_envs", type=positive_int, metavar="K")
     p.add_argument("--out", type=Path, metavar="DIR", help="directory for the result files (default: eval_results/<ID>)")
     p.set_defaults(func=run)
 
 
 def _stem(spec: str) -> str:
-    if spec in ("random", "classical"):
+    if spec in ("random", "classical", "mvp"):
         return f"eval_{spec}"
     p = Path(spec)
     parts = [x for x in (p.parent.parent.name, p.parent.name, p.stem) if x] if p.suffix == ".zip" else [p.parent.name, p.name]
@@ -61,12 +69,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the ``eval`` subcommand."""
     from bluesky_gym.training.evaluation import evaluate, format_table, make_policy, save_result
 
-    out = args.out or Path("eval_results") / args.env_id
+    out = args.out or Path("eval_results") / args.env
     results = []
     try:
         for spec in args.model:
-            policy = make_policy(spec, args.env_id, args.algo)
-            res = evaluate(args.env_id, policy, args.episodes, seed_offset=args.seed_offset, batch=args.batch)
+            policy = make_policy(spec, args.env, args.algo)
+            res = evaluate(args.env, policy, args.episodes, seed_offset=args.seed_offset, batch=args.num_envs)
             json_path, _ = save_result(res, out, stem=_stem(spec))
             print(f"{res.policy}: {len(res.episodes)} episodes in {res.wall_time_s:.1f} s -> {json_path}", file=sys.stderr)
             results.append(res)

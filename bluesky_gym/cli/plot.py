@@ -30,7 +30,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.train import non_negative_int
+from bluesky_gym.cli.arguments import non_negative_int
 from bluesky_gym.core.extras import MissingDependencyError
 
 
@@ -40,7 +40,6 @@ def add_parser(subparsers: Any) -> None:
         "plot",
         help="learning curves and aggregate scores of runs (PNG)",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("run_dirs", nargs="+", type=Path, metavar="RUN_DIR", help="run or sweep directories")
     p.add_argument("--out", type=Path, default=Path("plots"), metavar="DIR", help="output directory (default: plots)")

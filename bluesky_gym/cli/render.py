@@ -2,12 +2,12 @@
 
 Examples::
 
-    bluesky-gym render HorizontalCREnv-v0 --out horizontal.gif             # random actions
-    bluesky-gym render MergeEnv-v0 --policy classical --episodes 2 --out merge.mp4 --seed 7
-    bluesky-gym render DescentEnv-v0 --policy runs/descent/model.zip --out descent.gif
-    bluesky-gym render SectorCREnv-v0 --grid 4 --out sector_grid.gif     # 4 episodes side by side
-    bluesky-gym render VerticalCREnv-v0 --human                          # watch in a window
-    bluesky-gym render MergeEnv-v0 --out merge.gif --scn merge.scn       # also a BlueSky scenario file
+    bluesky-gym render --env HorizontalCREnv-v0 --out horizontal.gif    # random actions
+    bluesky-gym render --env MergeEnv-v0 --policy classical --episodes 2 --out merge.mp4 --seed 7
+    bluesky-gym render --env DescentEnv-v0 --policy runs/descent/model.zip --out descent.gif
+    bluesky-gym render --env SectorCREnv-v0 --grid 4 --out sector_grid.gif  # 4 side by side
+    bluesky-gym render --env VerticalCREnv-v0 --human                 # watch in a window
+    bluesky-gym render --env MergeEnv-v0 --out merge.gif --scn merge.scn  # and a BlueSky scenario
 
 The policy is ``random`` (uniform actions, seeded by ``--seed``), ``classical`` (the benchmark's
 hand-written controller) or the path of a Stable-Baselines3 model ``.zip`` (its algorithm is read
@@ -23,7 +23,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.arguments import positive_float, positive_int
+from bluesky_gym.cli.arguments import add_env_option, non_negative_int, positive_float, positive_int, whole_number
 from bluesky_gym.training.recording import SB3_ALGORITHMS, record
 
 
@@ -44,21 +44,20 @@ def add_parser(subparsers: Any) -> None:
         "render",
         help="draw episodes of an environment to a GIF/MP4 file or a window",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("env_id", metavar="ID", help="environment id, e.g. HorizontalCREnv-v0")
+    add_env_option(p, help="environment id, e.g. HorizontalCREnv-v0")
     p.add_argument("--policy", default="random", help="random, classical, or the path of a Stable-Baselines3 model .zip (default: random)")
     p.add_argument("--algo", choices=sorted(SB3_ALGORITHMS), help="algorithm of the model .zip (default: read from the file)")
     p.add_argument("--stochastic", action="store_true", help="sample the model's actions instead of taking the deterministic ones")
     p.add_argument("--episodes", type=positive_int, default=1, metavar="K", help="episodes to record (default: 1)")
     p.add_argument("--out", type=Path, metavar="FILE", help="output .gif or .mp4 (default: ID.gif; not written with --human)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the first episode and of random actions (default: 0)")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the first episode and of random actions (default: 0)")
     p.add_argument("--max-steps", type=positive_int, metavar="N", help="truncate each episode after N steps (default: the id's limit)")
     p.add_argument("--every", type=positive_int, default=1, metavar="N", help="keep one frame every N steps (default: 1)")
     p.add_argument("--max-frames", type=positive_int, metavar="N", help="stop after N frames")
     p.add_argument("--fps", type=positive_float, default=10.0, help="frames per second of the video (default: 10)")
     p.add_argument("--scale", type=positive_float, default=1.0, help="resize factor of the video frames (default: 1)")
-    p.add_argument("--colors", type=int, default=192, metavar="N", help="palette size of GIF frames, 2..256 (default: 192)")
+    p.add_argument("--colors", type=whole_number, default=192, metavar="N", help="palette size of GIF frames, 2..256 (default: 192)")
     p.add_argument("--grid", type=positive_int, default=1, metavar="N", help="draw N episodes of a batched environment side by side")
     p.add_argument("--human", action="store_true", help="show the episodes in a window instead of writing a file")
     p.add_argument("--scn", type=Path, metavar="OUT.scn", help="also write each episode as a BlueSky scenario file (OUT-k.scn for several)")
@@ -70,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the ``render`` subcommand."""
     try:
         path, n = record(
-            args.env_id,
+            args.env,
             policy=args.policy,
             episodes=args.episodes,
             out=args.out,

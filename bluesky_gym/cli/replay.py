@@ -39,7 +39,6 @@ def add_parser(subparsers: Any) -> None:
         "replay",
         help="play BlueSky .scn scenario files and write the trajectories as CSV",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("files", nargs="*", metavar="FILE.scn", help="scenario files (or names of shipped geometries)")
     p.add_argument("--dt", type=positive_float, help="time step [s] (default: the files' DT, else 1)")

@@ -24,7 +24,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.train import non_negative_int
+from bluesky_gym.cli.arguments import non_negative_int
 from bluesky_gym.core.extras import MissingDependencyError
 
 
@@ -34,7 +34,6 @@ def add_parser(subparsers: Any) -> None:
         "results",
         help="write the results page (KPI tables, curves, aggregate) from sweeps",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("sweeps", nargs="+", type=Path, metavar="SWEEP_DIR", help="sweep (or run) directories")
     p.add_argument("--out", type=Path, default=Path("docs/results.md"), metavar="FILE", help="the page to write (default: docs/results.md)")

@@ -28,7 +28,6 @@ def add_parser(subparsers: Any) -> None:
         "runs",
         help="list training runs with their status and latest score",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("dirs", nargs="*", type=Path, default=[Path("runs")], metavar="DIR", help="run or sweep directories (default: runs)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")

@@ -1,11 +1,13 @@
-"""``bluesky-gym sweep``: the benchmark grid (environments x algorithms x seeds), resumable.
+r"""``bluesky-gym sweep``: the benchmark grid (environments x algorithms x seeds), resumable.
 
 Examples::
 
-    bluesky-gym sweep --envs DescentEnv-v0 MergeEnv-v0 --algos PPO SAC --seeds 0 1 2 --steps 100000 --local
-    bluesky-gym sweep --envs all --algos all --seeds 0 1 2 --steps 2e6              # Ray on this machine
-    bluesky-gym sweep --envs all --algos all --seeds 0 1 2 --address ray://head:10001 --out sweeps/paper
-    bluesky-gym sweep --envs all --algos all --steps 2e6 --estimate       # how long would the grid take here?
+    bluesky-gym sweep --env DescentEnv-v0,MergeEnv-v0 --algos PPO SAC --seeds 0 1 2 \
+        --steps 100000 --local
+    bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6      # Ray on this machine
+    bluesky-gym sweep --env all --algos all --seeds 0 1 2 --address ray://head:10001 \
+        --out sweeps/paper
+    bluesky-gym sweep --env all --algos all --steps 2e6 --estimate  # how long would it take?
 
 Every run goes to ``<out>/<ID>/<ALGO>/seed_<S>`` (the same layout as ``train``) with the paper's
 hyperparameters unless ``--config`` overrides them. Rerunning the same command skips finished
@@ -13,7 +15,7 @@ runs and resumes interrupted ones from their last checkpoint (model, optimiser, 
 and timesteps), so a killed sweep loses at most the steps since each run's last checkpoint.
 Result files are replaced atomically: a killed sweep never leaves a half-written result.
 
-By default the runs are Ray tasks (``pip install "bluesky-gym[distributed]"``): on a local Ray
+By default the runs are Ray tasks (``pip install -e ".[distributed]"``): on a local Ray
 instance, or on the cluster at ``--address`` (then ``--out`` must be a directory every node
 sees). ``--local`` runs them one after the other in this process, without Ray.
 
@@ -33,7 +35,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.train import add_damage_options, add_run_options, load_config, non_negative_int, positive_int, run_overrides
+from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int, warn
+from bluesky_gym.cli.train import add_damage_options, add_run_options, check_device, load_config, ppo_rounding, run_overrides
 from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.training import ALGORITHMS
 
@@ -44,9 +47,9 @@ def add_parser(subparsers: Any) -> None:
         "sweep",
         help="train the grid of environments x algorithms x seeds (Ray or --local)",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--envs", nargs="+", required=True, metavar="ID", help="environment ids, or 'all'")
+    add_env_option(p, several=True)
+    deprecated_alias(p, "--envs", "--env", "env", extend=True, nargs="+", metavar="ID")
     p.add_argument("--algos", nargs="+", default=["all"], metavar="ALGO", help=f"algorithms ({', '.join(ALGORITHMS)}) or 'all' (default)")
     p.add_argument("--seeds", nargs="+", type=non_negative_int, default=[0], metavar="S", help="run seeds (default: 0)")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), metavar="DIR", help="sweep directory (default: runs/sweep)")
@@ -59,7 +62,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--quiet", action="store_true", help="fewer messages")
     est = p.add_argument_group("estimating the time of a grid (nothing is trained)")
     est.add_argument("--estimate", action="store_true", help="measure steps/s per algorithm and environment and extrapolate the grid's time")
-    est.add_argument("--probe-env", metavar="ID", help="environment the algorithms are timed on (default: the first of --envs)")
+    est.add_argument("--probe-env", metavar="ID", help="environment the algorithms are timed on (default: the first of --env)")
     est.add_argument("--probe-steps", type=positive_int, default=2048, metavar="N", help="timed training steps per algorithm (default: 2048)")
     p.set_defaults(func=run)
 
@@ -97,12 +100,17 @@ def run(args: argparse.Namespace) -> int:
 
     verbose = 0 if args.quiet else 1
     try:
-        envs = _expand(args.envs, bluesky_gym.available_envs(), "environment")
+        envs = _expand(args.env, bluesky_gym.available_envs(), "environment")
         algos = _expand(args.algos, ALGORITHMS, "algorithm")
         config = load_config(args.config)
         if args.estimate:
             return _estimate(args, config, envs, algos, verbose)
         cells = plan(config, envs, algos, args.seeds, args.out, **run_overrides(args))
+        check_device(cells[0].spec.device)
+        if verbose and args.steps is not None:
+            for note in dict.fromkeys(ppo_rounding(c.spec.algo, c.spec.hyperparams, c.spec.n_envs, c.spec.total_timesteps) for c in cells):
+                if note:
+                    warn("bluesky-gym sweep", note)
         if verbose:
             print(f"sweep of {len(cells)} runs ({len(envs)} environments x {len(algos)} algorithms x {len(args.seeds)} seeds) -> {args.out}")
         if args.local:

@@ -2,20 +2,22 @@
 
 Examples::
 
-    bluesky-gym train DescentEnv-v0 --algo PPO --steps 200000 --n-envs 16 --seed 0
-    bluesky-gym train SectorCREnv-v0 --algo SAC --steps 2e6 --config configs/paper.toml --out runs
-    bluesky-gym demo                      # the main job: a few minutes of PPO, evaluation, plots, GIF
+    bluesky-gym train --env DescentEnv-v0 --algo PPO --steps 200000 --num-envs 16 --seed 0
+    bluesky-gym train --env SectorCREnv-v0 --algo SAC --steps 2e6 --config configs/paper.toml
+    bluesky-gym demo            # the main job: minutes of PPO, evaluation, plots, GIF
 
 ``train`` uses the paper's hyperparameters (``configs/paper.toml``) unless a ``--config`` file
 overrides them; command-line options override both. The run directory
 ``<out>/<ID>/<ALGO>/seed_<S>`` records the exact configuration, package versions and seeds, the
 episode log (return and KPIs per episode), checkpoints, the final model and its evaluation on
 held-out scenarios, and SB3's TensorBoard log (``tensorboard/``). Rerunning the same command
-resumes an interrupted run from its last checkpoint, or does nothing if the run is finished.
-The id, scenario options and hyperparameter names are checked before the run directory is
-created. A damaged run directory (a checkpoint file missing or cut off, an episode log shorter
-than its checkpoint, a JSON file that does not parse) is named and left alone until rerun with
-``--resume-from-last-intact`` (continue from the last intact checkpoint) or ``--restart``.
+resumes an interrupted run from its last checkpoint, or does nothing if the run is finished. PPO
+trains whole rollouts of ``n_steps x num_envs`` steps: a ``--steps`` that is not a multiple is
+rounded up, with a warning. The id, scenario options and hyperparameter names are checked before
+the run directory is created. A damaged run directory (a checkpoint file missing or cut off, an
+episode log shorter than its checkpoint, a JSON file that does not parse) is named and left alone
+until rerun with ``--resume-from-last-intact`` (continue from the last intact checkpoint) or
+``--restart``. The multi-agent environments are trained with ``bluesky-gym train-ma``.
 
 ``demo`` trains PPO on 16 batched environments (``configs/demo.toml``), evaluates the policy
 against the ``random`` and ``classical`` reference policies on held-out scenarios, and writes the
@@ -30,7 +32,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.cli.arguments import non_negative_int, positive_int
+from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int, warn
 from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.training import ALGORITHMS
 
@@ -46,11 +48,52 @@ def algorithm(text: str) -> str:
 def add_run_options(p: argparse.ArgumentParser) -> None:
     """Add the options shared by ``train`` and ``sweep`` (they override the config file)."""
     p.add_argument("--steps", type=positive_int, metavar="N", help="environment steps per run (default: config, 2e6)")
-    p.add_argument("--n-envs", type=positive_int, metavar="K", help="batched environments per run (default: config, 1)")
+    p.add_argument("--num-envs", type=positive_int, metavar="K", help="episodes simulated together per run (default: config, 1)")
+    deprecated_alias(p, "--n-envs", "--num-envs", "num_envs", type=positive_int, metavar="K")
     p.add_argument("--config", type=Path, metavar="FILE", help="TOML or JSON config over the paper's defaults (see configs/paper.toml)")
     p.add_argument("--checkpoint-freq", type=positive_int, metavar="N", help="steps between checkpoints (default: config, 50000)")
     p.add_argument("--eval-episodes", type=non_negative_int, metavar="N", help="held-out episodes evaluated at the end (default: 50)")
-    p.add_argument("--device", help="torch device (default: config, cpu)")
+    p.add_argument("--device", help="torch device: cpu, cuda, cuda:1, mps (default: config, cpu)")
+
+
+def check_device(device: str) -> None:
+    """Raise ``ValueError`` if the torch device is malformed or not present on this machine (CUDA, MPS)."""
+    from bluesky_gym.core.extras import require_sb3
+
+    require_sb3()
+    import torch
+
+    try:
+        dev = torch.device(device)
+    except RuntimeError as exc:
+        raise ValueError(f"--device {device!r} is not a torch device (e.g. cpu, cuda, cuda:0, mps): {exc}") from None
+    if dev.type == "cuda":
+        if not torch.cuda.is_available():
+            raise ValueError(
+                f"--device {device}: PyTorch finds no CUDA device on this machine (torch.cuda.is_available() is False); use --device cpu"
+            )
+        if dev.index is not None and dev.index >= torch.cuda.device_count():
+            raise ValueError(f"--device {device}: this machine has {torch.cuda.device_count()} CUDA device(s)")
+    elif dev.type == "mps" and not torch.backends.mps.is_available():
+        raise ValueError(f"--device {device}: PyTorch finds no MPS device on this machine; use --device cpu")
+
+
+def ppo_rounding(algo: str, hyperparams: dict[str, Any], num_envs: int, steps: int) -> str | None:
+    """The warning for a PPO step budget that is not a whole number of rollouts (None otherwise).
+
+    PPO collects rollouts of ``n_steps`` steps in each of ``num_envs`` environments and trains
+    until the rollout in which the budget is reached ends.
+    """
+    if algo.upper() != "PPO":
+        return None
+    rollout = int(hyperparams.get("n_steps", 2048)) * num_envs
+    if steps % rollout == 0:
+        return None
+    done = -(-steps // rollout) * rollout
+    return (
+        f"PPO trains whole rollouts of n_steps x num_envs = {hyperparams.get('n_steps', 2048)} x {num_envs} = {rollout} steps: "
+        f"--steps {steps} becomes {done} (set n_steps in [algos.PPO] of a --config file for shorter rollouts)"
+    )
 
 
 def add_damage_options(p: argparse.ArgumentParser) -> None:
@@ -80,7 +123,7 @@ def run_overrides(args: argparse.Namespace) -> dict[str, Any]:
     """Return the ``run`` values given on the command line."""
     return {
         "total_timesteps": args.steps,
-        "n_envs": args.n_envs,
+        "n_envs": args.num_envs,
         "checkpoint_freq": args.checkpoint_freq,
         "eval_episodes": args.eval_episodes,
         "device": args.device,
@@ -89,10 +132,8 @@ def run_overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``train`` and ``demo`` subcommands."""
-    p = subparsers.add_parser(
-        "train", help="train an SB3 agent on one environment", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    p.add_argument("env_id", metavar="ID", help="environment id, e.g. DescentEnv-v0")
+    p = subparsers.add_parser("train", help="train an SB3 agent on one environment", description=__doc__)
+    add_env_option(p)
     p.add_argument("--algo", type=algorithm, default="PPO", help=f"one of {', '.join(ALGORITHMS)} (default: PPO)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="run seed, below 2**31 (default: 0)")
     p.add_argument("--out", type=Path, default=Path("runs"), metavar="DIR", help="output directory (default: runs)")
@@ -107,11 +148,11 @@ def add_parser(subparsers: Any) -> None:
         "demo",
         help="the main job: train PPO for a few minutes, compare with the reference policies, plot",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     d.add_argument("--env", default="DescentEnv-v0", metavar="ID", help="environment id (default: DescentEnv-v0)")
     d.add_argument("--steps", type=positive_int, metavar="N", help="PPO steps (default: configs/demo.toml, 250000)")
-    d.add_argument("--n-envs", type=positive_int, metavar="K", help="batched environments (default: 16)")
+    d.add_argument("--num-envs", type=positive_int, metavar="K", help="episodes simulated together (default: 16)")
+    deprecated_alias(d, "--n-envs", "--num-envs", "num_envs", type=positive_int, metavar="K")
     d.add_argument("--seed", type=non_negative_int, default=0, help="run seed (default: 0)")
     d.add_argument("--episodes", type=positive_int, default=100, metavar="N", help="held-out evaluation episodes (default: 100)")
     d.add_argument("--out", type=Path, default=Path("runs/demo"), metavar="DIR", help="output directory (default: runs/demo)")
@@ -124,10 +165,15 @@ def run_train(args: argparse.Namespace) -> int:
     """Run the ``train`` subcommand."""
     from bluesky_gym.training.runner import RunConfigMismatch, RunDamaged, RunLocked, make_run_spec, run_dir_for, run_training
 
+    run_dir = run_dir_for(args.out, args.env, args.algo, args.seed)
     try:
         config = load_config(args.config)
-        spec = make_run_spec(config, args.env_id, args.algo, args.seed, **run_overrides(args))
-        run_dir = run_dir_for(args.out, args.env_id, args.algo, args.seed)
+        spec = make_run_spec(config, args.env, args.algo, args.seed, **run_overrides(args))
+        check_device(spec.device)
+        if not args.quiet and args.steps is not None:
+            note = ppo_rounding(spec.algo, spec.hyperparams, spec.n_envs, spec.total_timesteps)
+            if note:
+                warn("bluesky-gym train", note)
         result = run_training(
             spec,
             run_dir,
@@ -156,13 +202,18 @@ def run_train(args: argparse.Namespace) -> int:
 def run_demo(args: argparse.Namespace) -> int:
     """Run the ``demo`` subcommand."""
     from bluesky_gym.training.demo import run_demo as demo
+    from bluesky_gym.training.hyperparams import DEMO, PAPER, merge, resolve
 
+    run, hp, _ = resolve(merge(PAPER, DEMO), args.env, "PPO")
+    note = ppo_rounding("PPO", hp, args.num_envs or int(run["n_envs"]), args.steps) if args.steps is not None else None
+    if note:
+        warn("bluesky-gym demo", note)
     try:
         demo(
             args.env,
             out=args.out,
             steps=args.steps,
-            n_envs=args.n_envs,
+            n_envs=args.num_envs,
             seed=args.seed,
             episodes=args.episodes,
             gif=not args.no_gif,

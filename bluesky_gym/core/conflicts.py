@@ -8,6 +8,7 @@ symmetric, correct geometry of BlueSky's compiled CSTATEBASED detector [docs/dyn
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -129,6 +130,7 @@ def create_conflicts(
     spd: ArrayLike | None = None,
     rpz: float = PZ_RADIUS,
     hpz: float = PZ_HEIGHT,
+    actype: str | Sequence[str] | NDArray[np.str_] | None = None,
 ) -> None:
     """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``) [docs/dynamics.md §3].
 
@@ -147,6 +149,8 @@ def create_conflicts(
         spd: Intruder CAS [m/s] or Mach, or None for the target's ground speed.
         rpz: Protected-zone radius [m].
         hpz: Protected-zone half height [m].
+        actype: Intruder type (one name or one per intruder), or None for the default type. The
+            geometry does not depend on it; each intruder is created on its own, as BlueSky does.
     """
     env, target = aircraft_index(env, target, sim.n_envs, sim.max_aircraft)
     _, slot = aircraft_index(env, slot, sim.n_envs, sim.max_aircraft)
@@ -172,7 +176,7 @@ def create_conflicts(
     wn2, we2 = (np.ascontiguousarray(w, dtype=np.float64) for w in sim.wind.at(env, aclat, aclon))
     acspd, achdg = np.empty(n), np.empty(n)
     _speed_loop(gsn, gse, wn2, we2, acalt, acspd, achdg)
-    sim.create(env, slot, aclat, aclon, achdg, acalt, acspd)
+    sim.create(env, slot, aclat, aclon, achdg, acalt, acspd, actype=actype)
     sim.cmd_altitude(env, slot, altref, acvs)
     sim.vs[env, slot] = acvs
 

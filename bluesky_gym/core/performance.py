@@ -1,4 +1,4 @@
-"""OpenAP A320 performance as BlueSky 1.1.1 applies it [docs/dynamics.md §1.2-1.5].
+"""OpenAP performance as BlueSky 1.1.1 applies it, for every fixed-wing type [docs/dynamics.md §1.2-1.5].
 
 The model supplies three things to the kinematics: the flight phase, the speed envelope of that
 phase, and the maximum longitudinal acceleration ``axmax`` from maximum thrust and drag. It is
@@ -17,36 +17,44 @@ from bluesky_gym.core.units import FPM, FT, G0, P0
 
 # OpenAP flight phases.
 PHASE_NA, PHASE_GD, PHASE_IC, PHASE_CL, PHASE_CR, PHASE_DE, PHASE_AP = range(7)
+AXMAX_GROUND = 2.0  # m/s^2, BlueSky's fixed-wing maximum acceleration on the ground
+AXMAX_FLOOR = 0.5  # m/s^2, BlueSky's global minimum of axmax
 
 
 @dataclass(frozen=True)
 class AircraftPerformance:
-    """Constant performance data of one aircraft type (OpenAP 2.6.2 values as BlueSky loads them)."""
+    """Constant performance data of one aircraft type, as BlueSky 1.1.1's OpenAP model loads it.
 
-    mass: float = 60300.0  # kg, (OEW + MTOW) / 2
-    wing_area: float = 124.0  # m^2
-    engine_count: int = 2
-    engine_max_thrust: float = 117900.0  # N, static, per engine
-    bypass_ratio: float = 5.9
-    cd0_clean: float = 0.018
-    k_clean: float = 0.039
-    cd0_takeoff: float = 0.018932161954476924
-    k_takeoff: float = 0.037164510631143066
-    cd0_gear: float = 0.017
-    cd0_landing: float = 0.023749550672667687
-    k_landing: float = 0.0344613704952352
-    vmin_enroute: float = 67.0  # m/s CAS
-    vmax_enroute: float = 163.0  # m/s CAS
-    vmin_approach: float = 67.0  # m/s CAS
-    vmax_approach: float = 77.0  # m/s CAS
-    vmax_ground: float = 89.0  # m/s CAS (OpenAP's initial-climb maximum, used on the ground)
-    v_rotate: float = 74.5  # m/s TAS; on the ground vs is forced to 0 below it
-    hmax: float = 11060.0  # m, ceiling
-    vsmax: float = 16.04  # m/s
-    mmo: float = 0.8  # maximum Mach number
-    axmax_initial: float = 2.37  # m/s^2 until the first performance update
-    axmax_ground: float = 2.0  # m/s^2
-    axmax_floor: float = 0.5  # m/s^2
+    Built from the ``openap`` package's files by :func:`bluesky_gym.core.aircraft.aircraft_performance`
+    (the only source of these numbers); see docs/dynamics.md §1.2.
+    """
+
+    name: str  # type designator the data is filed under, e.g. "A320" (a synonym keeps its own name)
+    mass: float  # kg, (OEW + MTOW) / 2
+    wing_area: float  # m^2
+    engine_count: int
+    engine_max_thrust: float  # N, static, per engine
+    bypass_ratio: float
+    cd0_clean: float
+    k_clean: float
+    cd0_takeoff: float
+    k_takeoff: float
+    cd0_gear: float
+    cd0_landing: float
+    k_landing: float
+    vmin_enroute: float  # m/s CAS
+    vmax_enroute: float  # m/s CAS
+    vmin_approach: float  # m/s CAS
+    vmax_approach: float  # m/s CAS
+    vmax_ground: float  # m/s CAS (OpenAP's initial-climb maximum, used on the ground)
+    v_rotate: float  # m/s TAS (OpenAP's minimum take-off speed); on the ground vs is forced to 0 below it
+    hmax: float  # m, ceiling
+    vsmax: float  # m/s
+    vsmin: float  # m/s: OpenAP's smallest climb rate, BlueSky's perf.vsmin (used by conflict resolution)
+    mmo: float  # maximum Mach number
+    axmax_initial: float  # m/s^2 until the first performance update (WRAP's maximum take-off acceleration)
+    axmax_ground: float = AXMAX_GROUND  # m/s^2
+    axmax_floor: float = AXMAX_FLOOR  # m/s^2
 
     @property
     def static_thrust(self) -> float:
@@ -54,11 +62,8 @@ class AircraftPerformance:
         return float(self.engine_count * self.engine_max_thrust)
 
 
-A320 = AircraftPerformance()
-
-
 def perf_tuple(perf: AircraftPerformance) -> tuple[float, ...]:
-    """The performance constants in the argument order of :func:`performance`."""
+    """The performance constants in the argument order of :func:`performance` (columns 0-18 of a table row)."""
     return (
         perf.mass,
         perf.wing_area,
@@ -83,8 +88,19 @@ def perf_tuple(perf: AircraftPerformance) -> tuple[float, ...]:
 
 
 def limit_tuple(perf: AircraftPerformance) -> tuple[float, float, float, float]:
-    """The envelope limits (hmax, vsmax, mmo, v_rotate) as the step kernel takes them."""
+    """The envelope limits (hmax, vsmax, mmo, v_rotate) as the step kernel takes them (columns 19-22)."""
     return (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate)
+
+
+#: Columns of a row of the performance table: :func:`perf_tuple` then :func:`limit_tuple`.
+N_PERF = 19
+C_HMAX, C_VSMAX, C_MMO, C_V_ROTATE = range(N_PERF, N_PERF + 4)
+N_COEFFICIENTS = N_PERF + 4
+
+
+def table_row(perf: AircraftPerformance) -> tuple[float, ...]:
+    """One row of the performance table the step kernel reads per aircraft (``N_COEFFICIENTS`` values)."""
+    return perf_tuple(perf) + limit_tuple(perf)
 
 
 # Thrust-model reference points: pressure at 10000 ft and 35000 ft, CAS of Mach 0.8 at 35000 ft.
@@ -128,32 +144,19 @@ def performance(tas: float, vs: float, alt: float, perf: tuple[float, ...]) -> t
         tas: True airspeed [m/s].
         vs: Vertical speed [m/s].
         alt: Altitude [m].
-        perf: The aircraft's :func:`perf_tuple`.
+        perf: The aircraft's :func:`perf_tuple`, or its row of the performance table (only the
+            first ``N_PERF`` values are read).
 
     Returns:
         (phase, vmin, vmax, axmax).
     """
-    (
-        mass,
-        wing_area,
-        n_eng,
-        eng_thr,
-        bpr,
-        cd0_clean,
-        k_clean,
-        cd0_to,
-        k_to,
-        cd0_gear,
-        cd0_ld,
-        k_ld,
-        vmin_er,
-        vmax_er,
-        vmin_ap,
-        vmax_ap,
-        vmax_gd,
-        ax_gd,
-        ax_floor,
-    ) = perf
+    mass = perf[0]
+    wing_area = perf[1]
+    n_eng = perf[2]
+    eng_thr = perf[3]
+    bpr = perf[4]
+    vmin_er, vmax_er, vmin_ap, vmax_ap, vmax_gd = perf[12], perf[13], perf[14], perf[15], perf[16]
+    ax_gd, ax_floor = perf[17], perf[18]
     ph = flight_phase(tas, vs, alt)
     if ph == PHASE_GD:
         vmin, vmax = 0.0, vmax_gd
@@ -163,13 +166,13 @@ def performance(tas: float, vs: float, alt: float, perf: tuple[float, ...]) -> t
         vmin, vmax = vmin_er, vmax_er
 
     if ph == PHASE_GD:
-        cd0, k = cd0_to + cd0_gear, k_to
+        cd0, k = perf[7] + perf[9], perf[8]  # take-off polar plus gear
     elif ph == PHASE_IC:
-        cd0, k = cd0_to, k_to
+        cd0, k = perf[7], perf[8]
     elif ph == PHASE_AP:
-        cd0, k = cd0_ld, k_ld
+        cd0, k = perf[10], perf[11]
     else:
-        cd0, k = cd0_clean, k_clean
+        cd0, k = perf[5], perf[6]
     p, rho, t = isa(alt)
     rhovs = 0.5 * rho * (tas * tas) * wing_area
     cl = mass * G0 / rhovs

@@ -13,7 +13,7 @@ Every index argument ``env``/``slot`` accepts an int or an array; values broadca
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -100,8 +100,9 @@ class Physics(Protocol):
         hdg: ArrayLike = ...,
         alt: ArrayLike = ...,
         spd: ArrayLike = ...,
+        actype: str | Sequence[str] | NDArray[np.str_] | None = None,
     ) -> None:
-        """Create aircraft (BlueSky ``CRE``): position [deg], heading [deg], altitude [m], CAS [m/s] or Mach."""
+        """Create aircraft (BlueSky ``CRE``): position [deg], heading [deg], altitude [m], CAS [m/s] or Mach, type (None: A320)."""
         ...
 
     def creconfs(
@@ -115,8 +116,13 @@ class Physics(Protocol):
         dh: ArrayLike | None = None,
         tlosv: ArrayLike | None = None,
         spd: ArrayLike | None = None,
+        actype: str | Sequence[str] | NDArray[np.str_] | None = None,
     ) -> None:
-        """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``)."""
+        """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``), of type ``actype`` (None: A320)."""
+        ...
+
+    def aircraft_type(self, env: ArrayLike, slot: ArrayLike) -> list[str]:
+        """Type names of aircraft, upper case, as given at creation (an unknown type keeps its name)."""
         ...
 
     def delete(self, env: ArrayLike, slot: ArrayLike) -> None:

@@ -2,8 +2,8 @@
 
 The kernels reproduce results that BlueSky computes with numpy arrays, to the last bit. These
 helpers give scalar code numpy's behaviour where Python's or C's differs: the float remainder
-(sign of the divisor), ``np.sign`` and ``np.maximum`` (NaN propagates), and numpy's own degree
-conversion factors.
+(sign of the divisor), ``np.sign`` and ``np.maximum`` (NaN propagates), division by zero (inf or
+NaN, not an error), and numpy's own degree conversion factors.
 """
 
 from __future__ import annotations
@@ -57,3 +57,23 @@ def maximum(a: float, b: float) -> float:
     if b != b:
         return b
     return a if a >= b else b
+
+
+@jit
+def minimum(a: float, b: float) -> float:
+    """``np.minimum`` of two floats (NaN propagates)."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a <= b else b
+
+
+@jit
+def divide(a: float, b: float) -> float:
+    """``a / b`` with numpy's IEEE semantics: a zero divisor gives +-inf (NaN for 0/0) instead of an error."""
+    if b != 0.0:
+        return a / b
+    if a != a or a == 0.0:
+        return math.nan
+    return math.copysign(math.inf, a) * math.copysign(1.0, b)

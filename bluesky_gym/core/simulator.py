@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
+from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance, resolve_type
 from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
@@ -71,7 +72,8 @@ class Simulator:
         max_aircraft: Aircraft slots per airspace.
         dt: Simulation time step [s].
         max_waypoints: Route capacity per aircraft.
-        perf: Performance data (every aircraft is of this type).
+        perf: Performance data of the default aircraft type (None: BlueSky's OpenAP A320). An
+            aircraft created without ``actype`` is of this type.
         geo: ``"compiled"`` (BlueSky's compiled geo functions, as a plain BlueSky run uses them)
             or ``"python"`` (BlueSky's Python geo module, which the reference gym environments end up
             with). Only LNAV uses them; they differ in the last bits.
@@ -83,15 +85,15 @@ class Simulator:
         max_aircraft: int,
         dt: float = 1.0,
         max_waypoints: int = 4,
-        perf: pf.AircraftPerformance = pf.A320,
+        perf: pf.AircraftPerformance | None = None,
         geo: str = "compiled",
     ) -> None:
         if geo not in ("compiled", "python"):
             raise ValueError(f"geo must be 'compiled' or 'python', got {geo!r}")
         self.geo = geo
         self._qdrdist = _geo.qdrdist if geo == "compiled" else _geo.qdrdist_python
-        self._perf_args = pf.perf_tuple(perf)
-        self._limit_args = pf.limit_tuple(perf)
+        if perf is None:
+            perf = aircraft_performance(DEFAULT_TYPE)
         if n_envs < 1 or max_aircraft < 1:
             raise ValueError(f"n_envs and max_aircraft must be >= 1, got {n_envs} and {max_aircraft}")
         if not dt > 0:
@@ -101,6 +103,12 @@ class Simulator:
         self.max_waypoints = int(max_waypoints)
         self.dt = float(dt)
         self.perf = perf
+        # Aircraft types: name -> row of the performance table the kernels read per aircraft.
+        # Row 0 is the default type; rows are added as new types are created, never removed.
+        self._type_names: list[str] = [perf.name.upper()]
+        self._type_rows: dict[str, int] = {perf.name.upper(): 0}
+        self._type_perf: list[pf.AircraftPerformance] = [perf]
+        self._table = np.array([pf.table_row(perf)], dtype=np.float64)
         self.simt = 0.0
         self._since_perf = PERFORMANCE_INTERVAL  # the first step always runs the performance update
         shape = (self.n_envs, self.max_aircraft)
@@ -121,6 +129,8 @@ class Simulator:
             self._defaults[name] = (dtype, value)
         self.route_lat = np.zeros((*shape, self.max_waypoints))  # deg
         self.route_lon = np.zeros((*shape, self.max_waypoints))  # deg
+        self.type_index = np.zeros(shape, dtype=np.int64)  # row of the performance table (see aircraft_type)
+        self._type_flat = self.type_index.reshape(-1)  # a view
         self.wind = WindField(self.n_envs)
         self._empty = np.zeros(0)
         self._phase_flat = self.phase.reshape(-1)  # a view
@@ -128,6 +138,7 @@ class Simulator:
         # Memo table of the step kernel: (n_envs * max_aircraft, columns), NaN = nothing cached.
         self._memo = np.full((self.n_envs * self.max_aircraft, MEMO_COLUMNS), np.nan)
         self._empty_bool = np.zeros(0, dtype=np.bool_)
+        self._empty_int = np.zeros(0, dtype=np.int64)
 
     # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
     active: NDArray[np.bool_]
@@ -182,6 +193,7 @@ class Simulator:
             getattr(self, name)[idx] = value
         self.route_lat[idx] = 0.0
         self.route_lon[idx] = 0.0
+        self.type_index[idx] = 0
         self.wind.clear(None if envs is None else idx)
 
     def create(
@@ -193,8 +205,13 @@ class Simulator:
         hdg: ArrayLike = 0.0,
         alt: ArrayLike = 0.0,
         spd: ArrayLike = 0.0,
+        actype: str | Sequence[str] | NDArray[np.str_] | None = None,
     ) -> None:
         """Create aircraft, as BlueSky's ``traf.cre`` [docs/dynamics.md §2.4].
+
+        Every aircraft gets the performance data of its own type (BlueSky 1.1.1 gives all aircraft
+        of one ``traf.cre`` call the data of the last one's type; the BlueSky backend therefore
+        creates a mixed batch in runs of equal type) [docs/dynamics.md §1.2].
 
         Args:
             env: Airspace index of each new aircraft.
@@ -204,11 +221,15 @@ class Simulator:
             hdg: Heading [deg], stored as given.
             alt: Altitude [m].
             spd: CAS [m/s], or Mach when 0.1 < spd < 2.
+            actype: Aircraft type, one name for all or one per aircraft, any case (None: the
+                default type, the A320). Unknown types fly as the B744, as in BlueSky;
+                rotorcraft are refused.
         """
         env, slot = self._index(env, slot)
         if np.any(self.active[env, slot]):
             raise ValueError("create: an aircraft already exists in one of the requested slots")
         n = env.shape[0]
+        rows = self._type_rows_of(actype, n)
         lat_a, lon_a, hdg_a, alt_a, spd_a = (np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)).copy() for x in (lat, lon, hdg, alt, spd))
         lon_a[lon_a > 180.0] -= 360.0
         lon_a[lon_a < -180.0] += 360.0
@@ -216,6 +237,14 @@ class Simulator:
             getattr(self, name)[env, slot] = value
         self.route_lat[env, slot] = 0.0
         self.route_lon[env, slot] = 0.0
+        self._memo.reshape(self.n_envs, self.max_aircraft, -1)[env, slot] = np.nan  # the slot's cached values were another aircraft's
+        self.type_index[env, slot] = rows
+        # BlueSky's performance defaults of a new aircraft: phase NA, whose envelope (through the
+        # always-true en-route clause) is the en-route one, and WRAP's take-off acceleration.
+        initial = np.array([(p.vmin_enroute, p.vmax_enroute, p.axmax_initial) for p in self._type_perf])[rows]
+        self.vmin[env, slot] = initial[:, 0]
+        self.vmax[env, slot] = initial[:, 1]
+        self.axmax[env, slot] = initial[:, 2]
         self.active[env, slot] = True
         self.lat[env, slot] = lat_a
         self.lon[env, slot] = lon_a
@@ -250,6 +279,50 @@ class Simulator:
         self.ap_tas[env, slot] = tas
         self.ap_alt[env, slot] = alt_a
         self.ap_trk[env, slot] = self.trk[env, slot]
+
+    def _type_rows_of(self, actype: str | Sequence[str] | NDArray[np.str_] | None, n: int) -> IntArray:
+        """Rows of the performance table for ``n`` new aircraft of type(s) ``actype`` (new types are added)."""
+        if actype is None:
+            return np.zeros(n, dtype=np.int64)
+        names = [actype] * n if isinstance(actype, str) else [str(a) if isinstance(a, np.str_) else a for a in actype]
+        if len(names) != n:
+            raise ValueError(f"actype: expected one type or {n} types (one per aircraft), got {len(names)}")
+        rows = np.empty(n, dtype=np.int64)
+        for k, name in enumerate(names):
+            if not isinstance(name, str):
+                raise TypeError(f"actype must be a type name (str), got {type(name).__name__} {name!r}")
+            key = name.upper()
+            row = self._type_rows.get(key)
+            if row is None:
+                resolve_type(key)  # refuses rotorcraft before anything is added
+                perf = aircraft_performance(key)
+                row = len(self._type_names)
+                self._type_names.append(key)
+                self._type_rows[key] = row
+                self._type_perf.append(perf)
+                self._table = np.vstack([self._table, np.array([pf.table_row(perf)])])
+            rows[k] = row
+        return rows
+
+    @property
+    def aircraft_types(self) -> tuple[str, ...]:
+        """The type names in use, upper case; ``type_index`` holds each aircraft's position in it."""
+        return tuple(self._type_names)
+
+    def aircraft_type(self, env: ArrayLike, slot: ArrayLike) -> list[str]:
+        """Type names of aircraft, as they were given at creation (upper case; an unknown type keeps its name).
+
+        Args:
+            env: Airspace indices.
+            slot: Aircraft slots (holding aircraft).
+        """
+        env, slot = self._index(env, slot)
+        return [self._type_names[r] for r in self.type_index[env, slot]]
+
+    def aircraft_performance(self, env: int, slot: int) -> pf.AircraftPerformance:
+        """The performance data aircraft ``slot`` of airspace ``env`` flies with (a B744's for an unknown type)."""
+        env_a, slot_a = self._index(env, slot)
+        return self._type_perf[int(self.type_index[env_a[0], slot_a[0]])]
 
     def delete(self, env: ArrayLike, slot: ArrayLike) -> None:
         """Delete aircraft (free their slots)."""
@@ -481,12 +554,14 @@ class Simulator:
         dh: ArrayLike | None = None,
         tlosv: ArrayLike | None = None,
         spd: ArrayLike | None = None,
+        actype: str | Sequence[str] | NDArray[np.str_] | None = None,
     ) -> None:
         """Create intruders in conflict with targets (BlueSky ``traf.creconfs``).
 
-        See :func:`bluesky_gym.core.conflicts.create_conflicts` for the arguments.
+        See :func:`bluesky_gym.core.conflicts.create_conflicts` for the arguments; ``actype`` is
+        the intruders' type (one name or one per intruder; None: the default type).
         """
-        create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
+        create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd, actype=actype)
 
     # ------------------------------------------------------------------------------------------
     # Stepping [docs/dynamics.md §2.1-2.2]
@@ -507,8 +582,8 @@ class Simulator:
             any_wind,
             do_perf,
             self.dt,
-            self._perf_args,
-            self._limit_args,
+            self._table,
+            self._type_args(),
             self._memo,
             self._active_flat,
         )
@@ -589,14 +664,18 @@ class Simulator:
             any_wind,
             perf_due,
             self.dt,
-            self._perf_args,
-            self._limit_args,
+            self._table,
+            self._type_args(),
             self._memo,
             self._active_flat,
             self._lnav_args() if self.swlnav.any() else None,
             None if track is None else track.reshape(n_steps, 2, -1),
         )
         return track
+
+    def _type_args(self) -> IntArray:
+        """Each aircraft's row of the performance table as the kernels take it (empty: all row 0)."""
+        return self._type_flat if len(self._type_names) > 1 else self._empty_int
 
     def _wind_args(self) -> tuple[Array, Array, NDArray[np.bool_], bool]:
         """Wind at every aircraft as the kernels take it: (north, east, has wind, any wind)."""

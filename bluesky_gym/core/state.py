@@ -65,8 +65,9 @@ STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
 FLOAT_FIELDS: tuple[str, ...] = tuple(name for name, dtype, _ in STATE_FIELDS if dtype is np.float64)
 #: Row of each float field in the float block.
 FIELD_INDEX: dict[str, int] = {name: i for i, name in enumerate(FLOAT_FIELDS)}
-#: Per-aircraft arrays outside the float block (the non-float fields and the route geometry).
-NON_FLOAT_STATE: tuple[str, ...] = (*(name for name, dtype, _ in STATE_FIELDS if dtype is not np.float64), "route_lat", "route_lon")
+#: Per-aircraft arrays outside the float block (the non-float fields, the route geometry and the
+#: aircraft type: a row of the simulator's performance table, not comparable between simulators).
+NON_FLOAT_STATE: tuple[str, ...] = (*(name for name, dtype, _ in STATE_FIELDS if dtype is not np.float64), "route_lat", "route_lon", "type_index")
 
 # Rows of the float block, as plain integers for the kernels.
 I_LAT = FIELD_INDEX["lat"]

@@ -21,7 +21,7 @@ import numpy as np
 from bluesky_gym.core.atmosphere import GAMMA_R, cas2tas_at, is_mach, isa, tas2cas_at
 from bluesky_gym.core.jit import jit, jit_inline
 from bluesky_gym.core.lnav import lnav_one
-from bluesky_gym.core.performance import PHASE_GD, performance
+from bluesky_gym.core.performance import C_HMAX, C_MMO, C_V_ROTATE, C_VSMAX, PHASE_GD, performance
 from bluesky_gym.core.scalar import DEG, RAD
 from bluesky_gym.core.scalar import maximum as _maximum
 from bluesky_gym.core.scalar import mod as _mod
@@ -82,8 +82,19 @@ MEMO_COLUMNS = 33
 
 
 @jit_inline
+def perf_row(table, t):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+    """Row ``t`` of the performance table as the tuples :func:`step_one` takes: (perf_tuple, (hmax, vsmax, mmo, v_rotate))."""
+    r = table[t]
+    perf = (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11], r[12], r[13], r[14], r[15], r[16], r[17], r[18])
+    return perf, (r[C_HMAX], r[C_VSMAX], r[C_MMO], r[C_V_ROTATE])
+
+
+@jit_inline
 def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
-    """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`)."""
+    """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`).
+
+    ``perf`` and ``limits`` are the aircraft's type's :func:`perf_row` tuples.
+    """
     hmax, vsmax, mmo, v_rotate = limits
     mm = memo[i]
     # Performance update from the start-of-step state [docs/dynamics.md §2.1].
@@ -235,7 +246,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
 
 @jit
-def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, active):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo, active):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance every aircraft by one step, in BlueSky's update order.
 
     Args:
@@ -247,19 +258,24 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         any_wind: Whether any airspace has wind.
         do_perf: Whether the performance model updates this step.
         dt: Time step [s].
-        perf: Performance constants (``perf_tuple``).
-        limits: (hmax, vsmax, mmo, v_rotate).
+        table: Performance table, (types, ``N_COEFFICIENTS``): one ``table_row`` per aircraft type.
+        actype: (aircraft,) row of ``table`` of each aircraft, or an empty array when every
+            aircraft is of the type of row 0 (the one-type fast path: one memory stream less).
         memo: (aircraft, MEMO_COLUMNS) memo table.
         active: (aircraft,) slots holding an aircraft; empty slots are skipped (their values are
             meaningless).
     """
+    one_type = actype.shape[0] == 0
+    perf, limits = perf_row(table, 0)  # every aircraft's, with one type
     for i in range(F.shape[1]):
         if active[i]:
+            if not one_type:
+                perf, limits = perf_row(table, actype[i])
             step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo)
 
 
 @jit
-def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, memo, active, lnav, trace):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, table, actype, memo, active, lnav, trace):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
 
     Valid when aircraft do not interact within these steps, which holds for the physics and
@@ -271,9 +287,13 @@ def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, perf, limits, 
     ``(steps, 2, aircraft)`` array that receives each aircraft's latitude and longitude after
     every step.
     """
+    one_type = actype.shape[0] == 0
+    perf, limits = perf_row(table, 0)  # every aircraft's, with one type
     for i in range(F.shape[1]):
         if not active[i]:
             continue
+        if not one_type:
+            perf, limits = perf_row(table, actype[i])
         for k in range(perf_due.shape[0]):
             if lnav is not None:
                 lnav_one(F, i, lnav[0], lnav[1], lnav[2], lnav[3], lnav[4], lnav[5], lnav[6], lnav[7], lnav[8], lnav[9])

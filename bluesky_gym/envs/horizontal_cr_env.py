@@ -95,6 +95,15 @@ class HorizontalCREnv(BlueSkyEnv):
     waypoint_distance_min=100, waypoint_distance_max=150)`. Integer draws are uniform over
     [min, max). The observation's 150 km distance normalisation does not change with the options.
 
+    **Aircraft types.** `intruder_types` and `ownship_types` (default `("A320",)`, the paper's
+    fleet) set the intruders' and the ownship's types: one name, names drawn with equal probability,
+    e.g. `intruder_types=("A320", "B744", "E190")`, or weights, e.g. `intruder_types={"A320": 0.5,
+    "B744": 0.5}`. Any type BlueSky 1.1.1 flies with its own OpenAP data is accepted
+    (`bluesky_gym.core.aircraft.supported_types()`); another name is refused with the list. Types
+    are drawn from the episode's generator after all other draws of the scenario, so a seed gives
+    the same geometry whatever the mix; a one-type mix draws nothing, so the default episodes are
+    the `-v0` ones.
+
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0). Fixed software defects: seeded generator,
       `terminated` is a bool, `average_drift` is a number at reset, rgb_array frames, correct

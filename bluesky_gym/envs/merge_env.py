@@ -92,6 +92,15 @@ class MergeEnv(BlueSkyEnv):
     the creation CAS [m/s] (the paper's training logs were recorded with 150, which BlueSky
     limits to M0.80), `altitude` in metres.
 
+    **Aircraft types.** `intruder_types` and `ownship_types` (default `("A320",)`, the paper's
+    fleet) set the intruders' and the ownship's types: one name, names drawn with equal probability,
+    e.g. `intruder_types=("A320", "B744", "E190")`, or weights, e.g. `intruder_types={"A320": 0.5,
+    "B744": 0.5}`. Any type BlueSky 1.1.1 flies with its own OpenAP data is accepted
+    (`bluesky_gym.core.aircraft.supported_types()`); another name is refused with the list. Types
+    are drawn from the episode's generator after the spawn points, so a seed gives the same geometry
+    whatever the mix (the speed and altitude normalisation stays the A320's); a one-type mix draws
+    nothing, so the default episodes are the `-v0` ones.
+
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0). Fixed software defects: the scenario draws come from
       the episode generator (the reference uses Python's global `random`), `average_drift` is 0.0

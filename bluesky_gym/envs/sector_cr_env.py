@@ -93,6 +93,15 @@ class SectorCREnv(BlueSkyEnv):
     poly_area_range=(2400, 3750))`. Densities are in aircraft/NM²; `poly_area_range` is the minimum
     polygon area and the area of the circle the vertices lie on [NM²] (minimum ≤ 0.9 × maximum).
 
+    **Aircraft types.** `intruder_types` and `ownship_types` (default `("A320",)`, the paper's
+    fleet) set the other traffic's and the agent's types: one name, names drawn with equal
+    probability, e.g. `intruder_types=("A320", "B744", "E190")`, or weights, e.g.
+    `intruder_types={"A320": 0.5, "B744": 0.5}`. Any type BlueSky 1.1.1 flies with its own OpenAP
+    data is accepted (`bluesky_gym.core.aircraft.supported_types()`); another name is refused with
+    the list. Types are drawn from the episode's generator after the start points, so a seed gives
+    the same geometry whatever the mix; a one-type mix draws nothing, so the default episodes are
+    the `-v0` ones.
+
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0, after its 2025-01 fixes of the drift computation,
       the intruder altitude and the CAS-based speed action). Fixed software defects: seeded

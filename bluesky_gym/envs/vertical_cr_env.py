@@ -99,6 +99,14 @@ class VerticalCREnv(BlueSkyEnv):
     late_dh_floor=500, late_dh_above_target=100, early_dh_band=500)`. Integer draws are uniform
     over [min, max). The observation's normalisation constants do not change with the options.
 
+    **Aircraft types.** `intruder_types` and `ownship_types` (default `("A320",)`, the paper's
+    fleet) set the intruders' and the ownship's types: one name, names drawn with equal probability,
+    e.g. `intruder_types=("A320", "B744", "E190")`, or weights, e.g. `intruder_types={"A320": 0.5,
+    "B744": 0.5}`. Any type BlueSky 1.1.1 flies with its own OpenAP data is accepted
+    (`bluesky_gym.core.aircraft.supported_types()`); another name is refused with the list. Types
+    are drawn from the episode's generator (the ownship's after the altitudes, the intruders' after
+    their conflict draws); a one-type mix draws nothing, so the default episodes are the `-v0` ones.
+
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0, where `NUM_INTRUDERS` is defined twice and the
       second value, 5, applies). Fixed software defects: seeded generator, `terminated` is a

@@ -12,7 +12,7 @@ Interfaces:
 
 * PettingZoo ``ParallelEnv``: :func:`parallel_env` / :class:`SectorCRParallelEnv`,
   :class:`MergeParallelEnv`, :class:`HorizontalCRParallelEnv` (needs the ``multiagent`` extra:
-  ``pip install "bluesky-gym[multiagent]"``);
+  ``pip install -e ".[multiagent]"``);
 * the centralised alternative, one Gymnasium agent steering all aircraft:
   ``SectorCRCentralised-v0``, ``MergeCentralised-v0``, ``HorizontalCRCentralised-v0``
   (registered by :func:`register_envs`);
@@ -30,10 +30,9 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
+from bluesky_gym.core.extras import missing_extra
 from bluesky_gym.envs.registry import multiagent_entries, multiagent_entry
 from bluesky_gym.multiagent.registration import centralised_ids, register_envs
-
-MULTIAGENT_EXTRA_HINT = 'pip install "bluesky-gym[multiagent]"'
 
 _PARALLEL_NAMES = (
     "parallel_env",
@@ -50,7 +49,6 @@ _TASK_NAMES = {
 }
 
 __all__ = [
-    "MULTIAGENT_EXTRA_HINT",
     "centralised_ids",
     "names",
     "register_envs",
@@ -71,7 +69,7 @@ def require_pettingzoo() -> ModuleType:
     try:
         import pettingzoo
     except ImportError as exc:
-        raise ImportError(f"the multi-agent PettingZoo environments need PettingZoo: {MULTIAGENT_EXTRA_HINT}") from exc
+        raise missing_extra("the multi-agent PettingZoo environments need PettingZoo", "multiagent") from exc
     return pettingzoo
 
 

@@ -20,7 +20,7 @@ shell only converts between the task's arrays and PettingZoo's per-agent dicts.
   that ends the episode, the agents of that step also get the episode's KPIs ``kpi_*`` (KPIs
   without a value, e.g. the time to complete when no agent completed, are left out).
 
-PettingZoo is an optional dependency: ``pip install "bluesky-gym[multiagent]"``.
+PettingZoo is an optional dependency: ``pip install -e ".[multiagent]"``.
 """
 
 from __future__ import annotations

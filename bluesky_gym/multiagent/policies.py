@@ -13,6 +13,11 @@ A policy maps the task and its observation (key -> (n_envs, n_agents, *shape)) t
   on its right at the CPA, right otherwise. Without a conflict it steers to its goal (the heading
   action that cancels its drift, at most a full step). It keeps its speed. The rule reads the
   simulator state directly, not the observation.
+* :class:`MVPPolicy`: BlueSky's Modified Voltage Potential conflict resolution
+  (:class:`~bluesky_gym.core.resolution.MVPResolver`) for every agent, with RMETHH ``BOTH``
+  (heading and speed actions) or ``HDG`` (heading only) and the task's intrusion distance as
+  protected zone; an agent without an active resolution steers to its goal like the classical
+  rule (docs/baselines.md).
 * :class:`SharedSB3Policy`: one Stable-Baselines3 model applied to every agent (parameter sharing).
 """
 
@@ -24,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.core.conflicts import PZ_HEIGHT, detect
+from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
 from bluesky_gym.core.units import NM
 from bluesky_gym.multiagent.base import Array, MultiAgentTask
 from bluesky_gym.tasks import horizontal_cr, merge, sector_cr
@@ -36,6 +42,13 @@ D_HEADING: dict[str, float] = {
     "sector_cr_v0": sector_cr.D_HEADING,
     "merge_v0": merge.D_HEADING,
     "horizontal_cr_v0": horizontal_cr.D_HEADING,
+}
+
+
+#: CAS change [m/s] of a full speed action, per multi-agent environment with a speed action.
+D_SPEED: dict[str, float] = {
+    "sector_cr_v0": sector_cr.D_VELOCITY,
+    "merge_v0": merge.D_SPEED,
 }
 
 
@@ -119,6 +132,46 @@ class GeometricCRPolicy(MultiAgentPolicy):
         heading = np.where(has_conflict, turn, steer)
         out = np.zeros((task.n_envs, task.n_agents, *task.action_spec.shape))
         out[..., 0] = heading
+        return out
+
+
+class MVPPolicy(MultiAgentPolicy):
+    """MVP conflict resolution (BlueSky ``RESO MVP``) for every agent, else steer to the goal.
+
+    Every aircraft follows MVP's resolution while BlueSky's ASAS would (from its first conflict
+    until its pairs are past their closest point of approach): the heading action turns by the
+    resolution's track change and, where the task has a speed action, the speed action changes
+    CAS by what gives the resolution ground speed (RMETHH ``BOTH``; ``HDG`` without a speed
+    action), each divided by the task's full step and clipped. Other agents steer to their goal.
+    """
+
+    name = "mvp"
+
+    def __init__(self) -> None:
+        self.resolver: MVPResolver | None = None
+        self.task_name: str | None = None
+
+    def reset(self) -> None:
+        """Forget every resolution (a new batch of episodes starts)."""
+        if self.resolver is not None:
+            self.resolver.reset()
+
+    def act(self, task: MultiAgentTask, obs: dict[str, Array]) -> Array:
+        """Return MVP's heading (and speed) actions for every agent slot."""
+        if task.name not in D_HEADING:
+            raise ValueError(f"no MVP mapping for {task.name}; available: {', '.join(D_HEADING)}")
+        speed_step = D_SPEED.get(task.name)
+        if self.resolver is None or self.task_name != task.name:
+            settings = ResolutionSettings.from_methods("BOTH" if speed_step is not None else "HDG")
+            self.resolver = MVPResolver(settings, rpz=task.intrusion_distance * NM, hpz=PZ_HEIGHT)
+            self.task_name = task.name
+        cmd = self.resolver.update(task.sim)
+        step = D_HEADING[task.name]
+        steer = np.clip(-task.agent_drift() / step, -1.0, 1.0)
+        out = np.zeros((task.n_envs, task.n_agents, *task.action_spec.shape))
+        out[..., 0] = np.where(cmd.follow, np.clip(np.nan_to_num(cmd.track_change) / step, -1.0, 1.0), steer)
+        if speed_step is not None:
+            out[..., 1] = np.where(cmd.follow, np.clip(np.nan_to_num(cmd.cas_change) / speed_step, -1.0, 1.0), 0.0)
         return out
 
 

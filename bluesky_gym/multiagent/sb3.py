@@ -33,7 +33,7 @@ Row semantics:
   :meth:`~bluesky_gym.multiagent.base.MultiAgentTask.kpis`, plus the team return) are appended
   to :attr:`SharedPolicyVecEnv.episode_kpis`.
 
-Stable-Baselines3 is optional: ``pip install "bluesky-gym[train]"``.
+Stable-Baselines3 is optional: ``pip install -e ".[train]"``.
 """
 
 from __future__ import annotations

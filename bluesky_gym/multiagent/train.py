@@ -1,8 +1,9 @@
 """Train a policy shared by all agents with PPO and compare its KPIs with random and classical policies.
 
-Usage::
+Usage (the command line is ``bluesky-gym train-ma``; this module's own ``main`` is kept for
+existing scripts and prints a deprecation warning)::
 
-    python -m bluesky_gym.multiagent.train --env sector_cr_v0 --timesteps 1000000 --seed 0
+    bluesky-gym train-ma --env sector_cr_v0 --steps 1e6 --seed 0
 
 The policy is trained on :class:`~bluesky_gym.multiagent.sb3.SharedPolicyVecEnv`: every agent
 slot of ``--episodes`` parallel multi-agent episodes is one row, ``--timesteps`` counts row-steps
@@ -11,13 +12,14 @@ live rows (:class:`~bluesky_gym.multiagent.sb3.LiveRowsVecNormalize`) and PPO's 
 drawn from live transitions only (:class:`~bluesky_gym.multiagent.sb3.LiveRowsRolloutBuffer`).
 
 The trained policy is then evaluated deterministically on ``--eval-episodes`` held-out scenarios
-(evaluation seeds, never used in training), together with the random policy and the classical
-geometric rule (:class:`~bluesky_gym.multiagent.policies.GeometricCRPolicy`), on the same
-scenarios, and a KPI table is printed: losses of separation per episode and per agent, LoS
-pair-steps, minimum separation, mean |drift|, fraction of agents that completed (exit / arrival)
-and return per agent (mean +- 95% half-width over the episodes).
+(evaluation seeds, never used in training), together with the random policy, the classical
+geometric rule (:class:`~bluesky_gym.multiagent.policies.GeometricCRPolicy`) and MVP conflict
+resolution (:class:`~bluesky_gym.multiagent.policies.MVPPolicy`), on the same scenarios, and a
+KPI table is printed: losses of separation per episode and per agent, LoS pair-steps, minimum
+separation, mean |drift|, fraction of agents that completed (exit / arrival) and return per agent
+(mean +- 95% half-width over the episodes).
 
-Needs Stable-Baselines3 and PyTorch: ``pip install "bluesky-gym[train]"``.
+Needs Stable-Baselines3 and PyTorch: ``pip install -e ".[train]"``.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from typing import Any
 
 from bluesky_gym.multiagent import names
 from bluesky_gym.multiagent.evaluation import evaluate, kpi_table
-from bluesky_gym.multiagent.policies import GeometricCRPolicy, RandomPolicy, SharedSB3Policy
+from bluesky_gym.multiagent.policies import GeometricCRPolicy, MVPPolicy, RandomPolicy, SharedSB3Policy
 
 DEFAULTS: dict[str, Any] = {
     "timesteps": 1_000_000,
@@ -127,16 +129,59 @@ def train(
     return model, venv
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Train, evaluate and print the KPI table; returns the exit code."""
-    args = build_parser().parse_args(argv)
+def train_and_compare(
+    env: str,
+    timesteps: int,
+    *,
+    eval_episodes: int = DEFAULTS["eval_episodes"],
+    threads: int = 1,
+    save: str | None = None,
+    **hyperparams: Any,
+) -> None:
+    """Train a shared policy (:func:`train`), evaluate it with the references and print the KPI table.
+
+    Args:
+        env: Multi-agent environment name.
+        timesteps: PPO row-steps.
+        eval_episodes: Held-out evaluation episodes.
+        threads: PyTorch threads.
+        save: Save the model to ``save.zip`` and the observation statistics to ``save.pkl``.
+        **hyperparams: Keyword arguments of :func:`train` (``episodes``, ``n_steps``, ``seed``, ...).
+
+    """
     import torch
 
-    torch.set_num_threads(args.threads)
+    torch.set_num_threads(threads)
     t0 = time.time()
-    model, normalizer = train(
+    model, normalizer = train(env, timesteps, **hyperparams)
+    rows = normalizer.venv
+    print(f"trained {env}: {timesteps} row-steps ({rows.num_envs} rows), {rows.episodes_done} training episodes, {time.time() - t0:.0f} s")
+    if save:
+        model.save(f"{save}.zip")
+        normalizer.save(f"{save}.pkl")
+        print(f"saved {save}.zip and {save}.pkl")
+    t1 = time.time()
+    policies = (
+        RandomPolicy(seed=hyperparams.get("seed", 0)),
+        GeometricCRPolicy(),
+        MVPPolicy(),
+        SharedSB3Policy(model, normalizer=normalizer, name="shared PPO"),
+    )
+    results = {p.name: evaluate(env, p, eval_episodes) for p in policies}
+    print(f"evaluation on {eval_episodes} held-out episodes ({time.time() - t1:.0f} s):")
+    print(kpi_table(results))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Train, evaluate and print the KPI table; returns the exit code (deprecated: use ``bluesky-gym train-ma``)."""
+    args = build_parser().parse_args(argv)
+    print("python -m bluesky_gym.multiagent.train: warning: deprecated; use `bluesky-gym train-ma` (--steps, --num-envs)", file=sys.stderr)
+    train_and_compare(
         args.env,
         args.timesteps,
+        eval_episodes=args.eval_episodes,
+        threads=args.threads,
+        save=args.save,
         episodes=args.episodes,
         n_steps=args.n_steps,
         batch_size=args.batch_size,
@@ -146,17 +191,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         log_std_init=args.log_std_init,
         seed=args.seed,
     )
-    rows = normalizer.venv
-    print(f"trained {args.env}: {args.timesteps} row-steps ({rows.num_envs} rows), {rows.episodes_done} training episodes, {time.time() - t0:.0f} s")
-    if args.save:
-        model.save(f"{args.save}.zip")
-        normalizer.save(f"{args.save}.pkl")
-        print(f"saved {args.save}.zip and {args.save}.pkl")
-    t1 = time.time()
-    policies = (RandomPolicy(seed=args.seed), GeometricCRPolicy(), SharedSB3Policy(model, normalizer=normalizer, name="shared PPO"))
-    results = {p.name: evaluate(args.env, p, args.eval_episodes) for p in policies}
-    print(f"evaluation on {args.eval_episodes} held-out episodes ({time.time() - t1:.0f} s):")
-    print(kpi_table(results))
     return 0
 
 

@@ -6,7 +6,7 @@ Aircraft point along their heading and leave short trails; protected zones turn 
 of separation; a text panel shows time, step, reward, intrusions and key numbers.
 
 pygame (and, for videos, imageio/pillow) come with the ``render`` extra:
-``pip install bluesky-gym[render]``. Nothing here imports pygame until a renderer is created.
+``pip install -e ".[render]"``. Nothing here imports pygame until a renderer is created.
 
 Example::
 
@@ -19,14 +19,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from bluesky_gym.render.backend import INSTALL_HINT, import_pygame
+from bluesky_gym.render.backend import import_pygame
 from bluesky_gym.render.video import VideoWriter, write_video
 
 if TYPE_CHECKING:
     from bluesky_gym.render.renderer import Renderer
     from bluesky_gym.render.scenes import SceneBuilder
 
-__all__ = ["INSTALL_HINT", "VideoWriter", "import_pygame", "make_renderer", "write_video"]
+__all__ = ["VideoWriter", "import_pygame", "make_renderer", "write_video"]
 
 
 def make_renderer(task: Any, render_mode: str, fps: float = 30.0, scene: SceneBuilder | None = None) -> Renderer:

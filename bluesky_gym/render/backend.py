@@ -12,7 +12,7 @@ import os
 from types import ModuleType
 from typing import Any
 
-INSTALL_HINT = "pip install bluesky-gym[render]"
+from bluesky_gym.core.extras import missing_extra
 
 
 def import_pygame() -> ModuleType:
@@ -28,7 +28,7 @@ def import_pygame() -> ModuleType:
     try:
         import pygame
     except ImportError as exc:
-        raise ImportError(f"rendering needs pygame, which is not installed; install it with `{INSTALL_HINT}`") from exc
+        raise missing_extra("rendering needs pygame", "render") from exc
     if not pygame.font.get_init():
         pygame.font.init()
     return pygame

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from bluesky_gym.render.backend import INSTALL_HINT
+from bluesky_gym.core.extras import missing_extra
 
 FORMATS = (".gif", ".mp4")
 
@@ -89,12 +89,9 @@ class VideoWriter:
         self._size: tuple[int, int] | None = None
         if self.suffix == ".gif":
             if importlib.util.find_spec("PIL") is None:
-                raise ImportError(f"writing GIF files needs pillow; install it with `{INSTALL_HINT}`")
+                raise missing_extra("writing GIF files needs pillow", "render")
         elif importlib.util.find_spec("imageio") is None or importlib.util.find_spec("imageio_ffmpeg") is None:
-            raise ImportError(
-                "writing MP4 files needs imageio and imageio-ffmpeg (an ffmpeg binary); install them with "
-                f"`pip install imageio imageio-ffmpeg` or `{INSTALL_HINT}`, or write a .gif instead"
-            )
+            raise missing_extra("writing MP4 files needs imageio and imageio-ffmpeg (an ffmpeg binary; or write a .gif instead)", "render")
         self.path.parent.mkdir(parents=True, exist_ok=True)
 
     def append(self, frame: Any) -> None:

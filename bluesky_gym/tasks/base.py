@@ -55,6 +55,7 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.core.aircraft import DEFAULT_TYPE, check_types
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import KTS, MPS2KT
 from bluesky_gym.tasks import compiled
@@ -86,6 +87,13 @@ class TaskConfig:
     """
 
     float32_spaces: bool = False
+
+    def __post_init__(self) -> None:
+        # Aircraft-type mixes are stored hashable: a name -> (name,), a list -> tuple, a mapping
+        # -> tuple of (name, weight) pairs (the order given is kept: it fixes the draws).
+        for f in dataclasses.fields(self):
+            if f.name in TYPE_MIX_OPTIONS:
+                object.__setattr__(self, f.name, freeze_type_mix(getattr(self, f.name)))
 
     def replace(self, **changes: Any) -> TaskConfig:
         """A copy with ``changes`` applied, validated."""
@@ -138,6 +146,79 @@ def check_range(name: str, value: Any, low: float, high: float | None = None, *,
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     if (value <= low if strict_low else value < low) or (high is not None and value > high):
         raise ValueError(f"{name} must be {'>' if strict_low else '>='} {low}{f' and <= {high}' if high is not None else ''}, got {value}")
+
+
+#: An aircraft-type mix option: type names drawn with equal probability, or {type name: weight}.
+TypeMix = tuple[str, ...] | Mapping[str, float]
+#: The mix of the paper's environments: A320 only (no random draw is made for a one-type mix).
+DEFAULT_TYPES: tuple[str, ...] = (DEFAULT_TYPE,)
+
+
+#: The options that hold an aircraft-type mix.
+TYPE_MIX_OPTIONS = ("intruder_types", "ownship_types")
+
+
+def freeze_type_mix(value: Any) -> Any:
+    """A type-mix option in its stored, hashable form (other values unchanged, for validation to report)."""
+    if isinstance(value, str):
+        return (value,)
+    if isinstance(value, Mapping):
+        return tuple(value.items())
+    if isinstance(value, list):
+        return tuple(value)
+    return value
+
+
+def check_type_mix(name: str, value: Any) -> tuple[tuple[str, ...], Array]:
+    """Validate an aircraft-type mix option and give its types (upper case) and their probabilities.
+
+    Args:
+        name: The option's name (for the message).
+        value: A type name, a sequence of names (equally likely) or a mapping name -> weight
+            (weights >= 0 with a positive sum), also as a sequence of (name, weight) pairs. Only
+            types BlueSky flies with their own data (:func:`bluesky_gym.core.aircraft.supported_types`)
+            are accepted.
+
+    Raises:
+        ValueError: Naming the option and the bad value (an unknown type lists the supported ones).
+    """
+    value = freeze_type_mix(value)
+    pairs = isinstance(value, tuple) and bool(value) and all(isinstance(v, tuple) and len(v) == 2 for v in value)
+    if pairs:
+        names, weights = [v[0] for v in value], [v[1] for v in value]
+        for w in weights:
+            check_range(f"{name} weight", w, 0.0)
+    elif isinstance(value, tuple):
+        names, weights = list(value), [1.0] * len(value)
+    else:
+        raise ValueError(f"{name} must be a type name, a sequence of type names or a mapping type -> weight, got {value!r}")
+    if not names:
+        raise ValueError(f"{name} must name at least one aircraft type, got {value!r}")
+    plain = all(isinstance(t, str) for t in names)
+    upper = (
+        tuple(t.upper() for t in names)
+        if plain and [t.upper() for t in names] == [DEFAULT_TYPE]
+        else check_types(names, what=f"{name}: aircraft type")
+    )
+    if len(set(upper)) != len(upper):
+        raise ValueError(f"{name} names a type twice: {value!r}")
+    total = float(sum(weights))
+    if not total > 0:
+        raise ValueError(f"{name} weights must have a positive sum, got {value!r}")
+    return upper, np.asarray(weights, dtype=np.float64) / total
+
+
+def draw_types(rng: np.random.Generator, mix: tuple[tuple[str, ...], Array], n: int) -> list[str]:
+    """``n`` aircraft types drawn from a checked mix with the episode's generator (no draw for one type)."""
+    names, p = mix
+    if len(names) == 1:
+        return [names[0]] * n
+    return [names[i] for i in rng.choice(len(names), size=n, p=p)]
+
+
+def typed(types: list[str]) -> dict[str, list[str]]:
+    """``{"actype": types}`` for ``Physics.create``/``creconfs``, or nothing when every type is the default (the A320 path)."""
+    return {} if all(t == DEFAULT_TYPE for t in types) else {"actype": types}
 
 
 def check_pair(name: str, value: Any) -> tuple[float, float]:

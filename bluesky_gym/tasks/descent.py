@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.units import NM2KM, VS_SELECT_EPS
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import DEFAULT_TYPES, Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range, typed
 from bluesky_gym.tasks.geometry import ref_kwikdist
 
 ALT_MEAN = 1500.0  # m
@@ -119,8 +119,12 @@ class DescentTask(Task):
             alt_init[k] = rng.integers(c.alt_min, c.alt_max)
             self.target_alt[e] = alt_init[k] + rng.integers(-c.target_alt_dif, c.target_alt_dif)
         self.final_altitude[envs] = 0.0
-        self.sim.create(envs, 0, RWY_LAT, RWY_LON, 0.0, alt_init, AC_SPD)
+        self.sim.create(envs, 0, RWY_LAT, RWY_LON, 0.0, alt_init, AC_SPD, **typed(self.ownship_types(envs)))
         self.sim.set_autopilot(envs, 0, swvnav=False)
+
+    def ownship_types(self, envs: NDArray[np.int64]) -> list[str]:
+        """The ownship's aircraft type in each reset episode (the A320 here; tasks with a type option draw it)."""
+        return [DEFAULT_TYPES[0]] * envs.size
 
     # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:

@@ -11,7 +11,22 @@ from numpy.typing import NDArray
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FL, NM2KM
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, kwik_separation, wrap180
+from bluesky_gym.tasks.base import (
+    DEFAULT_TYPES,
+    Array,
+    BoolArray,
+    BoxSpec,
+    StepGeometry,
+    Task,
+    TaskConfig,
+    TypeMix,
+    check_int,
+    check_type_mix,
+    draw_types,
+    kwik_separation,
+    typed,
+    wrap180,
+)
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist, ref_kwikqdrdist
 
 DISTANCE_MARGIN = 5.0  # km: waypoint capture radius
@@ -53,6 +68,10 @@ class HorizontalCRConfig(TaskConfig):
             distance normalisation stays 150 km whatever this value.
         airborne_start: ``-v1``: every aircraft starts at FL100, where it flies the CAS 150 m/s
             of the scenario; ``-v0``: at altitude 0, in BlueSky's ground phase, capped at 89 m/s.
+        intruder_types: Aircraft types of the intruders: a type name, names drawn with equal
+            probability (e.g. ``("A320", "B744")``) or ``{name: weight}``. Default A320 only (the
+            paper's fleet, no random draw). Types are BlueSky's OpenAP types (``bluesky_gym.core.aircraft.supported_types()``).
+        ownship_types: Aircraft type(s) of the ownship, in the same form (default A320).
 
     """
 
@@ -66,6 +85,8 @@ class HorizontalCRConfig(TaskConfig):
     waypoint_distance_min: int = 100
     waypoint_distance_max: int = 150
     airborne_start: bool = False
+    intruder_types: TypeMix = DEFAULT_TYPES
+    ownship_types: TypeMix = DEFAULT_TYPES
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid option."""
@@ -79,6 +100,8 @@ class HorizontalCRConfig(TaskConfig):
         # The waypoint must start outside its capture radius, or the episode would end at once.
         check_int("waypoint_distance_min", self.waypoint_distance_min, int(DISTANCE_MARGIN) + 1, 5000)
         check_int("waypoint_distance_max", self.waypoint_distance_max, self.waypoint_distance_min + 1, 5000)
+        check_type_mix("intruder_types", self.intruder_types)
+        check_type_mix("ownship_types", self.ownship_types)
 
 
 # --- the step's geometry, observation and reward, for a set of ownship slots ----------------------
@@ -235,7 +258,9 @@ class HorizontalCRTask(Task):
         """Create the scenarios of the episodes ``envs``, drawing from their generators only."""
         c = self.config
         n = c.num_intruders
-        self.sim.create(envs, 0, START_LAT, START_LON, START_HDG, AIRBORNE_ALT if c.airborne_start else START_ALT, AC_SPD)
+        imix, omix = check_type_mix("intruder_types", c.intruder_types), check_type_mix("ownship_types", c.ownship_types)
+        own_types: list[str] = []
+        intruder_types: list[str] = []
         dpsi = np.empty((envs.size, n))
         dcpa = np.empty((envs.size, n))
         tlosh = np.empty((envs.size, n))
@@ -247,10 +272,16 @@ class HorizontalCRTask(Task):
                 dcpa[k, i] = rng.integers(c.dcpa_min, c.dcpa_max)
                 tlosh[k, i] = rng.integers(c.tlosh_min, c.tlosh_max)
             wpt_dist[k] = rng.integers(c.waypoint_distance_min, c.waypoint_distance_max)
+            # Aircraft types last (no draw for a one-type mix): the rest of the scenario does not depend on them.
+            own_types += draw_types(rng, omix, 1)
+            intruder_types += draw_types(rng, imix, n)
+        self.sim.create(envs, 0, START_LAT, START_LON, START_HDG, AIRBORNE_ALT if c.airborne_start else START_ALT, AC_SPD, **typed(own_types))
         self.conflict_dpsi[envs], self.conflict_dcpa[envs], self.conflict_tlosh[envs] = dpsi, dcpa, tlosh
         self.wpt_distance_drawn[envs] = wpt_dist
         # No dH: intruders at the ownship's altitude (0, ground phase) with its ground speed.
-        self.sim.creconfs(np.repeat(envs, n), 0, np.tile(np.arange(1, n + 1), envs.size), dpsi.ravel(), dcpa.ravel(), tlosh.ravel())
+        self.sim.creconfs(
+            np.repeat(envs, n), 0, np.tile(np.arange(1, n + 1), envs.size), dpsi.ravel(), dcpa.ravel(), tlosh.ravel(), **typed(intruder_types)
+        )
         lat, lon = point_at_distance(self.sim.lat[envs, 0], self.sim.lon[envs, 0], wpt_dist, WAYPOINT_BEARING)
         self.wpt_lat[envs] = lat
         self.wpt_lon[envs] = lon

@@ -12,17 +12,22 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import NM2KM
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
+    DEFAULT_TYPES,
     Array,
     BoolArray,
     BoxSpec,
     StepGeometry,
     Task,
     TaskConfig,
+    TypeMix,
     check_int,
     check_pair,
     check_range,
+    check_type_mix,
     command_heading_and_speed,
+    draw_types,
     kwik_separation,
+    typed,
 )
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist
 
@@ -97,6 +102,12 @@ class MergeConfig(TaskConfig):
             reference's comment states; ``-v0``: 10 and 20 NM (the "km" compared with NM).
         normalise_airspeed: ``-v1``: ``airspeed`` is (TAS - 150) / 150; ``-v0``: raw TAS [m/s]
             (about 168).
+        intruder_types: Aircraft types of the intruders: a type name, names drawn with equal
+            probability (e.g. ``("A320", "B744")``) or ``{name: weight}``. Default A320 only (the
+            paper's fleet, no random draw). Types are BlueSky's OpenAP types (``bluesky_gym.core.aircraft.supported_types()``).
+        ownship_types: Aircraft type(s) of the ownship, in the same form (default A320). Types
+            are drawn after the spawn points. The observation's speed and altitude normalisation
+            stays the A320's.
 
     """
 
@@ -110,8 +121,11 @@ class MergeConfig(TaskConfig):
     faf_distance_in_nm: bool = False
     margins_in_km: bool = False
     normalise_airspeed: bool = False
+    intruder_types: TypeMix = DEFAULT_TYPES
+    ownship_types: TypeMix = DEFAULT_TYPES
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         # Lists given through gym.make keyword arguments are stored as tuples (hashable config).
         for name in ("spawn_distance_km", "intruder_distance_km"):
             value = getattr(self, name)
@@ -128,6 +142,8 @@ class MergeConfig(TaskConfig):
         check_range("spawn_bearing_deg", self.spawn_bearing_deg, 0.0, 180.0)
         check_range("ac_speed", self.ac_speed, *CAS_RANGE)
         check_range("altitude", self.altitude, 0.0, ALT_MAX, strict_low=True)
+        check_type_mix("intruder_types", self.intruder_types)
+        check_type_mix("ownship_types", self.ownship_types)
 
 
 # --- the step's geometry, observation and reward, for a set of ownship slots ----------------------
@@ -326,22 +342,27 @@ class MergeTask(Task):
         b = c.spawn_bearing_deg
         own = np.empty((envs.size, 2))  # (bearing from the FAF, distance km)
         intr = np.empty((envs.size, n_int, 2))
+        omix, imix = check_type_mix("ownship_types", c.ownship_types), check_type_mix("intruder_types", c.intruder_types)
+        own_types: list[str] = []
+        intruder_types: list[str] = []
         for k, e in enumerate(envs):
             rng = self.rngs[e]
             # The reference's Python ``random.uniform`` draws, from the episode generator, in its
             # order: ownship bearing, distance, then bearing and distance of each intruder.
             own[k] = rng.uniform((-b, c.spawn_distance_km[0]), (b, c.spawn_distance_km[1]))
             intr[k] = rng.uniform((-b, c.intruder_distance_km[0]), (b, c.intruder_distance_km[1]), size=(n_int, 2))
+            own_types += draw_types(rng, omix, 1)  # types last (no draw for a one-type mix)
+            intruder_types += draw_types(rng, imix, n_int)
         faf_lat, faf_lon = self.airspace.faf_lat, self.airspace.faf_lon
         lat, lon = point_at_distance(faf_lat, faf_lon, own[:, 1], own[:, 0])
         # Heading b - 180 points back at the FAF; it is stored unwrapped (e.g. -170), as BlueSky does.
-        self.sim.create(envs, 0, lat, lon, own[:, 0] - 180, c.altitude, c.ac_speed)
+        self.sim.create(envs, 0, lat, lon, own[:, 0] - 180, c.altitude, c.ac_speed, **typed(own_types))
         self.start_lat[envs] = lat
         self.start_lon[envs] = lon
         env = np.repeat(envs, n_int)
         slot = np.tile(np.arange(1, n_int + 1), envs.size)
         ilat, ilon = point_at_distance(faf_lat, faf_lon, intr[..., 1].ravel(), intr[..., 0].ravel())
-        self.sim.create(env, slot, ilat, ilon, intr[..., 0].ravel() - 180, c.altitude, c.ac_speed)
+        self.sim.create(env, slot, ilat, ilon, intr[..., 0].ravel() - 180, c.altitude, c.ac_speed, **typed(intruder_types))
         # "INTi addwpt FAF" then "INTi dest RWY": LNAV direct to the FAF, then the runway; VNAV stays off.
         self.sim.add_waypoint(env, slot, faf_lat, faf_lon)
         self.sim.set_destination(env, slot, RWY_LAT, RWY_LON)

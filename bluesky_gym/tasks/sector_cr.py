@@ -14,16 +14,21 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FL, KTS
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
+    DEFAULT_TYPES,
     Array,
     BoolArray,
     BoxSpec,
     StepGeometry,
     Task,
     TaskConfig,
+    TypeMix,
     check_pair,
     check_range,
+    check_type_mix,
     command_heading_and_speed,
+    draw_types,
     kwik_separation,
+    typed,
 )
 from bluesky_gym.tasks.geometry import initial_bearing, nm_to_latlon, polygon_area, random_convex_polygon, ref_kwikdist
 
@@ -95,6 +100,11 @@ class SectorCRConfig(TaskConfig):
             own waypoint it is the exit (no penalty), elsewhere it costs 1 per decision step left
             (bluesky-gym #44: leaving early no longer escapes the penalties); ``-v0``: leaving
             truncates the episode without a penalty.
+        intruder_types: Aircraft types of the other traffic: a type name, names drawn with equal
+            probability (e.g. ``("A320", "B744")``) or ``{name: weight}``. Default A320 only (the
+            paper's fleet, no random draw). Types are BlueSky's OpenAP types (``bluesky_gym.core.aircraft.supported_types()``).
+        ownship_types: Aircraft type(s) of the agent's aircraft (slot 0), in the same form (default
+            A320). Types are drawn after the start points.
 
     """
 
@@ -106,8 +116,11 @@ class SectorCRConfig(TaskConfig):
     flight_level_altitude: bool = False
     speed_step_in_knots: bool = False
     exit_ends_episode: bool = False
+    intruder_types: TypeMix = DEFAULT_TYPES
+    ownship_types: TypeMix = DEFAULT_TYPES
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         # Lists given through gym.make keyword arguments are stored as tuples (hashable config).
         for name in ("ac_density_range", "poly_area_range"):
             value = getattr(self, name)
@@ -123,6 +136,8 @@ class SectorCRConfig(TaskConfig):
             raise ValueError(f"ac_density_range must satisfy 0 < low <= high, got {self.ac_density_range}")
         check_range("ac_density_mu", self.ac_density_mu, 0.0, strict_low=True)
         check_range("ac_density_sigma", self.ac_density_sigma, 0.0)
+        check_type_mix("intruder_types", self.intruder_types)
+        check_type_mix("ownship_types", self.ownship_types)
         area_min, area_max = check_pair("poly_area_range", self.poly_area_range)
         if not 0 < area_min < area_max:
             raise ValueError(f"poly_area_range must satisfy 0 < min < max, got {self.poly_area_range}")
@@ -370,7 +385,11 @@ class SectorCRTask(Task):
         hdg0 = initial_bearing(lat0, lon0, self.wpt_lat[cre_env, cre_slot], self.wpt_lon[cre_env, cre_slot])
         # Everyone flies straight at its waypoint's initial bearing, CAS 150 m/s, at 350 m (the
         # reference's ALTITUDE 350 "FL" used as metres). No routes: they never turn.
-        self.sim.create(cre_env, cre_slot, lat0, lon0, hdg0, FLIGHT_LEVEL_ALTITUDE if c.flight_level_altitude else ALTITUDE, AC_SPD)
+        # 5. Aircraft types (no draw for a one-type mix): the agent's, then the others', per episode.
+        omix, imix = check_type_mix("ownship_types", c.ownship_types), check_type_mix("intruder_types", c.intruder_types)
+        types = [t for e in envs for t in draw_types(self.rngs[e], omix, 1) + draw_types(self.rngs[e], imix, int(self.num_ac[e]) - 1)]
+        alt = FLIGHT_LEVEL_ALTITUDE if c.flight_level_altitude else ALTITUDE
+        self.sim.create(cre_env, cre_slot, lat0, lon0, hdg0, alt, AC_SPD, **typed(types))
         self.total_intrusions[envs] = 0
         self.drift_rad_sum[envs] = 0.0
         self.drift_rad_n[envs] = 0

@@ -11,7 +11,21 @@ from numpy.typing import NDArray
 from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core.units import FT
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, TaskConfig, check_int, check_range, kwik_separation
+from bluesky_gym.tasks.base import (
+    DEFAULT_TYPES,
+    Array,
+    BoolArray,
+    BoxSpec,
+    StepGeometry,
+    TaskConfig,
+    TypeMix,
+    check_int,
+    check_range,
+    check_type_mix,
+    draw_types,
+    kwik_separation,
+    typed,
+)
 from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, VZ_BOUND, VZ_STD, DescentConfig, DescentMeasurement, DescentTask
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
@@ -84,6 +98,11 @@ class VerticalCRConfig(DescentConfig):
             around the target altitude [m].
         normalise_vertical_speed: ``-v1``: ``z_difference_speed`` is divided by 5 m/s as the
             ownship's ``vz`` is; ``-v0``: raw m/s (the reference's).
+        intruder_types: Aircraft types of the intruders: a type name, names drawn with equal
+            probability (e.g. ``("A320", "B744")``) or ``{name: weight}``. Default A320 only (the
+            paper's fleet, no random draw). Types are BlueSky's OpenAP types (``bluesky_gym.core.aircraft.supported_types()``).
+        ownship_types: Aircraft type(s) of the ownship, in the same form (default A320), drawn
+            after the initial and target altitudes.
 
     """
 
@@ -98,6 +117,8 @@ class VerticalCRConfig(DescentConfig):
     late_dh_above_target: int = 100
     early_dh_band: int = 500
     normalise_vertical_speed: bool = False
+    intruder_types: TypeMix = DEFAULT_TYPES
+    ownship_types: TypeMix = DEFAULT_TYPES
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid option."""
@@ -112,6 +133,8 @@ class VerticalCRConfig(DescentConfig):
         check_int("late_dh_floor", self.late_dh_floor, 0)
         check_int("late_dh_above_target", self.late_dh_above_target, 0)
         check_int("early_dh_band", self.early_dh_band, 1)
+        check_type_mix("intruder_types", self.intruder_types)
+        check_type_mix("ownship_types", self.ownship_types)
         lowest_target = self.alt_min - self.target_alt_dif
         if lowest_target + self.late_dh_above_target <= self.late_dh_floor:
             raise ValueError(
@@ -192,6 +215,8 @@ class VerticalCRTask(DescentTask):
         dcpa = np.empty((envs.size, n))
         tlosh = np.empty((envs.size, n))
         dh = np.empty((envs.size, n))
+        imix = check_type_mix("intruder_types", c.intruder_types)
+        intruder_types: list[str] = []
         for k, e in enumerate(envs):
             rng = self.rngs[e]
             altitude = float(self.sim.alt[e, 0])
@@ -210,16 +235,22 @@ class VerticalCRTask(DescentTask):
                 else:
                     # Met early: around the target altitude.
                     dh[k, i] = rng.integers(int((target - altitude) - c.early_dh_band), int((target - altitude) + c.early_dh_band))
+            intruder_types += draw_types(rng, imix, n)  # last: the rest of the scenario does not depend on them
         self.conflict_dpsi[envs], self.conflict_dcpa[envs], self.conflict_tlosh[envs], self.conflict_dh[envs] = dpsi, dcpa, tlosh, dh
         env = np.repeat(envs, n)
         slot = np.tile(np.arange(1, n + 1), envs.size)
         # creconfs adds dH in metres (its docstring says ft; docs/environments-v0.md §0), then the reference
         # forces the intruder to that altitude and selects it, so the intruder holds level.
-        self.sim.creconfs(env, 0, slot, dpsi.ravel(), dcpa.ravel(), tlosh.ravel(), dh.ravel(), TLOSV)
+        self.sim.creconfs(env, 0, slot, dpsi.ravel(), dcpa.ravel(), tlosh.ravel(), dh.ravel(), TLOSV, **typed(intruder_types))
         alt = self.sim.alt[env, 0] + dh.ravel()
         self.sim.set_state(env, slot, alt=alt)
         self.sim.cmd_altitude(env, slot, alt, 0.0)
         self.total_intrusions[envs] = 0
+
+    def ownship_types(self, envs: NDArray[np.int64]) -> list[str]:
+        """The ownship's type in each reset episode, drawn from ``ownship_types`` (no draw for one type)."""
+        mix = check_type_mix("ownship_types", self.config.ownship_types)
+        return [t for e in envs for t in draw_types(self.rngs[e], mix, 1)]
 
     # --- measure --------------------------------------------------------------------------------
     def measure(self, envs: NDArray[np.int64] | None = None) -> VerticalCRMeasurement:

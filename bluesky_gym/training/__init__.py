@@ -28,6 +28,9 @@ OFF_POLICY = ("SAC", "TD3", "DDPG")
 def make_vector_env(env_id: str, num_envs: int, **kwargs: Any) -> Any:
     """Make the native batched environment of ``env_id`` (``gym.make_vec``, vector entry point).
 
+    An id without a batched form (the centralised multi-agent environments) gets Gymnasium's
+    ``SyncVectorEnv`` with the same ``SAME_STEP`` autoreset instead.
+
     Args:
         env_id: Environment id.
         num_envs: Number of episodes simulated together.
@@ -41,8 +44,11 @@ def make_vector_env(env_id: str, num_envs: int, **kwargs: Any) -> Any:
     bluesky_gym.register_envs()
     if env_id not in gym.registry:
         raise ValueError(f"unknown environment {env_id!r}; available: {', '.join(bluesky_gym.available_envs())}")
-    if gym.registry[env_id].vector_entry_point is None:
-        raise ValueError(f"{env_id} has no batched version, which training needs; batched environments: {', '.join(bluesky_gym.available_envs())}")
+    if gym.spec(env_id).vector_entry_point is None:
+        # A centralised multi-agent id has no batched form: Gymnasium steps its single environments in a loop.
+        return gym.make_vec(
+            env_id, num_envs=num_envs, vectorization_mode="sync", vector_kwargs={"autoreset_mode": gym.vector.AutoresetMode.SAME_STEP}, **kwargs
+        )
     return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
 
 

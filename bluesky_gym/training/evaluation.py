@@ -27,7 +27,7 @@ import numpy as np
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, eval_seeds
 from bluesky_gym.training import algorithm_class, make_vector_env
 from bluesky_gym.training.io import DamagedFileError, atomic_write_csv, atomic_write_json, latest_checkpoint, read_json
-from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_policy
+from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_names, reference_policy
 
 #: (column, episode-record key, label) of the KPI table.
 KPI_COLUMNS: tuple[tuple[str, str, str], ...] = (
@@ -115,6 +115,7 @@ def evaluate(
 
 def _play_once(venv: Any, policy: Policy, seeds: list[int]) -> list[dict[str, Any]]:
     n = len(seeds)
+    policy.bind(venv)
     obs, _ = venv.reset(seed=seeds)
     policy.reset(None)
     ret = np.zeros(n)
@@ -282,10 +283,58 @@ def find_model(path: str | Path) -> tuple[Path, str | None]:
         p = p.with_suffix(".zip")
     if not p.exists():
         raise FileNotFoundError(f"no model at {path}")
-    for d in [run_dir, p.parent, p.parent.parent, p.parent.parent.parent]:
+    config = run_config_of(p, run_dir)
+    return p, (str(config[1].get("algo", "")) or None) if config is not None else None
+
+
+def run_config_of(model_path: Path, run_dir: Path | None = None) -> tuple[Path, dict[str, Any]] | None:
+    """The ``config.json`` of the run a model file belongs to (its path and content), if any.
+
+    The file is looked for in ``run_dir`` and up to three directories above the model (a run's
+    ``model.zip`` and its ``checkpoints/<step>/model.zip``).
+    """
+    for d in [run_dir, model_path.parent, model_path.parent.parent, model_path.parent.parent.parent]:
         if d is not None and (d / "config.json").exists():
-            return p, str(read_json(d / "config.json").get("algo", "")) or None
-    return p, None
+            return d / "config.json", read_json(d / "config.json")
+    return None
+
+
+def model_algorithm(model_path: Path, requested: str | None = None, run_algo: str | None = None) -> str:
+    """The algorithm of a model file: from its run's config or the file itself; ``requested`` must agree.
+
+    Raises:
+        ValueError: ``requested`` contradicts the detected algorithm, or none can be told.
+
+    """
+    detected = run_algo.upper() if run_algo else algorithm_of_zip(model_path)
+    if requested is not None and detected is not None and requested.upper() != detected:
+        raise ValueError(f"{model_path} is a {detected} model; --algo {requested.upper()} does not match it (leave --algo out to use {detected})")
+    algo = requested.upper() if requested is not None else detected
+    if algo is None:
+        raise ValueError(f"cannot tell the algorithm of {model_path}; pass --algo")
+    return algo
+
+
+def check_model_spaces(model: Any, model_path: Path, env_id: str, observation_space: Any, action_space: Any) -> None:
+    """Raise ``ValueError`` if a model's observation or action space is not the environment's."""
+    import gymnasium as gym
+
+    def shapes(space: Any) -> dict[str, tuple[int, ...]]:
+        if isinstance(space, gym.spaces.Dict):
+            return {k: tuple(v.shape or ()) for k, v in space.spaces.items()}
+        return {"": tuple(space.shape or ())}
+
+    mine, theirs = shapes(model.observation_space), shapes(observation_space)
+    if mine != theirs:
+        differ = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
+        raise ValueError(
+            f"{model_path} was trained on other observations than {env_id} gives (keys or shapes differ: {', '.join(differ[:6])}"
+            f"{', ...' if len(differ) > 6 else ''}); use it with the environment it was trained on"
+        )
+    if tuple(model.action_space.shape) != tuple(action_space.shape):
+        raise ValueError(
+            f"{model_path} acts with shape {tuple(model.action_space.shape)}, {env_id} takes actions of shape {tuple(action_space.shape)}"
+        )
 
 
 def algorithm_of_zip(path: str | Path) -> str | None:
@@ -311,25 +360,40 @@ def algorithm_of_zip(path: str | Path) -> str | None:
     return None
 
 
-def load_policy(path: str | Path, algo: str | None = None, device: str = "cpu") -> SB3Policy:
+def load_policy(path: str | Path, algo: str | None = None, device: str = "cpu", env_id: str | None = None) -> SB3Policy:
     """Load a trained SB3 model as a deterministic :class:`SB3Policy`.
 
     Args:
         path: Model ``.zip`` or run directory.
-        algo: Algorithm (default: from the run directory's config, else read from the file).
+        algo: Algorithm (default: from the run directory's config, else read from the file); if
+            given, it must agree with them.
         device: Torch device.
+        env_id: The environment the policy is to act in: it must be the run's (if its
+            ``config.json`` is found) and have the model's observation and action spaces.
+
+    Raises:
+        ValueError: The model does not fit ``env_id`` or ``algo``.
 
     """
     model_path, run_algo = find_model(path)
-    algo = algo or run_algo or algorithm_of_zip(model_path)
-    if algo is None:
-        raise ValueError(f"cannot tell the algorithm of {model_path}; pass --algo")
+    config = run_config_of(model_path, Path(path) if Path(path).is_dir() else None)
+    if env_id is not None and config is not None:
+        trained_on = config[1].get("env_id")
+        if trained_on and trained_on != env_id:
+            raise ValueError(f"{path} was trained on {trained_on} (its {config[0]}), not {env_id}; evaluate it with --env {trained_on}")
+    algo = model_algorithm(model_path, algo, run_algo)
     model = algorithm_class(algo).load(model_path, device=device)
+    if env_id is not None:
+        venv = make_vector_env(env_id, 1)
+        try:
+            check_model_spaces(model, model_path, env_id, venv.single_observation_space, venv.single_action_space)
+        finally:
+            venv.close()
     return SB3Policy(model, deterministic=True, name=f"{algo}:{Path(path).name}")
 
 
 def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
-    """Make a policy from a command-line spec: ``random``, ``classical`` or a model path."""
+    """Make a policy from a command-line spec: ``random``, ``classical``, ``mvp`` or a model path."""
     if spec in REFERENCE_POLICIES:
         venv = make_vector_env(env_id, 1)
         try:
@@ -337,32 +401,33 @@ def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
             return reference_policy(spec, env_id, space.low, space.high)
         finally:
             venv.close()
-    return load_policy(spec, algo)
+    return load_policy(spec, algo, env_id=env_id)
 
 
 # --- reference scores ------------------------------------------------------------------------------
 def reference_scores(env_id: str, episodes: int, cache_dir: str | Path | None = None) -> dict[str, dict[str, Any]]:
-    """Summaries of ``random`` and ``classical`` on the first ``episodes`` held-out scenarios.
+    """Summaries of the reference policies (``random``, ``classical``, and ``mvp`` with traffic) on the first ``episodes`` held-out scenarios.
 
     With ``cache_dir``, results are read from / written to ``<cache_dir>/<env_id>.json`` (reused
     only if computed on the same number of episodes by the same package version).
 
     Returns:
-        ``{"random": summary-json, "classical": summary-json}`` (the :meth:`EvalResult.to_json` form).
+        ``{"random": summary-json, "classical": summary-json, ...}`` (the :meth:`EvalResult.to_json` form).
 
     """
     import bluesky_gym
 
+    names = reference_names(env_id)
     path = Path(cache_dir) / f"{env_id}.json" if cache_dir is not None else None
     if path is not None and path.exists():
         try:
             cached = read_json(path)
-            if cached.get("episodes") == episodes and cached.get("version") == bluesky_gym.__version__:
-                return {k: cached[k] for k in REFERENCE_POLICIES}
-        except (DamagedFileError, AttributeError, KeyError) as exc:  # a cache cut off or edited: computed again
-            what = exc if isinstance(exc, DamagedFileError) else f"{path} lacks {exc}"
+            if cached.get("episodes") == episodes and cached.get("version") == bluesky_gym.__version__ and all(k in cached for k in names):
+                return {k: cached[k] for k in names}
+        except (DamagedFileError, AttributeError) as exc:  # a cache cut off or edited: computed again
+            what = exc if isinstance(exc, DamagedFileError) else f"{path} is not a JSON object"
             print(f"reference cache damaged, computing it again: {what}", file=sys.stderr)
-    results = {name: evaluate(env_id, make_policy(name, env_id), episodes) for name in REFERENCE_POLICIES}
+    results = {name: evaluate(env_id, make_policy(name, env_id), episodes) for name in names}
     if cache_dir is not None:
         write_references(cache_dir, env_id, episodes, results)
     return {k: v.to_json() for k, v in results.items()}

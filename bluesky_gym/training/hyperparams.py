@@ -115,8 +115,18 @@ RUN_KEYS = frozenset(PAPER["run"])
 
 
 def load_config_file(path: str | Path) -> dict[str, Any]:
-    """Read a config file (``.toml`` or ``.json``) and check its layout."""
+    """Read a config file (``.toml`` or ``.json``) and check its layout.
+
+    Raises:
+        ValueError: The file is missing, unreadable, not valid TOML/JSON (the message names the
+            file and the line) or does not have the layout of :data:`PAPER`.
+
+    """
     p = Path(path)
+    if p.suffix.lower() not in (".toml", ".json"):
+        raise ValueError(f"config file {p} must end in .toml or .json")
+    if not p.is_file():
+        raise ValueError(f"config file {p} not found")
     if p.suffix.lower() == ".toml":
         try:
             if sys.version_info >= (3, 11):
@@ -128,16 +138,16 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
         text = p.read_text(encoding="utf-8")
         try:
             data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"{p}: not valid TOML ({exc})") from None
-    elif p.suffix.lower() == ".json":
+        except tomllib.TOMLDecodeError as exc:  # its message ends with "(at line L, column C)"
+            raise ValueError(f"{p}: not valid TOML: {exc}") from None
+    else:  # .json
         text = p.read_text(encoding="utf-8")
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
-            raise ValueError(f"{p}:{exc.lineno}: not valid JSON ({exc.msg} at column {exc.colno})") from None
-    else:
-        raise ValueError(f"config file {p} must end in .toml or .json")
+            raise ValueError(f"{p}, line {exc.lineno}, column {exc.colno}: not valid JSON: {exc.msg}") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"{p}: expected a JSON object with the sections run, algos, env_options")
     check_config(data, source=str(p), text=text)
     return data
 

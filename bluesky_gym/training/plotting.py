@@ -251,9 +251,9 @@ def pyplot() -> Any:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError as exc:
-        from bluesky_gym.core.extras import TRAIN_EXTRA_HINT, MissingDependencyError
+        from bluesky_gym.core.extras import missing_extra
 
-        raise MissingDependencyError(f"plotting needs matplotlib: {TRAIN_EXTRA_HINT}") from exc
+        raise missing_extra("plotting needs matplotlib", "train") from exc
     return plt
 
 

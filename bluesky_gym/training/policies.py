@@ -29,18 +29,34 @@ Two reference policies exist for every environment, so that scores can be normal
   clears it for the environments whose episodes restarted.
 
 These controllers are baselines, not optimised solutions: they show what an agent has to beat.
+
+A third reference exists for the environments with traffic (:data:`MVP`):
+
+* ``mvp``: BlueSky's Modified Voltage Potential conflict resolution
+  (:class:`~bluesky_gym.core.resolution.MVPResolver`, the field's classical baseline), with the
+  RMETH setting that matches the action space, mapped to the environment's actions; without an
+  active resolution the aircraft does what the classical controller does without intruders
+  (steer to the goal, or the descent profile). It reads the simulator state through the
+  :class:`~bluesky_gym.core.physics.Physics` interface, so it is bound to its batched environment
+  with :meth:`Policy.bind` before acting (see docs/baselines.md).
 """
 
 from __future__ import annotations
 
 import abc
+import dataclasses
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.units import NM2KM
+from bluesky_gym.core.conflicts import PZ_HEIGHT
+from bluesky_gym.core.physics import Physics
+from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
+from bluesky_gym.core.units import KTS, NM, NM2KM
+from bluesky_gym.tasks import horizontal_cr, merge, sector_cr, vertical_cr
 
 Array = NDArray[np.float64]
 Obs = dict[str, Array]
@@ -98,6 +114,13 @@ class Policy(abc.ABC):
 
     def reset(self, envs: NDArray[np.bool_] | None = None) -> None:  # noqa: B027 - stateless by default
         """Forget the memory of the environments ``envs`` (a mask; all when None)."""
+
+    def bind(self, env: Any) -> None:  # noqa: B027 - observation-only policies need nothing
+        """Attach the policy to the batched environment it is about to act in (before its reset).
+
+        Policies that read the simulator state (``mvp``) keep the environment's physics; the
+        others ignore it.
+        """
 
     @abc.abstractmethod
     def act(self, obs: Obs) -> Array:
@@ -390,6 +413,152 @@ class StaticObstacleController(Policy):
         return np.stack([heading, np.ones_like(heading)], axis=1)
 
 
+@dataclass(frozen=True)
+class MVPMapping:
+    """How MVP drives one environment: RMETH setting, protected zone and the action normalisation.
+
+    Attributes:
+        nominal: Factory of the policy flown without an active resolution (observation only).
+        rmethh: BlueSky ``RMETHH`` value (None: not given).
+        rmethv: BlueSky ``RMETHV`` value (None: not given).
+        rpz_nm: Protected-zone radius [NM] (the environment's intrusion distance).
+        hpz_m: Protected-zone half height [m].
+        heading_step: Degrees of heading change per unit of action 0, or None (no heading action).
+        speed_step: m/s of CAS change per unit of action 1, or None (no speed action).
+        vertical: Action 0 is a vertical speed (``ACTION_2_MS`` m/s per unit).
+    """
+
+    nominal: Callable[[], Policy]
+    rmethh: str | None = None
+    rmethv: str | None = None
+    rpz_nm: float = 5.0
+    hpz_m: float = PZ_HEIGHT
+    heading_step: float | None = None
+    speed_step: float | None = None
+    vertical: bool = False
+
+
+class SteerToGoal(Policy):
+    """Cancel the drift to the goal with a heading action, at most a full step; speed action 0.
+
+    Args:
+        sin_key: Observation key of the drift's sine.
+        cos_key: Observation key of the drift's cosine.
+        heading_step: Degrees per unit of heading action.
+        dims: Action size (the heading is component 0).
+    """
+
+    name = "steer"
+
+    def __init__(self, sin_key: str, cos_key: str, heading_step: float, dims: int) -> None:
+        self.sin_key, self.cos_key, self.heading_step, self.dims = sin_key, cos_key, heading_step, dims
+
+    def act(self, obs: Obs) -> Array:
+        """Heading actions towards the goal."""
+        drift = _angle(obs[self.sin_key][:, 0], obs[self.cos_key][:, 0])
+        out = np.zeros((drift.shape[0], self.dims))
+        out[:, 0] = np.clip(-drift / self.heading_step, -1.0, 1.0)
+        return out
+
+
+class MVPPolicy(Policy):
+    """MVP conflict resolution (BlueSky ``RESO MVP``) mapped to an environment's actions.
+
+    The ownship (slot 0) follows MVP's resolution while BlueSky's ASAS would (from the first
+    conflict until its pairs are past their closest point of approach); otherwise it flies the
+    mapping's nominal policy. Heading actions turn by the resolution's track change, speed
+    actions change CAS by what gives the resolution ground speed, vertical-speed actions fly the
+    resolution's vertical speed towards its altitude; all divided by the environment's action
+    steps and clipped to the action box.
+
+    Args:
+        env_id: Environment id (a key of :data:`MVP`).
+    """
+
+    name = "mvp"
+
+    def __init__(self, env_id: str) -> None:
+        if env_id not in MVP:
+            raise ValueError(f"no MVP mapping for {env_id} (environments without traffic have nothing to resolve); available: {', '.join(MVP)}")
+        self.env_id = env_id
+        self.mapping = MVP[env_id]
+        m = self.mapping
+        settings = ResolutionSettings.from_methods(m.rmethh, m.rmethv)
+        self.resolver = MVPResolver(settings, rpz=m.rpz_nm * NM, hpz=m.hpz_m)
+        self.nominal = m.nominal()
+        self.physics: Physics | None = None
+
+    def bind(self, env: Any) -> None:
+        """Use the physics of the batched environment ``env`` (its task's :class:`Physics`)."""
+        base = getattr(env, "unwrapped", env)
+        task = getattr(base, "task", None)
+        spec = getattr(base, "spec", None)
+        if task is None or getattr(spec, "id", task.env_id) != self.env_id:
+            raise ValueError(f"the mvp policy of {self.env_id} needs that environment, got {env!r}")
+        self.physics = task.sim
+        self.resolver.reset()
+
+    def reset(self, envs: NDArray[np.bool_] | None = None) -> None:
+        """Forget the resolutions of the environments ``envs`` (all when None)."""
+        self.nominal.reset(envs)
+        self.resolver.reset(envs)
+
+    def act(self, obs: Obs) -> Array:
+        """Resolution actions where MVP is active, the nominal policy's elsewhere."""
+        if self.physics is None:
+            raise RuntimeError("the mvp policy reads the simulator state: bind(env) it to its environment first")
+        action = np.asarray(self.nominal.act(obs), dtype=np.float64).copy()
+        cmd = self.resolver.update(self.physics)
+        follow = cmd.follow[:, 0]
+        m = self.mapping
+        if m.vertical:
+            reso = _vs_action(np.nan_to_num(cmd.vertical_speed[:, 0]))
+            action[:, 0] = np.where(follow, reso, action[:, 0])
+        if m.heading_step is not None:
+            reso = np.clip(np.nan_to_num(cmd.track_change[:, 0]) / m.heading_step, -1.0, 1.0)
+            action[:, 0] = np.where(follow, reso, action[:, 0])
+        if m.speed_step is not None:
+            reso = np.clip(np.nan_to_num(cmd.cas_change[:, 0]) / m.speed_step, -1.0, 1.0)
+            action[:, 1] = np.where(follow, reso, action[:, 1])
+        return action
+
+
+#: MVP's mapping per environment id (environments with traffic). A new environment with the same
+#: action semantics needs only an entry here.
+MVP: dict[str, MVPMapping] = {
+    "HorizontalCREnv-v0": MVPMapping(
+        lambda: SteerToGoal("sin_drift", "cos_drift", horizontal_cr.D_HEADING, 1),
+        rmethh="HDG",
+        rpz_nm=horizontal_cr.INTRUSION_DISTANCE,
+        heading_step=horizontal_cr.D_HEADING,
+    ),
+    "VerticalCREnv-v0": MVPMapping(DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, vertical=True),
+    "SectorCREnv-v0": MVPMapping(
+        lambda: SteerToGoal("sin(drift)", "cos(drift)", sector_cr.D_HEADING, 2),
+        rmethh="BOTH",
+        rpz_nm=sector_cr.INTRUSION_DISTANCE,
+        heading_step=sector_cr.D_HEADING,
+        speed_step=sector_cr.D_VELOCITY,
+    ),
+    "MergeEnv-v0": MVPMapping(
+        lambda: SteerToGoal("sin(drift)", "cos(drift)", merge.D_HEADING, 2),
+        rmethh="BOTH",
+        rpz_nm=merge.INTRUSION_DISTANCE,
+        heading_step=merge.D_HEADING,
+        speed_step=merge.D_SPEED,
+    ),
+}
+
+# The -v1 ids: the same mappings; SectorCR-v1's speed action is in knots (speed_step_in_knots).
+MVP.update(
+    {
+        "HorizontalCREnv-v1": MVP["HorizontalCREnv-v0"],
+        "VerticalCREnv-v1": MVP["VerticalCREnv-v0"],
+        "SectorCREnv-v1": dataclasses.replace(MVP["SectorCREnv-v0"], speed_step=sector_cr.D_VELOCITY * KTS),
+        "MergeEnv-v1": MVP["MergeEnv-v0"],
+    }
+)
+
 #: Classical controller factory per environment id.
 CLASSICAL: dict[str, Callable[[], Policy]] = {
     "DescentEnv-v0": DescentController,
@@ -403,15 +572,21 @@ CLASSICAL: dict[str, Callable[[], Policy]] = {
 # The -v1 ids keep the observation scales these controllers read (docs/environments-v1.md).
 CLASSICAL.update({env_id.replace("-v0", "-v1"): controller for env_id, controller in list(CLASSICAL.items())})
 
-REFERENCE_POLICIES = ("random", "classical")
+REFERENCE_POLICIES = ("random", "classical", "mvp")
 RANDOM_POLICY_SEED = 0
 
 
+def reference_names(env_id: str) -> tuple[str, ...]:
+    """The reference policies that exist for an environment: ``random``, ``classical``, and ``mvp`` where it has traffic."""
+    return tuple(name for name in REFERENCE_POLICIES if name != "mvp" or env_id in MVP)
+
+
 def reference_policy(name: str, env_id: str, action_low: Array, action_high: Array) -> Policy:
-    """Make a reference policy (``random`` or ``classical``) of an environment.
+    """Make a reference policy (``random``, ``classical`` or ``mvp``) of an environment.
 
     Args:
-        name: ``"random"`` or ``"classical"``.
+        name: ``"random"``, ``"classical"`` or ``"mvp"`` (environments with traffic; bind it
+            to its environment with :meth:`Policy.bind` before acting).
         env_id: Environment id.
         action_low: Lower bound of the single-environment action box.
         action_high: Upper bound.
@@ -423,4 +598,6 @@ def reference_policy(name: str, env_id: str, action_low: Array, action_high: Arr
         if env_id not in CLASSICAL:
             raise ValueError(f"no classical controller for {env_id}; available: {', '.join(CLASSICAL)}")
         return CLASSICAL[env_id]()
+    if name == "mvp":
+        return MVPPolicy(env_id)
     raise ValueError(f"unknown reference policy {name!r}; choose one of {', '.join(REFERENCE_POLICIES)}")

@@ -13,22 +13,16 @@ from typing import Any
 
 import numpy as np
 
+from bluesky_gym.core.extras import missing_extra
+
 Actor = Callable[[dict[str, np.ndarray]], np.ndarray]
 NAMED_POLICIES = ("random", "classical")
 SB3_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "a2c": "A2C"}
 
 
-def _algo_from_zip(path: Path) -> str:
-    """The algorithm of a Stable-Baselines3 model file, from its stored settings."""
-    from bluesky_gym.training.evaluation import algorithm_of_zip
-
-    name = algorithm_of_zip(path)
-    if name is None:
-        raise ValueError(f"cannot tell the algorithm of {path}; pass --algo (one of {', '.join(sorted(SB3_ALGORITHMS))})")
-    return name.lower()
-
-
-def make_actor(policy: str, env_id: str, action_space: Any, seed: int, algo: str | None = None, deterministic: bool = True) -> Actor:
+def make_actor(
+    policy: str, env_id: str, action_space: Any, seed: int, algo: str | None = None, deterministic: bool = True, observation_space: Any = None
+) -> Actor:
     """A function from a batched observation dict to a batch of actions.
 
     Args:
@@ -36,8 +30,9 @@ def make_actor(policy: str, env_id: str, action_space: Any, seed: int, algo: str
         env_id: Environment id (selects the classical controller).
         action_space: Action space of one environment.
         seed: Seed of the random actions.
-        algo: Algorithm of the model file (default: read from it).
+        algo: Algorithm of the model file (default: read from its run or the file; must agree).
         deterministic: Deterministic model actions.
+        observation_space: Observation space of one environment (checked against the model's).
     """
     low = np.asarray(action_space.low, dtype=np.float64)
     high = np.asarray(action_space.high, dtype=np.float64)
@@ -55,9 +50,17 @@ def make_actor(policy: str, env_id: str, action_space: Any, seed: int, algo: str
     try:
         import stable_baselines3 as sb3
     except ImportError as exc:
-        raise ImportError('loading a model needs Stable-Baselines3: pip install "bluesky-gym[train]"') from exc
-    name = algo or _algo_from_zip(path)
-    model = getattr(sb3, SB3_ALGORITHMS[name]).load(path, device="cpu")
+        raise missing_extra("loading a model needs Stable-Baselines3", "train") from exc
+    from bluesky_gym.training.evaluation import check_model_spaces, model_algorithm, run_config_of
+
+    config = run_config_of(path)
+    trained_on = config[1].get("env_id") if config is not None else None
+    if trained_on and trained_on != env_id:
+        raise ValueError(f"{path} was trained on {trained_on} (its {config[0] if config else ''}), not {env_id}; render it with --env {trained_on}")
+    name = model_algorithm(path, algo, config[1].get("algo") if config is not None else None)
+    model = getattr(sb3, name).load(path, device="cpu")
+    if observation_space is not None:
+        check_model_spaces(model, path, env_id, observation_space, action_space)
 
     def act(obs: dict[str, np.ndarray]) -> np.ndarray:
         action, _ = model.predict(obs, deterministic=deterministic)
@@ -121,7 +124,7 @@ def record(
         raise ValueError("scenario export (scn) writes single environments; use grid=1")
     if grid > 1:
         env: Any = gym.make_vec(env_id, num_envs=grid, vectorization_mode="vector_entry_point", render_mode=mode, render_grid=grid, **kwargs)
-        actor = make_actor(policy, env_id, env.single_action_space, seed, algo, deterministic)
+        actor = make_actor(policy, env_id, env.single_action_space, seed, algo, deterministic, env.single_observation_space)
         obs, _ = env.reset(seed=seed)
         ended = np.zeros(grid, int)
         step = 0
@@ -137,7 +140,7 @@ def record(
             env = gym.make(env_id, render_mode=mode, max_episode_steps=kwargs.pop("max_episode_steps"), **kwargs)
         else:
             env = gym.make(env_id, render_mode=mode, **kwargs)
-        actor = make_actor(policy, env_id, env.action_space, seed, algo, deterministic)
+        actor = make_actor(policy, env_id, env.action_space, seed, algo, deterministic, env.observation_space)
         recorder = None
         if scn is not None:
             from bluesky_gym.scenarios.export import ScenarioRecorder

@@ -41,7 +41,7 @@ BOOTSTRAP = 2000
 #: Reference policies, in the order of the tables (those present in a sweep's references).
 REFERENCE_ORDER = ("random", "classical", "mvp")
 #: The command that reproduces the paper's full grid on a Ray cluster.
-PAPER_GRID_COMMAND = "bluesky-gym sweep --envs all --algos all --seeds 0 1 2 --steps 2e6 --address ray://HEAD:10001 --out sweeps/paper"
+PAPER_GRID_COMMAND = "bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6 --address ray://HEAD:10001 --out sweeps/paper"
 
 
 @dataclass
@@ -143,7 +143,7 @@ def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None =
 
     """
     from bluesky_gym.training.evaluation import evaluate, make_policy, save_result
-    from bluesky_gym.training.policies import REFERENCE_POLICIES
+    from bluesky_gym.training.policies import reference_names
 
     done = []
     for d in map(Path, sweep_dirs):
@@ -152,15 +152,10 @@ def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None =
             n = episodes
             if n is None:
                 n = max(int(read_json(r.path / "config.json").get("eval_episodes", 0)) for r in runs if r.env_id == env_id) or 50
-            for name in REFERENCE_POLICIES:
+            for name in reference_names(env_id):
                 if (reference_episode_dir(d) / f"{env_id}_{name}_episodes.csv").exists():
                     continue
-                try:
-                    policy = make_policy(name, env_id)
-                except ValueError as exc:  # the policy does not apply to this environment
-                    done.append(f"{env_id}: no {name} reference ({exc})")
-                    continue
-                result = evaluate(env_id, policy, n)
+                result = evaluate(env_id, make_policy(name, env_id), n)
                 save_result(result, reference_episode_dir(d), stem=f"{env_id}_{name}")
                 done.append(f"{env_id}: evaluated {name} on {n} held-out episodes -> {reference_episode_dir(d)}")
     return done

@@ -53,7 +53,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.core.extras import TRAIN_EXTRA_HINT, MissingDependencyError, require_sb3
+from bluesky_gym.core.extras import MissingDependencyError, missing_extra, require_sb3
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, train_env_seeds
 from bluesky_gym.training import algorithm_class
 from bluesky_gym.training.hyperparams import POLICY, adapt_to_n_envs, check_hyperparameter_names, resolve, sb3_kwargs
@@ -611,7 +611,8 @@ def _require_tensorboard() -> None:
     import importlib.util
 
     if importlib.util.find_spec("tensorboard") is None:
-        raise MissingDependencyError(f"TensorBoard logging needs the tensorboard package: {TRAIN_EXTRA_HINT} (or train without it)")
+        error = missing_extra("TensorBoard logging needs the tensorboard package", "train")
+        raise MissingDependencyError(f"{error} (or train without it: --no-tensorboard)")
 
 
 def _make_venv(spec: RunSpec) -> Any:

@@ -11,7 +11,7 @@ equal.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -120,13 +120,16 @@ class CoreScenario:
     events: dict[int, list[tuple[str, Event]]]
 
 
-def random_core_scenario(seed: int, steps: int = 240, max_aircraft: int = 6) -> CoreScenario:
+def random_core_scenario(seed: int, steps: int = 240, max_aircraft: int = 6, types: Sequence[str] | None = None) -> CoreScenario:
     """Draw a scenario exercising creation, every command, direct writes, creconfs, routes and wind.
 
     Geometry that depends on the state (waypoints near an aircraft, creconfs targets) is drawn
-    when the event runs, from the native simulator, and then applied to both.
+    when the event runs, from the native simulator, and then applied to both. With ``types``,
+    every created aircraft gets a type drawn from it (from a generator of its own, so the rest of
+    the scenario is the one of the same seed without types); without, every aircraft is an A320.
     """
     rng = np.random.default_rng(seed)
+    trng = None if types is None else np.random.default_rng([seed, 12])
     dt = float(rng.choice([1.0, 1.0, 5.0]))
     events: dict[int, list[tuple[str, Event]]] = {}
 
@@ -141,7 +144,11 @@ def random_core_scenario(seed: int, steps: int = 240, max_aircraft: int = 6) -> 
     alt = np.where(rng.random(n0) < 0.2, 0.0, rng.uniform(100.0, 11500.0, n0))
     spd = np.where(rng.random(n0) < 0.25, rng.uniform(0.3, 0.8, n0), rng.uniform(60.0, 170.0, n0))  # Mach or CAS
     slots = np.arange(n0)
-    at(0, "create", lambda s, sl=slots, a=(lat, lon, hdg, alt, spd): s.create(0, sl, *a))
+    if trng is None:
+        at(0, "create", lambda s, sl=slots, a=(lat, lon, hdg, alt, spd): s.create(0, sl, *a))
+    else:
+        t0 = [str(t) for t in trng.choice(list(types or ()), n0)]
+        at(0, "create", lambda s, sl=slots, a=(lat, lon, hdg, alt, spd): s.create(0, sl, *a, actype=t0))
     if rng.random() < 0.4:  # wind from the start (constant, or a 2-D field of 3 points)
         at(0, "wind", _wind_event(rng, lat[0], lon[0]))
 
@@ -151,7 +158,8 @@ def random_core_scenario(seed: int, steps: int = 240, max_aircraft: int = 6) -> 
     for _ in range(n_events):
         step = int(rng.integers(0, steps))
         kind = str(rng.choice(kinds, p=weights / weights.sum()))
-        at(step, kind, _event(kind, np.random.default_rng(rng.integers(2**63)), max_aircraft))
+        actype = None if trng is None else str(trng.choice(list(types or ())))
+        at(step, kind, _event(kind, np.random.default_rng(rng.integers(2**63)), max_aircraft, actype))
     return CoreScenario(seed, dt, steps, max_aircraft, events)
 
 
@@ -173,8 +181,12 @@ def _wind_event(rng: np.random.Generator, lat0: float, lon0: float) -> Event:
     return lambda s: s.wind.add_points(0, *pts)
 
 
-def _event(kind: str, rng: np.random.Generator, max_aircraft: int) -> Event:
-    """One event; its random numbers are drawn once (first call) and replayed on the other simulator."""
+def _event(kind: str, rng: np.random.Generator, max_aircraft: int, actype: str | None = None) -> Event:
+    """One event; its random numbers are drawn once (first call) and replayed on the other simulator.
+
+    ``actype`` is the type of an aircraft the event creates (None: the default, A320).
+    """
+    typed: dict[str, Any] = {} if actype is None else {"actype": actype}
     memo: dict[str, Any] = {}
 
     def once(key: str, draw: Callable[[], Any]) -> Any:
@@ -189,7 +201,7 @@ def _event(kind: str, rng: np.random.Generator, max_aircraft: int) -> Event:
             if free is None:
                 return
             a = once("args", lambda: (rng.uniform(40, 60), rng.uniform(-10, 20), rng.uniform(0, 360), rng.uniform(0, 11000), rng.uniform(70, 160)))
-            sim.create(0, free, *a)
+            sim.create(0, free, *a, **typed)
             return
         if kind == "wind":
             pts = once("pts", lambda: (rng.uniform(-60, 60, 1), rng.uniform(-170, 170, 1), rng.uniform(-25, 25, 1), rng.uniform(-25, 25, 1)))
@@ -233,7 +245,7 @@ def _event(kind: str, rng: np.random.Generator, max_aircraft: int) -> Event:
             kw = dict(args)
             if kw["dh"] is None:  # tlosv is used only with dh
                 kw["tlosv"] = None
-            sim.creconfs(0, slot, free, kw["dpsi"], kw["dcpa"], kw["tlosh"], kw["dh"], kw["tlosv"], kw["spd"])
+            sim.creconfs(0, slot, free, kw["dpsi"], kw["dcpa"], kw["tlosh"], kw["dh"], kw["tlosv"], kw["spd"], **typed)
         elif kind == "route":
             room = sim.max_waypoints - int(sim.nwp[0, slot]) - (0 if sim.route_has_dest[0, slot] else 1)
             n = once("n", lambda: int(rng.integers(1, 3)))
@@ -348,6 +360,7 @@ def run_env_episodes(
     time_limit: int,
     tol: float = ENV_TOL,
     wrap: Callable[[gym.Env], gym.Env] | None = None,
+    options: dict[str, Any] | None = None,
 ) -> tuple[Deviation, int]:
     """Run seeded episodes with seeded random actions on both backends side by side.
 
@@ -362,13 +375,14 @@ def run_env_episodes(
         time_limit: Truncation limit of both environments.
         tol: Scaled tolerance.
         wrap: Applied to both environments (e.g. a wind wrapper).
+        options: Scenario options given to both ``gym.make`` calls.
 
     Returns:
         The deviations seen and the number of steps compared.
     """
     dev = Deviation()
     steps = 0
-    envs = {b: gym.make(env_id, backend=b, max_episode_steps=time_limit) for b in ("native", "bluesky")}
+    envs = {b: gym.make(env_id, backend=b, max_episode_steps=time_limit, **(options or {})) for b in ("native", "bluesky")}
     sim = envs["native"].unwrapped.task.sim
     bsim = envs["bluesky"].unwrapped.task.sim
     if type(bsim).__name__ != "BlueSkyPhysics":

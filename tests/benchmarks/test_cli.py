@@ -20,12 +20,14 @@ def test_bench_core_table_and_json(tmp_path: Path, capsys: pytest.CaptureFixture
     assert "ac-sub-steps/s" in text
     assert "BlueSky: not measured" in text
     rows = [line.split() for line in text.splitlines() if line.split()[:1] and line.split()[0] in available_kernels()]
-    assert len(rows) == 4 * len(available_kernels())
+    assert len(rows) == (4 + 2) * len(available_kernels())  # 2 x 2 A320 cells, 2 mixed-fleet cells at the largest batch
+    assert sum("mixed (10 types)" in line for line in text.splitlines()) == 2 * len(available_kernels())
     data = json.loads(out_json.read_text())
     assert data["meta"]["numpy"]
     assert {(r["kernel"], r["envs"], r["aircraft"]) for r in data["core"]["native"]} == {
         (k, e, a) for k in available_kernels() for e in (1, 2) for a in (1, 3)
     }
+    assert {(r["fleet"], r["envs"], r["aircraft"]) for r in data["core"]["mixed"]} == {("mixed (10 types)", 2, a) for a in (1, 3)}
 
 
 def test_bench_core_prints_the_target_next_to_its_cell(capsys: pytest.CaptureFixture[str]) -> None:

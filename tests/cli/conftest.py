@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -40,3 +43,13 @@ def _one_torch_thread() -> None:
     except ImportError:
         return
     torch.set_num_threads(1)
+
+
+def run_cli(*args: str, cwd: Path, timeout: float = 300, columns: int | None = None) -> subprocess.CompletedProcess[str]:
+    """Run the installed ``bluesky-gym`` console script (importing this checkout) in ``cwd``."""
+    script = Path(sys.executable).with_name("bluesky-gym")
+    command = [str(script)] if script.exists() else [sys.executable, "-m", "bluesky_gym"]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    if columns is not None:
+        env["COLUMNS"] = str(columns)
+    return subprocess.run([*command, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env, check=False)

@@ -37,7 +37,7 @@ def test_the_readme_sweep_estimate_command_parses_2e6(tmp_path: Path) -> None:
     script = Path(sys.executable).with_name("bluesky-gym")
     command = [str(script)] if script.exists() else [sys.executable, "-m", "bluesky_gym"]
     run = subprocess.run(
-        [*command, "sweep", "--envs", "DescentEnv-v0", "--algos", "PPO", "--steps", "2e6", "--estimate"],
+        [*command, "sweep", "--env", "DescentEnv-v0", "--algos", "PPO", "--steps", "2e6", "--estimate"],
         cwd=tmp_path,
         capture_output=True,
         text=True,

@@ -15,6 +15,7 @@ import gymnasium as gym
 import pytest
 
 from bluesky_gym.cli import main
+from bluesky_gym.core.extras import install_hint
 from bluesky_gym.registration import available_envs
 from bluesky_gym.training.io import read_json
 
@@ -38,7 +39,8 @@ def test_list_and_info(capsys: pytest.CaptureFixture[str]) -> None:
     assert info["max_episode_steps"] == 300 and info["action"]["shape"] == [1]
     assert {o["name"]: o["default"] for o in info["options"]}["alt_min"] == 2000
     assert main(["list", "--json"]) == 0
-    assert [d["id"] for d in json.loads(capsys.readouterr().out)] == available_envs()
+    rows = json.loads(capsys.readouterr().out)
+    assert [d["id"] for d in rows if d["kind"] == "single-agent"] == available_envs()
     assert main(["info", "NoSuchEnv-v0"]) == 2
 
 
@@ -254,13 +256,13 @@ def test_demo(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
 def test_missing_optional_dependencies_are_named(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.setitem(sys.modules, "stable_baselines3", None)
     assert main(["train", ENV, "--steps", "10", "--out", str(tmp_path)]) == 2
-    assert 'pip install "bluesky-gym[train]"' in capsys.readouterr().err
+    assert install_hint("train") in capsys.readouterr().err
     # The reference policies, their evaluation and the catalog need no SB3.
     assert main(["eval", ENV, "--model", "classical", "--episodes", "2", "--out", str(tmp_path / "ev")]) == 0
     assert "classical" in capsys.readouterr().out
     (tmp_path / "model.zip").write_bytes(b"")
     assert main(["eval", ENV, "--model", str(tmp_path / "model.zip"), "--algo", "PPO", "--episodes", "2"]) == 2
-    assert 'pip install "bluesky-gym[train]"' in capsys.readouterr().err
+    assert install_hint("train") in capsys.readouterr().err
 
 
 @needs_sb3
@@ -268,4 +270,4 @@ def test_missing_ray_is_named(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, c
     monkeypatch.setitem(sys.modules, "ray", None)
     assert main(["sweep", "--envs", ENV, "--algos", "PPO", "--steps", "10", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
-    assert 'pip install "bluesky-gym[distributed]"' in err and "--local" in err
+    assert install_hint("distributed") in err and "--local" in err

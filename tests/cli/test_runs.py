@@ -42,12 +42,12 @@ def test_failed_starts_leave_no_run_directory_and_plot_skips_runs_without_episod
 ) -> None:
     monkeypatch.chdir(tmp_path)
     (tmp_path / "typo.toml").write_text("[algos.PPO]\nlearning_rat = 0.1\n")
-    err = one_line_error(cli(tmp_path, "train", ENV, "--config", "typo.toml"))
+    err = one_line_error(cli(tmp_path, "train", "--env", ENV, "--config", "typo.toml"))
     assert "typo.toml:2" in err and "'learning_rat'" in err and "did you mean 'learning_rate'" in err and "n_steps" in err
     (tmp_path / "options.toml").write_text(f'[env_options."{ENV}"]\nalt_mn = 3000\n')
     # the other failed starts in-process (each console-script start costs seconds)
-    assert main(["train", ENV, "--config", "options.toml"]) == 2
-    assert main(["train", "NoSuchEnv-v0"]) == 2
+    assert main(["train", "--env", ENV, "--config", "options.toml"]) == 2
+    assert main(["train", "--env", "NoSuchEnv-v0"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 2 and "alt_mn" in err and "NoSuchEnv-v0" in err
     assert not (tmp_path / "runs").exists()
@@ -57,7 +57,7 @@ def test_failed_starts_leave_no_run_directory_and_plot_skips_runs_without_episod
     leftover.mkdir(parents=True)
     (leftover / "config.json").write_text(json.dumps({"env_id": ENV, "algo": "PPO", "seed": 0, "total_timesteps": 5, "identity": {"n_envs": 9}}))
     (tmp_path / "tiny.json").write_text(json.dumps(TINY))
-    res = cli(tmp_path, "train", ENV, "--steps", "128", "--config", "tiny.json", "--no-progress")
+    res = cli(tmp_path, "train", "--env", ENV, "--steps", "128", "--config", "tiny.json", "--no-progress")
     assert res.returncode == 0, res.stderr
     assert "failed" in res.stdout and read_json(leftover / "result.json")["timesteps"] == 128
 
@@ -76,7 +76,7 @@ def test_failed_starts_leave_no_run_directory_and_plot_skips_runs_without_episod
 @needs_sb3
 def test_runs_lists_every_run_with_status_steps_and_score(tmp_path: Path) -> None:
     (tmp_path / "tiny.json").write_text(json.dumps(TINY))
-    res = cli(tmp_path, "train", ENV, "--steps", "128", "--config", "tiny.json", "--no-progress", "--out", "sweep")
+    res = cli(tmp_path, "train", "--env", ENV, "--steps", "128", "--config", "tiny.json", "--no-progress", "--out", "sweep")
     assert res.returncode == 0, res.stderr
     done = tmp_path / "sweep" / ENV / "PPO" / "seed_0"
     assert list((done / "tensorboard" / "PPO_1").glob("events.out.tfevents.*"))  # SB3's TensorBoard log

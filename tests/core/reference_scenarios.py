@@ -25,14 +25,15 @@ class Scenario:
     aircraft: list[str]
     setup: Callable[[Simulator, int], None]
     events: dict[float, list[Event]] = field(default_factory=dict)
+    max_aircraft: int = 4
 
     @property
     def steps(self) -> int:
         return int(round(self.duration / self.dt))
 
 
-def _cre(slot, lat, lon, hdg, alt, spd):
-    return lambda sim, env: sim.create(env, slot, lat, lon, hdg, alt, spd)
+def _cre(slot, lat, lon, hdg, alt, spd, actype=None):
+    return lambda sim, env: sim.create(env, slot, lat, lon, hdg, alt, spd, actype=actype)
 
 
 def _hdg(slot, hdg):
@@ -69,6 +70,71 @@ def _creconfs(sim, env):
 def _wind_s12(sim, env):
     sim.create(env, 0, 52.0, 4.0, 0.0, 100 * 100 * FT, 250 * KTS)
     sim.wind.add_points(env, [52.0], [4.0], [-10.0], [15.0])
+
+
+# Aircraft types (tests/data/reference/README.md, s13-s16).
+TYPES_ENROUTE = [
+    "A319",
+    "A320",
+    "A321",
+    "B737",
+    "B738",
+    "B744",
+    "B772",
+    "A332",
+    "A359",
+    "B788",
+    "E190",
+    "E145",
+    "CRJ9",
+    "C550",
+    "GLF6",
+    "ZZZZ",
+    "AT72",
+]
+TYPES_TAKEOFF = ["A320", "B744", "E145", "C550", "A388", "ZZZZ"]
+
+
+def _types_enroute(sim, env):
+    for i, t in enumerate(TYPES_ENROUTE):
+        sim.create(env, i, 52.0, 4.0 + 0.5 * i, 0.0, 100 * 100 * FT, 250 * KTS, actype=t)
+
+
+def _types_takeoff(sim, env):
+    for i, t in enumerate(TYPES_TAKEOFF):
+        sim.create(env, i, 52.0, 4.0 + 0.5 * i, 0.0, 0.0, 0.0, actype=t)
+
+
+def _all(n, *makers):
+    """Events: each maker(slot) for every slot 0..n-1, in the recorded order (aircraft by aircraft)."""
+    return [m(i) for i in range(n) for m in makers]
+
+
+def _vs_fpm(slot, fpm):
+    return lambda sim, env: sim.cmd_vertical_speed(env, slot, fpm * FPM)
+
+
+def _alt_fl(slot, fl):
+    return lambda sim, env: sim.cmd_altitude(env, slot, fl * 100 * FT)
+
+
+def _types_one_call(types):
+    """s15: BlueSky gives all aircraft of one traf.cre call the LAST type's data; ``types`` says what the core is told."""
+
+    def setup(sim, env):
+        sim.create(env, [0, 1, 2], 52.0, [4.0, 4.5, 5.0], 0.0, 3048.0, 128.6, actype=types[:3])
+        sim.create(env, [3, 4], 52.0, [5.5, 6.0], 0.0, 3048.0, 128.6, actype=types[3:])
+
+    return setup
+
+
+def _types_creconfs(sim, env):
+    sim.create(env, 0, 52.0, 4.0, 45.0, 200 * 100 * FT, 250 * KTS, actype="B738")
+    sim.creconfs(env, 0, 1, 90.0, 1.0, 120.0, actype="E190")
+    sim.creconfs(env, 0, 2, 200.0, 0.0, 150.0, spd=200 * KTS, actype="B744")
+    sim.creconfs(env, 0, 3, 300.0, 2.0, 100.0, dh=500.0, tlosv=90.0, actype="C550")
+    sim.creconfs(env, 0, 4, 30.0, 0.5, 80.0, dh=-400.0, tlosv=60.0, spd=0.6, actype="ZZZZ")
+    sim.creconfs(env, 0, 5, 250.0, 3.0, 140.0, actype="AT72")
 
 
 SCENARIOS: dict[str, Scenario] = {
@@ -144,6 +210,48 @@ SCENARIOS: dict[str, Scenario] = {
             {0: [_write(0, swvnav=False, selalt=1500.0, selvs=-12.5)]},
         ),
         Scenario("s12_wind_constant_gymwrapper", 1, 300, ["AC1"], _wind_s12, {0: [_hdg(0, 90)], 150: [_hdg(0, 200)]}),
+        Scenario(
+            "s13_types_enroute",
+            1,
+            400,
+            [f"T{i:02d}" for i in range(len(TYPES_ENROUTE))],
+            _types_enroute,
+            {
+                0: _all(len(TYPES_ENROUTE), lambda i: _hdg(i, 90), lambda i: _spd_kts(i, 300), lambda i: _vs_fpm(i, 4000), lambda i: _alt_fl(i, 180)),
+                200: _all(len(TYPES_ENROUTE), lambda i: _spd_kts(i, 220), lambda i: _hdg(i, 300), lambda i: _alt_fl(i, 120)),
+            },
+            max_aircraft=len(TYPES_ENROUTE),
+        ),
+        Scenario(
+            "s14_types_takeoff",
+            1,
+            300,
+            [f"G{i:02d}" for i in range(len(TYPES_TAKEOFF))],
+            _types_takeoff,
+            {
+                0: _all(len(TYPES_TAKEOFF), lambda i: _spd_kts(i, 250), lambda i: _vs_fpm(i, 3000), lambda i: _alt_fl(i, 50)),
+                150: _all(len(TYPES_TAKEOFF), lambda i: _hdg(i, 45)),
+            },
+            max_aircraft=len(TYPES_TAKEOFF),
+        ),
+        Scenario(
+            "s15_types_one_call",
+            1,
+            200,
+            ["Q1", "Q2", "Q3", "Q4", "Q5"],
+            _types_one_call(["B744", "B744", "B744", "C550", "C550"]),
+            {0: _all(5, lambda i: _spd_kts(i, 300), lambda i: _alt_fl(i, 200))},
+            max_aircraft=5,
+        ),
+        Scenario(
+            "s16_types_creconfs_asas",
+            1,
+            200,
+            ["KL001", "INT1", "INT2", "INT3", "INT4", "INT5"],
+            _types_creconfs,
+            {40: [_spd_kts(2, 230), _alt_fl(0, 220)], 100: [_hdg(1, 180)]},
+            max_aircraft=6,
+        ),
     ]
 }
 
@@ -214,6 +322,6 @@ def run(scenario: Scenario, sim: Simulator, env: int) -> dict[str, np.ndarray]:
 
 
 def run_alone(scenario: Scenario) -> dict[str, np.ndarray]:
-    sim = Simulator(1, 4, dt=scenario.dt)
+    sim = Simulator(1, scenario.max_aircraft, dt=scenario.dt)
     scenario.setup(sim, 0)
     return run(scenario, sim, 0)

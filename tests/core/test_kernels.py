@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from bluesky_gym.core import Simulator, atmosphere, geo, performance
+from bluesky_gym.core.aircraft import aircraft_performance
 from bluesky_gym.core.jit import python_form
 from tests.oracle import atmosphere as o_atm
 from tests.oracle import geo as o_geo
@@ -92,7 +93,7 @@ def test_performance_kernel_equals_the_oracle() -> None:
     phase = o_perf.flight_phase(tas, vs, alt)
     vmin, vmax = o_perf.speed_envelope(phase)
     axmax = o_perf.max_acceleration(phase, tas, alt, vs)
-    args = performance.perf_tuple(performance.A320)
+    args = performance.perf_tuple(aircraft_performance("A320"))
     for k in range(n):
         ph, vn, vx, ax = performance.performance(tas[k], vs[k], alt[k], args)
         assert ph == phase[k], k
@@ -135,7 +136,7 @@ def _run_uncompiled(sim: Simulator, n: int) -> None:
         if sim.swlnav.any():
             python_form(lnav.lnav_kernel)(sim._float_flat, *sim._lnav_args())
         wn, we, haswind, any_wind = sim._wind_args()
-        args = (sim._phase_flat, wn, we, haswind, any_wind, do_perf, sim.dt, sim._perf_args, sim._limit_args, sim._memo, sim._active_flat)
+        args = (sim._phase_flat, wn, we, haswind, any_wind, do_perf, sim.dt, sim._table, sim._type_args(), sim._memo, sim._active_flat)
         python_form(step.step_kernel)(sim._float_flat, *args)
 
 

@@ -61,7 +61,7 @@ def test_reference_scenarios_bitwise(name: str) -> None:
     sc = SCENARIOS[name]
     out = {}
     for kind, cls in KINDS.items():
-        sim = cls(1, 4, dt=sc.dt)
+        sim = cls(1, sc.max_aircraft, dt=sc.dt)
         sc.setup(sim, 0)
         out[kind] = run(sc, sim, 0)
     for col in out["oracle"]:

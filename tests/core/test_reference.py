@@ -19,7 +19,7 @@ from bluesky_gym.core import Simulator
 from bluesky_gym.core.conflicts import detect
 from bluesky_gym.core.units import R_EARTH
 
-from .reference_scenarios import DATA, SCENARIOS, load_reference, run, run_alone
+from .reference_scenarios import DATA, SCENARIOS, TYPES_ENROUTE, Scenario, _types_one_call, load_reference, run, run_alone
 
 DEG_M = math.pi / 180.0 * R_EARTH  # metres per degree of latitude
 TOL = {
@@ -93,12 +93,13 @@ def _read_cd(name: str) -> dict[int, dict[tuple[str, str], dict[str, float | str
     return out
 
 
-def test_cstatebased_conflicts_match_reference() -> None:
-    """Every conflict pair, LoS pair and geometry of s9 with ASAS CSTATEBASED, at every step."""
-    scenario = SCENARIOS["s9_creconfs"]
-    ref = _read_cd("s9_creconfs_cd_cstatebased")
+@pytest.mark.parametrize(("name", "cd_file"), [("s9_creconfs", "s9_creconfs_cd_cstatebased"), ("s16_types_creconfs_asas", "s16_types_creconfs_asas")])
+def test_cstatebased_conflicts_match_reference(name: str, cd_file: str) -> None:
+    """Every conflict pair, LoS pair and geometry with ASAS CSTATEBASED, at every step (s16: mixed types)."""
+    scenario = SCENARIOS[name]
+    ref = _read_cd(cd_file)
     ids = scenario.aircraft
-    sim = Simulator(1, 4, dt=1.0)
+    sim = Simulator(1, scenario.max_aircraft, dt=1.0)
     scenario.setup(sim, 0)
     checked = 0
     for t in range(1, 201):
@@ -122,8 +123,34 @@ def test_cstatebased_conflicts_match_reference() -> None:
             else:
                 assert c.dcpa[0, i, j] == pytest.approx(v["dcpa_m"], abs=1e-5)
             checked += 1
+        for ev in scenario.events.get(float(t - 1), []):
+            ev(sim, 0)
         sim.step()
     assert checked > 1000
+
+
+def test_one_call_quirk_is_what_bluesky_recorded() -> None:
+    """s15: BlueSky gave every aircraft of one traf.cre call the last type's data; the core told the
+    recorded types flies them differently (so the recording does pin the quirk down)."""
+    ref = load_reference("s15_types_one_call")
+    sc = SCENARIOS["s15_types_one_call"]
+    honest = Scenario(sc.name, sc.dt, sc.duration, sc.aircraft, _types_one_call(["E145", "A320", "B744", "B744", "C550"]), sc.events, sc.max_aircraft)
+    out = run_alone(honest)
+    for j, acid in enumerate(sc.aircraft):
+        differs = np.max(np.abs(out["cas"][:, j] - ref[acid]["cas"])) > 1e-3
+        assert differs == (acid in ("Q1", "Q2", "Q4")), acid
+
+
+def test_unknown_and_synonym_types_fly_as_their_data() -> None:
+    """s13: the unknown type flies exactly like the B744 and the AT72 like the E145, in BlueSky as on the core."""
+    ref = load_reference("s13_types_enroute")
+    out = run_alone(SCENARIOS["s13_types_enroute"])
+    col = TYPES_ENROUTE.index
+    for a, b in (("ZZZZ", "B744"), ("AT72", "E145")):
+        for c in ("tas", "vs", "alt", "axmax"):
+            np.testing.assert_array_equal(out[c][:, col(a)], out[c][:, col(b)])
+            np.testing.assert_array_equal(ref[f"T{col(a):02d}"][c], ref[f"T{col(b):02d}"][c])
+    assert np.ptp(out["vmax_cas"][-1, : len(TYPES_ENROUTE)]) > 10.0  # the types do differ
 
 
 def test_creconfs_places_intruders_exactly() -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 import warnings
 
@@ -13,6 +14,7 @@ pytest.importorskip("pettingzoo")
 from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
 
 from bluesky_gym.core import geo  # noqa: E402
+from bluesky_gym.core.extras import install_hint  # noqa: E402
 from bluesky_gym.multiagent import names, parallel_env, require_pettingzoo  # noqa: E402
 from bluesky_gym.multiagent.base import STATE_FEATURES  # noqa: E402
 from bluesky_gym.tasks import merge as mg  # noqa: E402
@@ -191,5 +193,5 @@ def test_human_render(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_missing_pettingzoo_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "pettingzoo", None)
-    with pytest.raises(ImportError, match=r"bluesky-gym\[multiagent\]"):
+    with pytest.raises(ImportError, match=re.escape(install_hint("multiagent"))):
         require_pettingzoo()

@@ -36,6 +36,7 @@ def create_conflicts(
     spd: ArrayLike | None = None,
     rpz: float = PZ_RADIUS,
     hpz: float = PZ_HEIGHT,
+    actype: str | list[str] | None = None,
 ) -> None:
     """Create intruders in conflict with target aircraft (BlueSky ``traf.creconfs``) [docs/dynamics.md §3].
 
@@ -97,6 +98,6 @@ def create_conflicts(
     acspd = isa.tas2cas(np.sqrt(tasn * tasn + tase * tase), acalt)
     achdg = np.degrees(np.arctan2(tase, tasn))
 
-    sim.create(env, slot, aclat, aclon, achdg, acalt, acspd)
+    sim.create(env, slot, aclat, aclon, achdg, acalt, acspd, actype=actype)
     sim.cmd_altitude(env, slot, altref, acvs)
     sim.vs[env, slot] = acvs

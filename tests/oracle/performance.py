@@ -13,10 +13,13 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.performance import A320, PHASE_AP, PHASE_CL, PHASE_CR, PHASE_DE, PHASE_GD, PHASE_IC, AircraftPerformance
+from bluesky_gym.core.aircraft import aircraft_performance
+from bluesky_gym.core.performance import PHASE_AP, PHASE_CL, PHASE_CR, PHASE_DE, PHASE_GD, PHASE_IC, AircraftPerformance
 from bluesky_gym.core.units import FPM, FT, G0
 
 from . import atmosphere as isa
+
+A320 = aircraft_performance("A320")  # the performance data every oracle function defaults to
 
 Array = NDArray[np.float64]
 

@@ -9,10 +9,15 @@ functions). Inactive slots are computed too (their values are meaningless).
 
 from __future__ import annotations
 
+import dataclasses
+from types import SimpleNamespace
+
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator
+from bluesky_gym.core.aircraft import aircraft_performance
+from bluesky_gym.core.performance import AircraftPerformance
 from bluesky_gym.core.units import (
     BANK_DEFAULT,
     G0,
@@ -46,9 +51,17 @@ class OracleSimulator(Simulator):
         super().__init__(*args, **kwargs)
         self._oracle_qdrdist = ogeo.qdrdist if self.geo == "compiled" else ogeo.qdrdist_python
 
-    def creconfs(self, env, target, slot, dpsi, dcpa, tlosh, dh=None, tlosv=None, spd=None) -> None:  # noqa: ANN001
+    def creconfs(self, env, target, slot, dpsi, dcpa, tlosh, dh=None, tlosv=None, spd=None, actype=None) -> None:  # noqa: ANN001
         """``creconfs`` through the numpy oracle of the conflict geometry."""
-        oconf.create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd)
+        oconf.create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd, actype=actype)
+
+    def _perf_of_every_aircraft(self) -> SimpleNamespace:
+        """The performance data with every field an (n_envs, max_aircraft) array of each aircraft's type's value."""
+        rows = [self.perf] + [aircraft_performance(n) for n in self.aircraft_types[1:]]
+        fields = [f.name for f in dataclasses.fields(AircraftPerformance) if f.name != "name"]
+        out = SimpleNamespace(**{f: np.array([getattr(p, f) for p in rows])[self.type_index] for f in fields})
+        out.static_thrust = out.engine_count * out.engine_max_thrust
+        return out
 
     def _run(self, n_steps: int, trace: bool) -> Array | None:
         track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft)) if trace else None
@@ -76,7 +89,8 @@ class OracleSimulator(Simulator):
                 hdg_t = (trk_t + np.degrees(steer)) % 360.0
             else:
                 hdg_t = trk_t % 360.0
-            tas_t, vs_t, alt_t = pf.apply_limits(tas_t, vs_t, alt_t, self.ax, self.tas, self.phase, self.vmin, self.vmax, self.axmax, self.perf)
+            perf = self._perf_of_every_aircraft()
+            tas_t, vs_t, alt_t = pf.apply_limits(tas_t, vs_t, alt_t, self.ax, self.tas, self.phase, self.vmin, self.vmax, self.axmax, perf)
             self._update_airspeed(tas_t, hdg_t, alt_t, vs_t)
             self._update_groundspeed(any_wind)
             self._update_position(alt_t)
@@ -84,8 +98,9 @@ class OracleSimulator(Simulator):
     def _update_performance(self) -> None:
         """OpenAP update from the start-of-step state [docs/dynamics.md §1.3-1.4]."""
         self.phase[...] = pf.flight_phase(self.tas, self.vs, self.alt)
-        self.vmin, self.vmax = pf.speed_envelope(self.phase, self.perf)
-        self.axmax = pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, self.perf)
+        perf = self._perf_of_every_aircraft()
+        self.vmin, self.vmax = pf.speed_envelope(self.phase, perf)
+        self.axmax = pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, perf)
 
     def _update_autopilot(self) -> None:
         """Autopilot targets [docs/dynamics.md §2.3]; LNAV waypoint logic [docs/dynamics.md §2.6]."""

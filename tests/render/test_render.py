@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 
 import gymnasium as gym
@@ -9,6 +10,7 @@ import numpy as np
 import pytest
 
 import bluesky_gym
+from bluesky_gym.core.extras import install_hint
 from bluesky_gym.registration import available_envs
 
 pygame = pytest.importorskip("pygame")
@@ -294,7 +296,7 @@ def test_human_window_batched() -> None:
 def test_missing_pygame_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
     env = gym.make(IDS[0])
     monkeypatch.setitem(sys.modules, "pygame", None)
-    with pytest.raises(ImportError, match=r"pip install bluesky-gym\[render\]"):
+    with pytest.raises(ImportError, match=re.escape(install_hint("render"))):
         make_renderer(env.unwrapped.task, "rgb_array")
 
 

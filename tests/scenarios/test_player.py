@@ -54,9 +54,14 @@ def test_advance_equals_stepping() -> None:
 
 
 def test_player_errors() -> None:
-    sc = parse_scenario("00:00:00.00>CRE AC1 B744 52 4\n", "types.scn")
-    with pytest.raises(ScenarioError, match="types.scn:1: aircraft type 'B744': aircraft types other than A320 need"):
-        ScenarioPlayer([sc], Simulator(1, 1))
+    sc = parse_scenario("00:00:00.00>CRE AC1 B744 52 4\n00:00:00.00>CRE AC2 zzzz 52 5\n", "types.scn")
+    sim = Simulator(1, 2)
+    ScenarioPlayer([sc], sim)
+    assert sim.aircraft_type([0, 0], [0, 1]) == ["B744", "ZZZZ"]
+    assert sim.aircraft_performance(0, 1).name == "B744"  # BlueSky's fallback for an unknown type
+    rotor = parse_scenario("00:00:00.00>CRE AC1 EC35 52 4\n", "rotor.scn")
+    with pytest.raises(ScenarioError, match="rotor.scn:1: 'CRE AC1 EC35 52 4' failed: aircraft type 'EC35' is a rotorcraft"):
+        ScenarioPlayer([rotor], Simulator(1, 1))
     two = parse_scenario("00:00:00.00>CRE AC1 A320 52 4\n00:00:00.00>CRE AC2 A320 52 5\n", "two.scn")
     with pytest.raises(ScenarioError, match="creates 2 aircraft, the physics has 1 slots"):
         ScenarioPlayer([two], Simulator(1, 1))

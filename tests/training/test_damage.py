@@ -62,7 +62,9 @@ def _rows(path: Path) -> list[list[str]]:
 def _train(run_dir: Path, tiny_config: Path, *flags: str) -> int:
     """``bluesky-gym train`` of the run in ``run_dir`` (``<out>/<env>/SAC/seed_0``)."""
     out = run_dir.parents[2]
-    return main(["train", ENV, "--algo", "SAC", "--out", str(out), "--config", str(tiny_config), "--no-progress", "--no-tensorboard", *flags])
+    return main(
+        ["train", "--env", ENV, "--algo", "SAC", "--out", str(out), "--config", str(tiny_config), "--no-progress", "--no-tensorboard", *flags]
+    )
 
 
 @pytest.fixture
@@ -177,7 +179,7 @@ def test_a_sweep_names_a_damaged_run_and_takes_the_same_choice(
     run_dir = out / ENV / "SAC" / "seed_0"
     shutil.copytree(killed_run, run_dir)
     (_latest(run_dir) / "model.zip").unlink()
-    sweep = ["sweep", "--envs", ENV, "--algos", "SAC", "--out", str(out), "--config", str(tiny_config), "--local", "--quiet"]
+    sweep = ["sweep", "--env", ENV, "--algos", "SAC", "--out", str(out), "--config", str(tiny_config), "--local", "--quiet"]
     assert main(sweep) == 1  # a run failed
     summary = read_json(out / "sweep.json")["runs"]
     assert summary[0]["status"] == "failed" and "model.zip is missing" in summary[0]["error"]

@@ -1,0 +1,168 @@
+"""Aircraft types: the OpenAP data of every fixed-wing type, read as BlueSky 1.1.1 reads it [docs/dynamics.md §1.2].
+
+BlueSky's default performance model (OpenAP) takes its numbers from the ``openap`` package
+(version 2.6.2): the aircraft files (mass, wing, engine count and default engine), the engine
+table (static thrust, bypass ratio), the drag polars (clean polar, flap and gear increments) and
+the WRAP kinematic parameters (speed envelopes per phase, ceiling, maximum Mach, climb rates,
+take-off acceleration). :func:`aircraft_performance` builds one
+:class:`~bluesky_gym.core.performance.AircraftPerformance` per type from the same files with the
+same arithmetic, once per process (cached). The step kernel reads these numbers as rows of a
+``(types, N_COEFFICIENTS)`` table (:func:`~bluesky_gym.core.performance.table_row`).
+
+Type names resolve as in BlueSky (:func:`resolve_type`): case-insensitive; OpenAP's synonyms
+(e.g. ``AT72`` flies with the E145 data) are types of their own; any other name falls back to
+the B744 without a warning; BlueSky's rotorcraft types are refused here (BlueSky flies them with
+a different model that the core does not implement).
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+from typing import Any
+
+from bluesky_gym.core.performance import AircraftPerformance
+
+#: The type of every aircraft unless another is asked for.
+DEFAULT_TYPE = "A320"
+#: What BlueSky 1.1.1's OpenAP model flies for a type it does not know.
+FALLBACK_TYPE = "B744"
+#: The rotorcraft of BlueSky 1.1.1's OpenAP rotor table: BlueSky flies them with its rotor model.
+ROTORCRAFT_TYPES: tuple[str, ...] = ("EC35", "M600", "AMZN", "MNET", "PHAN4", "M100", "M200", "MAVIC", "HORSEFLY")
+#: Flap deflections BlueSky assumes for the take-off and landing drag polars [deg].
+FLAP_TAKEOFF = 15.0
+FLAP_LANDING = 40.0
+#: Oswald-factor increments per degree of flap, rear- and wing-mounted engines (BlueSky's values).
+DELTA_E_REAR = 0.0046
+DELTA_E_WING = 0.0026
+INSTALL_HINT = "pip install openap==2.6.2"
+
+
+def _openap() -> Any:
+    """The ``openap`` package (imported on first use: it takes about a second)."""
+    try:
+        import openap
+    except ImportError as exc:  # pragma: no cover - openap is a dependency
+        raise ImportError(f"aircraft types need the openap package (OpenAP 2.6.2, as BlueSky 1.1.1 uses): {INSTALL_HINT}") from exc
+    return openap
+
+
+@functools.lru_cache(maxsize=1)
+def supported_types() -> tuple[str, ...]:
+    """Every fixed-wing type BlueSky 1.1.1 flies with its own data, synonyms included (upper case, sorted)."""
+    names = _openap().prop.available_aircraft(use_synonym=True)
+    return tuple(sorted({str(n).upper() for n in names}))
+
+
+def resolve_type(name: str) -> str:
+    """The type whose data an aircraft of type ``name`` flies with, as BlueSky 1.1.1 decides it.
+
+    Args:
+        name: Type designator, any case (e.g. ``"b738"``).
+
+    Returns:
+        ``name`` in upper case when OpenAP has it (directly or as a synonym), else ``"B744"``.
+
+    Raises:
+        TypeError: ``name`` is not a string.
+        ValueError: ``name`` is one of BlueSky's rotorcraft.
+    """
+    if not isinstance(name, str):
+        raise TypeError(f"aircraft type must be a string, got {type(name).__name__} {name!r}")
+    upper = name.upper()
+    if upper in ROTORCRAFT_TYPES:
+        raise ValueError(f"aircraft type {name!r} is a rotorcraft: BlueSky flies it with its rotor model, which the core does not implement")
+    return upper if upper in supported_types() else FALLBACK_TYPE
+
+
+@functools.cache
+def _load(resolved: str) -> AircraftPerformance:
+    """Build the performance data of an OpenAP type (upper case), as BlueSky's OpenAP coefficient loader does."""
+    import numpy as np
+
+    oa = _openap()
+    mdl = resolved.lower()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # openap warns when it uses a synonym
+        ac = oa.prop.aircraft(mdl, use_synonym=True)
+        engine = oa.prop.engine(ac["engine"]["default"])
+        wrap = oa.WRAP(ac=mdl)
+        polar = oa.drag.Drag(resolved, use_synonym=True).polar
+
+    def lo(v: dict[str, Any]) -> float:
+        return float(v["minimum"])
+
+    def hi(v: dict[str, Any]) -> float:
+        return float(v["maximum"])
+
+    ic, cl, cr, de, fa = (wrap.initclimb_vcas(), wrap.climb_const_vcas(), wrap.cruise_mean_vcas(), wrap.descent_const_vcas(), wrap.finalapp_vcas())
+    vs_parts = (wrap.initclimb_vs(), wrap.climb_vs_pre_concas(), wrap.climb_vs_concas(), wrap.climb_vs_conmach())
+    # Drag polars with flaps (BlueSky's formulas, evaluated with numpy as BlueSky does).
+    cd0, k = polar["clean"]["cd0"], polar["clean"]["k"]
+    flaps = polar["flaps"]
+    flap_factor = flaps["lambda_f"] * (flaps["cf/c"]) ** 1.38 * flaps["Sf/S"]
+    delta_cd_to = flap_factor * np.sin(np.deg2rad(FLAP_TAKEOFF)) ** 2
+    delta_cd_ld = flap_factor * np.sin(np.deg2rad(FLAP_LANDING)) ** 2
+    de_per_deg = DELTA_E_REAR if ac["engine"]["mount"] == "rear" else DELTA_E_WING
+    ar = ac["wing"]["span"] ** 2 / ac["wing"]["area"]
+    return AircraftPerformance(
+        name=resolved,
+        mass=float(0.5 * (ac["oew"] + ac["mtow"])),
+        wing_area=float(ac["wing"]["area"]),
+        engine_count=int(ac["engine"]["number"]),
+        engine_max_thrust=float(engine["max_thrust"]),
+        bypass_ratio=float(engine["bpr"]),
+        cd0_clean=float(cd0),
+        k_clean=float(k),
+        cd0_takeoff=float(cd0 + delta_cd_to),
+        k_takeoff=float(1 / (1 / k + np.pi * ar * (de_per_deg * FLAP_TAKEOFF))),
+        cd0_gear=float(polar["gears"]),
+        cd0_landing=float(cd0 + delta_cd_ld),
+        k_landing=float(1 / (1 / k + np.pi * ar * (de_per_deg * FLAP_LANDING))),
+        vmin_enroute=min(lo(ic), lo(cl), lo(cr), lo(de), lo(fa)),
+        vmax_enroute=max(hi(ic), hi(cl), hi(cr), hi(de), hi(fa)),
+        vmin_approach=lo(fa),
+        vmax_approach=hi(fa),
+        vmax_ground=hi(ic),
+        v_rotate=lo(wrap.takeoff_speed()),
+        hmax=float(wrap.cruise_max_alt()["default"] * 1000.0),
+        vsmax=max(hi(v) for v in vs_parts),
+        vsmin=min(lo(v) for v in vs_parts),
+        mmo=float(wrap.cruise_max_mach()["default"]),
+        axmax_initial=hi(wrap.takeoff_acceleration()),
+    )
+
+
+def aircraft_performance(name: str) -> AircraftPerformance:
+    """The performance data an aircraft of type ``name`` flies with in BlueSky 1.1.1 (cached per type).
+
+    Args:
+        name: Type designator, any case; unknown types give the B744 (BlueSky's fallback).
+
+    Raises:
+        ValueError: ``name`` is a rotorcraft.
+    """
+    return _load(resolve_type(name))
+
+
+def check_types(names: Any, what: str = "aircraft type") -> tuple[str, ...]:
+    """Validate type names for an option that accepts only types with their own data (no fallback).
+
+    Args:
+        names: One name or an iterable of names.
+        what: How the error message calls the value.
+
+    Returns:
+        The names in upper case.
+
+    Raises:
+        ValueError: A name that BlueSky would replace by the B744, or a rotorcraft; the message
+            lists the supported types.
+    """
+    items = (names,) if isinstance(names, str) else tuple(names)
+    out = []
+    for n in items:
+        if not isinstance(n, str) or n.upper() not in supported_types():
+            raise ValueError(f"{what} {n!r} is not supported; supported types: {', '.join(supported_types())}")
+        out.append(n.upper())
+    return tuple(out)

@@ -1,0 +1,573 @@
+"""Conflict resolution: BlueSky 1.1.1's Modified Voltage Potential (MVP), batched [docs/baselines.md].
+
+MVP is the classical conflict-resolution method of BlueSky's ASAS module (``RESO MVP``). For
+every conflict pair (ownship i, intruder j) that the state-based detection reports, it computes a
+velocity change that pushes the predicted closest point of approach out of the (enlarged)
+protected zone, in the time left until that point; the ownship takes half of the vertical part
+(the intruder resolves the other half, "cooperative"). The changes of all pairs of an aircraft
+are summed and added to its ground velocity, and the result is limited to the channels the
+``RMETHH`` / ``RMETHV`` settings allow and to the aircraft's envelope.
+
+:func:`mvp` takes the conflict picture of :func:`bluesky_gym.core.conflicts.detect` (the one
+conflict detection of the package) and returns what BlueSky's ``MVP.resolve`` returns: the
+resolution track, speed, vertical speed and altitude of every aircraft. The kernels follow
+BlueSky's formulas step by step, including its quirks (kept, because they are what ``RESO MVP``
+flies):
+
+* the resolution speed is a ground speed, but it is capped by the CAS envelope ``vmin``/``vmax``;
+* the vertical speed is capped to ``[vsmin, vsmax]`` of the performance model; with OpenAP's
+  A320 ``vsmin`` is the smallest *climb* rate (3.6 m/s), so the capped value is a magnitude and
+  the direction comes from the resolution altitude (as BlueSky's autopilot applies it);
+* head-on conflicts (miss distance at most 10 m) are resolved sideways, to the right of the
+  line of sight;
+* aircraft without a conflict get their own velocity back (track from ``atan2`` of the ground
+  velocity components).
+
+Not modelled: priority rules (``PRIORULES``, off by default), ``NORESO`` / ``RESOOFF`` lists and
+per-aircraft zone sizes (the package uses one protected zone per call).
+
+:func:`resume` is BlueSky's ``resumenav`` bookkeeping: which pairs are still being resolved
+(before their closest point of approach, in horizontal loss of separation, or "bouncing"), and
+so which aircraft still follow their resolution.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
+from bluesky_gym.core.atmosphere import tas2cas
+from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect
+from bluesky_gym.core.jit import jit
+from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
+from bluesky_gym.core.units import R_EARTH
+
+Array = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+RESO_FACTOR = 1.05  # -, BlueSky's resolution margins asas_marh and asas_marv (settings.cfg)
+HEAD_ON_MISS = 10.0  # m: a predicted miss distance at most this is treated as head-on
+NO_VERTICAL_SOLUTION = 1e9  # s, BlueSky's "no vertical resolution time" marker (timesolveV)
+BOUNCING_TRACK_DIFF = 30.0  # deg: pairs flying within this track difference keep resolving while close
+
+#: ``RMETHH`` values and their aliases, as BlueSky's command accepts them.
+RMETHH_VALUES = ("BOTH", "SPD", "HDG", "NONE", "ON", "OFF", "OF")
+#: ``RMETHV`` values and their aliases.
+RMETHV_VALUES = ("V/S", "NONE", "ON", "OFF", "OF")
+
+
+@dataclass(frozen=True)
+class ResolutionSettings:
+    """MVP's switches and margins (BlueSky ``traf.cr``); the defaults are BlueSky's after ``RESO MVP``.
+
+    Attributes:
+        swresohoriz: Resolve horizontally only (keep the vertical speed).
+        swresospd: With ``swresohoriz``: may change the speed.
+        swresohdg: With ``swresohoriz``: may change the track. With neither (the default), or
+            both, track and speed both change.
+        swresovert: Resolve vertically only (when ``swresohoriz`` is off).
+        resofach: Horizontal resolution factor (protected-zone radius multiplier).
+        resofacv: Vertical resolution factor (protected-zone height multiplier).
+    """
+
+    swresohoriz: bool = True
+    swresospd: bool = False
+    swresohdg: bool = False
+    swresovert: bool = False
+    resofach: float = RESO_FACTOR
+    resofacv: float = RESO_FACTOR
+
+    @classmethod
+    def from_methods(
+        cls, rmethh: str | None = None, rmethv: str | None = None, resofach: float = RESO_FACTOR, resofacv: float = RESO_FACTOR
+    ) -> ResolutionSettings:
+        """The settings after ``RESO MVP``, then ``RMETHH rmethh``, then ``RMETHV rmethv`` (None: not given).
+
+        Args:
+            rmethh: ``BOTH``/``ON``, ``SPD``, ``HDG`` or ``NONE``/``OFF``/``OF``.
+            rmethv: ``V/S``/``ON`` or ``NONE``/``OFF``/``OF``.
+            resofach: ``RFACH`` factor.
+            resofacv: ``RFACV`` factor.
+
+        Raises:
+            ValueError: An unknown method or a factor that is not a positive number.
+        """
+        for name, value in (("resofach", resofach), ("resofacv", resofacv)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        h, spd, hdg, vert = cls.swresohoriz, cls.swresospd, cls.swresohdg, cls.swresovert
+        if rmethh is not None:
+            if rmethh not in RMETHH_VALUES:
+                raise ValueError(f"RMETHH {rmethh!r} not understood; choose one of {', '.join(RMETHH_VALUES)}")
+            if rmethh in ("ON", "BOTH"):
+                h, spd, hdg, vert = True, True, True, False
+            elif rmethh in ("OFF", "OF", "NONE"):  # as BlueSky: leaves swresovert as it is
+                h, spd, hdg = False, False, False
+            elif rmethh == "SPD":
+                h, spd, hdg, vert = True, True, False, False
+            else:  # HDG
+                h, spd, hdg, vert = True, False, True, False
+        if rmethv is not None:
+            if rmethv not in RMETHV_VALUES:
+                raise ValueError(f"RMETHV {rmethv!r} not understood; choose one of {', '.join(RMETHV_VALUES)}")
+            if rmethv in ("ON", "V/S"):
+                h, spd, hdg, vert = False, False, False, True
+            else:  # as BlueSky: leaves swresohoriz as it is
+                vert = False
+        return cls(h, spd, hdg, vert, float(resofach), float(resofacv))
+
+    @property
+    def mode(self) -> int:
+        """The velocity channels that change: 0 track+speed, 1 speed, 2 track, 3 vertical, 4 all three."""
+        if self.swresohoriz:
+            if self.swresospd and not self.swresohdg:
+                return 1
+            if self.swresohdg and not self.swresospd:
+                return 2
+            return 0
+        return 3 if self.swresovert else 4
+
+
+@jit
+def mvp_pair(
+    qdr_deg: float,
+    dist: float,
+    tcpa: float,
+    tlos: float,
+    dalt: float,
+    vrel_e: float,
+    vrel_n: float,
+    vrel_z: float,
+    rpz_m: float,
+    hpz_m: float,
+    dtlook: float,
+) -> tuple[float, float, float, float]:
+    """MVP's velocity change for one conflict pair (BlueSky ``MVP.MVP``).
+
+    Args:
+        qdr_deg: Bearing ownship -> intruder [deg].
+        dist: Horizontal distance [m].
+        tcpa: Time to the closest point of approach [s].
+        tlos: Time to loss of separation [s].
+        dalt: Intruder altitude minus ownship altitude [m].
+        vrel_e: Intruder minus ownship ground velocity, east [m/s].
+        vrel_n: Same, north [m/s].
+        vrel_z: Intruder minus ownship vertical speed [m/s].
+        rpz_m: Resolution zone radius (protected zone x resofach) [m].
+        hpz_m: Resolution zone half height (x resofacv) [m].
+        dtlook: Look-ahead time [s].
+
+    Returns:
+        (dv east, dv north, dv up) [m/s], the change that the intruder would make, and the time to
+        solve the conflict vertically [s].
+    """
+    q = qdr_deg * RAD
+    drel_e = math.sin(q) * dist
+    drel_n = math.cos(q) * dist
+    # Horizontal: the miss vector at the closest point of approach.
+    dcpa_e = drel_e + vrel_e * tcpa
+    dcpa_n = drel_n + vrel_n * tcpa
+    dabsh = math.sqrt(dcpa_e * dcpa_e + dcpa_n * dcpa_n)
+    ih = rpz_m - dabsh
+    if dabsh <= HEAD_ON_MISS:  # head-on: resolve perpendicular to the line of sight
+        dabsh = HEAD_ON_MISS
+        dcpa_e = divide(drel_n, dist) * dabsh
+        dcpa_n = divide(-drel_e, dist) * dabsh
+    if rpz_m < dist and dabsh < dist:
+        # Outside the zone: aim at the tangent to the zone, not at its rim.
+        erratum = math.cos(math.asin(rpz_m / dist) - math.asin(dabsh / dist))
+        dv1 = divide((rpz_m / erratum - dabsh) * dcpa_e, abs(tcpa) * dabsh)
+        dv2 = divide((rpz_m / erratum - dabsh) * dcpa_n, abs(tcpa) * dabsh)
+    else:
+        dv1 = divide(ih * dcpa_e, abs(tcpa) * dabsh)
+        dv2 = divide(ih * dcpa_n, abs(tcpa) * dabsh)
+    # Vertical.
+    moving = abs(vrel_z) > 0.0
+    iv = hpz_m if moving else hpz_m - abs(dalt)
+    tsolv = abs(dalt / vrel_z) if moving else tlos
+    if tsolv > dtlook:
+        tsolv = tlos
+        iv = hpz_m
+    dv3 = divide(iv, tsolv) * (-vrel_z / abs(vrel_z)) if moving else divide(iv, tsolv)
+    return dv1, dv2, dv3, tsolv
+
+
+@jit
+def _mvp_loop(  # type: ignore[no-untyped-def]  # noqa: ANN202
+    conflict,  # noqa: ANN001
+    qdr,  # noqa: ANN001
+    dist,  # noqa: ANN001
+    tcpa,  # noqa: ANN001
+    tlos,  # noqa: ANN001
+    active,  # noqa: ANN001
+    alt,  # noqa: ANN001
+    gseast,  # noqa: ANN001
+    gsnorth,  # noqa: ANN001
+    vs,  # noqa: ANN001
+    trk,  # noqa: ANN001
+    gs,  # noqa: ANN001
+    selalt,  # noqa: ANN001
+    ap_vs,  # noqa: ANN001
+    vmin,  # noqa: ANN001
+    vmax,  # noqa: ANN001
+    vsmin,  # noqa: ANN001
+    vsmax,  # noqa: ANN001
+    rpz_m,  # noqa: ANN001
+    hpz_m,  # noqa: ANN001
+    dtlook,  # noqa: ANN001
+    mode,  # noqa: ANN001
+    horizontal,  # noqa: ANN001
+    out_trk,  # noqa: ANN001
+    out_gs,  # noqa: ANN001
+    out_vs,  # noqa: ANN001
+    out_alt,  # noqa: ANN001
+    out_dv,  # noqa: ANN001
+    out_tsolv,  # noqa: ANN001
+):
+    n_envs, m = active.shape
+    for e in range(n_envs):
+        for i in range(m):
+            if not active[e, i]:
+                continue
+            dve = 0.0
+            dvn = 0.0
+            dvz = 0.0
+            tsol = NO_VERTICAL_SOLUTION
+            for j in range(m):
+                if not conflict[e, i, j]:
+                    continue
+                d1, d2, d3, tv = mvp_pair(
+                    qdr[e, i, j],
+                    dist[e, i, j],
+                    tcpa[e, i, j],
+                    tlos[e, i, j],
+                    alt[e, j] - alt[e, i],
+                    gseast[e, j] - gseast[e, i],
+                    gsnorth[e, j] - gsnorth[e, i],
+                    vs[e, j] - vs[e, i],
+                    rpz_m,
+                    hpz_m,
+                    dtlook,
+                )
+                if tv < tsol:
+                    tsol = tv
+                # Cooperative: the ownship moves away by the whole horizontal and half the vertical change.
+                dve = dve - d1
+                dvn = dvn - d2
+                dvz = dvz - 0.5 * d3
+            ve = gseast[e, i] + dve
+            vn = gsnorth[e, i] + dvn
+            vz = vs[e, i] + dvz
+            new_trk = mod(math.atan2(ve, vn) * 180.0 / math.pi, 360.0)
+            new_gs = math.sqrt(ve * ve + vn * vn)
+            new_vs = vs[e, i]
+            if mode == 1:  # speed only
+                new_trk = trk[e, i]
+            elif mode == 2:  # track only
+                new_gs = gs[e, i]
+            elif mode == 3:  # vertical only
+                new_trk = trk[e, i]
+                new_gs = gs[e, i]
+                new_vs = vz
+            elif mode == 4:  # all three
+                new_vs = vz
+            gs_capped = maximum(vmin[e, i], minimum(vmax[e, i], new_gs))
+            vs_capped = maximum(vsmin[e, i], minimum(vsmax[e, i], new_vs))
+            # The altitude to level off at (BlueSky: follow the autopilot's altitude when it also solves).
+            alt_temp = vs_capped * tsol + alt[e, i]
+            sign_dvs = sign(vs_capped - ap_vs[e, i] * sign(selalt[e, i] - alt[e, i]))
+            sign_alt = sign(alt_temp - selalt[e, i])
+            new_alt = alt_temp if (sign_dvs == 0.0 or sign_dvs == sign_alt) else selalt[e, i]
+            if tsol < dtlook and abs(dvz) > 0.0:
+                new_alt = alt_temp
+            new_alt = new_alt * (1.0 - horizontal) + selalt[e, i] * horizontal
+            out_trk[e, i] = new_trk
+            out_gs[e, i] = gs_capped
+            out_vs[e, i] = vs_capped
+            out_alt[e, i] = new_alt
+            out_dv[e, i, 0] = dve
+            out_dv[e, i, 1] = dvn
+            out_dv[e, i, 2] = dvz
+            out_tsolv[e, i] = tsol
+
+
+class ResolutionState(Protocol):
+    """The per-aircraft state MVP reads, shaped (n_envs, n_aircraft) (the :class:`~bluesky_gym.core.physics.Physics` arrays)."""
+
+    active: BoolArray
+    lat: Array  # deg
+    lon: Array  # deg
+    tas: Array  # m/s
+    alt: Array  # m
+    gseast: Array  # m/s
+    gsnorth: Array  # m/s
+    vs: Array  # m/s
+    trk: Array  # deg
+    gs: Array  # m/s
+    selalt: Array  # m
+    ap_vs: Array  # m/s
+    vmin: Array  # m/s CAS
+    vmax: Array  # m/s CAS
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """MVP's resolution of every aircraft, (n_envs, n_aircraft) (NaN in empty slots).
+
+    The first four are BlueSky's ``traf.cr.trk``, ``tas``, ``vs`` and ``alt`` after ``resolve``.
+    """
+
+    trk: Array  # deg, resolution track in [0, 360)
+    gs: Array  # m/s, resolution ground speed, capped to [vmin, vmax] (BlueSky calls it tas)
+    vs: Array  # m/s, resolution vertical speed, capped to [vsmin, vsmax]
+    alt: Array  # m, altitude to level off at
+    dv: Array  # (n_envs, n_aircraft, 3) m/s, summed velocity change east, north, up
+    tsolv: Array  # s, shortest time to solve a conflict vertically (1e9 without conflict)
+    in_conflict: BoolArray  # the aircraft has at least one conflict
+
+
+def mvp(
+    state: ResolutionState,
+    conflicts: Conflicts,
+    settings: ResolutionSettings | None = None,
+    *,
+    rpz: float = PZ_RADIUS,
+    hpz: float = PZ_HEIGHT,
+    lookahead: float = LOOKAHEAD,
+    vsmin: ArrayLike | None = None,
+    vsmax: ArrayLike | None = None,
+) -> Resolution:
+    """MVP's resolution of every aircraft from the conflict picture (BlueSky ``MVP.resolve``).
+
+    Args:
+        state: The aircraft state (a :class:`~bluesky_gym.core.physics.Physics`, or anything with
+            its arrays), read as it was when ``conflicts`` was detected.
+        conflicts: :func:`bluesky_gym.core.conflicts.detect` of that state, with the same ``rpz``,
+            ``hpz`` and ``lookahead``.
+        settings: RMETH switches and margins (default: BlueSky's after ``RESO MVP``).
+        rpz: Protected-zone radius [m].
+        hpz: Protected-zone half height [m].
+        lookahead: Look-ahead time [s].
+        vsmin: Lower vertical-speed limit [m/s], scalar or (n_envs, n_aircraft) (default: the A320's
+            :attr:`~bluesky_gym.core.performance.AircraftPerformance.vsmin`; give per-aircraft
+            values for a mixed fleet).
+        vsmax: Upper vertical-speed limit [m/s] (default: the A320's ``vsmax``).
+
+    Returns:
+        The resolution of every active aircraft.
+    """
+    s = settings or ResolutionSettings()
+    default = aircraft_performance(DEFAULT_TYPE)
+    vsmin = default.vsmin if vsmin is None else vsmin
+    vsmax = default.vsmax if vsmax is None else vsmax
+    active = np.ascontiguousarray(state.active, dtype=np.bool_)
+    shape = active.shape
+
+    def f(x: ArrayLike) -> Array:
+        return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), shape))
+
+    pairs = shape + (shape[1],)
+    if conflicts.conflict.shape != pairs:
+        raise ValueError(f"conflicts are shaped {conflicts.conflict.shape}, the state needs {pairs}")
+    trk, gs, vs, alt_out = (np.full(shape, np.nan) for _ in range(4))
+    dv = np.full((*shape, 3), np.nan)
+    tsolv = np.full(shape, np.nan)
+    conflict = np.ascontiguousarray(conflicts.conflict, dtype=np.bool_)
+    alt = f(state.alt)
+    _mvp_loop(
+        conflict,
+        np.ascontiguousarray(conflicts.qdr, dtype=np.float64),
+        np.ascontiguousarray(conflicts.dist, dtype=np.float64),
+        np.ascontiguousarray(conflicts.tcpa, dtype=np.float64),
+        np.ascontiguousarray(conflicts.tlos, dtype=np.float64),
+        active,
+        alt,
+        f(state.gseast),
+        f(state.gsnorth),
+        f(state.vs),
+        f(state.trk),
+        f(state.gs),
+        f(state.selalt),
+        f(state.ap_vs),
+        f(state.vmin),
+        f(state.vmax),
+        f(vsmin),
+        f(vsmax),
+        float(rpz) * s.resofach,
+        float(hpz) * s.resofacv,
+        float(lookahead),
+        s.mode,
+        1.0 if s.swresohoriz else 0.0,
+        trk,
+        gs,
+        vs,
+        alt_out,
+        dv,
+        tsolv,
+    )
+    return Resolution(trk, gs, vs, alt_out, dv, tsolv, conflict.any(axis=-1) & active)
+
+
+@jit
+def _resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist, keep, asas):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
+    n_envs, m = active.shape
+    for e in range(n_envs):
+        for i in range(m):
+            asas[e, i] = False
+            for j in range(m):
+                keep[e, i, j] = False
+                if not pairs[e, i, j] or not active[e, i] or not active[e, j]:
+                    continue
+                # Flat-earth relative position and velocity of the intruder.
+                de = R_EARTH * (((lon[e, j] - lon[e, i]) * RAD) * math.cos(0.5 * ((lat[e, j] + lat[e, i]) * RAD)))
+                dn = R_EARTH * ((lat[e, j] - lat[e, i]) * RAD)
+                ve = gseast[e, j] - gseast[e, i]
+                vn = gsnorth[e, j] - gsnorth[e, i]
+                past_cpa = de * ve + dn * vn > 0.0
+                hdist = math.sqrt(de * de + dn * dn)
+                d = trk[e, i] - trk[e, j]
+                while d > 180.0 or d < -180.0:  # BlueSky's anglediff
+                    d = d - 360.0 if d > 180.0 else d + 360.0
+                bouncing = abs(d) < BOUNCING_TRACK_DIFF and hdist < bounce_dist
+                if not past_cpa or hdist < rpz or bouncing:
+                    keep[e, i, j] = True
+                    asas[e, i] = True
+
+
+def resume(
+    state: ResolutionState,
+    pairs: BoolArray,
+    *,
+    rpz: float = PZ_RADIUS,
+    resofach: float = RESO_FACTOR,
+) -> tuple[BoolArray, BoolArray]:
+    """Which resolution pairs stay active, and which aircraft still follow their resolution (BlueSky ``resumenav``).
+
+    A pair (ownship i, intruder j) stays while the intruder is ahead of the closest point of
+    approach (relative position and velocity on a flat earth), the two are in horizontal loss of
+    separation, or they "bounce" (tracks within 30 deg and closer than ``rpz * resofach``). A pair
+    with a deleted aircraft ends.
+
+    Args:
+        state: The aircraft state (``active``, ``lat``, ``lon``, ``gseast``, ``gsnorth``, ``trk``).
+        pairs: (n_envs, n_aircraft, n_aircraft) pairs being resolved (earlier pairs and the
+            current conflicts).
+        rpz: Protected-zone radius [m].
+        resofach: Horizontal resolution factor.
+
+    Returns:
+        The pairs kept, and per aircraft whether it still follows its resolution.
+    """
+    active = np.ascontiguousarray(state.active, dtype=np.bool_)
+    keep = np.zeros(pairs.shape, np.bool_)
+    asas = np.zeros(active.shape, np.bool_)
+    lat, lon, ve, vn, trk = (np.ascontiguousarray(x, dtype=np.float64) for x in (state.lat, state.lon, state.gseast, state.gsnorth, state.trk))
+    _resume_loop(np.ascontiguousarray(pairs, dtype=np.bool_), lat, lon, ve, vn, trk, active, float(rpz), float(rpz) * resofach, keep, asas)
+    return keep, asas
+
+
+@dataclass(frozen=True)
+class ResolutionCommand:
+    """What MVP asks of every aircraft, (n_envs, n_aircraft), as BlueSky's ASAS would fly it now.
+
+    Where ``follow`` is False the aircraft follows its own autopilot (no resolution active); the
+    other arrays are NaN or stale there.
+    """
+
+    follow: BoolArray  # the aircraft follows its resolution (BlueSky ``cr.active``)
+    trk: Array  # deg, resolution track
+    gs: Array  # m/s, resolution ground speed
+    vs: Array  # m/s, resolution vertical speed (a magnitude, see the module docstring)
+    alt: Array  # m, resolution altitude
+    track_change: Array  # deg, resolution track minus the current track, in [-180, 180)
+    cas_change: Array  # m/s, CAS change giving the resolution ground speed (same TAS change)
+    vertical_speed: Array  # m/s, signed vertical speed flown: ``vs`` towards ``alt``
+
+
+class MVPResolver:
+    """MVP as BlueSky's ASAS runs it, for batches of airspaces: detection, resolution, and when to stop.
+
+    Each :meth:`update` detects the conflicts of the current state (:func:`~bluesky_gym.core.conflicts.detect`),
+    computes :func:`mvp` and keeps BlueSky's bookkeeping per airspace: the resolution values are
+    renewed whenever the airspace has a conflict (BlueSky computes them for every aircraft then;
+    an aircraft without a conflict of its own gets its current velocity) and kept otherwise, and an
+    aircraft follows them while one of its pairs is still being resolved (:func:`resume`).
+
+    Args:
+        settings: RMETH switches and margins (default: BlueSky's after ``RESO MVP``).
+        rpz: Protected-zone radius [m].
+        hpz: Protected-zone half height [m].
+        lookahead: Look-ahead time [s].
+        vsmin: Lower vertical-speed limit [m/s], scalar or per aircraft (default: the A320's).
+        vsmax: Upper vertical-speed limit [m/s], scalar or per aircraft (default: the A320's).
+    """
+
+    def __init__(
+        self,
+        settings: ResolutionSettings | None = None,
+        *,
+        rpz: float = PZ_RADIUS,
+        hpz: float = PZ_HEIGHT,
+        lookahead: float = LOOKAHEAD,
+        vsmin: ArrayLike | None = None,
+        vsmax: ArrayLike | None = None,
+    ) -> None:
+        self.settings = settings or ResolutionSettings()
+        self.rpz, self.hpz, self.lookahead = float(rpz), float(hpz), float(lookahead)
+        self.vsmin, self.vsmax = vsmin, vsmax
+        self.pairs = np.zeros((0, 0, 0), np.bool_)
+        self.held = np.zeros((4, 0, 0))  # trk, gs, vs, alt of the last resolution per airspace
+
+    def reset(self, envs: NDArray[np.bool_] | NDArray[np.int64] | None = None) -> None:
+        """Forget the resolutions of the airspaces ``envs`` (a boolean mask or indices; all when None)."""
+        if envs is None:
+            self.pairs = np.zeros((0, 0, 0), np.bool_)
+            self.held = np.zeros((4, 0, 0))
+            return
+        if self.pairs.size:
+            self.pairs[envs] = False
+            self.held[:, envs] = np.nan
+
+    def update(self, state: ResolutionState) -> ResolutionCommand:
+        """Detect, resolve and decide who follows a resolution, from the current state."""
+        shape = state.active.shape
+        if self.pairs.shape != shape + (shape[1],):
+            self.pairs = np.zeros(shape + (shape[1],), np.bool_)
+            self.held = np.full((4, *shape), np.nan)
+        c = detect(state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, state.active, self.rpz, self.hpz, self.lookahead)
+        res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=self.vsmin, vsmax=self.vsmax)
+        renew = np.asarray(c.conflict.any(axis=(1, 2)))[None, :, None]
+        self.held = np.where(renew, np.stack([res.trk, res.gs, res.vs, res.alt]), self.held)
+        self.pairs, follow = resume(state, self.pairs | c.conflict, rpz=self.rpz, resofach=self.settings.resofach)
+        trk, gs, vs, alt = self.held
+        with np.errstate(invalid="ignore"):
+            tas = np.asarray(state.tas) + (gs - np.asarray(state.gs))
+            cas_change = tas2cas(np.where(np.isfinite(tas), tas, 0.0), state.alt) - tas2cas(state.tas, state.alt)
+            return ResolutionCommand(
+                follow=follow,
+                trk=trk.copy(),
+                gs=gs.copy(),
+                vs=vs.copy(),
+                alt=alt.copy(),
+                track_change=np.asarray((trk - np.asarray(state.trk) + 180.0) % 360.0 - 180.0),
+                cas_change=np.where(np.isfinite(tas), cas_change, np.nan),
+                vertical_speed=np.asarray(np.sign(alt - np.asarray(state.alt)) * np.abs(vs)),
+            )
+
+
+__all__ = [
+    "RESO_FACTOR",
+    "MVPResolver",
+    "Resolution",
+    "ResolutionCommand",
+    "ResolutionSettings",
+    "ResolutionState",
+    "mvp",
+    "mvp_pair",
+    "resume",
+]

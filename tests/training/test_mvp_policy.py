@@ -1,0 +1,125 @@
+"""The ``mvp`` reference policy: resolves head-on conflicts in every env with traffic, batches, and is in ``eval``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import bluesky_gym  # noqa: F401  (registers the environments)
+from bluesky_gym.cli import main
+from bluesky_gym.core.conflicts import PZ_HEIGHT
+from bluesky_gym.core.geo import kwikdist
+from bluesky_gym.training.evaluation import evaluate, make_policy, reference_scores
+from bluesky_gym.training.policies import MVP, MVPPolicy, reference_names, reference_policy
+
+#: Env -> (decision steps flown, time to loss of separation of the head-on intruder [s]).
+HEAD_ON = {
+    "HorizontalCREnv-v0": (8, 150.0),
+    "VerticalCREnv-v0": (10, 150.0),
+    "SectorCREnv-v0": (40, 60.0),
+    "MergeEnv-v0": (8, 150.0),
+}
+HEAD_ON.update({env_id.replace("-v0", "-v1"): case for env_id, case in HEAD_ON.items()})
+
+
+def _head_on_separation(env_id: str, resolve: bool, n: int = 3) -> np.ndarray:
+    """Smallest separation (in protected-zone units) between the ownship and a head-on intruder, per episode.
+
+    Each episode's traffic is replaced by one intruder on a collision course (``creconfs`` with
+    dcpa 0) through the Physics interface; the ownship then flies MVP (``resolve``) or MVP's
+    nominal policy without resolution. The separation is the horizontal distance over the
+    protected-zone radius, for VerticalCR the larger of that and the vertical distance over the
+    zone's half height.
+    """
+    steps, tlosh = HEAD_ON[env_id]
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    policy = MVPPolicy(env_id)
+    policy.bind(venv)
+    venv.reset(seed=list(range(n)))
+    sim = venv.unwrapped.task.sim
+    for e in range(n):
+        sim.delete(e, np.flatnonzero(sim.active[e, 1:]) + 1)
+        sim.creconfs(e, 0, 1, 180.0, 0.0, tlosh)
+    obs = venv.unwrapped.task.observation()
+    rpz_nm = MVP[env_id].rpz_nm
+    worst = np.full(n, np.inf)
+    done = np.zeros(n, bool)
+    for _ in range(steps):
+        action = policy.act(obs) if resolve else policy.nominal.act(obs)
+        obs, _, terminated, truncated, _ = venv.step(action)
+        done |= terminated | truncated
+        ratio = kwikdist(sim.lat[:, 0], sim.lon[:, 0], sim.lat[:, 1], sim.lon[:, 1]) / rpz_nm
+        if env_id.startswith("Vertical"):
+            ratio = np.maximum(ratio, np.abs(sim.alt[:, 0] - sim.alt[:, 1]) / PZ_HEIGHT)
+        worst = np.where(done, worst, np.minimum(worst, ratio))
+    venv.close()
+    assert not done.all()
+    return worst[np.isfinite(worst)]
+
+
+@pytest.mark.parametrize("env_id", sorted(HEAD_ON))
+def test_mvp_resolves_a_head_on_conflict(env_id: str) -> None:
+    with_mvp = _head_on_separation(env_id, True)
+    without = _head_on_separation(env_id, False)
+    assert np.all(with_mvp >= 1.0), f"{env_id}: loss of separation with MVP ({with_mvp})"
+    assert np.all(with_mvp > without), (with_mvp, without)
+
+
+def test_mvp_exists_for_the_envs_with_traffic_only() -> None:
+    traffic = {"HorizontalCREnv", "VerticalCREnv", "SectorCREnv", "MergeEnv"}
+    assert set(MVP) == {f"{name}-{v}" for name in traffic for v in ("v0", "v1")}
+    assert reference_names("MergeEnv-v0") == reference_names("MergeEnv-v1") == ("random", "classical", "mvp")
+    assert reference_names("DescentEnv-v0") == reference_names("DescentEnv-v1") == ("random", "classical")
+    with pytest.raises(ValueError, match="no MVP mapping for DescentEnv-v0"):
+        reference_policy("mvp", "DescentEnv-v0", np.zeros(1), np.ones(1))
+
+
+def test_mvp_needs_its_environment() -> None:
+    policy = make_policy("mvp", "SectorCREnv-v0")
+    obs = {"cos(drift)": np.ones((1, 1)), "sin(drift)": np.zeros((1, 1))}
+    with pytest.raises(RuntimeError, match=r"bind\(env\)"):
+        policy.act(obs)
+    other = gym.make_vec("MergeEnv-v0", num_envs=1, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match="needs that environment"):
+        policy.bind(other)
+    other.close()
+
+
+@pytest.mark.parametrize("env_id", ["SectorCREnv-v0", "VerticalCREnv-v0"])
+def test_batched_mvp_equals_single_episodes(env_id: str) -> None:
+    """Episodes evaluated 4 at a time equal the same episodes evaluated one by one."""
+    batched = evaluate(env_id, make_policy("mvp", env_id), 4, batch=4, max_episode_steps=40)
+    single = evaluate(env_id, make_policy("mvp", env_id), 4, batch=1, max_episode_steps=40)
+    assert len(batched.episodes) == 4
+    for a, b in zip(batched.episodes, single.episodes, strict=True):
+        assert a.keys() == b.keys()
+        for k in a:
+            assert a[k] == b[k] or (a[k] != a[k] and b[k] != b[k]), (k, a[k], b[k])  # equal, or both NaN
+
+
+def test_reference_scores_include_mvp_where_it_exists(tmp_path: Path) -> None:
+    refs = reference_scores("HorizontalCREnv-v0", 2, tmp_path)
+    assert set(refs) == {"random", "classical", "mvp"}
+    assert refs["mvp"]["policy"] == "mvp" and refs["mvp"]["episodes"] == 2
+    cached = json.loads((tmp_path / "HorizontalCREnv-v0.json").read_text())
+    assert "mvp" in cached
+    # A cache written without mvp is recomputed, not half read.
+    del cached["mvp"]
+    (tmp_path / "HorizontalCREnv-v0.json").write_text(json.dumps(cached))
+    assert "mvp" in reference_scores("HorizontalCREnv-v0", 2, tmp_path)
+
+
+def test_eval_cli_with_mvp(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["eval", "HorizontalCREnv-v0", "--model", "mvp", "--model", "classical", "--episodes", "3", "--out", str(tmp_path)])
+    assert code == 0
+    out = capsys.readouterr().out
+    rows = [line.split()[0] for line in out.splitlines()[2:4]]
+    assert rows == ["mvp", "classical"]
+    result = json.loads((tmp_path / "eval_mvp.json").read_text())
+    assert result["policy"] == "mvp" and result["episodes"] == 3
+    assert main(["eval", "DescentEnv-v0", "--model", "mvp", "--episodes", "1", "--out", str(tmp_path)]) == 2
+    assert "no MVP mapping for DescentEnv-v0" in capsys.readouterr().err
