@@ -24,6 +24,8 @@ aggregate curve carries a run's last value over empty windows and uses its first
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import warnings
 from collections.abc import Sequence
@@ -124,8 +126,15 @@ class Run:
 
     @property
     def digest(self) -> str:
-        """Return the hash of the run's configuration (runs with equal digests differ only in seed)."""
-        return str(self.config.get("digest", ""))
+        """Return the hash of the run's configuration without its seed (runs with equal digests differ only in seed).
+
+        ``config.json``'s own ``digest`` covers the seed too; it is used only for runs without an ``identity``.
+        """
+        identity = self.config.get("identity")
+        if not isinstance(identity, dict):
+            return str(self.config.get("digest", ""))
+        rest = {k: v for k, v in identity.items() if k != "seed"}
+        return hashlib.sha256(json.dumps(rest, sort_keys=True).encode()).hexdigest()[:16]
 
     @property
     def timesteps(self) -> Array:
@@ -269,10 +278,11 @@ def _groups(runs: Sequence[Run]) -> dict[str, dict[str, list[Run]]]:
         by_env.setdefault(r.env_id, {}).setdefault((r.algo, r.digest), []).append(r)
     out: dict[str, dict[str, list[Run]]] = {}
     for env_id, configs in by_env.items():
-        out[env_id] = {}
-        for (algo, _), rs in sorted(configs.items()):
+        labelled = {}
+        for (algo, _), rs in configs.items():
             siblings = [v[0] for (a, _), v in configs.items() if a == algo]
-            out[env_id][config_label(rs[0], siblings)] = rs
+            labelled[config_label(rs[0], siblings)] = rs
+        out[env_id] = dict(sorted(labelled.items()))
     return out
 
 
@@ -297,7 +307,7 @@ def config_label(run: Run, siblings: Sequence[Run]) -> str:
 def _curves(runs: Sequence[Run], metric: str, grid: Array, window: float) -> Array:
     rows = []
     for r in runs:
-        if metric not in r.columns or r.timesteps.size == 0:
+        if r.timesteps.size == 0:
             rows.append(np.full(grid.shape, np.nan))
             continue
         rows.append(smoothed(r.timesteps, r.metric(metric), grid, window))

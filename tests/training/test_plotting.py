@@ -100,8 +100,9 @@ def _descent_run(root: Path, name: str, seed: int, n_steps: int, finished: bool 
     from bluesky_gym.tasks.descent import ALT_DIF_REWARD_SCALE
 
     d = root / name / f"seed_{seed}"
+    # as the runner writes it: the digest covers the whole identity, seed included
     identity = {"env_id": "DescentEnv-v0", "algo": "PPO", "seed": seed, "hyperparams": {"n_steps": n_steps, "learning_rate": 3e-4}}
-    config = {"env_id": "DescentEnv-v0", "algo": "PPO", "seed": seed, "total_timesteps": 1000, "identity": identity, "digest": f"d{n_steps}"}
+    config = {"env_id": "DescentEnv-v0", "algo": "PPO", "seed": seed, "total_timesteps": 1000, "identity": identity, "digest": f"d{n_steps}s{seed}"}
     atomic_write_json(d / "config.json", config)
     header = [
         "episode",
@@ -147,6 +148,8 @@ def test_reference_lines_kpis_per_environment_and_seeds_per_configuration(tmp_pa
     assert levels == refs["DescentEnv-v0"]
     kpi_axes = figures["kpis_DescentEnv-v0"].axes
     assert [a.get_ylabel() for a in kpi_axes[:3]] == ["episode return", "mean altitude error [m]", "final altitude [m] (-100: crashed)"]
+    drawn = [line.get_ydata() for line in kpi_axes[1].get_lines() if line.get_label().startswith("PPO n_steps=128")]
+    assert len(drawn) == 1 and np.nanmax(np.abs(np.asarray(drawn[0]) - 300.0)) < 1e-9  # the derived altitude error is plotted
     assert "random" in kpi_axes[0].get_legend_handles_labels()[1] and "random" not in kpi_axes[1].get_legend_handles_labels()[1]
 
     # One environment: a readable bar per algorithm with its value, not a lone dot.
