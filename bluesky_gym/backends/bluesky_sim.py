@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import io
+import os
 import tempfile
 import warnings
 import weakref
@@ -125,28 +126,42 @@ def load_bluesky() -> ModuleType:
         raise missing_extra(f"BlueSky 1.1.1 needs numpy<2.4 (its wind look-up, used by every creconfs, fails on numpy {np.__version__})", "bluesky")
     if bluesky.sim is None:
         out = io.StringIO()
+        workdir = bluesky_workdir()
+        if workdir is not None:
+            workdir.mkdir(parents=True, exist_ok=True)
         try:
-            with _first_start_lock(), contextlib.redirect_stdout(out):
-                bluesky.init(mode="sim", detached=True)
+            with _first_start_lock(workdir), contextlib.redirect_stdout(out):
+                bluesky.init(mode="sim", detached=True, workdir=None if workdir is None else str(workdir))
         except Exception as exc:
             raise RuntimeError(f"BlueSky failed to start; its start-up output was:\n{out.getvalue()}") from exc
     module: ModuleType = bluesky
     return module
 
 
+#: Environment variable naming BlueSky's working directory (settings, navigation cache, output);
+#: unset: BlueSky's own choice, ``~/bluesky``. The tests point it to a temporary directory.
+WORKDIR_ENV = "BLUESKY_GYM_BLUESKY_WORKDIR"
+
+
+def bluesky_workdir() -> Path | None:
+    """BlueSky's working directory from :data:`WORKDIR_ENV`, or None (BlueSky's default, ``~/bluesky``)."""
+    value = os.environ.get(WORKDIR_ENV)
+    return Path(value) if value else None
+
+
 @contextlib.contextmanager
-def _first_start_lock() -> Iterator[None]:
+def _first_start_lock(workdir: Path | None = None) -> Iterator[None]:
     """Serialise BlueSky's first start-up between processes.
 
-    On its first start BlueSky creates its folder in the home directory and writes its navigation
-    database cache there; processes starting together (test workers, vector env workers) would
-    race on both. After a start-up has completed under the lock, a marker file in the temporary
-    directory lets later start-ups skip it.
+    On its first start BlueSky creates its working directory (``~/bluesky`` unless ``workdir``
+    is given) and writes its navigation database cache there; processes starting together (test
+    workers, vector env workers) would race on both. After a start-up has completed under the
+    lock, a marker file in the temporary directory lets later start-ups skip it.
     """
-    home = Path.home()
-    key = hashlib.sha1(str(home).encode()).hexdigest()[:12]
+    base = workdir if workdir is not None else Path.home() / "bluesky"
+    key = hashlib.sha1(str(base).encode()).hexdigest()[:12]
     marker = Path(tempfile.gettempdir()) / f"bluesky-gym-bluesky-ready-{key}"
-    if marker.exists() and (home / "bluesky" / "settings.cfg").exists():
+    if marker.exists() and (base / "settings.cfg").exists():
         yield
         return
     try:

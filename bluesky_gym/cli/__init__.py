@@ -15,7 +15,7 @@ import sys
 from collections.abc import Sequence
 
 # Modules that define subcommands, in the order they appear in --help.
-SUBCOMMAND_MODULES = ("catalog", "train", "train_ma", "evaluate", "plot", "results", "sweep", "render", "bench", "replay", "realtraffic")
+SUBCOMMAND_MODULES = ("catalog", "train", "train_ma", "evaluate", "plot", "results", "runs", "sweep", "render", "bench", "replay", "realtraffic")
 
 
 def build_parser() -> argparse.ArgumentParser:

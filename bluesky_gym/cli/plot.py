@@ -8,8 +8,9 @@ Examples::
 Each RUN_DIR is a run directory or any directory above runs (a sweep). Written to ``--out``:
 
 * ``learning_curves.png``: episode return against environment steps per environment, one line
-  per algorithm (mean over seeds, 95% bootstrap band over seeds), like the paper's figure;
-* ``kpis_<ID>.png``: return and every KPI of the environment against steps;
+  per algorithm and configuration (mean over seeds, 95% bootstrap band over seeds), like the
+  paper's figure, with the reference policies' held-out returns as horizontal lines;
+* ``kpis_<ID>.png``: return and the KPIs that matter for the environment against steps;
 * ``aggregate.png`` and ``aggregate.json``: interquartile mean (IQM) of normalised scores
   ``(score - random) / (classical - random)`` per algorithm across environments and seeds, with
   95% stratified bootstrap confidence intervals: of the final held-out return, and of the
@@ -17,7 +18,9 @@ Each RUN_DIR is a run directory or any directory above runs (a sweep). Written t
 
 The reference scores come from a ``references/`` directory of a sweep or demo above the runs;
 otherwise they are computed (``--reference-episodes`` held-out episodes of ``random`` and
-``classical``) and cached in ``<out>/references``.
+``classical``) and cached in ``<out>/references``. Runs that have not logged an episode yet are
+skipped with a message; unfinished runs (a sweep still running) are plotted up to their last
+logged episode and counted in the legend.
 """
 
 from __future__ import annotations
@@ -52,7 +55,6 @@ def add_parser(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the ``plot`` subcommand."""
     from bluesky_gym.training.evaluation import reference_returns, reference_scores
-    from bluesky_gym.training.io import read_json
     from bluesky_gym.training.plotting import aggregate, find_references, find_runs, load_run, plot_aggregate, plot_learning_curves
 
     try:
@@ -60,17 +62,27 @@ def run(args: argparse.Namespace) -> int:
         if not dirs:
             raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, args.run_dirs))}")
         runs = [load_run(d) for d in dirs]
-        written = plot_learning_curves(runs, args.out)
+        waiting = [r for r in runs if not r.timesteps.size]
+        runs = [r for r in runs if r.timesteps.size]
+        if not runs:
+            raise ValueError(f"none of the {len(waiting)} runs below {', '.join(map(str, args.run_dirs))} has logged an episode yet; nothing to plot")
+        for r in waiting:
+            print(f"skipping {r.path}: no episode logged yet (a run that is starting, or that failed before training)", file=sys.stderr)
+        unfinished = [r for r in runs if not r.finished]
+        if unfinished:
+            print(f"{len(unfinished)} of {len(runs)} runs are unfinished: plotted up to their last logged episode", file=sys.stderr)
         env_ids = sorted({r.env_id for r in runs})
         refs = find_references(dirs, env_ids)
         episodes = args.reference_episodes
         if episodes is None:
-            episodes = max(int(read_json(d / "config.json").get("eval_episodes", 0)) for d in dirs) or 50
+            episodes = max(int(r.config.get("eval_episodes", 0)) for r in runs) or 50
         if episodes > 0:
             for env_id in env_ids:
                 if env_id not in refs:
                     print(f"computing reference scores of {env_id} on {episodes} held-out episodes", file=sys.stderr)
                     refs[env_id] = reference_returns(reference_scores(env_id, episodes, args.out / "references"))
+        written = plot_learning_curves(runs, args.out, references=refs)
+        if episodes > 0:
             written += plot_aggregate(aggregate(runs, refs), args.out)
     except (MissingDependencyError, FileNotFoundError, ValueError, KeyError) as exc:
         print(f"bluesky-gym plot: error: {exc}", file=sys.stderr)

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int, warn
-from bluesky_gym.cli.train import add_run_options, check_device, load_config, ppo_rounding, run_overrides
+from bluesky_gym.cli.train import add_damage_options, add_run_options, check_device, load_config, ppo_rounding, run_overrides
 from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.training import ALGORITHMS
 
@@ -54,6 +54,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--seeds", nargs="+", type=non_negative_int, default=[0], metavar="S", help="run seeds (default: 0)")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), metavar="DIR", help="sweep directory (default: runs/sweep)")
     add_run_options(p)
+    add_damage_options(p)
     where = p.add_mutually_exclusive_group()
     where.add_argument("--local", action="store_true", help="run sequentially in this process, without Ray")
     where.add_argument("--address", metavar="ADDR", help="Ray cluster to join (default: start Ray locally)")
@@ -112,7 +113,10 @@ def run(args: argparse.Namespace) -> int:
                     warn("bluesky-gym sweep", note)
         if verbose:
             print(f"sweep of {len(cells)} runs ({len(envs)} environments x {len(algos)} algorithms x {len(args.seeds)} seeds) -> {args.out}")
-        results = run_local(cells, verbose) if args.local else run_ray(cells, args.address, args.cpus_per_run, verbose)
+        if args.local:
+            results = run_local(cells, verbose, args.on_damage)
+        else:
+            results = run_ray(cells, args.address, args.cpus_per_run, verbose, args.on_damage)
         summary = write_summary(args.out, cells, results, reference_episodes=max(c.spec.eval_episodes for c in cells))
     except (MissingDependencyError, ValueError, FileNotFoundError) as exc:
         print(f"bluesky-gym sweep: error: {exc}", file=sys.stderr)

@@ -10,10 +10,14 @@ Examples::
 overrides them; command-line options override both. The run directory
 ``<out>/<ID>/<ALGO>/seed_<S>`` records the exact configuration, package versions and seeds, the
 episode log (return and KPIs per episode), checkpoints, the final model and its evaluation on
-held-out scenarios. Rerunning the same command resumes an interrupted run from its last
-checkpoint, or does nothing if the run is finished. PPO trains whole rollouts of
-``n_steps x num_envs`` steps: a ``--steps`` that is not a multiple is rounded up, with a warning.
-The multi-agent environments are trained with ``bluesky-gym train-ma``.
+held-out scenarios, and SB3's TensorBoard log (``tensorboard/``). Rerunning the same command
+resumes an interrupted run from its last checkpoint, or does nothing if the run is finished. PPO
+trains whole rollouts of ``n_steps x num_envs`` steps: a ``--steps`` that is not a multiple is
+rounded up, with a warning. The id, scenario options and hyperparameter names are checked before
+the run directory is created. A damaged run directory (a checkpoint file missing or cut off, an
+episode log shorter than its checkpoint, a JSON file that does not parse) is named and left alone
+until rerun with ``--resume-from-last-intact`` (continue from the last intact checkpoint) or
+``--restart``. The multi-agent environments are trained with ``bluesky-gym train-ma``.
 
 ``demo`` trains PPO on 16 batched environments (``configs/demo.toml``), evaluates the policy
 against the ``random`` and ``classical`` reference policies on held-out scenarios, and writes the
@@ -92,6 +96,22 @@ def ppo_rounding(algo: str, hyperparams: dict[str, Any], num_envs: int, steps: i
     )
 
 
+def add_damage_options(p: argparse.ArgumentParser) -> None:
+    """Add the choice for a damaged run directory (``train`` and ``sweep``): ``args.on_damage``."""
+    damaged = p.add_mutually_exclusive_group()
+    damaged.add_argument(
+        "--resume-from-last-intact",
+        dest="on_damage",
+        action="store_const",
+        const="resume",
+        default="error",
+        help="if a run directory is damaged, resume from its last intact checkpoint",
+    )
+    damaged.add_argument(
+        "--restart", dest="on_damage", action="store_const", const="restart", help="if a run directory is damaged, start the run over"
+    )
+
+
 def load_config(path: Path | None) -> dict[str, Any]:
     """Return the paper's defaults merged with a config file."""
     from bluesky_gym.training.hyperparams import PAPER, load_config_file, merge
@@ -120,6 +140,8 @@ def add_parser(subparsers: Any) -> None:
     add_run_options(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--quiet", action="store_true", help="no messages")
+    p.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard log (default: <run dir>/tensorboard)")
+    add_damage_options(p)
     p.set_defaults(func=run_train)
 
     d = subparsers.add_parser(
@@ -141,7 +163,7 @@ def add_parser(subparsers: Any) -> None:
 
 def run_train(args: argparse.Namespace) -> int:
     """Run the ``train`` subcommand."""
-    from bluesky_gym.training.runner import RunConfigMismatch, RunLocked, make_run_spec, run_dir_for, run_training
+    from bluesky_gym.training.runner import RunConfigMismatch, RunDamaged, RunLocked, make_run_spec, run_dir_for, run_training
 
     run_dir = run_dir_for(args.out, args.env, args.algo, args.seed)
     try:
@@ -152,8 +174,15 @@ def run_train(args: argparse.Namespace) -> int:
             note = ppo_rounding(spec.algo, spec.hyperparams, spec.n_envs, spec.total_timesteps)
             if note:
                 warn("bluesky-gym train", note)
-        result = run_training(spec, run_dir, progress_bar=not (args.no_progress or args.quiet), verbose=0 if args.quiet else 1)
-    except (MissingDependencyError, RunConfigMismatch, RunLocked, ValueError, FileNotFoundError) as exc:
+        result = run_training(
+            spec,
+            run_dir,
+            progress_bar=not (args.no_progress or args.quiet),
+            verbose=0 if args.quiet else 1,
+            on_damage=args.on_damage,
+            tensorboard=not args.no_tensorboard,
+        )
+    except (MissingDependencyError, RunConfigMismatch, RunLocked, RunDamaged, ValueError, FileNotFoundError) as exc:
         print(f"bluesky-gym train: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -235,7 +235,7 @@ class Renderer:
         if scene.panel:
             y = _separator(frame, rect, y)
             y = _panel_lines(frame, scene.panel, x0, x1, y)
-        shown = [(k, _format(info[k])) for k in getattr(task, "info_keys", ()) if info and k in info and k != "total_reward"]
+        shown = [info_line(k, info[k]) for k in getattr(task, "info_keys", ()) if info and k in info and k != "total_reward"]
         if shown:
             y = _separator(frame, rect, y)
             y = _panel_lines(frame, shown, x0, x1, y)
@@ -269,6 +269,26 @@ def _panel_lines(frame: pygame.Surface, lines: list[tuple[str, str]], x0: int, x
 def _separator(frame: pygame.Surface, rect: pygame.Rect, y: int) -> int:
     pygame.draw.line(frame, pal.PANEL_EDGE, (rect.left + 12, y + 4), (rect.right - 12, y + 4))
     return y + 10
+
+
+#: How the panel shows the tasks' info values: label and formatter (with the unit; values are SI inside).
+INFO_DISPLAY: dict[str, tuple[str, Any]] = {
+    "average_drift": ("mean |drift|", lambda v: f"{math.degrees(float(v)):.1f} deg"),
+    "final_altitude": ("final altitude", lambda v: f"{float(v):.0f} m ({float(v) / FT:.0f} ft)"),
+    "total_intrusions": ("intrusions", lambda v: str(int(v))),
+    "waypoints_completed": ("waypoints done", lambda v: str(int(v))),
+    "faf_reach": ("reached FAF", lambda v: "yes" if v else "no"),
+    "waypoint_reached": ("reached goal", lambda v: "yes" if v else "no"),
+    "crashed": ("restricted area", lambda v: "entered" if v else "clear"),
+}
+
+
+def info_line(key: str, value: Any) -> tuple[str, str]:
+    """Label and value (with its unit) of one info entry on the panel; unknown keys are shown as they are."""
+    label, fmt = INFO_DISPLAY.get(key, (key, _format))
+    if isinstance(value, (float, np.floating)) and math.isnan(float(value)):
+        return label, "-"
+    return label, fmt(value)
 
 
 def _format(v: Any) -> str:

@@ -15,6 +15,7 @@ KPIs an environment does not have (no traffic, no goal) are left empty.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -25,7 +26,7 @@ import numpy as np
 
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, eval_seeds
 from bluesky_gym.training import algorithm_class, make_vector_env
-from bluesky_gym.training.io import atomic_write_csv, atomic_write_json, latest_checkpoint, read_json
+from bluesky_gym.training.io import DamagedFileError, atomic_write_csv, atomic_write_json, latest_checkpoint, read_json
 from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_names, reference_policy
 
 #: (column, episode-record key, label) of the KPI table.
@@ -419,9 +420,13 @@ def reference_scores(env_id: str, episodes: int, cache_dir: str | Path | None = 
     names = reference_names(env_id)
     path = Path(cache_dir) / f"{env_id}.json" if cache_dir is not None else None
     if path is not None and path.exists():
-        cached = read_json(path)
-        if cached.get("episodes") == episodes and cached.get("version") == bluesky_gym.__version__ and all(k in cached for k in names):
-            return {k: cached[k] for k in names}
+        try:
+            cached = read_json(path)
+            if cached.get("episodes") == episodes and cached.get("version") == bluesky_gym.__version__ and all(k in cached for k in names):
+                return {k: cached[k] for k in names}
+        except (DamagedFileError, AttributeError) as exc:  # a cache cut off or edited: computed again
+            what = exc if isinstance(exc, DamagedFileError) else f"{path} is not a JSON object"
+            print(f"reference cache damaged, computing it again: {what}", file=sys.stderr)
     results = {name: evaluate(env_id, make_policy(name, env_id), episodes) for name in names}
     if cache_dir is not None:
         write_references(cache_dir, env_id, episodes, results)

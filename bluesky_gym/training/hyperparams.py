@@ -27,12 +27,16 @@ Values in a file override the paper's; command-line options override the file.
 from __future__ import annotations
 
 import copy
+import difflib
+import importlib.util
+import inspect
 import json
+import re
 import sys
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.training import ALGORITHMS, OFF_POLICY
+from bluesky_gym.training import ALGORITHMS, OFF_POLICY, algorithm_class
 
 #: The policy class of every run: observations are dicts.
 POLICY = "MultiInputPolicy"
@@ -131,24 +135,68 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
                 import tomli as tomllib
         except ModuleNotFoundError as exc:  # Python 3.10 without tomli
             raise ValueError(f"reading {p} needs Python >= 3.11 or the 'tomli' package; or use a .json config") from exc
+        text = p.read_text(encoding="utf-8")
         try:
-            with open(p, "rb") as f:
-                data = tomllib.load(f)
+            data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:  # its message ends with "(at line L, column C)"
             raise ValueError(f"{p}: not valid TOML: {exc}") from None
     else:  # .json
+        text = p.read_text(encoding="utf-8")
         try:
-            data = json.loads(p.read_text(encoding="utf-8"))
+            data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ValueError(f"{p}, line {exc.lineno}, column {exc.colno}: not valid JSON: {exc.msg}") from None
         if not isinstance(data, dict):
             raise ValueError(f"{p}: expected a JSON object with the sections run, algos, env_options")
-    check_config(data, source=str(p))
+    check_config(data, source=str(p), text=text)
     return data
 
 
-def check_config(data: dict[str, Any], source: str = "config") -> None:
-    """Raise ``ValueError`` if ``data`` does not have the layout of :data:`PAPER`."""
+#: Constructor arguments that the runner sets itself (a config file may not).
+RUNNER_ARGUMENTS = frozenset({"self", "policy", "env", "seed", "device", "verbose", "tensorboard_log", "_init_setup_model"})
+
+
+def hyperparameter_names(algo: str) -> frozenset[str] | None:
+    """Return the hyperparameters a config may set for ``algo`` (its SB3 constructor's arguments); None without SB3."""
+    if importlib.util.find_spec("stable_baselines3") is None:
+        return None
+    return frozenset(inspect.signature(algorithm_class(algo).__init__).parameters) - RUNNER_ARGUMENTS
+
+
+def check_hyperparameter_names(algo: str, hp: dict[str, Any], source: str = "hyperparameters", table: str = "", text: str = "") -> None:
+    """Raise ``ValueError`` naming the first key of ``hp`` that the algorithm does not take, and the valid keys.
+
+    Args:
+        algo: Algorithm name.
+        hp: Hyperparameters (an ``envs`` sub-table is allowed).
+        source: Where they come from (a file name), for the message.
+        table: The table they sit in, for the message (default ``algos.<ALGO>``).
+        text: The source's text, to find the line of the key.
+
+    """
+    valid = hyperparameter_names(algo)
+    if valid is None:
+        return
+    unknown = sorted(set(hp) - valid - {"envs"})
+    if not unknown:
+        return
+    key = unknown[0]
+    close = difflib.get_close_matches(key, sorted(valid), n=1)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    found = re.search(rf'^\s*"?{re.escape(key)}"?\s*[=:]', text, flags=re.MULTILINE) if text else None
+    where = f"{source}:{text.count(chr(10), 0, found.start()) + 1}" if found else source
+    raise ValueError(f"{where}: unknown key {key!r} in [{table or 'algos.' + algo.upper()}]{hint}; valid keys: {', '.join(sorted(valid))}")
+
+
+def check_config(data: dict[str, Any], source: str = "config", text: str = "") -> None:
+    """Raise ``ValueError`` if ``data`` does not have the layout of :data:`PAPER` or names unknown hyperparameters.
+
+    Args:
+        data: The parsed config.
+        source: Its file name, for the messages.
+        text: Its text, to give the line of an unknown key.
+
+    """
     unknown = set(data) - {"run", "algos", "env_options"}
     if unknown:
         raise ValueError(f"{source}: unknown section(s) {sorted(unknown)}; expected run, algos, env_options")
@@ -160,6 +208,9 @@ def check_config(data: dict[str, Any], source: str = "config") -> None:
             raise ValueError(f"{source}: unknown algorithm [algos.{algo}]; choose from {', '.join(ALGORITHMS)}")
         if not isinstance(table, dict) or not isinstance(table.get("envs", {}), dict):
             raise ValueError(f"{source}: [algos.{algo}] must be a table (with an optional 'envs' sub-table)")
+        check_hyperparameter_names(algo, table, source, f"algos.{algo}", text)
+        for env_id, per_env in table.get("envs", {}).items():
+            check_hyperparameter_names(algo, per_env, source, f'algos.{algo}.envs."{env_id}"', text)
     for env_id, opts in data.get("env_options", {}).items():
         if not isinstance(opts, dict):
             raise ValueError(f'{source}: [env_options."{env_id}"] must be a table')

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import json
 import math
 import os
@@ -63,16 +64,60 @@ def atomic_write_csv(path: str | os.PathLike[str], header: Sequence[str], rows: 
         writer.writerows([[format_cell(v) for v in row] for row in rows])
 
 
+class DamagedFileError(ValueError):
+    """A file of a run or cache cannot be read as what it should be; the message names the file."""
+
+
 def read_json(path: str | os.PathLike[str]) -> Any:
-    """Read a JSON file."""
+    """Read a JSON file.
+
+    Raises:
+        DamagedFileError: The file is not valid JSON (the message names the file and the place).
+
+    """
     with open(path, encoding="utf-8") as f:
-        return json.load(f)
+        text = f.read()
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DamagedFileError(f"{path} is not valid JSON ({exc.msg} at line {exc.lineno} column {exc.colno})") from None
+
+
+def file_record(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Return the size and SHA-256 of a file, as recorded in ``checkpoint.json`` and ``result.json``."""
+    digest = hashlib.sha256()
+    size = 0
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+            size += len(block)
+    return {"bytes": size, "sha256": digest.hexdigest()}
+
+
+def file_damage(path: str | os.PathLike[str], record: dict[str, Any] | None, deep: bool = True) -> str | None:
+    """Compare a file with its :func:`file_record`; return what is wrong with it, or None if intact.
+
+    Without a record (written by an older version) only the file's existence is checked; without
+    ``deep`` only its size.
+    """
+    p = Path(path)
+    if not p.is_file():
+        return f"{p} is missing"
+    if not record:
+        return None
+    size = p.stat().st_size
+    if size != record.get("bytes"):
+        return f"{p} has {size} bytes, {record.get('bytes')} were written (truncated or replaced)"
+    if deep and file_record(p)["sha256"] != record.get("sha256"):
+        return f"{p} does not match the checksum written with it (corrupted or replaced)"
+    return None
 
 
 def latest_checkpoint(run_dir: str | Path) -> tuple[dict[str, Any], Path] | None:
     """Return the committed checkpoint of a run directory: its record and directory (None if there is none).
 
     ``checkpoint.json`` is written last, atomically, so it only ever names a complete checkpoint.
+    Whether its files are intact is checked by :func:`bluesky_gym.training.runner.inspect_run`.
     """
     p = Path(run_dir) / "checkpoint.json"
     if not p.exists():

@@ -3,13 +3,19 @@
 * ``learning_curves.png``: episode return against environment steps, one panel per environment,
   one line per algorithm: the mean over seeds of each run's smoothed curve, with a 95%
   bootstrap confidence band over seeds (like the paper's figure).
-* ``kpis_<env>.png``: the same for return and every KPI the environment reports (success rate,
-  losses of separation, minimum separation, drift, time to goal, episode length).
+* ``kpis_<env>.png``: the same for return and the KPIs that matter for the environment
+  (:data:`ENV_KPIS`; e.g. altitude error and final altitude for Descent, losses of separation and
+  drift for SectorCR).
+* Reference policies (``random``, ``classical``, and ``mvp`` where computed) are horizontal lines
+  on the return panels. Runs are grouped by configuration: two configurations of an algorithm
+  are two lines, each labelled by what differs, with their own seed count. Runs that have not
+  logged an episode yet are left out (the caller says which); unfinished runs are counted in
+  the legend.
 * ``aggregate.png`` / ``aggregate.json``: per algorithm, the interquartile mean (IQM) of
   normalised scores across all environments and seeds, ``(score - random) / (classical -
   random)``, with 95% stratified bootstrap confidence intervals (runs resampled within each
-  environment): (left) of the final held-out return, (right) of the smoothed training return
-  over the fraction of training done.
+  environment): (left, bars with their CI and value) of the final held-out return, (right) of the
+  smoothed training return over the fraction of training done.
 
 A run's curve at step ``x`` is the mean over episodes that ended in the window ``(x - w, x]``,
 ``w`` = 5% of the longest run (no value before the first episode, nor in empty windows; the
@@ -18,6 +24,8 @@ aggregate curve carries a run's last value over empty windows and uses its first
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import warnings
 from collections.abc import Sequence
@@ -28,7 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.training.io import atomic_path, atomic_write_json, read_csv_rows, read_json
+from bluesky_gym.training.io import DamagedFileError, atomic_path, atomic_write_json, read_csv_rows, read_json
 
 Array = NDArray[np.float64]
 
@@ -42,6 +50,60 @@ CURVE_METRICS: tuple[tuple[str, str], ...] = (
     ("kpi_time_to_goal_s", "time to goal [s]"),
     ("length", "episode length [steps]"),
 )
+#: Derived episode metric: mean |altitude - target| [m] while flying (Descent, VerticalCR), from the altitude reward.
+ALTITUDE_ERROR = "altitude_error_m"
+#: The panels of ``kpis_<env>.png`` per environment: the quantities that vary and matter there.
+ENV_KPIS: dict[str, tuple[tuple[str, str], ...]] = {
+    "DescentEnv-v0": (
+        ("return", "episode return"),
+        (ALTITUDE_ERROR, "mean altitude error [m]"),
+        ("final_altitude", "final altitude [m] (-100: crashed)"),
+        ("length", "episode length [steps]"),
+    ),
+    "VerticalCREnv-v0": (
+        ("return", "episode return"),
+        (ALTITUDE_ERROR, "mean altitude error [m]"),
+        ("final_altitude", "final altitude [m] (-100: crashed)"),
+        ("kpi_los_count", "losses of separation / episode"),
+        ("kpi_min_separation_nm", "minimum separation [NM]"),
+    ),
+    "PlanWaypointEnv-v0": (
+        ("return", "episode return"),
+        ("waypoints_completed", "waypoints completed"),
+        ("kpi_track_distance_km", "track distance [km]"),
+        ("length", "episode length [steps]"),
+    ),
+    "HorizontalCREnv-v0": (
+        ("return", "episode return"),
+        ("kpi_success", "success rate"),
+        ("kpi_los_count", "losses of separation / episode"),
+        ("kpi_min_separation_nm", "minimum separation [NM]"),
+        ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+        ("kpi_extra_track_km", "extra track [km]"),
+    ),
+    "SectorCREnv-v0": (
+        ("return", "episode return"),
+        ("kpi_los_count", "losses of separation / episode"),
+        ("kpi_min_separation_nm", "minimum separation [NM]"),
+        ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+        ("kpi_extra_track_km", "extra track [km]"),
+    ),
+    "StaticObstacleEnv-v0": (
+        ("return", "episode return"),
+        ("kpi_success", "success rate"),
+        ("crashed", "restricted-area entries"),
+        ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+        ("kpi_time_to_goal_s", "time to goal [s]"),
+    ),
+    "MergeEnv-v0": (
+        ("return", "episode return"),
+        ("faf_reach", "reached the FAF"),
+        ("kpi_los_count", "losses of separation / episode"),
+        ("kpi_min_separation_nm", "minimum separation [NM]"),
+        ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+    ),
+}
+REFERENCE_STYLES = {"random": ("grey", ":"), "classical": ("black", "--"), "mvp": ("tab:purple", "-.")}
 GRID_POINTS = 100
 WINDOW_FRACTION = 0.05
 BOOTSTRAP = 2000
@@ -59,6 +121,20 @@ class Run:
     total_timesteps: int
     columns: dict[str, Array]
     final_return: float | None
+    config: dict[str, Any]
+    finished: bool
+
+    @property
+    def digest(self) -> str:
+        """Return the hash of the run's configuration without its seed (runs with equal digests differ only in seed).
+
+        ``config.json``'s own ``digest`` covers the seed too; it is used only for runs without an ``identity``.
+        """
+        identity = self.config.get("identity")
+        if not isinstance(identity, dict):
+            return str(self.config.get("digest", ""))
+        rest = {k: v for k, v in identity.items() if k != "seed"}
+        return hashlib.sha256(json.dumps(rest, sort_keys=True).encode()).hexdigest()[:16]
 
     @property
     def timesteps(self) -> Array:
@@ -67,9 +143,22 @@ class Run:
 
     def metric(self, name: str) -> Array:
         """Return a column with non-finite values as NaN (LoS counts only where there is traffic)."""
+        if name == ALTITUDE_ERROR:
+            return self._altitude_error()
         y = self.columns.get(name, np.full(self.timesteps.shape, np.nan)).copy()
         if name == "kpi_los_count":
             y[~np.isfinite(self.columns.get("kpi_min_separation_nm", np.full(y.shape, np.nan)))] = np.nan
+        y[~np.isfinite(y)] = np.nan
+        return y
+
+    def _altitude_error(self) -> Array:
+        """Mean |altitude - target| [m] over the flying steps of each episode (all but the last, which ends it)."""
+        from bluesky_gym.tasks.descent import ALT_DIF_REWARD_SCALE
+
+        nan = np.full(self.timesteps.shape, np.nan)
+        summed = self.columns.get("reward_altitude", nan)
+        flying = np.maximum(self.columns.get("length", nan) - self.columns.get("terminated", np.zeros_like(nan)), 1.0)
+        y = summed / ALT_DIF_REWARD_SCALE / flying
         y[~np.isfinite(y)] = np.nan
         return y
 
@@ -99,7 +188,8 @@ def load_run(path: str | Path) -> Run:
     final = None
     if (d / "eval.json").exists():
         final = read_json(d / "eval.json")["summary"]["return"]["mean"]
-    return Run(d, cfg["env_id"], cfg["algo"], int(cfg["seed"]), int(cfg["total_timesteps"]), columns, final)
+    finished = (d / "result.json").exists()
+    return Run(d, cfg["env_id"], cfg["algo"], int(cfg["seed"]), int(cfg["total_timesteps"]), columns, final, cfg, finished)
 
 
 def _num(x: str) -> float:
@@ -182,16 +272,42 @@ def _save(fig: Any, path: Path) -> None:
 
 
 def _groups(runs: Sequence[Run]) -> dict[str, dict[str, list[Run]]]:
-    out: dict[str, dict[str, list[Run]]] = {}
+    """Environment -> configuration label -> runs (the seeds of one configuration)."""
+    by_env: dict[str, dict[tuple[str, str], list[Run]]] = {}
     for r in runs:
-        out.setdefault(r.env_id, {}).setdefault(r.algo, []).append(r)
+        by_env.setdefault(r.env_id, {}).setdefault((r.algo, r.digest), []).append(r)
+    out: dict[str, dict[str, list[Run]]] = {}
+    for env_id, configs in by_env.items():
+        labelled = {}
+        for (algo, _), rs in configs.items():
+            siblings = [v[0] for (a, _), v in configs.items() if a == algo]
+            labelled[config_label(rs[0], siblings)] = rs
+        out[env_id] = dict(sorted(labelled.items()))
     return out
+
+
+def config_label(run: Run, siblings: Sequence[Run]) -> str:
+    """Label a run's configuration among those of the same algorithm: the algorithm, plus what differs."""
+    if len(siblings) <= 1:
+        return run.algo
+    identity = run.config.get("identity", {})
+    flat = {**{k: v for k, v in identity.items() if k not in ("hyperparams", "seed")}, **identity.get("hyperparams", {})}
+    others = [
+        {
+            **{k: v for k, v in o.config.get("identity", {}).items() if k not in ("hyperparams", "seed")},
+            **o.config.get("identity", {}).get("hyperparams", {}),
+        }
+        for o in siblings
+    ]
+    differs = [k for k in sorted(flat) if any(o.get(k) != flat[k] for o in others)]
+    text = ", ".join(f"{k}={flat[k]}" for k in differs if not isinstance(flat[k], dict))
+    return f"{run.algo} {text}" if text and len(text) <= 40 else f"{run.algo} config {run.digest[:6]}"
 
 
 def _curves(runs: Sequence[Run], metric: str, grid: Array, window: float) -> Array:
     rows = []
     for r in runs:
-        if metric not in r.columns or r.timesteps.size == 0:
+        if r.timesteps.size == 0:
             rows.append(np.full(grid.shape, np.nan))
             continue
         rows.append(smoothed(r.timesteps, r.metric(metric), grid, window))
@@ -212,56 +328,111 @@ def _fill_gaps(curve: Array) -> Array:
     return y
 
 
-def plot_learning_curves(runs: Sequence[Run], out_dir: str | Path, seed: int = 0) -> list[Path]:
-    """Write ``learning_curves.png`` and one ``kpis_<env>.png`` per environment."""
-    plt = pyplot()
-    out = Path(out_dir)
-    rng = np.random.default_rng(seed)
-    groups = _groups(runs)
-    written = []
-    n = len(groups)
-    cols = min(n, 4)
-    fig, axes = plt.subplots(math.ceil(n / cols), cols, figsize=(4.2 * cols, 3.2 * math.ceil(n / cols)), squeeze=False)
-    for ax, (env_id, by_algo) in zip(axes.flat, groups.items(), strict=False):
-        _panel(ax, by_algo, "return", rng)
-        ax.set_title(env_id)
-        ax.set_ylabel("episode return")
-    for ax in list(axes.flat)[n:]:
-        ax.set_visible(False)
-    fig.tight_layout()
-    _save(fig, out / "learning_curves.png")
-    plt.close(fig)
-    written.append(out / "learning_curves.png")
+def kpi_panels(env_id: str, runs: Sequence[Run]) -> list[tuple[str, str]]:
+    """The (metric, label) panels of an environment's KPI figure: its :data:`ENV_KPIS` entry, else every KPI that varies.
 
-    for env_id, by_algo in groups.items():
-        metrics = [(m, lab) for m, lab in CURVE_METRICS if any(np.isfinite(r.metric(m)).any() for rs in by_algo.values() for r in rs)]
-        cols = min(len(metrics), 3)
-        rows = math.ceil(len(metrics) / cols)
-        fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
-        for ax, (metric, label) in zip(axes.flat, metrics, strict=False):
-            _panel(ax, by_algo, metric, rng)
-            ax.set_ylabel(label)
-        for ax in list(axes.flat)[len(metrics) :]:
-            ax.set_visible(False)
-        fig.suptitle(env_id)
-        fig.tight_layout()
-        path = out / f"kpis_{env_id}.png"
+    Metrics without a finite value in any run are left out.
+    """
+    table = ENV_KPIS.get(env_id, ENV_KPIS.get(env_id.rsplit("-v", 1)[0] + "-v0"))  # later versions: the same quantities
+    candidates = table if table is not None else CURVE_METRICS
+    out = []
+    for metric, label in candidates:
+        values = np.concatenate([r.metric(metric) for r in runs]) if runs else np.zeros(0)
+        values = values[np.isfinite(values)]
+        if values.size == 0:
+            continue
+        if table is None and metric != "return" and np.ptp(values) <= 1e-9 * max(1.0, float(np.abs(values).max())):
+            continue  # near-constant: says nothing
+        out.append((metric, label))
+    return out
+
+
+def plot_learning_curves(
+    runs: Sequence[Run], out_dir: str | Path, seed: int = 0, references: dict[str, dict[str, float]] | None = None
+) -> list[Path]:
+    """Write ``learning_curves.png`` and one ``kpis_<env>.png`` per environment.
+
+    Args:
+        runs: The runs; those without a logged episode are left out.
+        out_dir: Output directory.
+        seed: Seed of the bootstrap.
+        references: Environment id -> reference policy name -> mean return (drawn as lines).
+
+    Raises:
+        ValueError: No run has logged an episode yet.
+
+    """
+    plt = pyplot()
+    written = []
+    for name, fig in learning_curve_figures(runs, seed, references).items():
+        path = Path(out_dir) / f"{name}.png"
         _save(fig, path)
         plt.close(fig)
         written.append(path)
     return written
 
 
-def _panel(ax: Any, by_algo: dict[str, list[Run]], metric: str, rng: np.random.Generator) -> None:
-    horizon = max(max(r.total_timesteps, float(np.nanmax(r.timesteps, initial=0))) for rs in by_algo.values() for r in rs)
+def learning_curve_figures(runs: Sequence[Run], seed: int = 0, references: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
+    """The figures of :func:`plot_learning_curves`, by file stem (``learning_curves``, ``kpis_<env>``)."""
+    runs = [r for r in runs if r.timesteps.size]
+    if not runs:
+        raise ValueError("no run has logged an episode yet: nothing to plot")
+    refs = references or {}
+    plt = pyplot()
+    rng = np.random.default_rng(seed)
+    groups = _groups(runs)
+    figures = {}
+    n = len(groups)
+    cols = min(n, 4)
+    fig, axes = plt.subplots(math.ceil(n / cols), cols, figsize=(4.2 * cols, 3.2 * math.ceil(n / cols)), squeeze=False)
+    for ax, (env_id, by_config) in zip(axes.flat, groups.items(), strict=False):
+        _panel(ax, by_config, "return", rng, refs.get(env_id, {}))
+        ax.set_title(env_id)
+        ax.set_ylabel("episode return")
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    figures["learning_curves"] = fig
+
+    for env_id, by_config in groups.items():
+        metrics = kpi_panels(env_id, [r for rs in by_config.values() for r in rs])
+        if not metrics:
+            continue
+        cols = min(len(metrics), 3)
+        rows = math.ceil(len(metrics) / cols)
+        fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
+        for ax, (metric, label) in zip(axes.flat, metrics, strict=False):
+            _panel(ax, by_config, metric, rng, refs.get(env_id, {}) if metric == "return" else {})
+            ax.set_ylabel(label)
+        for ax in list(axes.flat)[len(metrics) :]:
+            ax.set_visible(False)
+        fig.suptitle(env_id)
+        fig.tight_layout()
+        figures[f"kpis_{env_id}"] = fig
+    return figures
+
+
+def legend_label(label: str, runs: Sequence[Run]) -> str:
+    """Legend entry of one configuration: its label, its number of seeds and of unfinished runs."""
+    seeds = len({r.seed for r in runs})
+    unfinished = sum(not r.finished for r in runs)
+    return f"{label} ({seeds} seed{'s' if seeds != 1 else ''}{f', {unfinished} unfinished' if unfinished else ''})"
+
+
+def _panel(ax: Any, by_config: dict[str, list[Run]], metric: str, rng: np.random.Generator, references: dict[str, float]) -> None:
+    horizon = max(max(r.total_timesteps, float(np.nanmax(r.timesteps, initial=0))) for rs in by_config.values() for r in rs)
     grid = np.linspace(0.0, horizon, GRID_POINTS + 1)[1:]
     window = WINDOW_FRACTION * horizon
-    for algo, rs in sorted(by_algo.items()):
+    for label, rs in by_config.items():
         curves = _curves(rs, metric, grid, window)
         mean, lo, hi = bootstrap_mean_ci(curves, rng)
-        colour = ALGO_COLOURS.get(algo)
-        ax.plot(grid, mean, label=f"{algo} ({len(rs)} seed{'s' if len(rs) > 1 else ''})", color=colour)
-        ax.fill_between(grid, lo, hi, alpha=0.25, color=colour, linewidth=0)
+        colour = ALGO_COLOURS.get(label) if label in ALGO_COLOURS else None
+        line = ax.plot(grid, mean, label=legend_label(label, rs), color=colour)[0]
+        ax.fill_between(grid, lo, hi, alpha=0.25, color=line.get_color(), linewidth=0)
+    for name, value in references.items():
+        colour, style = REFERENCE_STYLES.get(name, ("grey", "-."))
+        if np.isfinite(value):
+            ax.axhline(value, color=colour, ls=style, lw=1.0, label=name)
     ax.set_xlabel("environment steps")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
@@ -325,17 +496,36 @@ def plot_aggregate(agg: dict[str, Any], out_dir: str | Path) -> list[Path]:
     plt = pyplot()
     out = Path(out_dir)
     atomic_write_json(out / "aggregate.json", agg)
+    fig = aggregate_figure(agg)
+    _save(fig, out / "aggregate.png")
+    plt.close(fig)
+    return [out / "aggregate.png", out / "aggregate.json"]
+
+
+def aggregate_figure(agg: dict[str, Any]) -> Any:
+    """The figure of :func:`plot_aggregate`: a bar per algorithm with its CI and value, and the IQM curves."""
+    plt = pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
     algos = list(agg["final"])
     for k, algo in enumerate(algos):
         s = agg["final"][algo]
         colour = ALGO_COLOURS.get(algo)
-        ax1.errorbar([s["iqm"]], [k], xerr=[[s["iqm"] - s["ci_low"]], [s["ci_high"] - s["iqm"]]], fmt="o", color=colour, capsize=4)
+        err = [[s["iqm"] - s["ci_low"]], [s["ci_high"] - s["iqm"]]]
+        ax1.barh([k], [s["iqm"]], xerr=err, color=colour, alpha=0.8, capsize=4, height=0.6)
+        ax1.annotate(
+            f"{s['iqm']:.2f} [{s['ci_low']:.2f}, {s['ci_high']:.2f}]",
+            (max(s["ci_high"], s["iqm"]), k),
+            xytext=(4, 0),
+            textcoords="offset points",
+            va="center",
+            fontsize=8,
+        )
     ax1.set_yticks(range(len(algos)), [f"{a} ({agg['final'][a]['runs']} runs)" for a in algos])
+    ax1.set_ylim(-0.6, max(len(algos), 1) - 0.4)
     ax1.axvline(0.0, color="grey", lw=0.8, ls="--")
     ax1.axvline(1.0, color="black", lw=0.8, ls="--")
     ax1.set_xlabel("IQM normalised held-out score\n(0 = random, 1 = classical)")
-    ax1.grid(alpha=0.3)
+    ax1.grid(alpha=0.3, axis="x")
     for algo, c in agg["curve"].items():
         colour = ALGO_COLOURS.get(algo)
         ax2.plot(c["x"], c["iqm"], label=algo, color=colour)
@@ -348,11 +538,12 @@ def plot_aggregate(agg: dict[str, Any], out_dir: str | Path) -> list[Path]:
     if agg["curve"]:
         ax2.legend(fontsize=8)
     envs = sorted({e for s in agg["final"].values() for e in s["envs"]})
-    fig.suptitle(f"Aggregate over {len(envs)} environment{'s' if len(envs) != 1 else ''} (95% stratified bootstrap CIs)")
+    if len(envs) == 1:
+        fig.suptitle(f"{envs[0]}: normalised scores (95% bootstrap CIs over runs)")
+    else:
+        fig.suptitle(f"Aggregate over {len(envs)} environments (95% stratified bootstrap CIs)")
     fig.tight_layout()
-    _save(fig, out / "aggregate.png")
-    plt.close(fig)
-    return [out / "aggregate.png", out / "aggregate.json"]
+    return fig
 
 
 def find_references(run_dirs: Sequence[Path], env_ids: Sequence[str]) -> dict[str, dict[str, float]]:
@@ -365,6 +556,9 @@ def find_references(run_dirs: Sequence[Path], env_ids: Sequence[str]) -> dict[st
             for env_id in env_ids:
                 p = parent / "references" / f"{env_id}.json"
                 if env_id not in found and p.exists():
-                    data = read_json(p)
-                    found[env_id] = reference_returns({k: data[k] for k in ("random", "classical")})
+                    try:
+                        data = read_json(p)
+                        found[env_id] = reference_returns({k: data[k] for k in ("random", "classical", "mvp") if k in data})
+                    except (DamagedFileError, KeyError, TypeError):
+                        continue  # a damaged cache: the scores are computed again
     return found

@@ -283,12 +283,22 @@ def aggregate_scores(results: Sequence[EnvResults], seed: int = 0, reps: int = B
 
 
 def _interval_estimates(library: Any, scores: dict[str, Any], func: Any, reps: int, seed: int) -> tuple[dict[str, Any], dict[str, Any]]:
-    """``rliable``'s stratified bootstrap, seeded (its seeding argument is deprecated in ``arch``, which warns)."""
+    """``rliable``'s stratified bootstrap, seeded (its seeding argument is deprecated in ``arch``, which warns).
+
+    rliable draws its resamples from NumPy's global generator (its ``random_state`` reaches only
+    ``arch``), so the global generator is seeded for the call and restored afterwards: the same
+    runs give the same intervals in every process.
+    """
     import warnings
 
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="random_state is deprecated", category=FutureWarning)
-        points, intervals = library.get_interval_estimates(scores, func, reps=reps, random_state=np.random.RandomState(seed))
+    saved = np.random.get_state()
+    np.random.seed(seed)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="random_state is deprecated", category=FutureWarning)
+            points, intervals = library.get_interval_estimates(scores, func, reps=reps, random_state=np.random.RandomState(seed))
+    finally:
+        np.random.set_state(saved)
     return points, intervals
 
 

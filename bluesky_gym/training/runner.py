@@ -10,9 +10,11 @@ A run is ``(environment, algorithm, seed, steps, hyperparameters)``. Its directo
 * ``episodes.csv`` - one row per finished training episode: episode number, timesteps and wall
   time when it ended, environment index, return, length, whether it terminated, the reference
   info values, summed reward components (``reward_*``) and the KPIs (``kpi_*``).
-* ``checkpoints/step_<N>/`` - the latest checkpoint: ``model.zip`` and, for off-policy
-  algorithms, ``replay_buffer.pkl``; ``checkpoint.json`` names it and records the timesteps,
-  the number of episode rows and the training wall time it includes.
+* ``checkpoints/step_<N>/`` - the two latest checkpoints: ``model.zip`` and, for off-policy
+  algorithms, ``replay_buffer.pkl``; ``checkpoint.json`` names the latest (and the one before,
+  as ``previous``) and records the timesteps, the number of episode rows and the training wall
+  time it includes, and the size and SHA-256 of each of its files.
+* ``tensorboard/`` - Stable-Baselines3's TensorBoard log (``tensorboard --logdir <run dir>``).
 * ``model.zip`` - the final model; ``eval.json`` / ``eval_episodes.csv`` - its deterministic
   evaluation on held-out scenarios; ``result.json`` - written last, marks the run finished.
 
@@ -24,10 +26,19 @@ in flight at the checkpoint are abandoned. Checkpoints are taken at the start of
 the model has been trained on every transition counted so far (for PPO: between rollouts), so
 no transition is lost or counted twice. A resumed run continues with fresh training scenario
 streams derived from the run seed and the timesteps done (see :mod:`bluesky_gym.envs.seeds`).
+
+Everything that can be checked before training (environment id and options, hyperparameter
+names) is checked before the run directory is created, and a run that fails before it trained
+leaves no directory behind. A damaged run directory (a checkpoint file missing, truncated or
+changed, an episode log shorter than its checkpoint, a JSON file that does not parse) is never
+resumed silently: :func:`inspect_run` names the damage and :func:`run_training` refuses to go on
+unless told to resume from the last intact checkpoint (``on_damage="resume"``) or to start over
+(``on_damage="restart"``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -42,14 +53,31 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.core.extras import require_sb3
+from bluesky_gym.core.extras import MissingDependencyError, missing_extra, require_sb3
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, train_env_seeds
 from bluesky_gym.training import algorithm_class
-from bluesky_gym.training.hyperparams import POLICY, adapt_to_n_envs, resolve, sb3_kwargs
-from bluesky_gym.training.io import AppendCSV, atomic_path, atomic_write_csv, atomic_write_json, latest_checkpoint, read_csv_rows, read_json
+from bluesky_gym.training.hyperparams import POLICY, adapt_to_n_envs, check_hyperparameter_names, resolve, sb3_kwargs
+from bluesky_gym.training.io import (
+    AppendCSV,
+    DamagedFileError,
+    atomic_path,
+    atomic_write_csv,
+    atomic_write_json,
+    file_damage,
+    file_record,
+    latest_checkpoint,
+    read_csv_rows,
+    read_json,
+)
 
 EPISODE_LOG = "episodes.csv"
 LEADING_COLUMNS = ["episode", "timesteps", "wall_time_s", "env_index", "return", "length", "terminated"]
+#: Subdirectory of a run directory with Stable-Baselines3's TensorBoard log.
+TENSORBOARD_DIR = "tensorboard"
+#: What :func:`run_training` does with a damaged run directory: refuse, resume from the last intact checkpoint, start over.
+ON_DAMAGE = ("error", "resume", "restart")
+#: Files of a run directory that training produces (removed when a damaged run starts over).
+TRAINING_OUTPUTS = ("checkpoint.json", EPISODE_LOG, "model.zip", "eval.json", "eval_episodes.csv", "result.json")
 
 
 class RunConfigMismatch(RuntimeError):
@@ -58,6 +86,10 @@ class RunConfigMismatch(RuntimeError):
 
 class RunLocked(RuntimeError):
     """Another live process is training in this run directory."""
+
+
+class RunDamaged(RuntimeError):
+    """The run directory is damaged; the message names the damage and the ways on."""
 
 
 @dataclass(frozen=True)
@@ -228,6 +260,10 @@ class RunLock:
         except OSError:
             pass
 
+    def is_held(self) -> bool:
+        """True if a live process holds the lock (a lock left by a dead process does not count)."""
+        return self.path.exists() and not self._stale()
+
     def _stale(self) -> bool:
         try:
             host, pid = self.path.read_text().split()
@@ -246,30 +282,170 @@ class RunLock:
 
 # --- checkpoints -------------------------------------------------------------------------------------
 def save_checkpoint(model: Any, run_dir: Path, episodes_logged: int, wall_time_s: float) -> dict[str, Any]:
-    """Save model (and replay buffer) into a new step directory, then commit ``checkpoint.json``."""
+    """Save model (and replay buffer) into a new step directory, then commit ``checkpoint.json``.
+
+    Each file is written under a temporary name and renamed; ``checkpoint.json`` (written last,
+    atomically) records their sizes and SHA-256, so later damage is detected. The checkpoint
+    before is kept (``previous``) as a fallback; older ones are deleted.
+    """
     step = int(model.num_timesteps)
     rel = Path("checkpoints") / f"step_{step:012d}"
     d = run_dir / rel
     d.mkdir(parents=True, exist_ok=True)
     with atomic_path(d / "model.zip") as tmp:
         model.save(tmp)
+    files = {"model.zip": file_record(d / "model.zip")}
     buffer = getattr(model, "replay_buffer", None)
     if buffer is not None:
         with atomic_path(d / "replay_buffer.pkl") as tmp:
             model.save_replay_buffer(tmp)
+        files["replay_buffer.pkl"] = file_record(d / "replay_buffer.pkl")
+    try:
+        current = latest_checkpoint(run_dir)
+    except DamagedFileError:
+        current = None
+    previous = None
+    if current is not None and current[0]["dir"] != rel.as_posix():
+        previous = {k: v for k, v in current[0].items() if k != "previous"}
     record = {
         "timesteps": step,
         "dir": rel.as_posix(),
         "episodes_logged": int(episodes_logged),
         "wall_time_s": float(wall_time_s),
         "replay_buffer": buffer is not None,
+        "files": files,
         "saved_at": _now(),
+        "previous": previous,
     }
     atomic_write_json(run_dir / "checkpoint.json", record)
+    keep = {d.name} | ({Path(previous["dir"]).name} if previous else set())
     for old in (run_dir / "checkpoints").glob("step_*"):
-        if old.name != d.name:
+        if old.name not in keep:
             shutil.rmtree(old, ignore_errors=True)
     return record
+
+
+@dataclass
+class RunHealth:
+    """What :func:`inspect_run` found in a run directory.
+
+    Attributes:
+        problems: The damage, one sentence each naming the file (empty: intact).
+        intact: Committed checkpoints whose files are intact and whose episodes are all in the
+            log, newest first (the ones a run can resume from).
+        log_rows: Complete rows of the episode log (None: there is none).
+
+    """
+
+    problems: list[str]
+    intact: list[dict[str, Any]]
+    log_rows: int | None
+
+
+def _checkpoint_damage(run_dir: Path, record: dict[str, Any], log_rows: int | None, deep: bool = True) -> list[str]:
+    where = run_dir / str(record.get("dir", "?"))
+    step = record.get("timesteps", "?")
+    if not where.is_dir():
+        return [f"checkpoint.json names {where}, which is missing"]
+    names = ["model.zip"] + (["replay_buffer.pkl"] if record.get("replay_buffer") else [])
+    out = [f"checkpoint at {step} steps: {bad}" for n in names if (bad := file_damage(where / n, record.get("files", {}).get(n), deep))]
+    n = int(record.get("episodes_logged", 0))
+    log = run_dir / EPISODE_LOG
+    if n > 0 and log_rows is None:
+        out.append(f"{log} is missing; the checkpoint at {step} steps includes {n} logged episodes")
+    elif log_rows is not None and log_rows < n:
+        out.append(f"{log} has {log_rows} complete rows; the checkpoint at {step} steps includes {n} (truncated)")
+    return out
+
+
+def inspect_run(run_dir: str | Path, deep: bool = True) -> RunHealth:
+    """Check a run directory for damage: JSON files, checkpoint files against their checksums, the episode log.
+
+    Args:
+        run_dir: The run directory.
+        deep: Compare checksums (else only the sizes of the files).
+
+    """
+    d = Path(run_dir)
+    problems: list[str] = []
+    result = None
+    for name in ("config.json", "run.json", "result.json"):
+        if (d / name).exists():
+            try:
+                data = read_json(d / name)
+            except DamagedFileError as exc:
+                problems.append(str(exc))
+                continue
+            if name == "result.json":
+                result = data
+    log = d / EPISODE_LOG
+    log_rows = len(read_csv_rows(log)[1]) if log.exists() else None
+    records: list[dict[str, Any]] = []
+    if (d / "checkpoint.json").exists():
+        try:
+            latest = read_json(d / "checkpoint.json")
+            records = [latest] + ([latest["previous"]] if latest.get("previous") else [])
+        except DamagedFileError as exc:
+            problems.append(str(exc))
+    elif any((d / "checkpoints").glob("step_*")):
+        problems.append(f"{d / 'checkpoint.json'} is missing but {d / 'checkpoints'} holds checkpoints")
+    intact = []
+    for k, record in enumerate(records):
+        damage = _checkpoint_damage(d, record, log_rows, deep)
+        if not damage:
+            intact.append(record)
+        elif k == 0:
+            problems.extend(damage)
+    if result is not None:
+        bad = file_damage(d / "model.zip", result.get("files", {}).get("model.zip"), deep)
+        if bad:
+            problems.append(f"final model: {bad}")
+        if log_rows is not None and log_rows < int(result.get("episodes", 0)):
+            problems.append(f"{log} has {log_rows} complete rows; result.json counts {result.get('episodes')} (truncated)")
+        elif log_rows is None and int(result.get("episodes", 0)) > 0:
+            problems.append(f"{log} is missing; result.json counts {result.get('episodes')} episodes")
+    return RunHealth(problems, intact, log_rows)
+
+
+def _damage_message(d: Path, health: RunHealth) -> str:
+    if health.intact:
+        resume = f"--resume-from-last-intact (on_damage='resume') continues from the intact checkpoint at {health.intact[0]['timesteps']} steps"
+    else:
+        resume = "no intact checkpoint is left to resume from"
+    return f"{d} is damaged: {'; '.join(health.problems)}. {resume}; --restart (on_damage='restart') starts the run over"
+
+
+def _repair(d: Path, health: RunHealth, on_damage: str, verbose: int) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
+    """Decide where training starts; return ``(checkpoint record or None, repair note or None)``."""
+    if not health.problems:
+        latest = latest_checkpoint(d)
+        return (latest[0] if latest else None), None
+    if on_damage == "error":
+        raise RunDamaged(_damage_message(d, health))
+    for name in ("config.json", "run.json"):  # unreadable metadata: rewritten from the run's spec
+        if any(p.startswith(str(d / name)) for p in health.problems):
+            (d / name).unlink()
+    if on_damage == "resume":
+        if not health.intact:
+            raise RunDamaged(_damage_message(d, health))
+        record = health.intact[0]
+        for name in ("model.zip", "eval.json", "eval_episodes.csv", "result.json"):
+            (d / name).unlink(missing_ok=True)
+        atomic_write_json(d / "checkpoint.json", {**record, "previous": None})
+        for old in (d / "checkpoints").glob("step_*"):
+            if old.name != Path(record["dir"]).name:
+                shutil.rmtree(old, ignore_errors=True)
+        action = f"resumed from the last intact checkpoint at {record['timesteps']} steps"
+    else:
+        for name in TRAINING_OUTPUTS:
+            (d / name).unlink(missing_ok=True)
+        for sub in ("checkpoints", TENSORBOARD_DIR):
+            shutil.rmtree(d / sub, ignore_errors=True)
+        record = None
+        action = "started over"
+    if verbose:
+        print(f"{d} was damaged ({'; '.join(health.problems)}); {action}", flush=True)
+    return record, {"damage": health.problems, "action": action}
 
 
 # --- the callback --------------------------------------------------------------------------------------
@@ -352,12 +528,15 @@ def _truncate_log(path: Path, rows: int) -> None:
 
 # --- the run -----------------------------------------------------------------------------------------
 def run_status(run_dir: str | Path) -> str:
-    """``finished``, ``checkpointed`` (resumable), ``started`` or ``new``."""
+    """``finished``, ``checkpointed`` (resumable), ``started``, ``new`` or ``damaged`` (an unreadable ``checkpoint.json``)."""
     d = Path(run_dir)
     if (d / "result.json").exists():
         return "finished"
-    if latest_checkpoint(d) is not None:
-        return "checkpointed"
+    try:
+        if latest_checkpoint(d) is not None:
+            return "checkpointed"
+    except DamagedFileError:
+        return "damaged"
     return "started" if (d / "config.json").exists() else "new"
 
 
@@ -368,8 +547,14 @@ def run_training(
     progress_bar: bool = False,
     verbose: int = 1,
     callbacks: list[Any] | None = None,
+    on_damage: str = "error",
+    tensorboard: bool = True,
 ) -> dict[str, Any]:
     """Train (or resume, or skip if finished) one run and return its ``result.json`` content.
+
+    The environment, its options and the hyperparameter names are checked before the run
+    directory is created; if the run fails before training started, the directory it created is
+    removed again.
 
     Args:
         spec: The run.
@@ -377,31 +562,81 @@ def run_training(
         progress_bar: Show SB3's progress bar (needs tqdm and rich).
         verbose: 1 prints a line per checkpoint and at the end.
         callbacks: Extra SB3 callbacks (e.g. to stop early).
+        on_damage: What to do with a damaged run directory (see :func:`inspect_run`): ``"error"``
+            raises :class:`RunDamaged` naming the damage, ``"resume"`` resumes from the last intact
+            checkpoint (the episode log cut to it), ``"restart"`` deletes the training outputs
+            and starts over.
+        tensorboard: Write SB3's TensorBoard log to ``<run_dir>/tensorboard`` (needs the
+            ``tensorboard`` package of the ``train`` extra).
 
     Raises:
         RunConfigMismatch: ``run_dir`` holds a run with another configuration.
         RunLocked: another live process trains in ``run_dir``.
+        RunDamaged: ``run_dir`` is damaged and ``on_damage`` is ``"error"`` (or nothing intact is left to resume).
 
     """
     require_sb3()
+    if on_damage not in ON_DAMAGE:
+        raise ValueError(f"on_damage must be one of {', '.join(ON_DAMAGE)}, got {on_damage!r}")
+    if tensorboard:
+        _require_tensorboard()
+    check_hyperparameter_names(spec.algo, spec.hyperparams)
     d = Path(run_dir)
-    d.mkdir(parents=True, exist_ok=True)
-    with RunLock(d):
-        for stale in d.rglob(".*.tmp"):  # temporary files of a writer killed mid-write
-            stale.unlink(missing_ok=True)
-        _check_or_write_config(spec, d)
-        if (d / "result.json").exists():
-            result = read_json(d / "result.json")
-            result["skipped"] = True
-            return result
-        return _train(spec, d, progress_bar, verbose, callbacks or [])
+    venv = _make_venv(spec)  # checks the id and the scenario options before anything is written
+    created = [p for p in [d, *d.parents] if not p.exists()]
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        with RunLock(d):
+            for stale in d.rglob(".*.tmp"):  # temporary files of a writer killed mid-write
+                stale.unlink(missing_ok=True)
+            record, note = _repair(d, inspect_run(d), on_damage, verbose)
+            _check_or_write_config(spec, d, verbose)
+            if (d / "result.json").exists():
+                result = read_json(d / "result.json")
+                result["skipped"] = True
+                return result
+            return _train(spec, d, venv, record, note, progress_bar, verbose, callbacks or [], tensorboard)
+    except BaseException:
+        if created and not (d / "run.json").exists():  # failed before training: leave nothing behind
+            shutil.rmtree(d, ignore_errors=True)
+            for p in created[1:]:
+                with contextlib.suppress(OSError):
+                    p.rmdir()  # only if empty
+        raise
+    finally:
+        venv.close()
 
 
-def _check_or_write_config(spec: RunSpec, d: Path) -> None:
+def _require_tensorboard() -> None:
+    import importlib.util
+
+    if importlib.util.find_spec("tensorboard") is None:
+        error = missing_extra("TensorBoard logging needs the tensorboard package", "train")
+        raise MissingDependencyError(f"{error} (or train without it: --no-tensorboard)")
+
+
+def _make_venv(spec: RunSpec) -> Any:
+    from bluesky_gym.training.sb3_vec_env import SB3VecEnv
+
+    try:
+        return SB3VecEnv(spec.env_id, num_envs=spec.n_envs, **spec.env_options)
+    except TypeError as exc:  # unknown scenario option names
+        raise ValueError(f"env_options of {spec.env_id}: {exc}") from None
+
+
+def _nothing_trained(d: Path) -> bool:
+    """True if a run directory holds no trace of training (only a configuration, from a failed start)."""
+    return not any((d / name).exists() for name in ("run.json", "checkpoints", *TRAINING_OUTPUTS))
+
+
+def _check_or_write_config(spec: RunSpec, d: Path, verbose: int = 0) -> None:
     path = d / "config.json"
     if path.exists():
         stored = read_json(path)
-        if stored.get("identity") != spec.identity():
+        if stored.get("identity") != spec.identity() and _nothing_trained(d):
+            if verbose:
+                print(f"{d} holds only the configuration of a start that failed; replacing it", flush=True)
+        elif stored.get("identity") != spec.identity():
             old, new = stored.get("identity", {}), spec.identity()
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise RunConfigMismatch(f"{d} holds a run with another configuration (differs in: {', '.join(diff)}); use another output directory")
@@ -435,35 +670,48 @@ def set_torch_threads(n: int) -> None:
         torch.set_num_threads(n)
 
 
-def new_model(spec: RunSpec, venv: Any) -> Any:
-    """Create the untrained SB3 model of a run on ``venv`` (seeded with the run seed)."""
-    return algorithm_class(spec.algo)(POLICY, venv, seed=spec.seed, device=spec.device, verbose=0, **sb3_kwargs(spec.hyperparams))
+def new_model(spec: RunSpec, venv: Any, tensorboard_log: str | None = None) -> Any:
+    """Create the untrained SB3 model of a run on ``venv`` (seeded with the run seed; TensorBoard log directory optional)."""
+    cls = algorithm_class(spec.algo)
+    return cls(POLICY, venv, seed=spec.seed, device=spec.device, verbose=0, tensorboard_log=tensorboard_log, **sb3_kwargs(spec.hyperparams))
 
 
-def _train(spec: RunSpec, d: Path, progress_bar: bool, verbose: int, extra_callbacks: list[Any]) -> dict[str, Any]:
-    from bluesky_gym.training.sb3_vec_env import SB3VecEnv
-
+def _train(
+    spec: RunSpec,
+    d: Path,
+    venv: Any,
+    record: dict[str, Any] | None,
+    note: dict[str, Any] | None,
+    progress_bar: bool,
+    verbose: int,
+    extra_callbacks: list[Any],
+    tensorboard: bool,
+) -> dict[str, Any]:
     set_torch_threads(spec.torch_threads)
     cls = algorithm_class(spec.algo)
-    venv = SB3VecEnv(spec.env_id, num_envs=spec.n_envs, **spec.env_options)
     log_path = d / EPISODE_LOG
-    ckpt = latest_checkpoint(d)
-    if ckpt is not None:
-        info, ckpt_dir = ckpt
-        model = cls.load(ckpt_dir / "model.zip", env=venv, device=spec.device)
-        if info.get("replay_buffer"):
-            model.load_replay_buffer(ckpt_dir / "replay_buffer.pkl")
-        model.set_random_seed(train_env_seeds(spec.seed, 1, stream=int(info["timesteps"]))[0])
-        _truncate_log(log_path, int(info["episodes_logged"]))
-        wall_offset = float(info["wall_time_s"])
-        resumed_from: int | None = int(info["timesteps"])
+    tb_dir = str(d / TENSORBOARD_DIR) if tensorboard else None
+    if record is not None:
+        ckpt_dir = d / record["dir"]
+        try:
+            model = cls.load(ckpt_dir / "model.zip", env=venv, device=spec.device, tensorboard_log=tb_dir)
+            if record.get("replay_buffer"):
+                model.load_replay_buffer(ckpt_dir / "replay_buffer.pkl")
+        except Exception as exc:  # damage that no checksum recorded (a checkpoint of an older version)
+            raise RunDamaged(f"{ckpt_dir} cannot be loaded ({type(exc).__name__}: {exc}); rerun with --restart (on_damage='restart')") from exc
+        model.set_random_seed(train_env_seeds(spec.seed, 1, stream=int(record["timesteps"]))[0])
+        _truncate_log(log_path, int(record["episodes_logged"]))
+        wall_offset = float(record["wall_time_s"])
+        resumed_from: int | None = int(record["timesteps"])
     else:
-        model = new_model(spec, venv)
+        model = new_model(spec, venv, tensorboard_log=tb_dir)
+        if verbose and log_path.exists() and read_csv_rows(log_path)[1]:
+            print(f"{d}: no checkpoint was taken; starting over (the logged episodes are played again)", flush=True)
         _truncate_log(log_path, 0)
         wall_offset = 0.0
         resumed_from = None
     start = int(model.num_timesteps)
-    process = _start_process(d, start, resumed_from)
+    process = _start_process(d, start, resumed_from, note)
 
     log = AppendCSV(log_path, _episode_header)
     callback = _make_callback(d, spec, log, start, wall_offset, verbose)
@@ -479,14 +727,17 @@ def _train(spec: RunSpec, d: Path, progress_bar: bool, verbose: int, extra_callb
                 callback=[callback, *extra_callbacks],
                 reset_num_timesteps=resumed_from is None,
                 progress_bar=progress_bar,
+                tb_log_name=spec.algo,
             )
         wall = callback.wall_time()
         if int(model.num_timesteps) != callback.last_checkpoint:
             log.flush()
             save_checkpoint(model, d, log.rows_written, wall)
+    except BaseException as exc:
+        _end_process(d, process, int(model.num_timesteps), error=f"{type(exc).__name__}: {exc}")
+        raise
     finally:
         log.close()
-        venv.close()
 
     with atomic_path(d / "model.zip") as tmp:
         model.save(tmp)
@@ -512,6 +763,7 @@ def _train(spec: RunSpec, d: Path, progress_bar: bool, verbose: int, extra_callb
         "resumed_from": resumed_from,
         "eval_episodes": spec.eval_episodes,
         "eval": eval_summary,
+        "files": {"model.zip": file_record(d / "model.zip")},
         "finished_at": _now(),
     }
     _end_process(d, process, int(model.num_timesteps))
@@ -522,26 +774,30 @@ def _train(spec: RunSpec, d: Path, progress_bar: bool, verbose: int, extra_callb
     return result
 
 
-def _start_process(d: Path, timesteps: int, resumed_from: int | None) -> int:
+def _start_process(d: Path, timesteps: int, resumed_from: int | None, note: dict[str, Any] | None = None) -> int:
     path = d / "run.json"
     data = read_json(path) if path.exists() else {"processes": []}
-    data["processes"].append(
-        {
-            "started_at": _now(),
-            "host": socket.gethostname(),
-            "pid": os.getpid(),
-            "start_timesteps": timesteps,
-            "resumed_from_checkpoint": resumed_from,
-            "versions": package_versions(),
-            "command": sys.argv,
-        }
-    )
+    entry: dict[str, Any] = {
+        "started_at": _now(),
+        "host": socket.gethostname(),
+        "pid": os.getpid(),
+        "start_timesteps": timesteps,
+        "resumed_from_checkpoint": resumed_from,
+        "versions": package_versions(),
+        "command": sys.argv,
+    }
+    if note:
+        entry["repair"] = note
+    data["processes"].append(entry)
     atomic_write_json(path, data)
     return len(data["processes"]) - 1
 
 
-def _end_process(d: Path, index: int, timesteps: int) -> None:
+def _end_process(d: Path, index: int, timesteps: int, error: str | None = None) -> None:
+    """Record the end of a training process (with the error that ended it, if any)."""
     path = d / "run.json"
     data = read_json(path)
     data["processes"][index].update({"ended_at": _now(), "end_timesteps": timesteps})
+    if error is not None:
+        data["processes"][index]["error"] = error
     atomic_write_json(path, data)

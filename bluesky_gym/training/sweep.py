@@ -56,11 +56,11 @@ def plan(config: dict[str, Any], envs: Sequence[str], algos: Sequence[str], seed
     ]
 
 
-def _run_cell(spec: RunSpec, run_dir: str, verbose: int) -> dict[str, Any]:
+def _run_cell(spec: RunSpec, run_dir: str, verbose: int, on_damage: str = "error") -> dict[str, Any]:
     """Run one cell, turning an exception into a ``failed`` result."""
     t0 = time.time()
     try:
-        result = run_training(spec, run_dir, progress_bar=False, verbose=verbose)
+        result = run_training(spec, run_dir, progress_bar=False, verbose=verbose, on_damage=on_damage)
         result.setdefault("skipped", False)
         return result
     except Exception as exc:  # one failed run must not stop the grid
@@ -75,17 +75,19 @@ def _run_cell(spec: RunSpec, run_dir: str, verbose: int) -> dict[str, Any]:
         }
 
 
-def run_local(cells: Sequence[Cell], verbose: int = 1) -> list[dict[str, Any]]:
-    """Run the cells one after the other in this process."""
+def run_local(cells: Sequence[Cell], verbose: int = 1, on_damage: str = "error") -> list[dict[str, Any]]:
+    """Run the cells one after the other in this process (``on_damage``: see :func:`run_training`)."""
     results = []
     for k, cell in enumerate(cells):
         if verbose:
             print(f"--- run {k + 1}/{len(cells)}: {cell.run_dir} ({run_status(cell.run_dir)})", flush=True)
-        results.append(_run_cell(cell.spec, str(cell.run_dir), verbose))
+        results.append(_run_cell(cell.spec, str(cell.run_dir), verbose, on_damage))
     return results
 
 
-def run_ray(cells: Sequence[Cell], address: str | None = None, cpus_per_run: float = 1.0, verbose: int = 1) -> list[dict[str, Any]]:
+def run_ray(
+    cells: Sequence[Cell], address: str | None = None, cpus_per_run: float = 1.0, verbose: int = 1, on_damage: str = "error"
+) -> list[dict[str, Any]]:
     """Run the cells as Ray tasks (a local Ray instance, or the cluster at ``address``).
 
     Args:
@@ -94,6 +96,7 @@ def run_ray(cells: Sequence[Cell], address: str | None = None, cpus_per_run: flo
             locally.
         cpus_per_run: CPUs reserved per run.
         verbose: Print each result as it arrives.
+        on_damage: What a run does with a damaged run directory (see :func:`run_training`).
 
     """
     ray = require_ray()
@@ -102,7 +105,7 @@ def run_ray(cells: Sequence[Cell], address: str | None = None, cpus_per_run: flo
         ray.init(address=address, include_dashboard=False, log_to_driver=verbose > 0, configure_logging=False)
     try:
         remote = ray.remote(num_cpus=cpus_per_run, max_retries=0)(_run_cell)
-        pending = {remote.remote(c.spec, str(c.run_dir), verbose): k for k, c in enumerate(cells)}
+        pending = {remote.remote(c.spec, str(c.run_dir), verbose, on_damage): k for k, c in enumerate(cells)}
         results: list[dict[str, Any] | None] = [None] * len(cells)
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)

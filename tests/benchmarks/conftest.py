@@ -24,5 +24,5 @@ def reference_interpreter() -> str:
     """An interpreter with bluesky-gym 0.2.0 (``$BLUESKY_GYM_REFERENCE_PYTHON``), else skip."""
     python = os.environ.get(REFERENCE_PYTHON_VAR)
     if not python:
-        pytest.skip(f"${REFERENCE_PYTHON_VAR} is not set")
+        pytest.skip(f"optional comparison with the reference package bluesky-gym 0.2.0: set ${REFERENCE_PYTHON_VAR} to an interpreter that has it")
     return python

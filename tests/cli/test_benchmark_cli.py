@@ -222,9 +222,12 @@ def test_sweep_on_ray(tmp_path: Path, tiny_config: Path) -> None:
         "--cpus-per-run",
         "1",
     ]
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    home = tmp_path / "home"  # Ray writes nothing to the home directory (settings in tests/conftest.py)
+    home.mkdir()
+    env = dict(os.environ, HOME=str(home), PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     res = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
     assert res.returncode == 0, res.stdout + res.stderr
+    assert sorted(p.relative_to(home) for p in home.rglob("*")) == []
     runs = read_json(out / "sweep.json")["runs"]
     assert {(r["algo"], r["status"]) for r in runs} == {("PPO", "finished"), ("DDPG", "finished")}
     assert read_json(out / ENV / "DDPG" / "seed_0" / "config.json")["hyperparams"]["train_freq"] == 1

@@ -93,3 +93,69 @@ def test_plots_and_aggregate_from_run_dirs(tmp_path: Path) -> None:
     files = plot_aggregate(agg, tmp_path / "plots")
     assert json.loads(files[1].read_text())["final"]["PPO"]["runs"] == 6
     assert files[0].stat().st_size > 5000
+
+
+def _descent_run(root: Path, name: str, seed: int, n_steps: int, finished: bool = True) -> Path:
+    """A Descent run whose episodes fly 10 steps 300 m off the target, then land at 30 m."""
+    from bluesky_gym.tasks.descent import ALT_DIF_REWARD_SCALE
+
+    d = root / name / f"seed_{seed}"
+    # as the runner writes it: the digest covers the whole identity, seed included
+    identity = {"env_id": "DescentEnv-v0", "algo": "PPO", "seed": seed, "hyperparams": {"n_steps": n_steps, "learning_rate": 3e-4}}
+    config = {"env_id": "DescentEnv-v0", "algo": "PPO", "seed": seed, "total_timesteps": 1000, "identity": identity, "digest": f"d{n_steps}s{seed}"}
+    atomic_write_json(d / "config.json", config)
+    header = [
+        "episode",
+        "timesteps",
+        "wall_time_s",
+        "env_index",
+        "return",
+        "length",
+        "terminated",
+        "final_altitude",
+        "reward_altitude",
+        "kpi_los_count",
+        "kpi_success",
+    ]
+    rows = [[k, 100 * (k + 1), 0.0, 0, -5.0 - k, 11, 1, 30.0 + k, 10 * 300.0 * ALT_DIF_REWARD_SCALE, 0.0, 1.0] for k in range(10)]
+    atomic_write_csv(d / "episodes.csv", header, rows)
+    if finished:
+        atomic_write_json(d / "result.json", {"status": "finished"})
+    return d
+
+
+def test_reference_lines_kpis_per_environment_and_seeds_per_configuration(tmp_path: Path) -> None:
+    from bluesky_gym.training.plotting import aggregate_figure, kpi_panels, learning_curve_figures
+
+    runs = [
+        load_run(_descent_run(tmp_path, "a", 0, 128)),
+        load_run(_descent_run(tmp_path, "a", 1, 128, finished=False)),
+        load_run(_descent_run(tmp_path, "b", 0, 2048)),
+    ]
+    # Descent's KPI panels: altitude error and final altitude, not the constant LoS count or success.
+    panels = [m for m, _ in kpi_panels("DescentEnv-v0", runs)]
+    assert panels == ["return", "altitude_error_m", "final_altitude", "length"]
+    np.testing.assert_allclose(runs[0].metric("altitude_error_m"), 300.0)
+    refs = {"DescentEnv-v0": {"random": -60.0, "classical": -20.0, "mvp": -12.0}}
+    figures = learning_curve_figures(runs, references=refs)
+    assert set(figures) == {"learning_curves", "kpis_DescentEnv-v0"}
+    ax = figures["learning_curves"].axes[0]
+    labels = ax.get_legend_handles_labels()[1]
+    # Two configurations with seed 0: two lines, labelled by what differs, seeds counted per configuration.
+    assert labels[:2] == ["PPO n_steps=128 (2 seeds, 1 unfinished)", "PPO n_steps=2048 (1 seed)"]
+    assert labels[2:] == ["random", "classical", "mvp"]
+    levels = {line.get_label(): line.get_ydata()[0] for line in ax.get_lines() if line.get_label() in refs["DescentEnv-v0"]}
+    assert levels == refs["DescentEnv-v0"]
+    kpi_axes = figures["kpis_DescentEnv-v0"].axes
+    assert [a.get_ylabel() for a in kpi_axes[:3]] == ["episode return", "mean altitude error [m]", "final altitude [m] (-100: crashed)"]
+    drawn = [line.get_ydata() for line in kpi_axes[1].get_lines() if line.get_label().startswith("PPO n_steps=128")]
+    assert len(drawn) == 1 and np.nanmax(np.abs(np.asarray(drawn[0]) - 300.0)) < 1e-9  # the derived altitude error is plotted
+    assert "random" in kpi_axes[0].get_legend_handles_labels()[1] and "random" not in kpi_axes[1].get_legend_handles_labels()[1]
+
+    # One environment: a readable bar per algorithm with its value, not a lone dot.
+    agg = aggregate(runs, {"DescentEnv-v0": {"random": -60.0, "classical": -20.0}})
+    fig = aggregate_figure(agg)
+    bars = fig.axes[0].patches
+    assert len(bars) == 1 and bars[0].get_width() == pytest.approx(agg["final"]["PPO"]["iqm"])
+    assert f"{agg['final']['PPO']['iqm']:.2f}" in " ".join(t.get_text() for t in fig.axes[0].texts)
+    assert "DescentEnv-v0" in fig.get_suptitle()

@@ -93,7 +93,10 @@ def test_run_records_everything(tmp_path: Path) -> None:
         assert parts == pytest.approx(float(r[col("return")]))
     assert (d / "model.zip").exists() and read_json(d / "eval.json")["episodes"] == 4
     assert latest_checkpoint(d)[0]["timesteps"] == 384
-    assert len(list((d / "checkpoints").iterdir())) == 1  # older checkpoints are removed
+    record = latest_checkpoint(d)[0]
+    kept = sorted(p.name for p in (d / "checkpoints").iterdir())
+    assert kept == sorted(p.split("/")[1] for p in (record["previous"]["dir"], record["dir"]))  # the latest two; older ones removed
+    assert set(record["files"]) == {"model.zip"} and record["files"]["model.zip"]["bytes"] > 0
     # Rerunning skips the finished run; another configuration is refused.
     assert run_training(spec, d, verbose=0)["skipped"] is True
     other = make_run_spec(TINY, ENV, "PPO", 3, n_envs=4, total_timesteps=600, checkpoint_freq=100, eval_episodes=4)

@@ -1,0 +1,51 @@
+"""Settings of the whole test suite: nothing is written to the home directory.
+
+BlueSky keeps its working directory (settings, navigation cache) in ``~/bluesky`` unless told
+otherwise, Ray its session files in the temporary directory and its usage-statistics settings and
+cluster token in ``~/.ray``, Matplotlib its font cache in ``~/.config``. The tests point all of them to one scratch
+directory in the system's temporary directory (kept between runs, so BlueSky's navigation cache is
+built once). Subprocesses started by the tests inherit the settings.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+
+SCRATCH = Path(tempfile.gettempdir()) / f"bluesky-gym-tests-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
+
+os.environ.setdefault("BLUESKY_GYM_BLUESKY_WORKDIR", str(SCRATCH / "bluesky"))
+os.environ.setdefault("RAY_TMPDIR", str(SCRATCH / "ray"))
+os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+os.environ.setdefault("RAY_USAGE_STATS_CONFIG_PATH", str(SCRATCH / "ray-usage.json"))
+# Ray >= 2.5x protects a new local cluster with a token that it saves in ~/.ray; the tests' local
+# clusters live only as long as one test, on this machine, so they run without one.
+os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+os.environ.setdefault("MPLCONFIGDIR", str(SCRATCH / "matplotlib"))
+# One intra-op thread for PyTorch (read when torch is imported): the tests' networks are small, and
+# on a loaded 2-core machine threads that wait for each other made one training test 10x slower.
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+
+def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
+    """Leave out test modules that the run's marker expression deselects entirely.
+
+    ``scripts/test.sh`` runs ``-m "not bluesky"`` in the main environment and ``-m bluesky`` in the
+    BlueSky one. A module is imported before its tests are deselected, and a module that needs a
+    package the environment lacks (BlueSky in the one, Stable-Baselines3 in the other) would be
+    reported as skipped although none of its tests was meant to run there.
+    """
+    if collection_path.suffix != ".py" or not collection_path.name.startswith("test_"):
+        return None
+    expression = " ".join(str(config.getoption("markexpr") or "").split())
+    if expression not in ("bluesky", "not bluesky"):
+        return None
+    text = collection_path.read_text(encoding="utf-8")
+    if expression == "not bluesky" and "pytestmark = pytest.mark.bluesky" in text:
+        return True
+    if expression == "bluesky" and "mark.bluesky" not in text:
+        return True
+    return None
