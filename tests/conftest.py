@@ -2,7 +2,9 @@
 
 BlueSky keeps its working directory (settings, navigation cache) in ``~/bluesky`` unless told
 otherwise, Ray its session files in the temporary directory and its usage-statistics settings and
-cluster token in ``~/.ray``, Matplotlib its font cache in ``~/.config``. The tests point all of them to one scratch
+cluster token in ``~/.ray``, Matplotlib its font cache in ``~/.config``, the ``traffic`` library
+its settings and cache in ``~/.config/traffic`` and ``~/.cache/traffic`` (the XDG directories), and
+recorded-traffic episode data goes to ``$BLUESKY_GYM_CACHE``. The tests point all of them to one scratch
 directory in the system's temporary directory (kept between runs, so BlueSky's navigation cache is
 built once). Subprocesses started by the tests inherit the settings.
 """
@@ -25,6 +27,9 @@ os.environ.setdefault("RAY_USAGE_STATS_CONFIG_PATH", str(SCRATCH / "ray-usage.js
 # clusters live only as long as one test, on this machine, so they run without one.
 os.environ.setdefault("RAY_AUTH_MODE", "disabled")
 os.environ.setdefault("MPLCONFIGDIR", str(SCRATCH / "matplotlib"))
+os.environ.setdefault("XDG_CONFIG_HOME", str(SCRATCH / "config"))
+os.environ.setdefault("XDG_CACHE_HOME", str(SCRATCH / "cache"))
+os.environ.setdefault("BLUESKY_GYM_CACHE", str(SCRATCH / "bluesky-gym-cache"))
 # One intra-op thread for PyTorch (read when torch is imported): the tests' networks are small, and
 # on a loaded 2-core machine threads that wait for each other made one training test 10x slower.
 os.environ.setdefault("OMP_NUM_THREADS", "1")

@@ -24,17 +24,18 @@ def written(home: Path) -> list[str]:
 
 
 def test_training_plotting_and_video_tests_leave_the_home_directory_alone(tmp_path: Path) -> None:
-    for module, extra in (("stable_baselines3", "train"), ("matplotlib", "train"), ("moviepy", "render")):
+    for module, extra in (("stable_baselines3", "train"), ("matplotlib", "train"), ("moviepy", "render"), ("traffic", "realtraffic")):
         pytest.importorskip(module, reason=f"runs tests of the '{extra}' extra")
     selection = [
         "tests/training/test_runner.py::test_run_records_everything",
         "tests/training/test_plotting.py::test_plots_and_aggregate_from_run_dirs",
         "tests/render/test_render.py::test_record_video_wrapper",
+        "tests/realtraffic/test_sources.py::test_table_is_cleaned_into_flights",
     ]
     home = tmp_path / "home"
     res = run_with_home(home, ["-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", *selection])
     assert res.returncode == 0, res.stdout + res.stderr
-    assert "3 passed" in res.stdout
+    assert "4 passed" in res.stdout
     assert written(home) == []
 
 
