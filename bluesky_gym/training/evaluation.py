@@ -202,9 +202,9 @@ def format_table(results: Sequence[EvalResult], references: dict[str, float] | N
         row = [r.policy]
         for c, _ in cols:
             s = r.summary[c]
-            row.append("-" if not s["n"] else f"{_fmt(s['mean'])} ± {_fmt(s['ci95'])}")
+            row.append("-" if not s["n"] else f"{format_number(s['mean'])} ± {format_number(s['ci95'])}")
         if references:
-            row.append(_fmt(normalised_score(r.mean_return, references["random"], references["classical"])))
+            row.append(format_number(normalised_score(r.mean_return, references["random"], references["classical"])))
         rows.append(row)
     widths = [max(len(str(x)) for x in col) for col in zip(header, *rows, strict=True)]
     lines = ["  ".join(str(x).ljust(w) for x, w in zip(header, widths, strict=True))]
@@ -216,9 +216,10 @@ def format_table(results: Sequence[EvalResult], references: dict[str, float] | N
     return "\n".join(lines)
 
 
-def _fmt(x: float) -> str:
+def format_number(x: float | None, missing: str = "-") -> str:
+    """A KPI value with three significant digits or decimals (``missing`` for None, NaN or inf)."""
     if x is None or not np.isfinite(x):
-        return "-"
+        return missing
     if x != 0 and (abs(x) >= 1e4 or abs(x) < 1e-2):
         return f"{x:.3g}"
     return f"{x:.3f}" if abs(x) < 10 else f"{x:.1f}"

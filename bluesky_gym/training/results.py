@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.core.extras import require_rliable
-from bluesky_gym.training.evaluation import KPI_COLUMNS, normalised_score
+from bluesky_gym.training.evaluation import KPI_COLUMNS, format_number, normalised_score
 from bluesky_gym.training.io import atomic_path, read_csv_rows, read_json
 from bluesky_gym.training.plotting import Run, find_runs, load_run, plot_learning_curves
 
@@ -302,18 +302,10 @@ def _interval_estimates(library: Any, scores: dict[str, Any], func: Any, reps: i
     return points, intervals
 
 
-def _fmt(x: float) -> str:
-    if x is None or not np.isfinite(x):
-        return "–"
-    if x != 0 and (abs(x) >= 1e4 or abs(x) < 1e-2):
-        return f"{x:.3g}"
-    return f"{x:.3f}" if abs(x) < 10 else f"{x:.1f}"
-
-
 def _cell(v: tuple[float, float, float] | None) -> str:
     if v is None or not np.isfinite(v[0]):
         return "–"
-    return f"{_fmt(v[0])} [{_fmt(v[1])}, {_fmt(v[2])}]"
+    return f"{format_number(v[0])} [{format_number(v[1])}, {format_number(v[2])}]"
 
 
 def kpi_table(er: EnvResults) -> list[str]:
