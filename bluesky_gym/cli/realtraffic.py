@@ -165,7 +165,8 @@ def run_fidelity(args: argparse.Namespace) -> int:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
     print(format_markdown(results))
-    print(f"\n{', '.join(f'{r.collection}: {r.windows} windows' for r in results)} of 20 minutes, nobody acting, A320 performance for every aircraft")
+    windows = ", ".join(f"{r.collection}: {r.windows} windows" for r in results)
+    print(f"\n{windows} of 20 minutes, nobody acting, every aircraft with its recorded type (BlueSky's B744 where missing or unknown)")
     if args.json:
         args.json.write_text(json.dumps({r.collection: r.summary() for r in results}, indent=2))
     return 0

@@ -26,7 +26,9 @@ class RealTrafficCREnv(BlueSkyEnv):
     up to 24 recorded aircraft that come within 30 NM of it during the window fly their recorded
     routes (route points from a Douglas-Peucker simplification of the track, flown with LNAV) and
     their recorded altitude and speed profiles; they appear and disappear when their recordings do.
-    Every aircraft flies with the core's A320 model. With a zero action the ownship follows its
+    Every aircraft flies with the performance of its recorded aircraft type (BlueSky's OpenAP data;
+    BlueSky's fallback, the B744, where the recording has no type or one BlueSky does not fly as a
+    fixed-wing aircraft). With a zero action the ownship follows its
     own recording too, so an episode with zero actions replays the recorded traffic.
 
     ## Observation Space
