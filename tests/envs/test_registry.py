@@ -16,7 +16,8 @@ from .expected_spaces import MAX_EPISODE_STEPS
 
 
 def test_rows_resolve_to_consistent_classes() -> None:
-    assert [e.id for e in registry.ENVIRONMENTS] == list(MAX_EPISODE_STEPS)
+    ids = [e.id for e in registry.ENVIRONMENTS]
+    assert len(ids) == len(set(ids)) and set(ids) == set(MAX_EPISODE_STEPS)
     assert bluesky_gym.ENVIRONMENTS is registry.ENVIRONMENTS
     for e in registry.ENVIRONMENTS:
         task, env, venv = e.task_class(), e.env_class(), e.vector_env_class()
