@@ -103,7 +103,10 @@ def test_core_reference_like_scenario_is_bit_identical_without_routes() -> None:
 # The -v1 versions with their own physics or geometry (FL350 traffic, the FAF at 200 NM, per-step
 # obstacle reward); the other -v1 versions differ from their -v0 only in the task layer.
 PARITY_V1 = ("SectorCREnv-v1", "StaticObstacleEnv-v1", "MergeEnv-v1")
-ENVS = [e for e in available_envs() if e.endswith("-v0") or e in PARITY_V1]
+# RealTrafficCREnv-v0 flies recorded traffic prepared from the 'traffic' package's samples; its
+# parity with BlueSky is not part of this plan (the BlueSky environment has no 'traffic').
+NO_PARITY = ("RealTrafficCREnv-v0",)
+ENVS = [e for e in available_envs() if (e.endswith("-v0") or e in PARITY_V1) and e not in NO_PARITY]
 EPISODES = 20
 CHUNKS = 2  # each env's episodes run as two tests (contiguous halves), for pytest-xdist
 # env id -> (time limit, number of full episodes, length of the others). Full episodes run to
