@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 
 from bluesky_gym.envs.registry import ENVIRONMENTS, env_ids
@@ -30,6 +32,11 @@ def register_envs() -> None:
     """
     from bluesky_gym.multiagent.registration import register_envs as register_centralised
 
+    # A -v0 id is the paper's MDP, kept in every release next to its -v1: Gymnasium's "is out of
+    # date, consider upgrading" DeprecationWarning does not apply to it. Only that message, only
+    # for these ids, is silenced.
+    paper = "|".join(e.id[: -len("-v0")] for e in ENVIRONMENTS if e.id.endswith("-v0"))
+    warnings.filterwarnings("ignore", message=rf".*The environment ({paper})-v0 is out of date", category=DeprecationWarning)
     for entry in ENVIRONMENTS:
         if entry.id not in gym.registry and entry.is_available():
             gym.register(id=entry.id, entry_point=entry.env, vector_entry_point=entry.vector_env, max_episode_steps=None, kwargs=dict(entry.options))

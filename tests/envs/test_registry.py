@@ -61,3 +61,12 @@ def test_unknown_ids() -> None:
     assert registry.scene_builder("Nope-v0") is registry.resolve(registry.GENERIC_SCENE)
     with pytest.raises(ValueError, match="module:attribute"):
         registry.resolve("bluesky_gym.envs.registry")
+
+
+def test_making_a_paper_v0_id_gives_no_out_of_date_warning() -> None:
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        bluesky_gym.register_envs()  # installs the filter for the paper's -v0 ids after the "error" one
+        gym.make("DescentEnv-v0").close()
