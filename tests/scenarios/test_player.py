@@ -299,6 +299,8 @@ def test_the_python_snippets_of_the_scenarios_page_run(tmp_path: Path, monkeypat
     from tests.docs.test_tutorials import run_page
 
     page = run_page("scenarios.md", tmp_path, monkeypatch)
-    assert "32 rows at t=600 s" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "32 rows at t=600 s" in out
+    assert "['B744', 'E190', 'ZZZZ'] B744" in out  # the aircraft types section
     assert len(page.rows) == 4 * 8  # four copies of eight aircraft
     assert parse_scenario((tmp_path / "episode.scn").read_text()).callsigns[0] == "AC000"
