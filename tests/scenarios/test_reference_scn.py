@@ -100,10 +100,10 @@ def test_recordings_cover_the_scenario_commands() -> None:
     assert np.isfinite([float(r["lat"]) for r in load("pcall_route")]).all()
 
 
+@pytest.mark.bluesky
 @pytest.mark.parametrize("name", ["pcall_commands", "pcall_direct_lnav"])
 def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
     """The same player on the BlueSky backend reproduces the PCALL recording (same commands, BlueSky's own physics)."""
-    pytest.importorskip("bluesky")
     from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
 
     file, dt, duration = SCN[name]
