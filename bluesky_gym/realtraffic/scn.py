@@ -20,14 +20,9 @@ from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.units import FT, KTS
 from bluesky_gym.realtraffic.flights import RecordedFlights
 from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, Window
+from bluesky_gym.scenarios.export import scn_time
 
 FALLBACK_TYPE = "A320"
-
-
-def _stamp(t: float) -> str:
-    h, rem = divmod(max(t, 0.0), 3600.0)
-    m, s = divmod(rem, 60.0)
-    return f"{int(h):02d}:{int(m):02d}:{s:05.2f}>"
 
 
 def scn_lines(flights: RecordedFlights, window: Window) -> list[str]:
@@ -62,7 +57,7 @@ def scn_lines(flights: RecordedFlights, window: Window) -> list[str]:
         if t_out < window.start + window.duration:
             events.append((t_out - window.start + flights.period, 3, f"DEL {acid}"))
     events.sort(key=lambda e: (e[0], e[1]))
-    return [f"{_stamp(t)}{cmd}" for t, _, cmd in events]
+    return [f"{scn_time(t)}>{cmd}" for t, _, cmd in events]
 
 
 def write_scn(flights: RecordedFlights, window: Window, path: str | Path) -> Path:
