@@ -88,7 +88,8 @@ class RealTrafficConfig(TaskConfig):
         altitude_action: Add a third action, an altitude offset from the recorded profile.
         cache_dir: Directory of the cleaned collections (default: see :mod:`bluesky_gym.realtraffic.cache`).
         labels: Callsign labels in rendered frames: ``"near"`` (aircraft within 20 NM of the
-            ownship, and any in a loss of separation), ``"all"`` or ``"none"``.
+            ownship, and any in a loss of separation), ``"all"`` or ``"none"``; in the
+            ``"human"`` window the aircraft under the mouse pointer is labelled whatever this says.
     """
 
     collections: tuple[str, ...] = SAMPLE_COLLECTIONS
