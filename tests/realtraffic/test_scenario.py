@@ -244,3 +244,53 @@ def test_bluesky_plays_the_scn_file_of_a_window(tmp_path) -> None:
                     assert abs(float(got) - float(want)) <= TOL[name], (t, SCN_ACIDS[s], name, float(got), float(want))
     finally:
         physics.close()
+
+
+def test_the_scn_commands_of_the_realtraffic_page_run(tmp_path, monkeypatch, capsys) -> None:
+    """The page's ``realtraffic scn`` and ``replay`` commands, as written, on synthetic stand-ins for the sample collections."""
+    import shlex
+    from pathlib import Path
+
+    from bluesky_gym.cli import main
+    from bluesky_gym.realtraffic.cache import collection_path
+    from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
+
+    page = Path(__file__).resolve().parents[2] / "docs" / "realtraffic.md"
+    commands = [
+        shlex.split(ln, comments=True)[1:]
+        for ln in page.read_text().splitlines()
+        if ln.startswith(("bluesky-gym realtraffic scn", "bluesky-gym replay"))
+    ]
+    assert [c[:2] for c in commands] == [["realtraffic", "scn"], ["replay", "episode.scn"]]
+    for k, name in enumerate(SAMPLE_COLLECTIONS):
+        stand_in = dataclasses.replace(traffic_collection(n_flights=24, spacing_s=300.0, seed=k), name=name)
+        stand_in.save(collection_path(name, tmp_path / "cache"))
+    monkeypatch.setenv("BLUESKY_GYM_CACHE", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    for argv in commands:
+        assert main(argv) == 0, argv
+    name = capsys.readouterr().out.split("episode.scn: ")[1].split(",")[0]
+    assert name in SAMPLE_COLLECTIONS
+    text = (tmp_path / "episode.scn").read_text()
+    # the title names the window's own collection and its time in that collection's clock (not the combined one)
+    assert text.startswith(f"# {name}: 600 s from 2024-01-01T") and ">CRE SYN" in text
+    assert (tmp_path / "episode.csv").stat().st_size > 0
+
+
+def test_a_window_of_combined_collections_maps_back_to_its_collection() -> None:
+    from bluesky_gym.realtraffic.cache import combine, window_of_part
+
+    parts = [traffic_collection(n_flights=4), traffic_collection(n_flights=5, seed=1)]
+    combined, shifts = combine(parts, "a+b")
+    w = windows(parts[1], 600.0, 60.0, 30.0, 1, 10)[0]
+    moved = Window(w.start + shifts[1], w.duration, w.ownship + 4, tuple(f + 4 for f in w.traffic))
+    assert np.array_equal(
+        combined.at(np.array(moved.flights), np.full(len(w.flights), moved.start + 30.0))["lat"],
+        parts[1].at(np.array(w.flights), np.full(len(w.flights), w.start + 30.0))["lat"],
+    )
+    k, back = window_of_part(parts, moved)
+    assert k == 1 and back.flights == w.flights and back.start == pytest.approx(w.start, abs=1e-9) and back.duration == w.duration
+    with pytest.raises(ValueError, match="span several collections"):
+        window_of_part(parts, Window(0.0, 600.0, 0, (5,)))
+    with pytest.raises(ValueError, match="not a flight of the collections"):
+        window_of_part(parts, Window(0.0, 600.0, 9, ()))
