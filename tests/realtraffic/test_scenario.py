@@ -1,4 +1,4 @@
-"""Recorded flights to scenarios on the core: a known route is reproduced, windows and splits."""
+"""Recorded flights to scenarios on the core: a known route is reproduced, windows and splits, windows written as .scn files."""
 
 from __future__ import annotations
 
