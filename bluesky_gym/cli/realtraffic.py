@@ -6,7 +6,7 @@ Examples::
     bluesky-gym realtraffic prepare --table flights.csv --out my.npz  # a user's ADS-B table
     bluesky-gym realtraffic fidelity --windows 64                    # deviation from the recordings after 5, 10, 20 min
     bluesky-gym realtraffic stats --episodes 50                      # flights, aircraft-hours, conflicts, policy KPIs
-    bluesky-gym realtraffic scn --seed 0 --out episode.scn           # an episode's window as a BlueSky scenario
+    bluesky-gym realtraffic scn --seed 0 --out episode.scn           # an episode's window, flown with nobody acting, as a BlueSky scenario
 
 ``prepare`` cleans with the ``traffic`` library (the ``realtraffic`` extra) and writes a ``.npz``
 file that the environments read with numpy alone (``gym.make("RealTrafficCREnv-v0",
@@ -66,7 +66,7 @@ def add_parser(subparsers: Any) -> None:
     fid.add_argument("--cache-dir", metavar="DIR", help="cache directory")
     fid.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON")
     fid.set_defaults(func=run_fidelity)
-    scn = sub.add_parser("scn", help="write the window of an episode of RealTrafficCREnv-v0 as a BlueSky .scn file")
+    scn = sub.add_parser("scn", help="write the window of an episode of RealTrafficCREnv-v0, flown with nobody acting, as a BlueSky .scn file")
     scn.add_argument("--seed", type=int, default=0, help="episode seed (evaluation-range seeds, 2**31 and above, draw from the test split)")
     scn.add_argument("--collections", nargs="+", default=None, metavar="NAME", help="collections (default: switzerland quickstart)")
     scn.add_argument("--cache-dir", metavar="DIR", help="cache directory")
@@ -137,19 +137,22 @@ def run_scn(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import bluesky_gym
-    from bluesky_gym.realtraffic.scn import write_scn
+    from bluesky_gym.realtraffic.cache import load_collection, window_of_part
+    from bluesky_gym.realtraffic.fidelity import write_window_scenario
 
     bluesky_gym.register_envs()
     try:
-        env = gym.make("RealTrafficCREnv-v0", collections=tuple(_collections(args)), cache_dir=args.cache_dir)
+        names = _collections(args)
+        env = gym.make("RealTrafficCREnv-v0", collections=tuple(names), cache_dir=args.cache_dir)
         env.reset(seed=args.seed)
         task = env.unwrapped.task  # type: ignore[attr-defined]
-        window = task.window(0)
-        path = write_scn(task.flights, window, args.out)
+        k, window = window_of_part([load_collection(n, args.cache_dir) for n in names], task.window(0))
+        flights = load_collection(names[k], args.cache_dir)
+        path = write_window_scenario(flights, window, args.out, task.max_waypoints())
     except (MissingDependencyError, ValueError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
-    print(f"{path}: {len(window.flights)} aircraft, {window.duration:.0f} s")
+    print(f"{path}: {flights.name}, {len(window.flights)} aircraft, {window.duration:.0f} s flown with nobody acting")
     return 0
 
 

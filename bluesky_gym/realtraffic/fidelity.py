@@ -5,20 +5,32 @@ the native core and compares, for every aircraft, the simulated position with th
 at the same time, 5, 10 and 20 minutes after the aircraft was created: the lateral deviation
 (great-circle distance) and the vertical deviation (|altitude difference|). It reports the median
 and the 95th percentile over all aircraft still recorded at that age.
+
+:func:`fly` is that replay (nobody acting, every aircraft guided along its recording), and
+:func:`window_scenario` writes a window as the replay flies it as a BlueSky ``.scn`` file, with the
+package's one scenario writer (:class:`~bluesky_gym.scenarios.export.ScenarioRecorder`): every
+command the replay gives is a line of the file, so the scenario player (``bluesky-gym replay``)
+flies the file exactly as the replay flew the window, and BlueSky plays it too.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from datetime import datetime, timedelta
+from pathlib import Path
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.geo import qdrdist
+from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.simulator import Simulator
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window
+from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window
+from bluesky_gym.scenarios.export import ScenarioRecorder
 
 HORIZONS_S = (300.0, 600.0, 1200.0)  # s after creation: 5, 10, 20 minutes
 DT = 1.0  # s, simulation time step
@@ -84,17 +96,13 @@ def fidelity(
     result = Fidelity(flights.name, len(chosen), {h: np.zeros(0) for h in horizons}, {h: np.zeros(0) for h in horizons})
     lateral: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
     vertical: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
-    sub = int(round(DECISION_STEP / DT))
     for b in range(0, len(chosen), BATCH):
         batch = chosen[b : b + BATCH]
         sim = Simulator(len(batch), max_aircraft, dt=DT, max_waypoints=max_waypoints)
         player = ScenarioPlayer(sim, flights, guided_ownship=True)
         player.load(np.arange(len(batch)), batch)
-        n_steps = int(round(max(w.duration for w in batch) / DECISION_STEP))
         in_los = np.zeros((len(batch), max_aircraft, max_aircraft), bool)
-        for _ in range(n_steps):
-            sim.run(sub)
-            player.advance_clock(DECISION_STEP)
+        for _ in fly(sim, player, max(w.duration for w in batch)):
             now = player.now()[:, None]
             age = now - player.t_created
             live = sim.active & player.created & ~player.done & (now <= player.t_leave + 1e-6)
@@ -111,11 +119,80 @@ def fidelity(
                 _, dist_nm = qdrdist(sim.lat[e, s], sim.lon[e, s], rec["lat"], rec["lon"])
                 lateral[h].append(np.asarray(dist_nm) * NM)
                 vertical[h].append(np.abs(sim.alt[e, s] - rec["alt"]))
-            player.update()
     for h in horizons:
         result.lateral_m[h] = np.concatenate(lateral[h]) if lateral[h] else np.zeros(0)
         result.vertical_m[h] = np.concatenate(vertical[h]) if vertical[h] else np.zeros(0)
     return result
+
+
+def fly(sim: Physics, player: ScenarioPlayer, duration: float) -> Iterator[None]:
+    """Fly the windows loaded into ``player`` for ``duration`` [s] with nobody acting.
+
+    Runs :data:`DECISION_STEP` at a time (in steps of the physics' ``dt``) and yields after each,
+    with the player's clock advanced; when resumed, the player creates, deletes and guides its
+    aircraft for the next decision step (not after the last one).
+    """
+    sub = int(round(DECISION_STEP / sim.dt))
+    n_steps = int(round(duration / DECISION_STEP))
+    for k in range(n_steps):
+        sim.run(sub)
+        player.advance_clock(DECISION_STEP)
+        yield
+        if k < n_steps - 1:
+            player.update()
+
+
+def window_title(flights: RecordedFlights, window: Window) -> str:
+    """One line naming the collection, the window (UTC when the epoch is a date), its aircraft and the ownship."""
+    try:
+        start: str = (datetime.fromisoformat(flights.epoch) + timedelta(seconds=window.start)).isoformat(timespec="seconds")
+    except ValueError:
+        start = f"t = {window.start:g} s after {flights.epoch}"
+    own = str(flights.callsign[window.ownship]) or str(flights.flight_id[window.ownship])
+    return (
+        f"{flights.name}: {window.duration:g} s from {start}, {len(window.flights)} recorded aircraft (ownship {own}), "
+        "each guided along its recording, nobody acting"
+    )
+
+
+def window_scenario(flights: RecordedFlights, window: Window, max_waypoints: int = MAX_ROUTE_POINTS, title: str | None = None) -> str:
+    """``window`` flown with nobody acting (as :func:`fidelity` flies it), as ``.scn`` text.
+
+    The window is flown on the native core with the :class:`ScenarioPlayer` under a
+    :class:`~bluesky_gym.scenarios.export.ScenarioRecorder`, and the recorder's text is returned:
+    every aircraft is created (``CRE``, with its recorded type or BlueSky's fallback B744) when it
+    appears and given its route points (``ADDWPT``, which engages LNAV), then its altitude and
+    speed targets every decision step (``ALT``, ``SPD``), and deleted (``DEL``) after its
+    recording ends or at the end of the window. Aircraft are named by their recorded callsigns
+    (made unique). Times are relative to the window start.
+
+    Args:
+        flights: The recorded flights.
+        window: The window to write.
+        max_waypoints: Route points given to each aircraft (as in the environments).
+        title: The file's title line (default: :func:`window_title`).
+    """
+    sim = Simulator(1, len(window.flights), dt=DT, max_waypoints=max_waypoints)
+    rec = ScenarioRecorder(sim)
+    rec.reset_envs()
+    rec.set_callsigns(0, [str(flights.callsign[f]) for f in window.flights])
+    physics = cast(Physics, rec)  # a Physics by delegation
+    player = ScenarioPlayer(physics, flights, guided_ownship=True)
+    player.load(np.array([0]), [window])
+    for _ in fly(physics, player, window.duration):
+        pass
+    alive = np.flatnonzero(sim.active[0])
+    if alive.size:
+        rec.delete(0, alive)
+    return rec.scenario_text(0, title=window_title(flights, window) if title is None else title)
+
+
+def write_window_scenario(flights: RecordedFlights, window: Window, path: str | Path, max_waypoints: int = MAX_ROUTE_POINTS) -> Path:
+    """Write :func:`window_scenario` to ``path`` (parent directories are made); returns the path."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(window_scenario(flights, window, max_waypoints))
+    return p
 
 
 def pair_los(lat: NDArray[np.float64], lon: NDArray[np.float64], alt: NDArray[np.float64], live: NDArray[np.bool_]) -> NDArray[np.bool_]:
