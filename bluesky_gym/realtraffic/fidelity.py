@@ -35,12 +35,16 @@ class Fidelity:
         windows: Windows replayed.
         lateral_m: Horizon [s] -> lateral deviations [m] of every aircraft recorded at that age.
         vertical_m: Horizon [s] -> vertical deviations [m].
+        flight: Horizon [s] -> the recorded flight (index into the collection) of each deviation.
+        conflicts: Losses of separation (pair events) counted in the replay.
+        aircraft_hours: Simulated aircraft-hours of the replay.
     """
 
     collection: str
     windows: int
     lateral_m: dict[float, NDArray[np.float64]] = field(default_factory=dict)
     vertical_m: dict[float, NDArray[np.float64]] = field(default_factory=dict)
+    flight: dict[float, NDArray[np.int64]] = field(default_factory=dict)
     conflicts: int = 0
     aircraft_hours: float = 0.0
 
@@ -84,6 +88,7 @@ def fidelity(
     result = Fidelity(flights.name, len(chosen), {h: np.zeros(0) for h in horizons}, {h: np.zeros(0) for h in horizons})
     lateral: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
     vertical: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
+    flight: dict[float, list[NDArray[np.int64]]] = {h: [] for h in horizons}
     sub = int(round(DECISION_STEP / DT))
     for b in range(0, len(chosen), BATCH):
         batch = chosen[b : b + BATCH]
@@ -111,10 +116,12 @@ def fidelity(
                 _, dist_nm = qdrdist(sim.lat[e, s], sim.lon[e, s], rec["lat"], rec["lon"])
                 lateral[h].append(np.asarray(dist_nm) * NM)
                 vertical[h].append(np.abs(sim.alt[e, s] - rec["alt"]))
+                flight[h].append(player.flight[e, s])
             player.update()
     for h in horizons:
         result.lateral_m[h] = np.concatenate(lateral[h]) if lateral[h] else np.zeros(0)
         result.vertical_m[h] = np.concatenate(vertical[h]) if vertical[h] else np.zeros(0)
+        result.flight[h] = np.concatenate(flight[h]) if flight[h] else np.zeros(0, np.int64)
     return result
 
 

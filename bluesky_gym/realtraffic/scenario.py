@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.aircraft import FALLBACK_TYPE, ROTORCRAFT_TYPES
+from bluesky_gym.core.aircraft import FALLBACK_TYPE, ROTORCRAFT_TYPES, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FT, NM
@@ -275,5 +275,7 @@ class ScenarioPlayer:
         if hold.any():
             sim.cmd_altitude(e[hold], s[hold], sim.alt[e[hold], s[hold]])
         if move.any():
-            sim.cmd_altitude(e[move], s[move], alt_target[move], np.sign(dz[move]) * np.maximum(np.abs(vs[move]), MIN_VS))
+            em, sm = e[move], s[move]
+            vsmax = np.array([aircraft_performance(t).vsmax for t in sim.aircraft_type(em, sm)])
+            sim.cmd_altitude(em, sm, alt_target[move], np.sign(dz[move]) * np.clip(np.abs(vs[move]), MIN_VS, vsmax))
         sim.cmd_speed(e, s, np.maximum(cas_target + cas_offset, MIN_CAS))

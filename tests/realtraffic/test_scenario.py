@@ -147,3 +147,32 @@ def test_scn_file_of_a_window(tmp_path) -> None:
     assert len(dels) == 1 and dels[0].endswith("DEL SYN001")
     stamps = [line.split(">")[0] for line in lines[1:]]
     assert stamps == sorted(stamps)
+
+
+def test_a_climb_steeper_than_the_type_can_fly_is_commanded_at_its_vsmax() -> None:
+    """A recorded departure that climbs at 4500 ft/min while accelerating, flown as the B744 (vsmax 2705 ft/min).
+
+    Asking for more than vsmax makes BlueSky's limit trade climb for acceleration
+    (``w = (1 - ax/axmax) vsmax``), so the aircraft levels off while it accelerates; the player
+    asks for at most the type's vsmax, and the aircraft climbs at it throughout.
+    """
+    from bluesky_gym.core.aircraft import aircraft_performance
+    from bluesky_gym.realtraffic.flights import SAMPLE_PERIOD
+
+    f = fly(48.7, 2.4, [(90.0, 40.0)], gs=150.0, alt=[600.0, 600.0 + 22.86 * 40.0 * NM / 150.0])
+    f["gs"] = np.minimum(70.0 + 1.0 * SAMPLE_PERIOD * np.arange(len(f["gs"])), 230.0)  # accelerating at 1 m/s2 through the climb
+    flights = collection([(0.0, f)])
+    flights.typecode[:] = "B744"
+    vsmax = aircraft_performance("B744").vsmax
+    sim = Simulator(1, 2, dt=1.0, max_waypoints=MAX_ROUTE_POINTS)
+    player = ScenarioPlayer(sim, flights)
+    player.load(np.array([0]), [Window(0.0, 600.0, 0, ())])
+    rates = []
+    for _ in range(40):
+        assert abs(float(sim.selvs[0, 0])) <= vsmax + 1e-9, float(sim.selvs[0, 0])
+        sim.run(10)
+        player.advance_clock(10.0)
+        rates.append(float(sim.vs[0, 0]))
+        player.update()
+    assert sim.aircraft_type(0, 0) == ["B744"]
+    assert min(rates[1:]) > 0.9 * vsmax, min(rates[1:])
