@@ -176,3 +176,19 @@ def test_a_climb_steeper_than_the_type_can_fly_is_commanded_at_its_vsmax() -> No
         player.update()
     assert sim.aircraft_type(0, 0) == ["B744"]
     assert min(rates[1:]) > 0.9 * vsmax, min(rates[1:])
+
+
+def test_large_vertical_deviations_are_classified_by_what_the_recording_asks_of_the_type() -> None:
+    from bluesky_gym.realtraffic.fidelity import large_vertical_deviations
+
+    high = fly(47.0, 7.0, [(90.0, 150.0)], gs=230.0, alt=12500.0)  # FL410: above the B744's ceiling (11290 m)
+    steep = fly(47.3, 7.0, [(90.0, 150.0)], gs=230.0, alt=[3000.0, 3000.0 + 25.0 * 150.0 * NM / 230.0])  # climbs at 25 m/s
+    flights = collection([(0.0, high), (0.0, steep), (0.0, fly(47.6, 7.0, [(90.0, 150.0)], gs=230.0, alt=9000.0))])
+    flights.typecode[:] = ""  # no recorded type: the B744
+    result = fidelity(flights, [Window(0.0, 1200.0, 0, (1, 2))], 3, MAX_ROUTE_POINTS)
+    rows = large_vertical_deviations(flights, result)
+    assert [r["minutes"] for r in rows] == [5.0, 10.0, 20.0]
+    five = rows[0]
+    assert five["aircraft"] == 3 and five["large"] == 2 and five["above_ceiling"] == 1 and five["steeper_than_vsmax"] == 1 and five["other"] == 0
+    level = result.vertical_m[300.0][result.flight[300.0] == 2]
+    assert level.size == 1 and float(level[0]) < 1000.0 * FT
