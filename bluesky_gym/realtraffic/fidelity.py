@@ -24,18 +24,20 @@ from typing import cast
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.core.aircraft import aircraft_performance
 from bluesky_gym.core.geo import qdrdist
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.simulator import Simulator
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window
+from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window, simulator_type
 from bluesky_gym.scenarios.export import ScenarioRecorder
 
 HORIZONS_S = (300.0, 600.0, 1200.0)  # s after creation: 5, 10, 20 minutes
 DT = 1.0  # s, simulation time step
 DECISION_STEP = 10.0  # s between the player's updates
 BATCH = 64  # windows simulated together
+LARGE_VERTICAL = 1000.0 * FT  # m: a vertical deviation above this is classified by its cause
 
 
 @dataclass
@@ -47,12 +49,18 @@ class Fidelity:
         windows: Windows replayed.
         lateral_m: Horizon [s] -> lateral deviations [m] of every aircraft recorded at that age.
         vertical_m: Horizon [s] -> vertical deviations [m].
+        flight: Horizon [s] -> the recorded flight (index into the collection) of each deviation.
+        time: Horizon [s] -> the time of each deviation [s since the collection's epoch].
+        conflicts: Losses of separation (pair events) counted in the replay.
+        aircraft_hours: Simulated aircraft-hours of the replay.
     """
 
     collection: str
     windows: int
     lateral_m: dict[float, NDArray[np.float64]] = field(default_factory=dict)
     vertical_m: dict[float, NDArray[np.float64]] = field(default_factory=dict)
+    flight: dict[float, NDArray[np.int64]] = field(default_factory=dict)
+    time: dict[float, NDArray[np.float64]] = field(default_factory=dict)
     conflicts: int = 0
     aircraft_hours: float = 0.0
 
@@ -96,6 +104,8 @@ def fidelity(
     result = Fidelity(flights.name, len(chosen), {h: np.zeros(0) for h in horizons}, {h: np.zeros(0) for h in horizons})
     lateral: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
     vertical: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
+    flight: dict[float, list[NDArray[np.int64]]] = {h: [] for h in horizons}
+    times: dict[float, list[NDArray[np.float64]]] = {h: [] for h in horizons}
     for b in range(0, len(chosen), BATCH):
         batch = chosen[b : b + BATCH]
         sim = Simulator(len(batch), max_aircraft, dt=DT, max_waypoints=max_waypoints)
@@ -119,9 +129,13 @@ def fidelity(
                 _, dist_nm = qdrdist(sim.lat[e, s], sim.lon[e, s], rec["lat"], rec["lon"])
                 lateral[h].append(np.asarray(dist_nm) * NM)
                 vertical[h].append(np.abs(sim.alt[e, s] - rec["alt"]))
+                flight[h].append(player.flight[e, s])
+                times[h].append(now[e, 0])
     for h in horizons:
         result.lateral_m[h] = np.concatenate(lateral[h]) if lateral[h] else np.zeros(0)
         result.vertical_m[h] = np.concatenate(vertical[h]) if vertical[h] else np.zeros(0)
+        result.flight[h] = np.concatenate(flight[h]) if flight[h] else np.zeros(0, np.int64)
+        result.time[h] = np.concatenate(times[h]) if times[h] else np.zeros(0)
     return result
 
 
@@ -195,6 +209,36 @@ def write_window_scenario(flights: RecordedFlights, window: Window, path: str | 
     return p
 
 
+def large_vertical_deviations(flights: RecordedFlights, result: Fidelity, threshold: float = LARGE_VERTICAL) -> list[dict[str, float]]:
+    """Vertical deviations above ``threshold`` [m] per horizon, by what the recording asked of the aircraft's type.
+
+    Each such deviation is put in the first class that applies to the recording between the
+    aircraft's creation and the comparison: ``above_ceiling`` (recorded above the ceiling ``hmax``
+    of the type the aircraft flies with), ``steeper_than_vsmax`` (recorded climbing or descending
+    faster than the type's ``vsmax``), ``other``.
+
+    Returns:
+        One row per horizon: ``minutes``, ``aircraft`` (compared), ``large`` and the three classes.
+    """
+    rows = []
+    for h in sorted(result.vertical_m):
+        counts = {"above_ceiling": 0, "steeper_than_vsmax": 0, "other": 0}
+        for f, t in zip(result.flight[h][result.vertical_m[h] > threshold], result.time[h][result.vertical_m[h] > threshold]):
+            perf = aircraft_performance(simulator_type(str(flights.typecode[f])))
+            sl = flights.samples(int(f))
+            k0 = max(int(np.floor((t - h - flights.t0[f]) / flights.period)), 0)
+            k1 = int(np.ceil((t - flights.t0[f]) / flights.period)) + 1
+            alt, vs = flights.alt[sl][k0:k1], flights.vs[sl][k0:k1]
+            if alt.size and alt.max() > perf.hmax:
+                counts["above_ceiling"] += 1
+            elif vs.size and np.abs(vs).max() > perf.vsmax:
+                counts["steeper_than_vsmax"] += 1
+            else:
+                counts["other"] += 1
+        rows.append({"minutes": h / 60.0, "aircraft": len(result.vertical_m[h]), "large": sum(counts.values()), **counts})
+    return rows
+
+
 def pair_los(lat: NDArray[np.float64], lon: NDArray[np.float64], alt: NDArray[np.float64], live: NDArray[np.bool_]) -> NDArray[np.bool_]:
     """(n, m, m) whether two live aircraft of an airspace are within 5 NM and 1000 ft (flat-earth distance)."""
     coslat = np.cos(np.radians(lat))
@@ -207,16 +251,22 @@ def pair_los(lat: NDArray[np.float64], lon: NDArray[np.float64], alt: NDArray[np
     )
 
 
-def format_markdown(results: list[Fidelity]) -> str:
-    """A Markdown table of the fidelity of each collection."""
-    lines = [
-        "| collection | after | aircraft | lateral median [NM] | lateral p95 [NM] | vertical median [ft] | vertical p95 [ft] |",
-        "|---|---:|---:|---:|---:|---:|---:|",
-    ]
-    for r in results:
-        for row in r.summary():
+#: Columns of the fidelity table (one row per collection and horizon).
+TABLE_HEADER = "| collection | after | aircraft | lateral median [NM] | lateral p95 [NM] | vertical median [ft] | vertical p95 [ft] |"
+
+
+def summary_table(summaries: list[tuple[str, list[dict[str, float]]]]) -> str:
+    """A Markdown table of (collection, :meth:`Fidelity.summary` rows) pairs."""
+    lines = [TABLE_HEADER, "|---|---:|---:|---:|---:|---:|---:|"]
+    for collection, rows in summaries:
+        for row in rows:
             lines.append(
-                f"| {r.collection} | {row['minutes']:.0f} min | {row['aircraft']:.0f} | {row['lateral_median_nm']:.2f} | "
+                f"| {collection} | {row['minutes']:.0f} min | {row['aircraft']:.0f} | {row['lateral_median_nm']:.2f} | "
                 f"{row['lateral_p95_nm']:.2f} | {row['vertical_median_ft']:.0f} | {row['vertical_p95_ft']:.0f} |"
             )
     return "\n".join(lines)
+
+
+def format_markdown(results: list[Fidelity]) -> str:
+    """A Markdown table of the fidelity of each collection."""
+    return summary_table([(r.collection, r.summary()) for r in results])

@@ -294,3 +294,48 @@ def test_a_window_of_combined_collections_maps_back_to_its_collection() -> None:
         window_of_part(parts, Window(0.0, 600.0, 0, (5,)))
     with pytest.raises(ValueError, match="not a flight of the collections"):
         window_of_part(parts, Window(0.0, 600.0, 9, ()))
+
+
+def test_a_climb_steeper_than_the_type_can_fly_is_commanded_at_its_vsmax() -> None:
+    """A recorded departure that climbs at 4500 ft/min while accelerating, flown as the B744 (vsmax 2705 ft/min).
+
+    Asking for more than vsmax makes BlueSky's limit trade climb for acceleration
+    (``w = (1 - ax/axmax) vsmax``), so the aircraft levels off while it accelerates; the player
+    asks for at most the type's vsmax, and the aircraft climbs at it throughout.
+    """
+    from bluesky_gym.core.aircraft import aircraft_performance
+    from bluesky_gym.realtraffic.flights import SAMPLE_PERIOD
+
+    f = fly(48.7, 2.4, [(90.0, 40.0)], gs=150.0, alt=[600.0, 600.0 + 22.86 * 40.0 * NM / 150.0])
+    f["gs"] = np.minimum(70.0 + 1.0 * SAMPLE_PERIOD * np.arange(len(f["gs"])), 230.0)  # accelerating at 1 m/s2 through the climb
+    flights = collection([(0.0, f)])
+    flights.typecode[:] = "B744"
+    vsmax = aircraft_performance("B744").vsmax
+    sim = Simulator(1, 2, dt=1.0, max_waypoints=MAX_ROUTE_POINTS)
+    player = ScenarioPlayer(sim, flights)
+    player.load(np.array([0]), [Window(0.0, 600.0, 0, ())])
+    rates = []
+    for _ in range(40):
+        assert abs(float(sim.selvs[0, 0])) <= vsmax + 1e-9, float(sim.selvs[0, 0])
+        sim.run(10)
+        player.advance_clock(10.0)
+        rates.append(float(sim.vs[0, 0]))
+        player.update()
+    assert sim.aircraft_type(0, 0) == ["B744"]
+    assert min(rates[1:]) > 0.9 * vsmax, min(rates[1:])
+
+
+def test_large_vertical_deviations_are_classified_by_what_the_recording_asks_of_the_type() -> None:
+    from bluesky_gym.realtraffic.fidelity import large_vertical_deviations
+
+    high = fly(47.0, 7.0, [(90.0, 150.0)], gs=230.0, alt=12500.0)  # FL410: above the B744's ceiling (11290 m)
+    steep = fly(47.3, 7.0, [(90.0, 150.0)], gs=230.0, alt=[3000.0, 3000.0 + 25.0 * 150.0 * NM / 230.0])  # climbs at 25 m/s
+    flights = collection([(0.0, high), (0.0, steep), (0.0, fly(47.6, 7.0, [(90.0, 150.0)], gs=230.0, alt=9000.0))])
+    flights.typecode[:] = ""  # no recorded type: the B744
+    result = fidelity(flights, [Window(0.0, 1200.0, 0, (1, 2))], 3, MAX_ROUTE_POINTS)
+    rows = large_vertical_deviations(flights, result)
+    assert [r["minutes"] for r in rows] == [5.0, 10.0, 20.0]
+    five = rows[0]
+    assert five["aircraft"] == 3 and five["large"] == 2 and five["above_ceiling"] == 1 and five["steeper_than_vsmax"] == 1 and five["other"] == 0
+    level = result.vertical_m[300.0][result.flight[300.0] == 2]
+    assert level.size == 1 and float(level[0]) < 1000.0 * FT
