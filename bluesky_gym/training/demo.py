@@ -86,7 +86,7 @@ def run_demo(
 
     t = time.perf_counter()
     run = load_run(run_dir)
-    plots = [str(p) for p in plot_learning_curves([run], out / "plots")]
+    plots = [str(p) for p in plot_learning_curves([run], out / "plots", references={env_id: ref_returns})]
     agg = aggregate([run], {env_id: ref_returns})
     plots += [str(p) for p in plot_aggregate(agg, out / "plots")]
     timings["plot_s"] = time.perf_counter() - t

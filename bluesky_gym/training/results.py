@@ -440,7 +440,7 @@ def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Se
     lines += ["## Per environment", ""]
     for er in results:
         env_dir = fig_dir / er.env_id
-        written = plot_learning_curves(er.runs, env_dir, seed=seed)
+        written = plot_learning_curves(er.runs, env_dir, seed=seed, references={er.env_id: er.references})
         lines += [f"### {er.env_id}", "", *kpi_table(er), ""]
         lines += [f"![{er.env_id} learning curves]({rel}/{er.env_id}/{written[0].name})", ""]
         lines += [f"![{er.env_id} KPIs]({rel}/{er.env_id}/{p.name})" for p in written[1:]]
