@@ -300,6 +300,7 @@ INFO_DISPLAY: dict[str, tuple[str, Any]] = {
     "faf_reach": ("reached FAF", lambda v: "yes" if v else "no"),
     "waypoint_reached": ("reached goal", lambda v: "yes" if v else "no"),
     "crashed": ("restricted area", lambda v: "entered" if v else "clear"),
+    "average_route_deviation_nm": ("mean route dev.", lambda v: f"{float(v):.2f} NM"),
 }
 
 
