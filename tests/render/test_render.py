@@ -417,10 +417,10 @@ def test_panel_shows_info_values_with_units() -> None:
 
 def test_every_info_value_of_the_environments_has_a_panel_label() -> None:
     """The panel's label column is narrow: every task's info entry has a short label and a unit, not its key."""
-    from bluesky_gym.envs.registry import ENVIRONMENTS
+    from bluesky_gym.envs.registry import ENVIRONMENTS, resolve
     from bluesky_gym.render.renderer import INFO_DISPLAY
 
-    keys = {k for entry in ENVIRONMENTS for k in getattr(entry.task, "info_keys", ()) if k != "total_reward"}
+    keys = {k for entry in ENVIRONMENTS for k in resolve(entry.task).info_keys if k != "total_reward"}
     assert keys and keys <= set(INFO_DISPLAY), sorted(keys - set(INFO_DISPLAY))
     assert all(len(label) <= 16 for label, _ in INFO_DISPLAY.values())
 
