@@ -123,3 +123,32 @@ def test_eval_cli_with_mvp(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert result["policy"] == "mvp" and result["episodes"] == 3
     assert main(["eval", "DescentEnv-v0", "--model", "mvp", "--episodes", "1", "--out", str(tmp_path)]) == 2
     assert "no MVP mapping for DescentEnv-v0" in capsys.readouterr().err
+
+
+def test_mvp_caps_the_ownship_vertical_speed_with_its_own_type() -> None:
+    """VerticalCR with a B744 ownship: MVP's vertical speed is capped with the B744's envelope (BlueSky's perf per aircraft)."""
+    from bluesky_gym.core.aircraft import aircraft_performance
+    from bluesky_gym.training.policies import ACTION_2_MS
+
+    b744, a320 = aircraft_performance("B744"), aircraft_performance("A320")
+    venv = gym.make_vec("VerticalCREnv-v0", num_envs=4, vectorization_mode="vector_entry_point", ownship_types="B744")
+    own, fixed = MVPPolicy("VerticalCREnv-v0"), MVPPolicy("VerticalCREnv-v0")
+    own.bind(venv)
+    fixed.bind(venv)
+    fixed.resolver.vsmin, fixed.resolver.vsmax = a320.vsmin, a320.vsmax  # one envelope for every aircraft
+    obs, _ = venv.reset(seed=0)
+    assert venv.unwrapped.task.sim.aircraft_type(range(4), 0) == ["B744"] * 4
+    followed = differ = 0
+    for _ in range(60):
+        nominal = own.nominal.act(obs)[:, 0]
+        a, b = own.act(obs)[:, 0], fixed.act(obs)[:, 0]
+        resolving = a != nominal
+        followed += int(resolving.sum())
+        differ += int((a != b).sum())
+        # A capped vertical speed is at least vsmin in magnitude: the B744's, not the A320's.
+        assert np.all(np.abs(a[resolving]) >= b744.vsmin / ACTION_2_MS - 1e-12)
+        obs, _, terminated, truncated, _ = venv.step(a[:, None])
+        own.reset(terminated | truncated)
+        fixed.reset(terminated | truncated)
+    venv.close()
+    assert followed > 0 and differ > 0
