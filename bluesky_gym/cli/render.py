@@ -49,7 +49,9 @@ def add_parser(subparsers: Any) -> None:
     )
     add_env_option(p, help="environment id, e.g. HorizontalCREnv-v0")
     p.add_argument(
-        "--policy", default="random", help="random, classical, mvp (environments with traffic), or the path of a Stable-Baselines3 model .zip (default: random)"
+        "--policy",
+        default="random",
+        help="random, classical, mvp (environments with traffic), or the path of a Stable-Baselines3 model .zip (default: random)",
     )
     p.add_argument("--algo", choices=sorted(SB3_ALGORITHMS), help="algorithm of the model .zip (default: read from the file)")
     p.add_argument("--stochastic", action="store_true", help="sample the model's actions instead of taking the deterministic ones")

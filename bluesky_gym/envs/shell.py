@@ -125,12 +125,11 @@ class ErrorsNameTheId:
     def __enter__(self) -> None:
         """Enter the context."""
 
-    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> bool:
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
         """Name the id in the message of an error leaving the context (the error itself propagates)."""
         if isinstance(exc, (ValueError, TypeError, RuntimeError)) and self.env_id != self.own_id and exc.args and isinstance(exc.args[0], str):
             if self.env_id not in exc.args[0]:
                 exc.args = (f"{self.env_id}: {exc.args[0]}", *exc.args[1:])
-        return False
 
 
 class TaskSpecMixin:
@@ -263,7 +262,9 @@ class BlueSkyEnv(MadeIdMixin, gym.Env):
             if self._renderer is None:
                 from bluesky_gym.render import make_renderer
 
-                self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id), title=self.task.id)
+                self._renderer = make_renderer(
+                    self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id), title=self.task.id
+                )
             frame: np.ndarray | None = self._renderer.render(0, reward=self._last_reward, info=self._last_info)
             return frame
 
@@ -440,7 +441,9 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             if self._renderer is None:
                 from bluesky_gym.render import make_renderer
 
-                self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id), title=self.task.id)
+                self._renderer = make_renderer(
+                    self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id), title=self.task.id
+                )
             frame: np.ndarray | None
             if self.render_grid > 1:
                 frame = self._renderer.render_grid(min(self.render_grid, self.num_envs), rewards=self._last_reward, info=self._last_info)

@@ -7,6 +7,7 @@ the path of a Stable-Baselines3 model ``.zip`` (its algorithm is read from the f
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 

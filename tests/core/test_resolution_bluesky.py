@@ -212,7 +212,9 @@ def test_mixed_types_are_capped_with_each_aircraft_envelope(physics: BlueSkyPhys
         np.testing.assert_array_equal(np.asarray(physics.traffic.perf.vsmin)[idx], vsmin[0, slots])
         np.testing.assert_array_equal(np.asarray(physics.traffic.perf.vsmax)[idx], vsmax[0, slots])
         theirs = _bluesky_resolution(physics)
-        conflicts = detect(physics.lat, physics.lon, physics.alt, physics.gs, physics.trk, physics.vs, physics.active, PZ_RADIUS, PZ_HEIGHT, LOOKAHEAD)
+        conflicts = detect(
+            physics.lat, physics.lon, physics.alt, physics.gs, physics.trk, physics.vs, physics.active, PZ_RADIUS, PZ_HEIGHT, LOOKAHEAD
+        )
         _assert_same(mvp(physics, conflicts, settings, vsmin=vsmin, vsmax=vsmax), theirs, f"mixed geometry {k}")
         a320 = mvp(physics, conflicts, settings)
         live = np.isfinite(theirs[2])
