@@ -4,7 +4,7 @@ Examples::
 
     bluesky-gym render --env HorizontalCREnv-v0 --out horizontal.gif    # random actions
     bluesky-gym render --env MergeEnv-v0 --policy classical --episodes 2 --out merge.mp4 --seed 7
-    bluesky-gym render --env SectorCREnv-v1 --policy mvp --out sector_mvp.gif    # BlueSky's MVP resolving
+    bluesky-gym render --env SectorCREnv-v1 --policy mvp --out sector_mvp.gif    # MVP resolving
     bluesky-gym render --env DescentEnv-v0 --policy runs/descent/model.zip --out descent.gif
     bluesky-gym render --env SectorCREnv-v0 --grid 4 --out sector_grid.gif  # 4 side by side
     bluesky-gym render --env VerticalCREnv-v0 --human                 # watch in a window

@@ -117,3 +117,10 @@ def test_the_picture_names_the_made_id() -> None:
     rows = np.flatnonzero((frames[0] != frames[1]).any(axis=(1, 2)))
     assert rows.size, "the title does not show the id"
     assert rows.max() < 40, f"rows {rows.min()}..{rows.max()} differ: more than the title"
+
+
+def test_the_example_of_the_v1_page() -> None:
+    """docs/environments-v1.md: the error of a switch given 'no'."""
+    with pytest.raises(ValueError) as info:
+        gym.make("SectorCREnv-v1", exit_ends_episode="no")
+    assert str(info.value) == "SectorCREnv-v1: exit_ends_episode must be True or False, got 'no'"
