@@ -167,7 +167,7 @@ def train_ma_arguments(argv: Sequence[str]) -> list[str]:
     out = []
     for arg in argv:
         name, sep, value = arg.partition("=")
-        out.append(RENAMED_OPTIONS.get(name, name) + sep + value if name in RENAMED_OPTIONS else arg)
+        out.append(RENAMED_OPTIONS[name] + sep + value if name in RENAMED_OPTIONS else arg)
     return out
 
 
