@@ -514,7 +514,7 @@ class MVPPolicy(Policy):
         base = getattr(env, "unwrapped", env)
         task = getattr(base, "task", None)
         spec = getattr(base, "spec", None)
-        if task is None or getattr(spec, "id", task.env_id) != self.env_id:
+        if task is None or getattr(spec, "id", task.id) != self.env_id:
             raise ValueError(f"the mvp policy of {self.env_id} needs that environment, got {env!r}")
         self.physics = task.sim
         self.resolver.reset()
