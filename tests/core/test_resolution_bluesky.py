@@ -16,6 +16,8 @@ extrapolates over up to 1e9 s for aircraft without a vertical conflict).
 * The same geometries with ``ASAS ON`` (BlueSky's Python STATEBASED detector, which misses some
   reverse pairs, docs/dynamics.md §5): BlueSky's own conflict list is fed to the resolution
   kernel, so the resolution itself is checked for that detector too.
+* 24 mixed-type geometries (A320, B744, E190, A388, B738): BlueSky caps every aircraft with its own
+  ``perf.vsmin``/``vsmax`` (:func:`~bluesky_gym.core.resolution.vertical_speed_limits`), not the A320's.
 * The creconfs scenarios: the recorded ``s9`` scenario flown for 200 s with MVP resolving (also
   checking which aircraft follow their resolution, BlueSky's ``resumenav``), and HorizontalCR and
   VerticalCR episodes on the BlueSky backend, state by state.
