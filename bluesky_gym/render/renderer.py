@@ -64,9 +64,10 @@ class Renderer:
         fps: Frame-rate limit of the window in ``"human"`` mode.
         scene: The scene builder ``(task, env_index) -> Scene`` that says what to draw (see
             :mod:`bluesky_gym.render.scenes`).
+        title: The id shown in the panel and the window title (default: the task's ``env_id``).
     """
 
-    def __init__(self, task: Any, render_mode: str, fps: float, scene: SceneBuilder) -> None:
+    def __init__(self, task: Any, render_mode: str, fps: float, scene: SceneBuilder, title: str | None = None) -> None:
         if render_mode not in ("rgb_array", "human"):
             raise ValueError(f"render_mode must be 'rgb_array' or 'human', got {render_mode!r}")
         if not callable(scene):
@@ -75,6 +76,7 @@ class Renderer:
         self.render_mode = render_mode
         self.fps = float(fps)
         self.scene = scene
+        self.title = str(task.env_id) if title is None else title
         self._memory: dict[int, _EpisodeMemory] = {}
         self._dot_steps = max(1, round(TRAIL_DOT_S / (float(task.dt) * int(task.action_frequency))))
         self._token = next(_tokens)
@@ -166,7 +168,7 @@ class Renderer:
         if self.render_mode == "rgb_array":
             return surface_to_array(frame)
         self._closed = False
-        WINDOW.show(self._token, frame, f"BlueSky-Gym - {self.task.env_id}", self.fps)
+        WINDOW.show(self._token, frame, f"BlueSky-Gym - {self.title}", self.fps)
         return None
 
     def _remember(self, i: int, scene: Scene) -> _EpisodeMemory:
@@ -228,7 +230,7 @@ class Renderer:
         pygame.draw.line(frame, pal.PANEL_EDGE, rect.topleft, rect.bottomleft)
         x0, x1 = rect.left + 12, rect.right - 12
         y = rect.top + 10
-        draw.text(frame, task.env_id, (x0, y), 22, pal.TEXT)
+        draw.text(frame, self.title, (x0, y), 22, pal.TEXT)
         y += 20
         if task.n_envs > 1:
             draw.text(frame, f"episode slot {i} of {task.n_envs}", (x0, y), 16, pal.TEXT_DIM)
