@@ -258,7 +258,7 @@ def run_stats(args: argparse.Namespace) -> int:
     import bluesky_gym
     from bluesky_gym.realtraffic.report import clean_path, command_line, stats_document, stats_lines
     from bluesky_gym.training.evaluation import evaluate, load_policy
-    from bluesky_gym.training.policies import reference_policy
+    from bluesky_gym.training.policies import SB3Policy, reference_policy
 
     bluesky_gym.register_envs()
 
@@ -286,7 +286,9 @@ def run_stats(args: argparse.Namespace) -> int:
                 res = evaluate("RealTrafficCREnv-v0", made[policy], args.episodes, env_options=options)
                 s = res.summary
                 route = [float(e.get("kpi_mean_route_deviation_nm", "nan")) for e in res.episodes]
-                label = clean_path(policy) if policy == args.model else policy
+                # random, classical, or the model's algorithm (the model's path is in the command)
+                acting = made[policy]
+                label = type(acting.model).__name__ if isinstance(acting, SB3Policy) else policy
                 row["policies"][label] = {
                     "return": s["return"]["mean"],
                     "los_per_episode": s["los"]["mean"],
