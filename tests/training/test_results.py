@@ -96,6 +96,7 @@ def test_kpi_table_rows_and_normalised_aggregate(tmp_path, monkeypatch):
     text = page.read_text()
     assert "bluesky-gym results SWEEP --out results.md" in text
     assert "| PPO | 3 | 12 | 5.000 [" in text
+    assert "Not run for this page: TD3, DDPG." in text
     # normalised PPO scores (random 0, classical 10): A 0.5 0.7 0.3, B 0.2 0.4 0.9
     scores = np.sort([0.5, 0.7, 0.3, 0.2, 0.4, 0.9])
     from scipy.stats import trim_mean
@@ -120,6 +121,7 @@ def test_page_is_reproducible_and_versions_are_aggregated_apart(tmp_path):
     assert first == second
     assert "## Aggregate over the -v0 environments" in first and "## Aggregate over the -v1 environments" in first
     assert "Probability of improvement needs two trained algorithms" in first
+    assert "Not run for this page: SAC, TD3, DDPG." in first
 
 
 def test_cli_names_a_missing_directory_in_one_line(tmp_path):
