@@ -52,62 +52,52 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.conflicts import PZ_HEIGHT
+from bluesky_gym.core.conflicts import PZ_HEIGHT, PZ_RADIUS
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
 from bluesky_gym.core.units import FT, KTS, NM, NM2KM
-from bluesky_gym.tasks import horizontal_cr, merge, sector_cr, vertical_cr
+from bluesky_gym.tasks import horizontal_cr, merge, plan_waypoint, sector_cr, static_obstacle, vertical_cr
 from bluesky_gym.tasks import real_traffic as rt
+from bluesky_gym.tasks.descent import ACTION_2_MS, ALT_MEAN, ALT_STD, RWY_DIS_MEAN, RWY_DIS_STD, DescentTask
+from bluesky_gym.tasks.plan_waypoint import PlanWaypointConfig
+from bluesky_gym.tasks.static_obstacle import StaticObstacleConfig
 
 Array = NDArray[np.float64]
 Obs = dict[str, Array]
 
-# --- DescentEnv-v0 / VerticalCREnv-v0 observation constants (docs/environments-v0.md §1 and §2) --------
-ALT_MEAN, ALT_STD = 1500.0, 3000.0  # m
-RWY_DIS_MEAN, RWY_DIS_STD = 100.0, 200.0  # km
-ACTION_2_MS = 12.5  # m/s of vertical speed per unit action
-STEP_S_VERTICAL = 30.0  # s per decision step
+# The observation and action scales the controllers decode with are the tasks' own (imported, or
+# derived from them in one expression); the numbers declared here are the controllers' tuning.
+# The -v1 ids read these observations with the same scales (only entries the controllers do not
+# read, airspeed and vertical speeds, are normalised differently there).
+
+# --- DescentEnv-v0 / VerticalCREnv-v0 (docs/environments-v0.md §1 and §2) ------------------------
+STEP_S_VERTICAL = DescentTask.dt * DescentTask.action_frequency  # s per decision step
 GROUND_SPEED_EST = 0.17  # km/s, typical ground speed of the descent scenarios (CAS 150 m/s)
 GLIDE_SLOPE = 80.0  # m per km of runway distance: steeper than the ~70 m/km possible, as the command lags
 RUNWAY_ALT = 60.0  # m, altitude aimed at over the runway threshold (alt <= 0 before it crashes)
-MIN_ACTION = 0.01  # |a| <= 0.008 selects BlueSky's default 7.62 m/s vertical speed; stay above
+MIN_ACTION = 0.01  # -: |a| <= VS_SELECT_EPS / ACTION_2_MS (0.008) selects BlueSky's default vertical speed; stay above
 VERTICAL_ALERT_KM = 40.0  # km: intruders closer than this (and closing in) are avoided
 VERTICAL_ALERT_ALT = 450.0  # m: vertical distance kept from an alerting intruder
 VERTICAL_MIN_ALT = 300.0  # m: do not avoid downwards below this
-INTRUDER_DIST_VERTICAL = 200.0  # km per unit of intruder_distance
 
 # --- HorizontalCREnv-v0 / PlanWaypointEnv-v0 ---------------------------------------------------
-D_HEADING_HORIZONTAL = 45.0  # deg per unit action
-INTRUDER_DIST_HORIZONTAL = 150.0  # km per unit of intruder_distance
-HORIZONTAL_ALERT_KM = 30.0
-WAYPOINT_DIST_PLAN = 75.0  # km per unit of waypoint_distance
-CAPTURE_KM = 5.0
+HORIZONTAL_ALERT_KM = 30.0  # km: closing intruders in front and nearer than this are avoided
+WAYPOINT_DIST_PLAN = float(PlanWaypointConfig.waypoint_distance_max)  # km per unit of waypoint_distance (default scenario)
+CAPTURE_KM = PlanWaypointConfig.distance_margin_km  # km: waypoints this near count as reached (default scenario)
 
-# --- SectorCREnv-v0 ----------------------------------------------------------------------------
-D_HEADING_SECTOR = 22.5
-SECTOR_POS_SCALE = 13000.0  # m
-SECTOR_VN_SCALE, SECTOR_VE_SCALE = 32.0, 66.0  # m/s
-SECTOR_PZ_M = 5.0 * NM2KM * 1000.0
-SECTOR_LOOKAHEAD_S = 180.0
-
-# --- MergeEnv-v0 -------------------------------------------------------------------------------
-D_HEADING_MERGE = 15.0
-MERGE_POS_SCALE = 1e6  # m
-MERGE_VEL_SCALE = 150.0  # m/s
-MERGE_PZ_M = 4.0 * NM2KM * 1000.0
-MERGE_LOOKAHEAD_S = 300.0
-# RealTrafficCREnv-v0
-REAL_TRAFFIC_LOOKAHEAD_S = 300.0
-REAL_TRAFFIC_VERTICAL_ALERT_M = 2000.0 * FT  # traffic further above or below is not avoided
+# --- SectorCREnv-v0 / MergeEnv-v0 / RealTrafficCREnv-v0 ------------------------------------------
+SECTOR_LOOKAHEAD_S = 180.0  # s: conflict look-ahead
+MERGE_LOOKAHEAD_S = 300.0  # s: conflict look-ahead
+REAL_TRAFFIC_LOOKAHEAD_S = 300.0  # s: conflict look-ahead
+REAL_TRAFFIC_VERTICAL_ALERT_M = 2000.0 * FT  # m: traffic further above or below is not avoided
 REAL_TRAFFIC_FAR_M = 1e9  # m: where an ignored intruder is put
-CPA_MARGIN = 1.0  # alert when the predicted miss distance is below margin * protected zone
+CPA_MARGIN = 1.0  # -: alert when the predicted miss distance is below margin * protected zone
 
 # --- StaticObstacleEnv-v0 ----------------------------------------------------------------------
-D_HEADING_OBSTACLE = 45.0
-OBSTACLE_DIST_SCALE = 170.0  # km per unit of distance
-OBSTACLE_RADIUS_SCALE_KM = 50.0 * NM2KM  # km per unit of restricted_area_radius
-OBSTACLE_MARGIN_KM = 3.0
-OBSTACLE_LOOKAHEAD_KM = 60.0
+OBSTACLE_DIST_SCALE = float(StaticObstacleConfig.waypoint_distance_max)  # km per unit of distance (default scenario)
+OBSTACLE_RADIUS_SCALE_KM = static_obstacle.RADIUS_SCALE_NM * NM2KM  # km per unit of restricted_area_radius
+OBSTACLE_MARGIN_KM = 3.0  # km: clearance kept from an obstacle's enclosing circle
+OBSTACLE_LOOKAHEAD_KM = 60.0  # km: length of the path checked for obstacles
 CANDIDATE_TURNS = np.arange(-180.0, 180.0, 5.0)  # deg, relative headings searched
 
 
@@ -258,7 +248,7 @@ class VerticalCRController(DescentController):
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
         alt, wanted = self.target_altitude(obs)
-        dist = obs["intruder_distance"] * INTRUDER_DIST_VERTICAL  # (n, k) km
+        dist = obs["intruder_distance"] * vertical_cr.INTRUDER_DISTANCE_SCALE  # (n, k) km
         dalt = obs["altitude_difference"] * ALT_STD  # intruder minus own, m
         closing = self.tracker.closing(dist)
         # Intruders near the wanted altitude that are closing in.
@@ -291,8 +281,8 @@ class HorizontalCRController(Policy):
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
         drift = _angle(obs["sin_drift"][:, 0], obs["cos_drift"][:, 0])
-        a = np.clip(-drift / D_HEADING_HORIZONTAL, -1.0, 1.0)
-        dist = obs["intruder_distance"] * INTRUDER_DIST_HORIZONTAL
+        a = np.clip(-drift / horizontal_cr.D_HEADING, -1.0, 1.0)
+        dist = obs["intruder_distance"] * horizontal_cr.DISTANCE_SCALE
         closing = self.tracker.closing(dist)
         ahead = obs["cos_difference_pos"] > 0.0
         threat = np.where(closing & ahead & (dist < HORIZONTAL_ALERT_KM), dist, np.inf)
@@ -316,7 +306,7 @@ class PlanWaypointController(Policy):
         k = np.argmin(np.where(open_, dist, np.inf), axis=1)
         rows = np.arange(len(k))
         drift = _angle(obs["sin_difference"][rows, k], obs["cos_difference"][rows, k])
-        a = np.clip(-drift / D_HEADING_HORIZONTAL, -1.0, 1.0)
+        a = np.clip(-drift / plan_waypoint.D_HEADING, -1.0, 1.0)
         return np.where(open_.any(axis=1), a, 0.0)[:, None]
 
 
@@ -387,22 +377,22 @@ class _SteerAndAvoid(Policy):
 class SectorCRController(_SteerAndAvoid):
     """SectorCREnv-v0: steer to the exit waypoint; turn away from the most urgent conflict."""
 
-    heading_step = D_HEADING_SECTOR
-    pos_scale = SECTOR_POS_SCALE
-    vn_scale = SECTOR_VN_SCALE
-    ve_scale = SECTOR_VE_SCALE
-    pz_m = SECTOR_PZ_M
+    heading_step = sector_cr.D_HEADING
+    pos_scale = sector_cr.POSITION_SCALE
+    vn_scale = sector_cr.VX_SCALE
+    ve_scale = sector_cr.VY_SCALE
+    pz_m = sector_cr.INTRUSION_DISTANCE * NM
     lookahead_s = SECTOR_LOOKAHEAD_S
 
 
 class MergeController(_SteerAndAvoid):
     """MergeEnv-v0: steer to the FAF then the runway; turn away from the most urgent conflict."""
 
-    heading_step = D_HEADING_MERGE
-    pos_scale = MERGE_POS_SCALE
-    vn_scale = MERGE_VEL_SCALE
-    ve_scale = MERGE_VEL_SCALE
-    pz_m = MERGE_PZ_M
+    heading_step = merge.D_HEADING
+    pos_scale = merge.POSITION_SCALE
+    vn_scale = merge.SPEED_SCALE
+    ve_scale = merge.SPEED_SCALE
+    pz_m = merge.INTRUSION_DISTANCE * NM
     lookahead_s = MERGE_LOOKAHEAD_S
 
 
@@ -430,7 +420,7 @@ class StaticObstacleController(Policy):
         off_goal = np.abs((cand - goal_rel[:, None] + 180.0) % 360.0 - 180.0)
         best = np.argmin(np.where(clear, off_goal, np.inf), axis=1)
         turn = np.where(clear.any(axis=1), CANDIDATE_TURNS[best], goal_rel)
-        heading = np.clip(turn / D_HEADING_OBSTACLE, -1.0, 1.0)
+        heading = np.clip(turn / static_obstacle.D_HEADING, -1.0, 1.0)
         return np.stack([heading, np.ones_like(heading)], axis=1)
 
 
@@ -452,7 +442,7 @@ class MVPMapping:
     nominal: Callable[[], Policy]
     rmethh: str | None = None
     rmethv: str | None = None
-    rpz_nm: float = 5.0
+    rpz_nm: float = PZ_RADIUS / NM
     hpz_m: float = PZ_HEIGHT
     heading_step: float | None = None
     speed_step: float | None = None
@@ -553,7 +543,9 @@ MVP: dict[str, MVPMapping] = {
         rpz_nm=horizontal_cr.INTRUSION_DISTANCE,
         heading_step=horizontal_cr.D_HEADING,
     ),
-    "VerticalCREnv-v0": MVPMapping(DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, vertical=True),
+    "VerticalCREnv-v0": MVPMapping(
+        DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, hpz_m=vertical_cr.VERTICAL_MARGIN, vertical=True
+    ),
     "SectorCREnv-v0": MVPMapping(
         lambda: SteerToGoal("sin(drift)", "cos(drift)", sector_cr.D_HEADING, 2),
         rmethh="BOTH",
