@@ -82,6 +82,8 @@ VERTICAL_MIN_ALT = 300.0  # m: do not avoid downwards below this
 
 # --- HorizontalCREnv-v0 / PlanWaypointEnv-v0 ---------------------------------------------------
 HORIZONTAL_ALERT_KM = 30.0  # km: closing intruders in front and nearer than this are avoided
+# Scenario options that set an observation scale: the defaults until the controller is bound to
+# its environment (Policy.bind), then that environment's values.
 WAYPOINT_DIST_PLAN = float(PlanWaypointConfig.waypoint_distance_max)  # km per unit of waypoint_distance (default scenario)
 CAPTURE_KM = PlanWaypointConfig.distance_margin_km  # km: waypoints this near count as reached (default scenario)
 
@@ -294,15 +296,36 @@ class HorizontalCRController(Policy):
         return np.where(alert, away, a)[:, None]
 
 
+def _task_config(env: Any) -> Any:
+    """The scenario configuration of the task behind ``env`` (None when it has no task)."""
+    task = getattr(getattr(env, "unwrapped", env), "task", None)
+    return getattr(task, "config", None)
+
+
 class PlanWaypointController(Policy):
-    """PlanWaypointEnv-v0: fly to the nearest waypoint not yet reached."""
+    """PlanWaypointEnv-v0: fly to the nearest waypoint not yet reached.
+
+    The waypoint distances are decoded with the default scenario's normalisation and capture
+    radius, or with those of the environment the controller is bound to.
+    """
 
     name = "classical"
 
+    def __init__(self) -> None:
+        self.distance_scale_km = WAYPOINT_DIST_PLAN
+        self.capture_km = CAPTURE_KM
+
+    def bind(self, env: Any) -> None:
+        """Decode with the waypoint-distance normalisation and capture radius of ``env``'s scenario."""
+        config = _task_config(env)
+        if isinstance(config, PlanWaypointConfig):
+            self.distance_scale_km = float(config.waypoint_distance_max)
+            self.capture_km = float(config.distance_margin_km)
+
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
-        dist = obs["waypoint_distance"] * WAYPOINT_DIST_PLAN
-        open_ = (obs["waypoint_reached"] < 0.5) & (dist >= CAPTURE_KM)
+        dist = obs["waypoint_distance"] * self.distance_scale_km
+        open_ = (obs["waypoint_reached"] < 0.5) & (dist >= self.capture_km)
         k = np.argmin(np.where(open_, dist, np.inf), axis=1)
         rows = np.arange(len(k))
         drift = _angle(obs["sin_difference"][rows, k], obs["cos_difference"][rows, k])
@@ -397,15 +420,28 @@ class MergeController(_SteerAndAvoid):
 
 
 class StaticObstacleController(Policy):
-    """StaticObstacleEnv-v0: full speed on the heading nearest the goal with a clear path."""
+    """StaticObstacleEnv-v0: full speed on the heading nearest the goal with a clear path.
+
+    The distances are decoded with the default scenario's normalisation, or with that of the
+    environment the controller is bound to.
+    """
 
     name = "classical"
+
+    def __init__(self) -> None:
+        self.distance_scale_km = OBSTACLE_DIST_SCALE
+
+    def bind(self, env: Any) -> None:
+        """Decode with the distance normalisation of ``env``'s scenario."""
+        config = _task_config(env)
+        if isinstance(config, StaticObstacleConfig):
+            self.distance_scale_km = float(config.waypoint_distance_max)
 
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
         goal_rel = -_angle(obs["destination_waypoint_sin_drift"][:, 0], obs["destination_waypoint_cos_drift"][:, 0])  # deg, + right
-        goal_km = obs["destination_waypoint_distance"][:, 0] * OBSTACLE_DIST_SCALE
-        d = obs["restricted_area_distance"] * OBSTACLE_DIST_SCALE  # (n, m) km
+        goal_km = obs["destination_waypoint_distance"][:, 0] * self.distance_scale_km
+        d = obs["restricted_area_distance"] * self.distance_scale_km  # (n, m) km
         r = obs["restricted_area_radius"] * OBSTACLE_RADIUS_SCALE_KM + OBSTACLE_MARGIN_KM
         beta = -_angle(obs["sin_difference_restricted_area_pos"], obs["cos_difference_restricted_area_pos"])  # + right
         # Candidate relative headings (n, c); the path to check for each (n, c, m).
