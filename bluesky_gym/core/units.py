@@ -20,6 +20,7 @@ M2NM = 0.0005399568034557236  # NM per m, 1/1852 as written in BlueSky's compile
 # The gym environments' own conversion factors (reference bluesky-gym 0.2.0).
 NM2KM = 1.852  # km per NM
 MPS2KT = 1.94384  # kt per m/s
+KM = 1000.0  # m per km
 
 # --- Earth -------------------------------------------------------------------------------------
 G0 = 9.80665  # m/s^2, standard gravity

@@ -27,12 +27,10 @@ import numpy as np
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.units import NM, NM2KM, R_EARTH
+from bluesky_gym.core.units import KM, NM, NM2KM, R_EARTH
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
 from bluesky_gym.tasks import horizontal_cr as hc
 from bluesky_gym.tasks.base import BoxSpec, StepGeometry
-
-M_PER_KM = 1000.0
 
 
 def rhumb_destination(lat: Array, lon: Array, d_km: Array, bearing: Array) -> tuple[Array, Array]:
@@ -44,7 +42,7 @@ def rhumb_destination(lat: Array, lon: Array, d_km: Array, bearing: Array) -> tu
     """
     phi1 = np.radians(lat)
     theta = np.radians(bearing)
-    delta = np.asarray(d_km, dtype=np.float64) * M_PER_KM / R_EARTH
+    delta = np.asarray(d_km, dtype=np.float64) * KM / R_EARTH
     phi2 = phi1 + delta * np.cos(theta)
     dpsi = np.log(np.tan(np.pi / 4 + phi2 / 2) / np.tan(np.pi / 4 + phi1 / 2))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -74,7 +72,7 @@ def mirrored_waypoints(sim: Physics, envs: IntArray, min_km: float) -> tuple[Arr
     v2 = dvn * dvn + dve * dve
     with np.errstate(invalid="ignore", divide="ignore"):
         tcpa = np.where(v2 > 0, -(rn * dvn + re * dve) / v2, 0.0)
-    d_km = np.maximum(2.0 * gs * np.maximum(tcpa, 0.0) / M_PER_KM, min_km)
+    d_km = np.maximum(2.0 * gs * np.maximum(tcpa, 0.0) / KM, min_km)
     return rhumb_destination(lat, lon, d_km, np.rad2deg(trk))
 
 

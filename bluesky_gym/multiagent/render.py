@@ -18,6 +18,8 @@ from bluesky_gym.core.units import NM2KM
 from bluesky_gym.envs.registry import multiagent_entry
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Area, Fix, Line, MapAircraft, MapScene, Runway
+from bluesky_gym.render.scenes.common import fit_extent
+from bluesky_gym.render.scenes.merge import RUNWAY_HDG, RUNWAY_LENGTH_KM
 from bluesky_gym.tasks import horizontal_cr as hc
 from bluesky_gym.tasks import merge as mg
 from bluesky_gym.tasks.geometry import point_at_distance
@@ -31,7 +33,6 @@ LEGEND: list[tuple[pal.Color, str]] = [
     (pal.LOS, "loss of separation"),
     (pal.GOAL, "agent's goal"),
 ]
-MERGE_RUNWAY_HDG = 180.0  # deg: arrivals come from the FAF due north and land southbound
 
 
 def agent_name(slot: int) -> str:
@@ -78,20 +79,13 @@ def _panel(task: MultiAgentTask, i: int) -> list[tuple[str, str]]:
     ]
 
 
-def _extent(lat: list[float], lon: list[float], margin_nm: float, min_half_nm: float) -> tuple[float, float, float]:
-    la, lo = np.asarray(lat), np.asarray(lon)
-    clat, clon = 0.5 * (la.min() + la.max()), 0.5 * (lo.min() + lo.max())
-    half = max(0.5 * (la.max() - la.min()) * 60.0, 0.5 * (lo.max() - lo.min()) * 60.0 * np.cos(np.radians(clat))) + margin_nm
-    return float(clat), float(clon), float(max(half, min_half_nm))
-
-
 def sector_cr_scene(task: Any, i: int) -> MapScene:
     """Draw the sector, every agent with its 5 NM zone and its exit point."""
     scn = task.scenario
     nv = int(scn.n_vertices[i])
     plat, plon = scn.poly_lat[i, :nv].tolist(), scn.poly_lon[i, :nv].tolist()
     if nv >= 3:
-        clat, clon, half = _extent(plat, plon, margin_nm=6.0, min_half_nm=30.0)
+        clat, clon, half = fit_extent(plat, plon, margin_nm=6.0, min_half_nm=30.0)
     else:  # before the first reset
         clat, clon, half = 52.0, 4.4, 40.0
     active = np.flatnonzero(task.sim.active[i])
@@ -117,8 +111,7 @@ def merge_scene(task: Any, i: int) -> MapScene:
     active = np.flatnonzero(s.active[i])
     lat_pts = [mg.RWY_LAT, mg.FAF_LAT, *s.lat[i, active].tolist()]
     lon_pts = [mg.RWY_LON, mg.FAF_LON, *s.lon[i, active].tolist()]
-    clat, clon, half = _extent(lat_pts, lon_pts, margin_nm=22.0, min_half_nm=60.0)
-    half = min(half, 220.0)
+    clat, clon, half = fit_extent(lat_pts, lon_pts, margin_nm=22.0, min_half_nm=60.0, max_half_nm=220.0)
     bearing = float(task.config.spawn_bearing_deg)
     reach = max(float(task.config.intruder_distance_km[1]), float(task.config.spawn_distance_km[1]))
     lines = [Line([mg.FAF_LAT, mg.RWY_LAT], [mg.FAF_LON, mg.RWY_LON], pal.ROUTE)]
@@ -136,7 +129,7 @@ def merge_scene(task: Any, i: int) -> MapScene:
         half,
         aircraft=_agents(task, i),
         fixes=fixes,
-        runways=[Runway(mg.RWY_LAT, mg.RWY_LON, MERGE_RUNWAY_HDG, 3.3, "RWY")],
+        runways=[Runway(mg.RWY_LAT, mg.RWY_LON, RUNWAY_HDG, RUNWAY_LENGTH_KM, "RWY")],
         lines=lines,
         follow=None,
         panel=panel,
@@ -151,7 +144,7 @@ def horizontal_cr_scene(task: Any, i: int) -> MapScene:
     if used.any():
         lat_pts = [*task.start_lat[i, used].tolist(), *task.wpt_lat[i, used].tolist()]
         lon_pts = [*task.start_lon[i, used].tolist(), *task.wpt_lon[i, used].tolist()]
-        clat, clon, half = _extent(lat_pts, lon_pts, margin_nm=15.0, min_half_nm=45.0)
+        clat, clon, half = fit_extent(lat_pts, lon_pts, margin_nm=15.0, min_half_nm=45.0)
     else:  # before the first reset
         clat, clon, half = hc.START_LAT, hc.START_LON, 60.0
     fixes = [

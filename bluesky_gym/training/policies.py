@@ -52,62 +52,54 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.conflicts import PZ_HEIGHT
+from bluesky_gym.core.conflicts import PZ_HEIGHT, PZ_RADIUS
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
 from bluesky_gym.core.units import FT, KTS, NM, NM2KM
-from bluesky_gym.tasks import horizontal_cr, merge, sector_cr, vertical_cr
+from bluesky_gym.tasks import horizontal_cr, merge, plan_waypoint, sector_cr, static_obstacle, vertical_cr
 from bluesky_gym.tasks import real_traffic as rt
+from bluesky_gym.tasks.descent import ACTION_2_MS, ALT_MEAN, ALT_STD, RWY_DIS_MEAN, RWY_DIS_STD, DescentTask
+from bluesky_gym.tasks.plan_waypoint import PlanWaypointConfig
+from bluesky_gym.tasks.static_obstacle import StaticObstacleConfig
 
 Array = NDArray[np.float64]
 Obs = dict[str, Array]
 
-# --- DescentEnv-v0 / VerticalCREnv-v0 observation constants (docs/environments-v0.md §1 and §2) --------
-ALT_MEAN, ALT_STD = 1500.0, 3000.0  # m
-RWY_DIS_MEAN, RWY_DIS_STD = 100.0, 200.0  # km
-ACTION_2_MS = 12.5  # m/s of vertical speed per unit action
-STEP_S_VERTICAL = 30.0  # s per decision step
+# The observation and action scales the controllers decode with are the tasks' own (imported, or
+# derived from them in one expression); the numbers declared here are the controllers' tuning.
+# The -v1 ids read these observations with the same scales (only entries the controllers do not
+# read, airspeed and vertical speeds, are normalised differently there).
+
+# --- DescentEnv-v0 / VerticalCREnv-v0 (docs/environments-v0.md §1 and §2) ------------------------
+STEP_S_VERTICAL = DescentTask.dt * DescentTask.action_frequency  # s per decision step
 GROUND_SPEED_EST = 0.17  # km/s, typical ground speed of the descent scenarios (CAS 150 m/s)
 GLIDE_SLOPE = 80.0  # m per km of runway distance: steeper than the ~70 m/km possible, as the command lags
 RUNWAY_ALT = 60.0  # m, altitude aimed at over the runway threshold (alt <= 0 before it crashes)
-MIN_ACTION = 0.01  # |a| <= 0.008 selects BlueSky's default 7.62 m/s vertical speed; stay above
+MIN_ACTION = 0.01  # -: |a| <= VS_SELECT_EPS / ACTION_2_MS (0.008) selects BlueSky's default vertical speed; stay above
 VERTICAL_ALERT_KM = 40.0  # km: intruders closer than this (and closing in) are avoided
 VERTICAL_ALERT_ALT = 450.0  # m: vertical distance kept from an alerting intruder
 VERTICAL_MIN_ALT = 300.0  # m: do not avoid downwards below this
-INTRUDER_DIST_VERTICAL = 200.0  # km per unit of intruder_distance
 
 # --- HorizontalCREnv-v0 / PlanWaypointEnv-v0 ---------------------------------------------------
-D_HEADING_HORIZONTAL = 45.0  # deg per unit action
-INTRUDER_DIST_HORIZONTAL = 150.0  # km per unit of intruder_distance
-HORIZONTAL_ALERT_KM = 30.0
-WAYPOINT_DIST_PLAN = 75.0  # km per unit of waypoint_distance
-CAPTURE_KM = 5.0
+HORIZONTAL_ALERT_KM = 30.0  # km: closing intruders in front and nearer than this are avoided
+# Scenario options that set an observation scale: the defaults until the controller is bound to
+# its environment (Policy.bind), then that environment's values.
+WAYPOINT_DIST_PLAN = float(PlanWaypointConfig.waypoint_distance_max)  # km per unit of waypoint_distance (default scenario)
+CAPTURE_KM = PlanWaypointConfig.distance_margin_km  # km: waypoints this near count as reached (default scenario)
 
-# --- SectorCREnv-v0 ----------------------------------------------------------------------------
-D_HEADING_SECTOR = 22.5
-SECTOR_POS_SCALE = 13000.0  # m
-SECTOR_VN_SCALE, SECTOR_VE_SCALE = 32.0, 66.0  # m/s
-SECTOR_PZ_M = 5.0 * NM2KM * 1000.0
-SECTOR_LOOKAHEAD_S = 180.0
-
-# --- MergeEnv-v0 -------------------------------------------------------------------------------
-D_HEADING_MERGE = 15.0
-MERGE_POS_SCALE = 1e6  # m
-MERGE_VEL_SCALE = 150.0  # m/s
-MERGE_PZ_M = 4.0 * NM2KM * 1000.0
-MERGE_LOOKAHEAD_S = 300.0
-# RealTrafficCREnv-v0
-REAL_TRAFFIC_LOOKAHEAD_S = 300.0
-REAL_TRAFFIC_VERTICAL_ALERT_M = 2000.0 * FT  # traffic further above or below is not avoided
+# --- SectorCREnv-v0 / MergeEnv-v0 / RealTrafficCREnv-v0 ------------------------------------------
+SECTOR_LOOKAHEAD_S = 180.0  # s: conflict look-ahead
+MERGE_LOOKAHEAD_S = 300.0  # s: conflict look-ahead
+REAL_TRAFFIC_LOOKAHEAD_S = 300.0  # s: conflict look-ahead
+REAL_TRAFFIC_VERTICAL_ALERT_M = 2000.0 * FT  # m: traffic further above or below is not avoided
 REAL_TRAFFIC_FAR_M = 1e9  # m: where an ignored intruder is put
-CPA_MARGIN = 1.0  # alert when the predicted miss distance is below margin * protected zone
+CPA_MARGIN = 1.0  # -: alert when the predicted miss distance is below margin * protected zone
 
 # --- StaticObstacleEnv-v0 ----------------------------------------------------------------------
-D_HEADING_OBSTACLE = 45.0
-OBSTACLE_DIST_SCALE = 170.0  # km per unit of distance
-OBSTACLE_RADIUS_SCALE_KM = 50.0 * NM2KM  # km per unit of restricted_area_radius
-OBSTACLE_MARGIN_KM = 3.0
-OBSTACLE_LOOKAHEAD_KM = 60.0
+OBSTACLE_DIST_SCALE = float(StaticObstacleConfig.waypoint_distance_max)  # km per unit of distance (default scenario)
+OBSTACLE_RADIUS_SCALE_KM = static_obstacle.RADIUS_SCALE_NM * NM2KM  # km per unit of restricted_area_radius
+OBSTACLE_MARGIN_KM = 3.0  # km: clearance kept from an obstacle's enclosing circle
+OBSTACLE_LOOKAHEAD_KM = 60.0  # km: length of the path checked for obstacles
 CANDIDATE_TURNS = np.arange(-180.0, 180.0, 5.0)  # deg, relative headings searched
 
 
@@ -258,7 +250,7 @@ class VerticalCRController(DescentController):
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
         alt, wanted = self.target_altitude(obs)
-        dist = obs["intruder_distance"] * INTRUDER_DIST_VERTICAL  # (n, k) km
+        dist = obs["intruder_distance"] * vertical_cr.INTRUDER_DISTANCE_SCALE  # (n, k) km
         dalt = obs["altitude_difference"] * ALT_STD  # intruder minus own, m
         closing = self.tracker.closing(dist)
         # Intruders near the wanted altitude that are closing in.
@@ -291,8 +283,8 @@ class HorizontalCRController(Policy):
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
         drift = _angle(obs["sin_drift"][:, 0], obs["cos_drift"][:, 0])
-        a = np.clip(-drift / D_HEADING_HORIZONTAL, -1.0, 1.0)
-        dist = obs["intruder_distance"] * INTRUDER_DIST_HORIZONTAL
+        a = np.clip(-drift / horizontal_cr.D_HEADING, -1.0, 1.0)
+        dist = obs["intruder_distance"] * horizontal_cr.DISTANCE_SCALE
         closing = self.tracker.closing(dist)
         ahead = obs["cos_difference_pos"] > 0.0
         threat = np.where(closing & ahead & (dist < HORIZONTAL_ALERT_KM), dist, np.inf)
@@ -304,19 +296,40 @@ class HorizontalCRController(Policy):
         return np.where(alert, away, a)[:, None]
 
 
+def _task_config(env: Any) -> Any:
+    """The scenario configuration of the task behind ``env`` (None when it has no task)."""
+    task = getattr(getattr(env, "unwrapped", env), "task", None)
+    return getattr(task, "config", None)
+
+
 class PlanWaypointController(Policy):
-    """PlanWaypointEnv-v0: fly to the nearest waypoint not yet reached."""
+    """PlanWaypointEnv-v0: fly to the nearest waypoint not yet reached.
+
+    The waypoint distances are decoded with the default scenario's normalisation and capture
+    radius, or with those of the environment the controller is bound to.
+    """
 
     name = "classical"
 
+    def __init__(self) -> None:
+        self.distance_scale_km = WAYPOINT_DIST_PLAN
+        self.capture_km = CAPTURE_KM
+
+    def bind(self, env: Any) -> None:
+        """Decode with the waypoint-distance normalisation and capture radius of ``env``'s scenario."""
+        config = _task_config(env)
+        if isinstance(config, PlanWaypointConfig):
+            self.distance_scale_km = float(config.waypoint_distance_max)
+            self.capture_km = float(config.distance_margin_km)
+
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
-        dist = obs["waypoint_distance"] * WAYPOINT_DIST_PLAN
-        open_ = (obs["waypoint_reached"] < 0.5) & (dist >= CAPTURE_KM)
+        dist = obs["waypoint_distance"] * self.distance_scale_km
+        open_ = (obs["waypoint_reached"] < 0.5) & (dist >= self.capture_km)
         k = np.argmin(np.where(open_, dist, np.inf), axis=1)
         rows = np.arange(len(k))
         drift = _angle(obs["sin_difference"][rows, k], obs["cos_difference"][rows, k])
-        a = np.clip(-drift / D_HEADING_HORIZONTAL, -1.0, 1.0)
+        a = np.clip(-drift / plan_waypoint.D_HEADING, -1.0, 1.0)
         return np.where(open_.any(axis=1), a, 0.0)[:, None]
 
 
@@ -387,35 +400,48 @@ class _SteerAndAvoid(Policy):
 class SectorCRController(_SteerAndAvoid):
     """SectorCREnv-v0: steer to the exit waypoint; turn away from the most urgent conflict."""
 
-    heading_step = D_HEADING_SECTOR
-    pos_scale = SECTOR_POS_SCALE
-    vn_scale = SECTOR_VN_SCALE
-    ve_scale = SECTOR_VE_SCALE
-    pz_m = SECTOR_PZ_M
+    heading_step = sector_cr.D_HEADING
+    pos_scale = sector_cr.POSITION_SCALE
+    vn_scale = sector_cr.VX_SCALE
+    ve_scale = sector_cr.VY_SCALE
+    pz_m = sector_cr.INTRUSION_DISTANCE * NM
     lookahead_s = SECTOR_LOOKAHEAD_S
 
 
 class MergeController(_SteerAndAvoid):
     """MergeEnv-v0: steer to the FAF then the runway; turn away from the most urgent conflict."""
 
-    heading_step = D_HEADING_MERGE
-    pos_scale = MERGE_POS_SCALE
-    vn_scale = MERGE_VEL_SCALE
-    ve_scale = MERGE_VEL_SCALE
-    pz_m = MERGE_PZ_M
+    heading_step = merge.D_HEADING
+    pos_scale = merge.POSITION_SCALE
+    vn_scale = merge.SPEED_SCALE
+    ve_scale = merge.SPEED_SCALE
+    pz_m = merge.INTRUSION_DISTANCE * NM
     lookahead_s = MERGE_LOOKAHEAD_S
 
 
 class StaticObstacleController(Policy):
-    """StaticObstacleEnv-v0: full speed on the heading nearest the goal with a clear path."""
+    """StaticObstacleEnv-v0: full speed on the heading nearest the goal with a clear path.
+
+    The distances are decoded with the default scenario's normalisation, or with that of the
+    environment the controller is bound to.
+    """
 
     name = "classical"
+
+    def __init__(self) -> None:
+        self.distance_scale_km = OBSTACLE_DIST_SCALE
+
+    def bind(self, env: Any) -> None:
+        """Decode with the distance normalisation of ``env``'s scenario."""
+        config = _task_config(env)
+        if isinstance(config, StaticObstacleConfig):
+            self.distance_scale_km = float(config.waypoint_distance_max)
 
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
         goal_rel = -_angle(obs["destination_waypoint_sin_drift"][:, 0], obs["destination_waypoint_cos_drift"][:, 0])  # deg, + right
-        goal_km = obs["destination_waypoint_distance"][:, 0] * OBSTACLE_DIST_SCALE
-        d = obs["restricted_area_distance"] * OBSTACLE_DIST_SCALE  # (n, m) km
+        goal_km = obs["destination_waypoint_distance"][:, 0] * self.distance_scale_km
+        d = obs["restricted_area_distance"] * self.distance_scale_km  # (n, m) km
         r = obs["restricted_area_radius"] * OBSTACLE_RADIUS_SCALE_KM + OBSTACLE_MARGIN_KM
         beta = -_angle(obs["sin_difference_restricted_area_pos"], obs["cos_difference_restricted_area_pos"])  # + right
         # Candidate relative headings (n, c); the path to check for each (n, c, m).
@@ -430,7 +456,7 @@ class StaticObstacleController(Policy):
         off_goal = np.abs((cand - goal_rel[:, None] + 180.0) % 360.0 - 180.0)
         best = np.argmin(np.where(clear, off_goal, np.inf), axis=1)
         turn = np.where(clear.any(axis=1), CANDIDATE_TURNS[best], goal_rel)
-        heading = np.clip(turn / D_HEADING_OBSTACLE, -1.0, 1.0)
+        heading = np.clip(turn / static_obstacle.D_HEADING, -1.0, 1.0)
         return np.stack([heading, np.ones_like(heading)], axis=1)
 
 
@@ -452,7 +478,7 @@ class MVPMapping:
     nominal: Callable[[], Policy]
     rmethh: str | None = None
     rmethv: str | None = None
-    rpz_nm: float = 5.0
+    rpz_nm: float = PZ_RADIUS / NM
     hpz_m: float = PZ_HEIGHT
     heading_step: float | None = None
     speed_step: float | None = None
@@ -553,7 +579,9 @@ MVP: dict[str, MVPMapping] = {
         rpz_nm=horizontal_cr.INTRUSION_DISTANCE,
         heading_step=horizontal_cr.D_HEADING,
     ),
-    "VerticalCREnv-v0": MVPMapping(DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, vertical=True),
+    "VerticalCREnv-v0": MVPMapping(
+        DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, hpz_m=vertical_cr.VERTICAL_MARGIN, vertical=True
+    ),
     "SectorCREnv-v0": MVPMapping(
         lambda: SteerToGoal("sin(drift)", "cos(drift)", sector_cr.D_HEADING, 2),
         rmethh="BOTH",

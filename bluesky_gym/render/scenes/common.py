@@ -8,11 +8,12 @@ from typing import Any
 
 import numpy as np
 
-from bluesky_gym.core.units import FT, MPS2KT
+from bluesky_gym.core.conflicts import PZ_RADIUS
+from bluesky_gym.core.units import FT, MPS2KT, NM
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import MapAircraft
 
-PZ_RADIUS_NM = 5.0  # BlueSky's default protected zone radius
+PZ_RADIUS_NM = PZ_RADIUS / NM  # NM, BlueSky's default protected zone radius
 OWNSHIP_CALLSIGN = "KL001"
 
 LEGEND_TRAFFIC: list[tuple[pal.Color, str]] = [

@@ -11,9 +11,10 @@ from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Fix, Line, MapScene, Runway
 from bluesky_gym.render.scenes.common import LEGEND_TRAFFIC, OWNSHIP_CALLSIGN, drift_line, fit_extent, map_traffic, ownship_lines
 from bluesky_gym.tasks.geometry import point_at_distance
-from bluesky_gym.tasks.merge import INTRUSION_DISTANCE, RWY_LAT, RWY_LON
+from bluesky_gym.tasks.merge import FAF_BEARING, INTRUSION_DISTANCE, RWY_LAT, RWY_LON
 
-RUNWAY_HDG = 180.0  # deg: arrivals come from the FAF due north and land southbound
+RUNWAY_HDG = (FAF_BEARING + 180.0) % 360.0  # deg: arrivals come from the FAF (due north) and land towards the runway
+RUNWAY_LENGTH_KM = 3.3  # km: length of the drawn runway
 FIT_RUNWAY_NM = 150.0  # NM: a FAF at most this far from the runway is drawn with it in one view
 
 
@@ -72,7 +73,7 @@ def merge_scene(task: Any, i: int) -> MapScene:
         half,
         aircraft=map_traffic(task, i, ring_nm=INTRUSION_DISTANCE, callsign=_callsign),
         fixes=fixes,
-        runways=[Runway(RWY_LAT, RWY_LON, RUNWAY_HDG, 3.3, "RWY")],
+        runways=[Runway(RWY_LAT, RWY_LON, RUNWAY_HDG, RUNWAY_LENGTH_KM, "RWY")],
         lines=lines,
         label_range_nm=30.0,
         panel=panel,
