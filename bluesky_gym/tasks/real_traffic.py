@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FT, NM
-from bluesky_gym.realtraffic.cache import combine, load_collection
+from bluesky_gym.realtraffic.cache import collection_path, combine, load_collection
 from bluesky_gym.realtraffic.flights import RecordedFlights
 from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window, split_windows, windows
 from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
@@ -155,14 +155,23 @@ class EpisodeData:
 
 
 def episode_data(config: RealTrafficConfig) -> EpisodeData:
-    """Flights and train/test windows of ``config`` (computed once per process for the options that shape them)."""
-    return _episode_data(
-        dataclasses.replace(config, split="auto", altitude_action=False, labels="near"),
-    )
+    """Flights and train/test windows of ``config``.
+
+    Computed once per process for the options that shape them and the collection files they are
+    read from: another cache directory (``cache_dir``, or ``BLUESKY_GYM_CACHE`` when it is None) or
+    a rewritten file is read again.
+    """
+    files = []
+    for name in config.collections:
+        path = collection_path(name, config.cache_dir)
+        stat = path.stat() if path.exists() else None
+        files.append((str(path), stat.st_mtime_ns if stat else -1, stat.st_size if stat else -1))
+    return _episode_data(dataclasses.replace(config, split="auto", altitude_action=False, labels="near"), tuple(files))
 
 
 @lru_cache(maxsize=4)
-def _episode_data(config: RealTrafficConfig) -> EpisodeData:
+def _episode_data(config: RealTrafficConfig, files: tuple[tuple[str, int, int], ...]) -> EpisodeData:
+    del files  # part of the cache key
     parts = [load_collection(name, config.cache_dir) for name in config.collections]
     flights, shifts = combine(parts, "+".join(config.collections))
     train: list[Window] = []

@@ -220,3 +220,20 @@ def test_an_episode_written_as_scn_replays_exactly(options) -> None:
         for s in np.flatnonzero(active):
             j = slot_of[f"AC{s:03d}"]
             assert (replay.lat[0, j], replay.lon[0, j], replay.alt[0, j]) == (lat[s], lon[s], alt[s])
+
+
+def test_episode_data_follows_the_cache_directory(tmp_path, monkeypatch) -> None:
+    """The same options read from another cache directory (or a rewritten file) give that directory's flights, not the first ones read."""
+    from bluesky_gym.realtraffic.cache import collection_path
+
+    config = RealTrafficConfig(collections=("switzerland",), min_traffic=1)
+    flights = {}
+    for k, n in ((0, 16), (1, 24)):
+        monkeypatch.setenv("BLUESKY_GYM_CACHE", str(tmp_path / f"cache{k}"))
+        path = collection_path("switzerland")
+        path.parent.mkdir(parents=True)
+        traffic_collection(n_flights=n, seed=k).save(path)
+        flights[k] = episode_data(config).flights.n_flights
+    assert flights == {0: 16, 1: 24}
+    traffic_collection(n_flights=20, seed=2).save(path)  # rewritten in place
+    assert episode_data(config).flights.n_flights == 20
