@@ -26,8 +26,9 @@ from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
 from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, aircraft_index, checked_index
-from bluesky_gym.core.step import MEMO_COLUMNS, run_kernel, step_kernel
-from bluesky_gym.core.units import BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
+from bluesky_gym.core.resolution import AsasConfig, MVPResolver
+from bluesky_gym.core.step import MEMO_COLUMNS, post_kernel, pre_kernel, run_kernel, step_kernel
+from bluesky_gym.core.units import ASAS_INTERVAL, BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
@@ -139,6 +140,9 @@ class Simulator:
         self._memo = np.full((self.n_envs * self.max_aircraft, MEMO_COLUMNS), np.nan)
         self._empty_bool = np.zeros(0, dtype=np.bool_)
         self._empty_int = np.zeros(0, dtype=np.int64)
+        # Conflict resolution (BlueSky's ASAS with RESO MVP), per airspace that has it switched on.
+        self._asas: dict[int, AsasConfig] = {}
+        self._resolvers: dict[int, MVPResolver] = {}
 
     # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
     active: NDArray[np.bool_]
@@ -195,6 +199,9 @@ class Simulator:
         self.route_lon[idx] = 0.0
         self.type_index[idx] = 0
         self.wind.clear(None if envs is None else idx)
+        for e in range(self.n_envs) if envs is None else np.atleast_1d(idx).tolist():
+            self._asas.pop(int(e), None)
+            self._resolvers.pop(int(e), None)
 
     def create(
         self,
@@ -566,10 +573,46 @@ class Simulator:
     # ------------------------------------------------------------------------------------------
     # Stepping [docs/dynamics.md §2.1-2.2]
     # ------------------------------------------------------------------------------------------
+    def set_conflict_resolution(self, env: ArrayLike, config: AsasConfig) -> None:
+        """Switch BlueSky's ASAS for airspaces ``env``: conflict detection and MVP resolution flown by the aircraft.
+
+        With detection on and ``RESO MVP`` (:attr:`AsasConfig.resolving`), every step detects the
+        conflicts of the start-of-step state after the autopilot, runs MVP
+        (:class:`~bluesky_gym.core.resolution.MVPResolver`) and flies its track, speed, altitude and
+        vertical speed wherever BlueSky's ASAS would, as BlueSky 1.1.1's ``APorASAS`` does; an
+        aircraft whose resolution ends goes DIRECT to its best active waypoint. A new
+        configuration keeps the resolutions in progress. Without ``resolving`` the airspace flies
+        its autopilot (detection alone changes nothing).
+
+        Raises:
+            ValueError: ``dt`` is below BlueSky's ASAS interval (1 s; the ASAS would then run every
+                few steps, which is not modelled).
+        """
+        envs = checked_index(env, self.n_envs, "environment index")
+        if config.resolving and self.dt < ASAS_INTERVAL - 1e-9:
+            raise ValueError(f"conflict resolution needs dt >= {ASAS_INTERVAL} s (BlueSky's asas_dt), got {self.dt} s")
+        for e in np.atleast_1d(envs).tolist():
+            self._asas[int(e)] = config
+            if not config.resolving:
+                self._resolvers.pop(int(e), None)
+                continue
+            r = self._resolvers.get(int(e))
+            if r is None:
+                r = self._resolvers[int(e)] = MVPResolver(detector=str(config.detector))
+            r.detector, r.settings = str(config.detector), config.settings
+            r.rpz, r.hpz, r.lookahead = config.rpz, config.hpz, config.lookahead
+
+    def conflict_resolution(self, env: int) -> AsasConfig:
+        """The ASAS configuration of airspace ``env`` (BlueSky's defaults unless set)."""
+        return self._asas.get(int(env), AsasConfig())
+
     def step(self) -> None:
         """Advance every airspace by ``dt`` seconds."""
         do_perf = self._performance_due()
         self.simt += self.dt
+        if self._resolvers:
+            self._step_resolving(do_perf)
+            return
         if self.swlnav.any():
             lnav_kernel(self._float_flat, *self._lnav_args())
         wn, we, haswind, any_wind = self._wind_args()
@@ -586,6 +629,44 @@ class Simulator:
             self._type_args(),
             self._memo,
             self._active_flat,
+        )
+
+    def _step_resolving(self, do_perf: bool) -> None:
+        """:meth:`step` with conflict resolution: autopilot, then ASAS, then the kinematics (BlueSky's ``traf.update``)."""
+        if self.swlnav.any():
+            lnav_kernel(self._float_flat, *self._lnav_args())
+        type_args = self._type_args()
+        pre_kernel(self._float_flat, self._phase_flat, do_perf, self._table, type_args, self._memo, self._active_flat)
+        shape = (self.n_envs, self.max_aircraft)
+        follow = np.zeros(shape, dtype=np.bool_)
+        targets = np.zeros((4, *shape))  # track, ground speed, altitude, vertical speed
+        vsmin = np.array([p.vsmin for p in self._type_perf])
+        vsmax = np.array([p.vsmax for p in self._type_perf])
+        for e, resolver in self._resolvers.items():
+            view = _AirspaceView(self, e)
+            resolver.vsmin, resolver.vsmax = vsmin[view.type_index], vsmax[view.type_index]
+            cmd = resolver.update(view)
+            follow[e] = cmd.follow[0]
+            targets[:, e] = np.nan_to_num(np.stack([cmd.trk[0], cmd.gs[0], cmd.alt[0], cmd.vs[0]]))
+            # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
+            for s in np.flatnonzero(cmd.ended[0] & (self.nwp[e] > 0)).tolist():
+                self.iactwp[e, s] = self._find_active(e, s)
+                self._direct(np.array([e]), np.array([s]))
+        wn, we, haswind, any_wind = self._wind_args()
+        post_kernel(
+            self._float_flat,
+            self._phase_flat,
+            wn,
+            we,
+            haswind,
+            any_wind,
+            self.dt,
+            self._table,
+            type_args,
+            self._memo,
+            self._active_flat,
+            follow.reshape(-1),
+            *(np.ascontiguousarray(t).reshape(-1) for t in targets),
         )
 
     def run(self, n_steps: int, trace: bool = False, stop: Callable[[Array], ArrayLike] | None = None) -> Array | None:
@@ -613,6 +694,8 @@ class Simulator:
         """
         if n_steps < 0:
             raise ValueError(f"n_steps must be >= 0, got {n_steps}")
+        if stop is not None and self._resolvers:
+            raise ValueError("run(stop=...) cannot rewind airspaces with conflict resolution; step them instead")
         if stop is None:
             return self._run(n_steps, trace)
         start = self._snapshot()
@@ -641,7 +724,7 @@ class Simulator:
     def _run(self, n_steps: int, trace: bool) -> Array | None:
         """:meth:`run` without ``stop``."""
         track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft)) if trace else None
-        independent = n_steps > 1 and not (self.wind.count > 1).any()
+        independent = n_steps > 1 and not (self.wind.count > 1).any() and not self._resolvers
         if not independent:
             for k in range(n_steps):
                 self.step()
@@ -746,6 +829,18 @@ class Simulator:
     def state_fields(self) -> Sequence[str]:
         """Names of the per-aircraft state arrays."""
         return [name for name, _, _ in STATE_FIELDS]
+
+
+class _AirspaceView:
+    """The state arrays of one airspace of a :class:`Simulator`, shaped (1, max_aircraft) (views, what MVP reads)."""
+
+    def __init__(self, sim: Simulator, env: int) -> None:
+        k = slice(env, env + 1)
+        self.active = sim.active[k]
+        self.type_index = sim.type_index[k]
+        self.lat, self.lon, self.alt, self.tas = sim.lat[k], sim.lon[k], sim.alt[k], sim.tas[k]
+        self.gs, self.trk, self.vs, self.gseast, self.gsnorth = sim.gs[k], sim.trk[k], sim.vs[k], sim.gseast[k], sim.gsnorth[k]
+        self.selalt, self.ap_vs, self.vmin, self.vmax = sim.selalt[k], sim.ap_vs[k], sim.vmin[k], sim.vmax[k]
 
 
 for _name, _i in FIELD_INDEX.items():

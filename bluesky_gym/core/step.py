@@ -95,7 +95,16 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
     ``perf`` and ``limits`` are the aircraft's type's :func:`perf_row` tuples.
     """
-    hmax, vsmax, mmo, v_rotate = limits
+    step_pre(F, i, phase, do_perf, perf, memo)
+    step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, F[I_AP_TRK, i], F[I_AP_TAS, i], F[I_AP_ALT, i], F[I_AP_VS, i])
+
+
+@jit_inline
+def step_pre(F, i, phase, do_perf, perf, memo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+    """First part of a step: performance update and autopilot (writes ``ap_tas``, ``ap_vs``, ``ap_alt``).
+
+    BlueSky's conflict detection and resolution run between this part and :func:`step_post`.
+    """
     mm = memo[i]
     # Performance update from the start-of-step state [docs/dynamics.md §2.1].
     if do_perf:
@@ -125,9 +134,20 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         else:
             mm[M_APTAS] = cas2tas_at(spd, p_h, rho_h)
         mm[M_SPD], mm[M_SPD_H] = spd, h
-    aptas = mm[M_APTAS]
-    F[I_AP_TAS, i] = aptas
-    trk_t = F[I_AP_TRK, i]
+    F[I_AP_TAS, i] = mm[M_APTAS]
+
+
+@jit_inline
+def step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, trk_t, aptas, apalt, apvs):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+    """Second part of a step: the targets flown (track [deg], TAS [m/s], altitude [m], vertical speed [m/s]) through the performance limits and the kinematics.
+
+    The targets are the autopilot's (``ap_trk``, ``ap_tas``, ``ap_alt``, ``ap_vs``), or a conflict
+    resolution's (BlueSky's ``APorASAS``).
+    """
+    hmax, vsmax, mmo, v_rotate = limits
+    mm = memo[i]
+    h = F[I_ALT, i]
+    p_h, rho_h, t_h = mm[M_P_H], mm[M_RHO_H], mm[M_T_H]
     vs_t = abs(apvs)
     if any_wind:
         vwn, vwe = wn[i], we[i]
@@ -272,6 +292,45 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype,
             if not one_type:
                 perf, limits = perf_row(table, actype[i])
             step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo)
+
+
+@jit
+def pre_kernel(F, phase, do_perf, table, actype, memo, active):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+    """:func:`step_pre` of every aircraft (the first part of a step with conflict resolution; arguments as :func:`step_kernel`)."""
+    one_type = actype.shape[0] == 0
+    perf, limits = perf_row(table, 0)
+    for i in range(F.shape[1]):
+        if active[i]:
+            if not one_type:
+                perf, limits = perf_row(table, actype[i])
+            step_pre(F, i, phase, do_perf, perf, memo)
+
+
+@jit
+def post_kernel(F, phase, wn, we, haswind, any_wind, dt, table, actype, memo, active, follow, res_trk, res_gs, res_alt, res_vs):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+    """:func:`step_post` of every aircraft, flying a conflict resolution where ``follow`` (BlueSky's ``APorASAS``).
+
+    Arguments as :func:`step_kernel`, plus per aircraft: ``follow`` (bool) and the resolution's
+    track [deg], ground speed [m/s], altitude [m] and vertical speed [m/s]. The ground speed is
+    turned into a TAS against the wind of the aircraft's airspace, as BlueSky does.
+    """
+    one_type = actype.shape[0] == 0
+    perf, limits = perf_row(table, 0)
+    for i in range(F.shape[1]):
+        if not active[i]:
+            continue
+        if not one_type:
+            perf, limits = perf_row(table, actype[i])
+        if follow[i]:
+            trk_t = res_trk[i]
+            tas_t = res_gs[i]
+            if any_wind and haswind[i]:
+                tn = res_gs[i] * math.cos(trk_t * RAD) - wn[i]
+                te = res_gs[i] * math.sin(trk_t * RAD) - we[i]
+                tas_t = math.sqrt(tn**2 + te**2)
+            step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, trk_t, tas_t, res_alt[i], res_vs[i])
+        else:
+            step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, F[I_AP_TRK, i], F[I_AP_TAS, i], F[I_AP_ALT, i], F[I_AP_VS, i])
 
 
 @jit
