@@ -44,7 +44,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, resolve_type
 from bluesky_gym.core.extras import missing_extra
+from bluesky_gym.core.resolution import AsasConfig
 from bluesky_gym.core.state import STATE_FIELDS, aircraft_index
+from bluesky_gym.core.units import FT, NM
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
@@ -495,6 +497,24 @@ class BlueSkyPhysics:
         if not ok:
             raise RuntimeError(f"BlueSky rejected {line!r}: {text}")
         self._sync_out()
+
+    def set_conflict_resolution(self, env: ArrayLike, config: AsasConfig) -> None:
+        """Switch BlueSky's own ASAS to ``config`` with its stack commands (``ASAS``, ``RESO``, ``RFACH``, ``ZONER``, ``RMETHH``, ...).
+
+        The factors are given before and after the zones, so that a zone change does not rescale them.
+        """
+        if np.any(np.asarray(env) != 0):
+            raise IndexError("the BlueSky backend has one airspace (env 0)")
+        self.command(f"ASAS {config.detector or 'OFF'}")
+        self.command(f"RESO {'MVP' if config.resolution else 'OFF'}")
+        s = config.settings
+        factors = (f"RFACH {s.resofach!r}", f"RFACV {s.resofacv!r}")
+        methods = {0: ("RMETHH BOTH",), 1: ("RMETHH SPD",), 2: ("RMETHH HDG",), 3: ("RMETHV V/S",), 4: ("RMETHH NONE", "RMETHV NONE")}
+        lines = [*factors, f"ZONER {config.rpz / NM!r}", f"ZONEDH {config.hpz / FT!r}", f"DTLOOK {config.lookahead!r}", *factors]
+        if config.resolution:
+            lines += methods[s.mode]
+        for line in lines:
+            self.command(line)
 
     def cmd_heading(self, env: ArrayLike, slot: ArrayLike, hdg: ArrayLike) -> None:
         """Stack ``HDG acid hdg`` [deg] (a track with wind above 50 ft; LNAV off)."""

@@ -100,7 +100,15 @@ class ResolutionSettings:
         for name, value in (("resofach", resofach), ("resofacv", resofacv)):
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-        h, spd, hdg, vert = cls.swresohoriz, cls.swresospd, cls.swresohdg, cls.swresovert
+        return cls(resofach=float(resofach), resofacv=float(resofacv)).with_methods(rmethh, rmethv)
+
+    def with_methods(self, rmethh: str | None = None, rmethv: str | None = None) -> ResolutionSettings:
+        """These settings after ``RMETHH rmethh``, then ``RMETHV rmethv`` (None: not given), as BlueSky's MVP changes its switches.
+
+        Raises:
+            ValueError: An unknown method.
+        """
+        h, spd, hdg, vert = self.swresohoriz, self.swresospd, self.swresohdg, self.swresovert
         if rmethh is not None:
             if rmethh not in RMETHH_VALUES:
                 raise ValueError(f"RMETHH {rmethh!r} not understood; choose one of {', '.join(RMETHH_VALUES)}")
@@ -119,7 +127,7 @@ class ResolutionSettings:
                 h, spd, hdg, vert = False, False, False, True
             else:  # as BlueSky: leaves swresohoriz as it is
                 vert = False
-        return cls(h, spd, hdg, vert, float(resofach), float(resofacv))
+        return ResolutionSettings(h, spd, hdg, vert, self.resofach, self.resofacv)
 
     @property
     def mode(self) -> int:

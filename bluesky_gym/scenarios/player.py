@@ -18,11 +18,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.physics import Physics, RouteCommands
+from bluesky_gym.core.physics import ConflictResolutionCommands, Physics, RouteCommands
 from bluesky_gym.scenarios.parser import (
     DEFAULT_ACTYPE,
     AddWaypoint,
     Altitude,
+    Asas,
     Command,
     Create,
     CreateConflict,
@@ -299,6 +300,11 @@ class ScenarioPlayer:
             elif isinstance(cmd, TimeStep):
                 if abs(cmd.dt - p.dt) > TIME_EPS:
                     raise ScenarioError(f"{cmd.source}: DT {cmd.dt} s differs from the replay's time step {p.dt} s")
+            elif isinstance(cmd, Asas):
+                if isinstance(p, ConflictResolutionCommands):
+                    p.set_conflict_resolution(envs, cmd.config)
+                elif cmd.config.resolving:
+                    raise ScenarioError(f"{cmd.source}: this physics cannot fly conflict resolution (RESO MVP); line: {cmd.source.text!r}")
             elif not isinstance(cmd, Ignored):  # pragma: no cover - every command class is handled above
                 raise ScenarioError(f"{cmd.source}: no player for {type(cmd).__name__}")
         except ScenarioError:

@@ -27,6 +27,10 @@ SCN = {
     "pcall_direct_lnav": ("direct_lnav.scn", 1.0, 400),
     "pcall_export_descent": ("export_descent.scn", 1.0, 200),
     "pcall_export_vertical_cr": ("export_vertical_cr.scn", 1.0, 100),
+    "pcall_reso_super8": ("reso_super8.scn", 1.0, 400),
+    "pcall_reso_methods": ("reso_methods.scn", 1.0, 400),
+    "pcall_reso_route": ("reso_route.scn", 1.0, 400),
+    "pcall_reso_wall": ("reso_wall.scn", 1.0, 400),
 }
 ANGLES = ("hdg", "trk", "ap_trk")
 
