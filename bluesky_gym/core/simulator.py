@@ -140,9 +140,11 @@ class Simulator:
         self._memo = np.full((self.n_envs * self.max_aircraft, MEMO_COLUMNS), np.nan)
         self._empty_bool = np.zeros(0, dtype=np.bool_)
         self._empty_int = np.zeros(0, dtype=np.int64)
-        # Conflict resolution (BlueSky's ASAS with RESO MVP), per airspace that has it switched on.
+        # Conflict resolution (BlueSky's ASAS with RESO MVP): the configuration of each airspace that
+        # has one, and the resolution state of every airspace (pairs being resolved, held values).
         self._asas: dict[int, AsasConfig] = {}
-        self._resolvers: dict[int, MVPResolver] = {}
+        self._reso_pairs = np.zeros((self.n_envs, self.max_aircraft, self.max_aircraft), dtype=np.bool_)
+        self._reso_held = np.full((4, self.n_envs, self.max_aircraft), np.nan)
 
     # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
     active: NDArray[np.bool_]
@@ -201,7 +203,8 @@ class Simulator:
         self.wind.clear(None if envs is None else idx)
         for e in range(self.n_envs) if envs is None else np.atleast_1d(idx).tolist():
             self._asas.pop(int(e), None)
-            self._resolvers.pop(int(e), None)
+        self._reso_pairs[idx] = False
+        self._reso_held[:, idx] = np.nan
 
     def create(
         self,
@@ -593,14 +596,9 @@ class Simulator:
             raise ValueError(f"conflict resolution needs dt >= {ASAS_INTERVAL} s (BlueSky's asas_dt), got {self.dt} s")
         for e in np.atleast_1d(envs).tolist():
             self._asas[int(e)] = config
-            if not config.resolving:
-                self._resolvers.pop(int(e), None)
-                continue
-            r = self._resolvers.get(int(e))
-            if r is None:
-                r = self._resolvers[int(e)] = MVPResolver(detector=str(config.detector))
-            r.detector, r.settings = str(config.detector), config.settings
-            r.rpz, r.hpz, r.lookahead = config.rpz, config.hpz, config.lookahead
+        if not config.resolving:
+            self._reso_pairs[envs] = False
+            self._reso_held[:, envs] = np.nan
 
     def conflict_resolution(self, env: int) -> AsasConfig:
         """The ASAS configuration of airspace ``env`` (BlueSky's defaults unless set)."""
@@ -610,7 +608,7 @@ class Simulator:
         """Advance every airspace by ``dt`` seconds."""
         do_perf = self._performance_due()
         self.simt += self.dt
-        if self._resolvers:
+        if any(c.resolving for c in self._asas.values()):
             self._step_resolving(do_perf)
             return
         if self.swlnav.any():
@@ -642,15 +640,31 @@ class Simulator:
         targets = np.zeros((4, *shape))  # track, ground speed, altitude, vertical speed
         vsmin = np.array([p.vsmin for p in self._type_perf])
         vsmax = np.array([p.vsmax for p in self._type_perf])
-        for e, resolver in self._resolvers.items():
-            view = _AirspaceView(self, e)
-            resolver.vsmin, resolver.vsmax = vsmin[view.type_index], vsmax[view.type_index]
+        groups: dict[AsasConfig, list[int]] = {}
+        for e, config in self._asas.items():
+            if config.resolving:
+                groups.setdefault(config, []).append(e)
+        for config, members in groups.items():  # airspaces with the same settings resolve in one batch
+            envs = np.array(sorted(members), dtype=np.int64)
+            view = _AirspaceView(self, envs)
+            resolver = MVPResolver(
+                config.settings,
+                rpz=config.rpz,
+                hpz=config.hpz,
+                lookahead=config.lookahead,
+                vsmin=vsmin[view.type_index],
+                vsmax=vsmax[view.type_index],
+                detector=str(config.detector),
+            )
+            resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
             cmd = resolver.update(view)
-            follow[e] = cmd.follow[0]
-            targets[:, e] = np.nan_to_num(np.stack([cmd.trk[0], cmd.gs[0], cmd.alt[0], cmd.vs[0]]))
+            self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
+            follow[envs] = cmd.follow
+            targets[:, envs] = np.nan_to_num(np.stack([cmd.trk, cmd.gs, cmd.alt, cmd.vs]))
             # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
-            for s in np.flatnonzero(cmd.ended[0] & (self.nwp[e] > 0)).tolist():
-                self.iactwp[e, s] = self._find_active(e, s)
+            for k, s in zip(*np.nonzero(cmd.ended & (self.nwp[envs] > 0))):
+                e = int(envs[k])
+                self.iactwp[e, s] = self._find_active(e, int(s))
                 self._direct(np.array([e]), np.array([s]))
         wn, we, haswind, any_wind = self._wind_args()
         post_kernel(
@@ -694,7 +708,7 @@ class Simulator:
         """
         if n_steps < 0:
             raise ValueError(f"n_steps must be >= 0, got {n_steps}")
-        if stop is not None and self._resolvers:
+        if stop is not None and any(c.resolving for c in self._asas.values()):
             raise ValueError("run(stop=...) cannot rewind airspaces with conflict resolution; step them instead")
         if stop is None:
             return self._run(n_steps, trace)
@@ -724,7 +738,7 @@ class Simulator:
     def _run(self, n_steps: int, trace: bool) -> Array | None:
         """:meth:`run` without ``stop``."""
         track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft)) if trace else None
-        independent = n_steps > 1 and not (self.wind.count > 1).any() and not self._resolvers
+        independent = n_steps > 1 and not (self.wind.count > 1).any() and not any(c.resolving for c in self._asas.values())
         if not independent:
             for k in range(n_steps):
                 self.step()
@@ -832,10 +846,10 @@ class Simulator:
 
 
 class _AirspaceView:
-    """The state arrays of one airspace of a :class:`Simulator`, shaped (1, max_aircraft) (views, what MVP reads)."""
+    """The state arrays MVP reads of some airspaces of a :class:`Simulator`, shaped (len(envs), max_aircraft)."""
 
-    def __init__(self, sim: Simulator, env: int) -> None:
-        k = slice(env, env + 1)
+    def __init__(self, sim: Simulator, envs: IntArray) -> None:
+        k = envs
         self.active = sim.active[k]
         self.type_index = sim.type_index[k]
         self.lat, self.lon, self.alt, self.tas = sim.lat[k], sim.lon[k], sim.alt[k], sim.tas[k]
