@@ -359,4 +359,16 @@ def horizontal_distance_nm(lat: Array, lon: Array) -> Array:
     return geo.kwikdist(lat[..., :, None], lon[..., :, None], lat[..., None, :], lon[..., None, :])
 
 
-__all__ = ["Conflicts", "DETECTORS", "create_conflicts", "detect", "detect_statebased", "detect_with", "horizontal_distance_nm", "PZ_RADIUS", "PZ_HEIGHT", "LOOKAHEAD", "M2NM"]
+__all__ = [
+    "Conflicts",
+    "DETECTORS",
+    "create_conflicts",
+    "detect",
+    "detect_statebased",
+    "detect_with",
+    "horizontal_distance_nm",
+    "PZ_RADIUS",
+    "PZ_HEIGHT",
+    "LOOKAHEAD",
+    "M2NM",
+]

@@ -581,7 +581,9 @@ class MVPResolver:
         if self.pairs.shape != shape + (shape[1],):
             self.pairs = np.zeros(shape + (shape[1],), np.bool_)
             self.held = np.full((4, *shape), np.nan)
-        c = detect_with(self.detector, state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, state.active, self.rpz, self.hpz, self.lookahead)
+        c = detect_with(
+            self.detector, state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, state.active, self.rpz, self.hpz, self.lookahead
+        )
         res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=self.vsmin, vsmax=self.vsmax)
         renew = np.asarray(c.conflict.any(axis=(1, 2)))[None, :, None]
         self.held = np.where(renew, np.stack([res.trk, res.gs, res.vs, res.alt]), self.held)

@@ -25,8 +25,8 @@ from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance, resolv
 from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
-from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, aircraft_index, checked_index
 from bluesky_gym.core.resolution import AsasConfig, MVPResolver
+from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, aircraft_index, checked_index
 from bluesky_gym.core.step import MEMO_COLUMNS, post_kernel, pre_kernel, run_kernel, step_kernel
 from bluesky_gym.core.units import ASAS_INTERVAL, BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
 from bluesky_gym.core.wind import WindField
@@ -201,7 +201,7 @@ class Simulator:
         self.route_lon[idx] = 0.0
         self.type_index[idx] = 0
         self.wind.clear(None if envs is None else idx)
-        for e in range(self.n_envs) if envs is None else np.atleast_1d(idx).tolist():
+        for e in range(self.n_envs) if envs is None else np.atleast_1d(np.asarray(envs, dtype=np.int64)).tolist():
             self._asas.pop(int(e), None)
         self._reso_pairs[idx] = False
         self._reso_held[:, idx] = np.nan

@@ -139,7 +139,7 @@ def step_pre(F, i, phase, do_perf, perf, memo):  # type: ignore[no-untyped-def] 
 
 @jit_inline
 def step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, trk_t, aptas, apalt, apvs):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
-    """Second part of a step: the targets flown (track [deg], TAS [m/s], altitude [m], vertical speed [m/s]) through the performance limits and the kinematics.
+    """Second part of a step: the targets (track [deg], TAS [m/s], altitude [m], vertical speed [m/s]) through the limits and kinematics.
 
     The targets are the autopilot's (``ap_trk``, ``ap_tas``, ``ap_alt``, ``ap_vs``), or a conflict
     resolution's (BlueSky's ``APorASAS``).

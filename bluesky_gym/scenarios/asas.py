@@ -162,9 +162,7 @@ class AsasState:
         if now.resolving and not was:
             self.resolving_since = t
         if was and not now.resolving and self.resolving_since is not None and t > self.resolving_since:
-            raise ValueError(
-                "switching conflict resolution off once it flew is not supported (BlueSky 1.1.1 then keeps flying the last resolution)"
-            )
+            raise ValueError("switching conflict resolution off once it flew is not supported (BlueSky 1.1.1 then keeps flying the last resolution)")
         if not now.resolving:
             self.resolving_since = None
         return now
@@ -175,7 +173,9 @@ class AsasState:
         try:
             number = float(value) if name in ("ZONER", "ZONEDH") else parse_time(value)
         except ValueError:
-            raise ValueError(f"cannot read {value!r} as a {'distance in NM' if name == 'ZONER' else 'height in ft' if name == 'ZONEDH' else 'time'}") from None
+            raise ValueError(
+                f"cannot read {value!r} as a {'distance in NM' if name == 'ZONER' else 'height in ft' if name == 'ZONEDH' else 'time'}"
+            ) from None
         if number < 0.0:  # BlueSky: a negative value only shows the current one
             return
         cd, cr = self.cd, self.cr

@@ -18,7 +18,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bluesky_gym.core.resolution import AsasConfig
-from bluesky_gym.scenarios.asas import ASAS_COMMANDS, AsasState
 from bluesky_gym.scenarios.arguments import (
     is_latitude,
     parse_altitude,
@@ -31,6 +30,7 @@ from bluesky_gym.scenarios.arguments import (
     parse_vertical_speed,
     split_arguments,
 )
+from bluesky_gym.scenarios.asas import ASAS_COMMANDS, AsasState
 
 #: The only aircraft type the core flies until per-aircraft types are available.
 DEFAULT_ACTYPE = "A320"

@@ -152,7 +152,13 @@ def test_statebased_conflicts_match_reference() -> None:
                 continue
             i, j = ids.index(a), ids.index(b)
             # the tolerances of the CSTATEBASED test above (the states themselves agree to ~1e-13)
-            for got_v, key, tol in ((c.dist, "dist_m", 1e-6), (c.qdr, "qdr_deg_or_LOS", 1e-9), (c.tcpa, "tcpa_s", 1e-6), (c.tlos, "tLOS_s", 1e-6), (c.dcpa, "dcpa_m", 1e-5)):
+            for got_v, key, tol in (
+                (c.dist, "dist_m", 1e-6),
+                (c.qdr, "qdr_deg_or_LOS", 1e-9),
+                (c.tcpa, "tcpa_s", 1e-6),
+                (c.tlos, "tLOS_s", 1e-6),
+                (c.dcpa, "dcpa_m", 1e-5),
+            ):
                 assert got_v[0, i, j] == pytest.approx(v[key], abs=tol), (t, a, b, key)
             checked += 1
         sim.step()
