@@ -183,3 +183,13 @@ def test_simulator_resolution_state_is_per_airspace() -> None:
     sim.reset_envs([1])
     assert sim.conflict_resolution(1) == AsasConfig()
     assert RESO_FACTOR == config.settings.resofach
+
+
+def test_the_shipped_resolution_geometry_is_the_recorded_one() -> None:
+    """``super8_mvp`` plays the commands of ``reso_super8.scn``, which BlueSky recorded (pcall_reso_super8)."""
+    from bluesky_gym.scenarios.geometries import shipped_scenario
+
+    def commands(path: Any) -> list[tuple[float, str]]:
+        return [(c.time, c.source.text) for c in read_scenario(path).commands]
+
+    assert commands(shipped_scenario("super8_mvp")) == commands(DATA / "scn" / "reso_super8.scn")
