@@ -95,8 +95,8 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
     ``perf`` and ``limits`` are the aircraft's type's :func:`perf_row` tuples.
     """
-    step_pre(F, i, phase, do_perf, perf, memo)
-    step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, F[I_AP_TRK, i], F[I_AP_TAS, i], F[I_AP_ALT, i], F[I_AP_VS, i])
+    h, aptas, apalt, apvs = step_pre(F, i, phase, do_perf, perf, memo)
+    step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, h, F[I_AP_TRK, i], aptas, apalt, apvs)
 
 
 @jit_inline
@@ -104,6 +104,7 @@ def step_pre(F, i, phase, do_perf, perf, memo):  # type: ignore[no-untyped-def] 
     """First part of a step: performance update and autopilot (writes ``ap_tas``, ``ap_vs``, ``ap_alt``).
 
     BlueSky's conflict detection and resolution run between this part and :func:`step_post`.
+    Returns the altitude [m] and the autopilot's TAS [m/s], altitude [m] and vertical speed [m/s].
     """
     mm = memo[i]
     # Performance update from the start-of-step state [docs/dynamics.md §2.1].
@@ -134,19 +135,20 @@ def step_pre(F, i, phase, do_perf, perf, memo):  # type: ignore[no-untyped-def] 
         else:
             mm[M_APTAS] = cas2tas_at(spd, p_h, rho_h)
         mm[M_SPD], mm[M_SPD_H] = spd, h
-    F[I_AP_TAS, i] = mm[M_APTAS]
+    aptas = mm[M_APTAS]
+    F[I_AP_TAS, i] = aptas
+    return h, aptas, apalt, apvs
 
 
 @jit_inline
-def step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, trk_t, aptas, apalt, apvs):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, h, trk_t, aptas, apalt, apvs):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """Second part of a step: the targets (track [deg], TAS [m/s], altitude [m], vertical speed [m/s]) through the limits and kinematics.
 
-    The targets are the autopilot's (``ap_trk``, ``ap_tas``, ``ap_alt``, ``ap_vs``), or a conflict
-    resolution's (BlueSky's ``APorASAS``).
+    ``h`` is the start-of-step altitude [m]. The targets are the autopilot's (``ap_trk``, ``ap_tas``,
+    ``ap_alt``, ``ap_vs``), or a conflict resolution's (BlueSky's ``APorASAS``).
     """
     hmax, vsmax, mmo, v_rotate = limits
     mm = memo[i]
-    h = F[I_ALT, i]
     p_h, rho_h, t_h = mm[M_P_H], mm[M_RHO_H], mm[M_T_H]
     vs_t = abs(apvs)
     if any_wind:
@@ -321,16 +323,14 @@ def post_kernel(F, phase, wn, we, haswind, any_wind, dt, table, actype, memo, ac
             continue
         if not one_type:
             perf, limits = perf_row(table, actype[i])
+        trk_t, tas_t, alt_t, vs_t = F[I_AP_TRK, i], F[I_AP_TAS, i], F[I_AP_ALT, i], F[I_AP_VS, i]
         if follow[i]:
-            trk_t = res_trk[i]
-            tas_t = res_gs[i]
+            trk_t, tas_t, alt_t, vs_t = res_trk[i], res_gs[i], res_alt[i], res_vs[i]
             if any_wind and haswind[i]:
                 tn = res_gs[i] * math.cos(trk_t * RAD) - wn[i]
                 te = res_gs[i] * math.sin(trk_t * RAD) - we[i]
                 tas_t = math.sqrt(tn**2 + te**2)
-            step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, trk_t, tas_t, res_alt[i], res_vs[i])
-        else:
-            step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, F[I_AP_TRK, i], F[I_AP_TAS, i], F[I_AP_ALT, i], F[I_AP_VS, i])
+        step_post(F, i, phase, wn, we, haswind, any_wind, dt, limits, memo, F[I_ALT, i], trk_t, tas_t, alt_t, vs_t)
 
 
 @jit
