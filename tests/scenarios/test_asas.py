@@ -193,3 +193,35 @@ def test_the_shipped_resolution_geometry_is_the_recorded_one() -> None:
         return [(c.time, c.source.text) for c in read_scenario(path).commands]
 
     assert commands(shipped_scenario("super8_mvp")) == commands(DATA / "scn" / "reso_super8.scn")
+
+
+@pytest.mark.bluesky
+def test_resolution_in_wind_flies_as_in_bluesky() -> None:
+    """In wind the resolution ground speed becomes a TAS against the wind (APorASAS): core and BlueSky backend side by side."""
+    pytest.importorskip("bluesky")
+    from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
+    from bluesky_gym.scenarios import TRAJECTORY_COLUMNS
+    from bluesky_gym.scenarios.geometries import super_conflict, with_resolution
+    from tests.core.test_reference import TOL
+
+    scenario = parse_scenario(with_resolution(super_conflict(6, radius_nm=25.0), detector="CSTATEBASED", settings=("RMETHH BOTH",)), "wind.scn")
+    tracks: list[list[list[object]]] = []
+    for sim in (Simulator(1, 6), BlueSkyPhysics(6)):
+        try:
+            sim.wind.add_points(0, [52.0], [4.0], [9.0], [-14.0])  # one point: the same wind everywhere
+            tracks.append(_replay([scenario], sim, 300))
+        finally:
+            if isinstance(sim, BlueSkyPhysics):
+                sim.close()
+    core, bluesky = tracks
+    assert len(core) == len(bluesky) == 6 * 301
+    index = {c: TRAJECTORY_COLUMNS.index(c) for c in ("lat", "lon", "alt", "tas", "gs", "trk", "hdg", "vs")}
+    start = {row[1]: float(row[index["trk"]]) for row in core[:6]}  # type: ignore[arg-type]
+    turned = 0
+    for a, b in zip(core, bluesky):
+        for c, k in index.items():
+            err = abs(float(a[k]) - float(b[k]))  # type: ignore[arg-type]
+            err = min(err, 360.0 - err) if c in ("trk", "hdg") else err
+            assert err <= TOL[c], (a[0], a[1], c, a[k], b[k])
+        turned += abs((float(a[index["trk"]]) - start[a[1]] + 180.0) % 360.0 - 180.0) > 1.0  # type: ignore[arg-type]
+    assert turned > 100  # the resolution did act
