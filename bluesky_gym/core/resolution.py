@@ -26,6 +26,9 @@ flies):
 Not modelled: priority rules (``PRIORULES``, off by default), ``NORESO`` / ``RESOOFF`` lists and
 per-aircraft zone sizes (the package uses one protected zone per call).
 
+:class:`AsasConfig` is BlueSky's ASAS switches of one airspace (detection method, ``RESO MVP``,
+zones, settings); :meth:`bluesky_gym.core.Simulator.set_conflict_resolution` flies it.
+
 :func:`resume` is BlueSky's ``resumenav`` bookkeeping: which pairs are still being resolved
 (before their closest point of approach, in horizontal loss of separation, or "bouncing"), and
 so which aircraft still follow their resolution.

@@ -7,6 +7,9 @@ does). Each command is parsed into one of the dataclasses below, with every valu
 the line it came from; aircraft are named by callsign. A command may also be written callsign
 first (``KL204 HDG 90``), as BlueSky's stack accepts.
 
+Conflict detection and resolution commands become :class:`Asas` commands carrying BlueSky's ASAS
+configuration after them (:mod:`~bluesky_gym.scenarios.asas`).
+
 Every problem is a :class:`ScenarioError` naming the file, the line and the command.
 """
 

@@ -6,6 +6,9 @@ timing: the commands at time 0 run before the first recorded state; a command at
 runs at the start of the first step that starts at or after ``t`` (BlueSky's scenario stack is
 checked at the start of every step), so a command at a multiple of ``dt`` acts in the step that
 ends at ``t + dt``. Identical scenarios (copies) are commanded together, in one call per command.
+Conflict detection and resolution commands (``ASAS``, ``RESO MVP``, ...) reach a physics that
+implements :class:`~bluesky_gym.core.physics.ConflictResolutionCommands`; on another physics a
+scenario that switches resolution on is an error.
 """
 
 from __future__ import annotations

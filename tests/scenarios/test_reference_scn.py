@@ -99,6 +99,17 @@ def test_recordings_cover_the_scenario_commands() -> None:
         "FL",
         ";",
         "\\",
+        "ASAS ON",
+        "CDMETHOD CSTATEBASED",
+        "RESO MVP",
+        "RMETHH",
+        "RMETHV",
+        "RFACH",
+        "RFACV",
+        "ZONER",
+        "ZONEDH",
+        "RSZONER",
+        "DTLOOK",
     ):
         assert word in text, word
     assert np.isfinite([float(r["lat"]) for r in load("pcall_route")]).all()
