@@ -28,6 +28,7 @@ SCN = {
     "pcall_export_descent": ("export_descent.scn", 1.0, 200),
     "pcall_export_vertical_cr": ("export_vertical_cr.scn", 1.0, 100),
     "pcall_reso_super8": ("reso_super8.scn", 1.0, 400),
+    "pcall_reso_super8_dt5": ("reso_super8.scn", 5.0, 400),
     "pcall_reso_methods": ("reso_methods.scn", 1.0, 400),
     "pcall_reso_route": ("reso_route.scn", 1.0, 400),
     "pcall_reso_wall": ("reso_wall.scn", 1.0, 400),
