@@ -279,25 +279,31 @@ def detect_statebased(
     rpz: float = PZ_RADIUS,
     hpz: float = PZ_HEIGHT,
     lookahead: float = LOOKAHEAD,
+    python_geo: bool = False,
 ) -> Conflicts:
     """BlueSky 1.1.1's Python STATEBASED detection (what ``ASAS ON`` selects), over all ordered pairs [docs/dynamics.md §5].
 
     Its formulas differ from CSTATEBASED's (:func:`detect`) in their floors and in how a pair
-    without horizontal conflict is timed, and it takes its bearings from the compiled
-    ``kwikqdrdist_matrix``, which gives the pair (i, j) with i > j the bearing j -> i: the
-    higher-index aircraft see approaching intruders on the wrong side, so those pairs appear only
-    in loss of separation. Aircraft are indexed by slot, which is BlueSky's creation order.
-    All inputs are shaped (n_envs, n_aircraft).
+    without horizontal conflict is timed. It takes its bearings from BlueSky's
+    ``kwikqdrdist_matrix``: the compiled one (BlueSky's default, ``python_geo=False``) gives the
+    pair (i, j) with i > j the bearing j -> i, so the higher-index aircraft see approaching
+    intruders on the wrong side and those pairs appear only in loss of separation; the Python one
+    (when BlueSky runs with its Python geo functions, see ``Simulator(geo=...)``) is correct.
+    Aircraft are indexed by slot, which is BlueSky's creation order. All inputs are shaped
+    (n_envs, n_aircraft).
     """
     n = lat.shape[-1]
     upper = np.triu(np.ones((n, n), dtype=bool), 1)
     eye = np.eye(n)
     with np.errstate(all="ignore"):
-        q_ij, d_ij = geo.kwikqdrdist(lat[..., :, None], lon[..., :, None], lat[..., None, :], lon[..., None, :])
-        qdr = np.where(upper, q_ij, np.swapaxes(q_ij, -1, -2))  # the matrix form copies i -> j into (j, i)
-        qdr = np.where(eye > 0, 0.0, qdr)
-        dist = np.where(upper, d_ij, np.swapaxes(d_ij, -1, -2))
-        dist = np.where(eye > 0, 0.0, dist) * NM + SELF_PAIR * eye
+        if python_geo:
+            qdr, dist_nm = geo.kwikqdrdist_matrix_python(lat, lon)
+        else:
+            q_ij, d_ij = geo.kwikqdrdist(lat[..., :, None], lon[..., :, None], lat[..., None, :], lon[..., None, :])
+            qdr = np.where(upper, q_ij, np.swapaxes(q_ij, -1, -2))  # the matrix form copies i -> j into (j, i)
+            qdr = np.where(eye > 0, 0.0, qdr)
+            dist_nm = np.where(eye > 0, 0.0, np.where(upper, d_ij, np.swapaxes(d_ij, -1, -2)))
+        dist = dist_nm * NM + SELF_PAIR * eye
         qdrrad = np.radians(qdr)
         dx = dist * np.sin(qdrrad)
         dy = dist * np.cos(qdrrad)
@@ -341,8 +347,9 @@ def detect_with(
     rpz: float = PZ_RADIUS,
     hpz: float = PZ_HEIGHT,
     lookahead: float = LOOKAHEAD,
+    python_geo: bool = False,
 ) -> Conflicts:
-    """:func:`detect` (``"CSTATEBASED"``) or :func:`detect_statebased` (``"STATEBASED"``).
+    """:func:`detect` (``"CSTATEBASED"``) or :func:`detect_statebased` (``"STATEBASED"``, with ``python_geo``).
 
     Raises:
         ValueError: Another detector name.
@@ -350,7 +357,7 @@ def detect_with(
     if detector == "CSTATEBASED":
         return detect(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead)
     if detector == "STATEBASED":
-        return detect_statebased(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead)
+        return detect_statebased(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, python_geo)
     raise ValueError(f"conflict detector {detector!r} not known; choose one of {', '.join(DETECTORS)}")
 
 

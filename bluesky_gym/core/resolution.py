@@ -546,6 +546,7 @@ class MVPResolver:
         vsmax: Upper vertical-speed limit [m/s], scalar or per aircraft (default: the A320's).
         detector: The conflict detection, by BlueSky name: ``"CSTATEBASED"`` (:func:`~bluesky_gym.core.conflicts.detect`,
             the default) or ``"STATEBASED"`` (:func:`~bluesky_gym.core.conflicts.detect_statebased`, what ``ASAS ON`` selects).
+        python_geo: STATEBASED with BlueSky's Python geo functions instead of its compiled ones.
     """
 
     def __init__(
@@ -558,10 +559,12 @@ class MVPResolver:
         vsmin: ArrayLike | None = None,
         vsmax: ArrayLike | None = None,
         detector: str = "CSTATEBASED",
+        python_geo: bool = False,
     ) -> None:
         if detector not in DETECTORS:
             raise ValueError(f"conflict detector {detector!r} not known; choose one of {', '.join(DETECTORS)}")
         self.detector = detector
+        self.python_geo = python_geo
         self.settings = settings or ResolutionSettings()
         self.rpz, self.hpz, self.lookahead = float(rpz), float(hpz), float(lookahead)
         self.vsmin, self.vsmax = vsmin, vsmax
@@ -585,7 +588,18 @@ class MVPResolver:
             self.pairs = np.zeros(shape + (shape[1],), np.bool_)
             self.held = np.full((4, *shape), np.nan)
         c = detect_with(
-            self.detector, state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, state.active, self.rpz, self.hpz, self.lookahead
+            self.detector,
+            state.lat,
+            state.lon,
+            state.alt,
+            state.gs,
+            state.trk,
+            state.vs,
+            state.active,
+            self.rpz,
+            self.hpz,
+            self.lookahead,
+            self.python_geo,
         )
         res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=self.vsmin, vsmax=self.vsmax)
         renew = np.asarray(c.conflict.any(axis=(1, 2)))[None, :, None]

@@ -655,6 +655,7 @@ class Simulator:
                 vsmin=vsmin[view.type_index],
                 vsmax=vsmax[view.type_index],
                 detector=str(config.detector),
+                python_geo=self.geo == "python",
             )
             resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
             cmd = resolver.update(view)

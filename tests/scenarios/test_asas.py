@@ -225,3 +225,19 @@ def test_resolution_in_wind_flies_as_in_bluesky() -> None:
             assert err <= TOL[c], (a[0], a[1], c, a[k], b[k])
         turned += abs((float(a[index["trk"]]) - start[a[1]] + 180.0) % 360.0 - 180.0) > 1.0  # type: ignore[arg-type]
     assert turned > 100  # the resolution did act
+
+
+def test_statebased_bearings_depend_on_bluesky_geo_functions() -> None:
+    """With BlueSky's compiled geo functions STATEBASED misses the approaching reverse pairs; with its Python ones it sees all."""
+    from bluesky_gym.core.conflicts import detect, detect_statebased
+    from bluesky_gym.scenarios.geometries import shipped_scenario
+
+    sim = Simulator(1, 8)
+    ScenarioPlayer([read_scenario(shipped_scenario("super8"))], sim)
+    sim.run(150)  # all within the look-ahead time of each other, not yet in loss of separation
+    state = (sim.lat, sim.lon, sim.alt, sim.gs, sim.trk, sim.vs, sim.active)
+    symmetric = detect(*state).conflict[0]
+    compiled = detect_statebased(*state).conflict[0]
+    python = detect_statebased(*state, python_geo=True).conflict[0]
+    assert symmetric.sum() == 56 and np.array_equal(python, symmetric)
+    assert np.array_equal(compiled, np.triu(symmetric))  # only the pairs (i, j) with i < j

@@ -41,10 +41,10 @@ def load(name: str) -> list[dict[str, str]]:
         return list(csv.DictReader(fh))
 
 
-def replay(name: str, n_envs: int = 1, env: int = 0) -> list[list[object]]:
+def replay(name: str, n_envs: int = 1, env: int = 0, geo: str = "compiled") -> list[list[object]]:
     file, dt, duration = SCN[name]
     scenario = read_scenario(DATA / "scn" / file)
-    sim = Simulator(n_envs, slots_needed(scenario), dt=dt, max_waypoints=max(4, waypoints_needed(scenario)))
+    sim = Simulator(n_envs, slots_needed(scenario), dt=dt, max_waypoints=max(4, waypoints_needed(scenario)), geo=geo)
     player = ScenarioPlayer([scenario] * n_envs, sim)
     rows = [r for r, e in zip(player.snapshot(0), player.scenario_of_rows()) if e == env]
     for k in range(1, int(duration / dt) + 1):
@@ -131,9 +131,15 @@ def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
         for k in range(1, int(duration / dt) + 1):
             player.step()
             got += player.snapshot(k * dt)
+        geo = sim.geo
     finally:
         sim.close()
     ref = load(name)
+    if geo == "python" and "ASAS ON" in (DATA / "scn" / file).read_text():
+        # BlueSky runs with its Python geo functions in this process (bluesky.tools.geo was imported
+        # before bs.init), whose STATEBASED bearings are all correct, unlike those of the compiled
+        # functions of the recording: the reference is then the core flying with the same geo set.
+        ref = [{c: str(v) for c, v in zip(TRAJECTORY_COLUMNS, row)} for row in replay(name, geo="python")]
     assert len(got) == len(ref)
     for row, want in zip(got, ref):
         values = dict(zip(TRAJECTORY_COLUMNS, row))
