@@ -6,7 +6,8 @@ Examples::
     bluesky-gym realtraffic prepare --table flights.csv --out my.npz  # a user's ADS-B table
     bluesky-gym realtraffic fidelity --windows 64                    # deviation from the recordings after 5, 10, 20 min
     bluesky-gym realtraffic stats --episodes 50                      # flights, aircraft-hours, conflicts, policy KPIs
-    bluesky-gym realtraffic scn --seed 0 --out episode.scn           # an episode's window as a BlueSky scenario
+    bluesky-gym realtraffic report results/realtraffic               # the tables of README.md and docs/realtraffic.md
+    bluesky-gym realtraffic scn --seed 0 --out episode.scn           # an episode's window, flown with nobody acting, as a BlueSky scenario
 
 ``prepare`` cleans with the ``traffic`` library (the ``realtraffic`` extra) and writes a ``.npz``
 file that the environments read with numpy alone (``gym.make("RealTrafficCREnv-v0",
@@ -15,7 +16,11 @@ prints, per collection, the median and 95th percentile of the lateral and vertic
 the recorded tracks 5, 10 and 20 minutes after each aircraft appeared, as a Markdown table.
 ``stats`` prints per collection: flights, aircraft-hours, losses of separation per flight-hour
 when nobody acts, and the KPIs of the ``random`` and ``classical`` policies (and of ``--model``)
-on its test windows.
+on its test windows. With ``--json FILE`` both save their figures with the command line that
+made them, the package version and their inputs; ``report DIR`` writes the tables of the pages
+(``README.md`` and ``docs/realtraffic.md`` by default) between their ``<!-- realtraffic:NAME -->``
+markers from the JSON files of ``DIR`` (see :mod:`bluesky_gym.realtraffic.report`); with
+``--check`` it only says whether the pages are up to date.
 """
 
 from __future__ import annotations
@@ -31,9 +36,6 @@ import numpy as np
 from bluesky_gym.cli.train import positive_int
 from bluesky_gym.core.extras import MissingDependencyError
 
-HEADER = (
-    "| collection | flights | aircraft-hours | LoS per flight-hour (nobody acts) | policy | return | LoS / episode | min sep [NM] | route dev [NM] |"
-)
 FIDELITY_WINDOW_S = 1200.0  # s: long enough for the 20-minute horizon
 FIDELITY_STRIDE_S = 300.0  # s between candidate window starts
 
@@ -63,10 +65,11 @@ def add_parser(subparsers: Any) -> None:
     fid = sub.add_parser("fidelity", help="deviation of the replay from the recorded tracks after 5, 10 and 20 minutes")
     fid.add_argument("--collections", nargs="+", default=None, metavar="NAME", help="collections (default: switzerland quickstart)")
     fid.add_argument("--windows", type=positive_int, default=64, metavar="N", help="windows per collection, spread over its time (default: 64)")
+    fid.add_argument("--type", metavar="ICAO", help="fly every aircraft as this type instead of its recorded one (a comparison), e.g. A320")
     fid.add_argument("--cache-dir", metavar="DIR", help="cache directory")
-    fid.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON")
+    fid.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON (for 'realtraffic report')")
     fid.set_defaults(func=run_fidelity)
-    scn = sub.add_parser("scn", help="write the window of an episode of RealTrafficCREnv-v0 as a BlueSky .scn file")
+    scn = sub.add_parser("scn", help="write the window of an episode of RealTrafficCREnv-v0, flown with nobody acting, as a BlueSky .scn file")
     scn.add_argument("--seed", type=int, default=0, help="episode seed (evaluation-range seeds, 2**31 and above, draw from the test split)")
     scn.add_argument("--collections", nargs="+", default=None, metavar="NAME", help="collections (default: switzerland quickstart)")
     scn.add_argument("--cache-dir", metavar="DIR", help="cache directory")
@@ -78,8 +81,19 @@ def add_parser(subparsers: Any) -> None:
     st.add_argument("--episodes", type=positive_int, default=50, metavar="N", help="test episodes per policy (default: 50)")
     st.add_argument("--model", metavar="PATH", help="also evaluate a trained model (run directory or .zip), e.g. the demo's PPO")
     st.add_argument("--cache-dir", metavar="DIR", help="cache directory")
-    st.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON")
+    st.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON (for 'realtraffic report')")
     st.set_defaults(func=run_stats)
+    rep = sub.add_parser("report", help="write the fidelity and statistics tables of the pages from saved JSON files")
+    rep.add_argument("directory", type=Path, metavar="DIR", help="directory of the JSON files of 'fidelity --json' and 'stats --json'")
+    rep.add_argument(
+        "pages",
+        nargs="*",
+        type=Path,
+        metavar="PAGE",
+        help="Markdown pages with <!-- realtraffic:NAME --> blocks (default: README.md docs/realtraffic.md)",
+    )
+    rep.add_argument("--check", dest="check_only", action="store_true", help="change nothing; exit with 1 if a page differs from what the files give")
+    rep.set_defaults(func=run_report)
 
 
 def _spread(items: list[Any], n: int) -> list[Any]:
@@ -96,18 +110,67 @@ def _collections(args: argparse.Namespace) -> list[str]:
     return list(args.collections or SAMPLE_COLLECTIONS)
 
 
-def _replay(name: str, n_windows: int, cache: str | None) -> Any:
+def _replay(name: str, n_windows: int, cache: str | None, actype: str | None = None) -> tuple[Any, Any, dict[str, Any]]:
+    """Replay ``n_windows`` windows of a collection: its flights, the :class:`Fidelity` and the collection's entry of the JSON."""
+    import dataclasses
+
+    from bluesky_gym.core.aircraft import resolve_type
     from bluesky_gym.realtraffic.cache import load_collection
-    from bluesky_gym.realtraffic.fidelity import fidelity
-    from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, windows
+    from bluesky_gym.realtraffic.fidelity import fidelity, large_vertical_deviations
+    from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, simulator_type, windows
     from bluesky_gym.tasks.real_traffic import RealTrafficConfig
 
     cfg = RealTrafficConfig()
     flights = load_collection(name, cache)
+    with_type = int(sum(1 for t in flights.typecode if str(t).strip()))
+    if actype is not None:
+        flights = dataclasses.replace(flights, typecode=np.array([actype] * flights.n_flights))
     found = windows(flights, FIDELITY_WINDOW_S, FIDELITY_STRIDE_S, cfg.radius_nm, cfg.min_traffic, cfg.max_traffic)
     if not found:
         raise ValueError(f"{name}: no {FIDELITY_WINDOW_S / 60:.0f}-minute window with traffic")
-    return flights, fidelity(flights, _spread(found, n_windows), cfg.max_traffic + 1, MAX_ROUTE_POINTS)
+    chosen = _spread(found, n_windows)
+    result = fidelity(flights, chosen, cfg.max_traffic + 1, MAX_ROUTE_POINTS)
+    flown: dict[str, int] = {}
+    for w in chosen:
+        for f in w.flights:
+            t = resolve_type(simulator_type(str(flights.typecode[f])))
+            flown[t] = flown.get(t, 0) + 1
+    entry = {
+        "name": flights.name,
+        "windows": result.windows,
+        "flights": flights.n_flights,
+        "flights_with_type": with_type,
+        "flown_types": flown,
+        "rows": result.summary(),
+        "large_vertical": large_vertical_deviations(flights, result),
+    }
+    return flights, result, entry
+
+
+def _words(action: str, given: dict[str, Any]) -> list[str]:
+    """The command line of ``realtraffic ACTION`` (program name left out) with the options in ``given`` (None: absent), paths cleaned."""
+    from bluesky_gym.realtraffic.report import clean_path
+
+    words = ["realtraffic", action]
+    for flag, value in given.items():
+        if value is None or value is False:
+            continue
+        words.append(flag)
+        if value is True:
+            continue
+        values = value if isinstance(value, list) else [value]
+        words.extend(clean_path(v) if isinstance(v, Path) or _is_path(v) else str(v) for v in values)
+    return words
+
+
+def _is_path(value: Any) -> bool:
+    text = str(value)
+    return "/" in text or text.endswith((".npz", ".zip"))
+
+
+def _write_json(path: Path, doc: dict[str, Any]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
 
 
 def run_prepare(args: argparse.Namespace) -> int:
@@ -137,38 +200,54 @@ def run_scn(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import bluesky_gym
-    from bluesky_gym.realtraffic.scn import write_scn
+    from bluesky_gym.realtraffic.cache import load_collection, window_of_part
+    from bluesky_gym.realtraffic.fidelity import write_window_scenario
 
     bluesky_gym.register_envs()
     try:
-        env = gym.make("RealTrafficCREnv-v0", collections=tuple(_collections(args)), cache_dir=args.cache_dir)
+        names = _collections(args)
+        env = gym.make("RealTrafficCREnv-v0", collections=tuple(names), cache_dir=args.cache_dir)
         env.reset(seed=args.seed)
         task = env.unwrapped.task  # type: ignore[attr-defined]
-        window = task.window(0)
-        path = write_scn(task.flights, window, args.out)
+        k, window = window_of_part([load_collection(n, args.cache_dir) for n in names], task.window(0))
+        flights = load_collection(names[k], args.cache_dir)
+        path = write_window_scenario(flights, window, args.out, task.max_waypoints())
     except (MissingDependencyError, ValueError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
-    print(f"{path}: {len(window.flights)} aircraft, {window.duration:.0f} s")
+    print(f"{path}: {flights.name}, {len(window.flights)} aircraft, {window.duration:.0f} s flown with nobody acting")
     return 0
 
 
 def run_fidelity(args: argparse.Namespace) -> int:
     """Run ``realtraffic fidelity``."""
+    import bluesky_gym
+    from bluesky_gym.core.aircraft import supported_types
     from bluesky_gym.realtraffic.fidelity import format_markdown
+    from bluesky_gym.realtraffic.report import clean_path, command_line, fidelity_document
 
-    results = []
+    results, entries = [], []
+    actype = args.type.strip().upper() if args.type else None
     try:
-        for name in _collections(args):
-            results.append(_replay(name, args.windows, args.cache_dir)[1])
+        if actype is not None and actype not in supported_types():
+            raise ValueError(f"--type {args.type}: not a type BlueSky flies with OpenAP data (e.g. A320, B738, B744)")
+        names = _collections(args)
+        for name in names:
+            _, result, entry = _replay(name, args.windows, args.cache_dir, actype)
+            results.append(result)
+            entries.append(entry)
     except (MissingDependencyError, ValueError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
     print(format_markdown(results))
     windows = ", ".join(f"{r.collection}: {r.windows} windows" for r in results)
-    print(f"\n{windows} of 20 minutes, nobody acting, every aircraft with its recorded type (BlueSky's B744 where missing or unknown)")
+    flown = f"every aircraft flown as the {actype}" if actype else "every aircraft with its recorded type (BlueSky's B744 where missing or unknown)"
+    print(f"\n{windows} of 20 minutes, nobody acting, {flown}")
     if args.json:
-        args.json.write_text(json.dumps({r.collection: r.summary() for r in results}, indent=2))
+        shown = [clean_path(n) if _is_path(n) else n for n in names]
+        words = _words("fidelity", {"--collections": names, "--windows": args.windows, "--type": actype, "--json": args.json})
+        inputs = {"collections": shown, "windows": args.windows, "window_minutes": FIDELITY_WINDOW_S / 60.0, "type": actype}
+        _write_json(args.json, fidelity_document(command_line(words), bluesky_gym.__version__, inputs, entries))
     return 0
 
 
@@ -177,34 +256,40 @@ def run_stats(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import bluesky_gym
+    from bluesky_gym.realtraffic.report import clean_path, command_line, stats_document, stats_lines
     from bluesky_gym.training.evaluation import evaluate, load_policy
-    from bluesky_gym.training.policies import reference_policy
+    from bluesky_gym.training.policies import SB3Policy, reference_policy
 
     bluesky_gym.register_envs()
 
     rows = []
     policies = ["random", "classical"] + ([args.model] if args.model else [])
     try:
-        for name in _collections(args):
+        names = _collections(args)
+        for name in names:
             space = gym.make("RealTrafficCREnv-v0", collections=(name,), cache_dir=args.cache_dir).action_space
             # fresh per collection: the random policy's generator restarts
             low, high = np.asarray(getattr(space, "low")), np.asarray(getattr(space, "high"))  # noqa: B009 - a Box
             made = {p: reference_policy(p, "RealTrafficCREnv-v0", low, high) for p in policies[:2]}
             if args.model:
                 made[args.model] = load_policy(args.model)
-            flights, replay = _replay(name, args.windows, args.cache_dir)
+            flights, replay, _ = _replay(name, args.windows, args.cache_dir)
             row: dict[str, Any] = {
-                "collection": name,
+                "collection": flights.name,
                 "flights": flights.n_flights,
                 "aircraft_hours": round(flights.flight_hours(), 1),
                 "conflicts_per_flight_hour": round(replay.conflicts_per_flight_hour, 3),
+                "policies": {},
             }
             options = {"collections": (name,), "split": "test", "cache_dir": args.cache_dir}
             for policy in policies:
                 res = evaluate("RealTrafficCREnv-v0", made[policy], args.episodes, env_options=options)
                 s = res.summary
                 route = [float(e.get("kpi_mean_route_deviation_nm", "nan")) for e in res.episodes]
-                row[policy] = {
+                # random, classical, or the model's algorithm (the model's path is in the command)
+                acting = made[policy]
+                label = type(acting.model).__name__ if isinstance(acting, SB3Policy) else policy
+                row["policies"][label] = {
                     "return": s["return"]["mean"],
                     "los_per_episode": s["los"]["mean"],
                     "min_separation_nm": s["min_sep_nm"]["mean"],
@@ -214,15 +299,46 @@ def run_stats(args: argparse.Namespace) -> int:
     except (MissingDependencyError, ValueError, FileNotFoundError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
-    print(HEADER)
-    print("|---|---:|---:|---:|---|---:|---:|---:|---:|")
-    for r in rows:
-        for policy in policies:
-            k = r[policy]
-            print(
-                f"| {r['collection']} | {r['flights']} | {r['aircraft_hours']} | {r['conflicts_per_flight_hour']} | {policy} | "
-                f"{k['return']:.2f} | {k['los_per_episode']:.2f} | {k['min_separation_nm']:.2f} | {k['route_deviation_nm']:.2f} |"
-            )
+    print("\n".join(stats_lines(rows)))
     if args.json:
-        args.json.write_text(json.dumps(rows, indent=2))
+        model = clean_path(args.model) if args.model else None
+        given = {"--collections": names, "--windows": args.windows, "--episodes": args.episodes, "--model": args.model, "--json": args.json}
+        inputs = {
+            "collections": [clean_path(n) if _is_path(n) else n for n in names],
+            "windows": args.windows,
+            "episodes": args.episodes,
+            "model": model,
+        }
+        _write_json(args.json, stats_document(command_line(_words("stats", given)), bluesky_gym.__version__, inputs, rows))
     return 0
+
+
+def run_report(args: argparse.Namespace) -> int:
+    """Run ``realtraffic report``."""
+    from bluesky_gym.realtraffic.report import ReportError, blocks_in, fill, render_blocks
+
+    pages = args.pages or [Path("README.md"), Path("docs/realtraffic.md")]
+    stale = []
+    try:
+        blocks = render_blocks(args.directory)
+        for page in pages:
+            if not page.is_file():
+                raise ReportError(f"{page}: no such page")
+            text = page.read_text(encoding="utf-8")
+            names = blocks_in(text)
+            if not names:
+                raise ReportError(f"{page}: no <!-- realtraffic:NAME --> block to fill")
+            new = fill(text, blocks, str(page))
+            if new == text:
+                print(f"{page}: up to date ({', '.join(names)})")
+                continue
+            stale.append(page)
+            if args.check_only:
+                print(f"{page}: differs from what {args.directory} gives ({', '.join(names)})")
+            else:
+                page.write_text(new, encoding="utf-8")
+                print(f"{page}: wrote {', '.join(names)}")
+    except ReportError as exc:
+        print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
+        return 2
+    return 1 if (args.check_only and stale) else 0

@@ -4,14 +4,16 @@ Examples::
 
     bluesky-gym render --env HorizontalCREnv-v0 --out horizontal.gif    # random actions
     bluesky-gym render --env MergeEnv-v0 --policy classical --episodes 2 --out merge.mp4 --seed 7
+    bluesky-gym render --env SectorCREnv-v1 --policy mvp --out sector_mvp.gif    # MVP resolving
     bluesky-gym render --env DescentEnv-v0 --policy runs/descent/model.zip --out descent.gif
     bluesky-gym render --env SectorCREnv-v0 --grid 4 --out sector_grid.gif  # 4 side by side
     bluesky-gym render --env VerticalCREnv-v0 --human                 # watch in a window
     bluesky-gym render --env MergeEnv-v0 --out merge.gif --scn merge.scn  # and a BlueSky scenario
 
 The policy is ``random`` (uniform actions, seeded by ``--seed``), ``classical`` (the benchmark's
-hand-written controller) or the path of a Stable-Baselines3 model ``.zip`` (its algorithm is read
-from the file, or given with ``--algo``). ``--seed`` seeds the first episode; the following ones
+hand-written controller), ``mvp`` (BlueSky's MVP conflict resolution, for the environments with
+traffic) or the path of a Stable-Baselines3 model ``.zip`` (its algorithm is read from the file,
+or given with ``--algo``). ``--seed`` seeds the first episode; the following ones
 continue the environment's generator, so the same command always writes the same video.
 """
 
@@ -46,7 +48,11 @@ def add_parser(subparsers: Any) -> None:
         description=__doc__,
     )
     add_env_option(p, help="environment id, e.g. HorizontalCREnv-v0")
-    p.add_argument("--policy", default="random", help="random, classical, or the path of a Stable-Baselines3 model .zip (default: random)")
+    p.add_argument(
+        "--policy",
+        default="random",
+        help="random, classical, mvp (environments with traffic), or the path of a Stable-Baselines3 model .zip (default: random)",
+    )
     p.add_argument("--algo", choices=sorted(SB3_ALGORITHMS), help="algorithm of the model .zip (default: read from the file)")
     p.add_argument("--stochastic", action="store_true", help="sample the model's actions instead of taking the deterministic ones")
     p.add_argument("--episodes", type=positive_int, default=1, metavar="K", help="episodes to record (default: 1)")

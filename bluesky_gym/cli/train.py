@@ -20,7 +20,8 @@ until rerun with ``--resume-from-last-intact`` (continue from the last intact ch
 ``--restart``. The multi-agent environments are trained with ``bluesky-gym train-ma``.
 
 ``demo`` trains PPO on 16 batched environments (``configs/demo.toml``), evaluates the policy
-against the ``random`` and ``classical`` reference policies on held-out scenarios, and writes the
+against the ``random`` and ``classical`` reference policies (and ``mvp`` for the environments with
+traffic) on held-out scenarios, and writes the
 learning curves, the aggregate plot and (when rendering is available) a GIF of the trained
 policy.
 """

@@ -15,9 +15,11 @@ BlueSky's formulas step by step, including its quirks (kept, because they are wh
 flies):
 
 * the resolution speed is a ground speed, but it is capped by the CAS envelope ``vmin``/``vmax``;
-* the vertical speed is capped to ``[vsmin, vsmax]`` of the performance model; with OpenAP's
-  A320 ``vsmin`` is the smallest *climb* rate (3.6 m/s), so the capped value is a magnitude and
-  the direction comes from the resolution altitude (as BlueSky's autopilot applies it);
+* the vertical speed is capped to ``[vsmin, vsmax]`` of each aircraft's performance model
+  (BlueSky's ``ownship.perf.vsmin``/``vsmax``, per aircraft from its type:
+  :func:`vertical_speed_limits`); OpenAP's ``vsmin`` is the smallest *climb* rate (3.6 m/s for
+  the A320), so the capped value is a magnitude and the direction comes from the resolution
+  altitude (as BlueSky's autopilot applies it);
 * head-on conflicts (miss distance at most 10 m) are resolved sideways, to the right of the
   line of sight;
 * aircraft without a conflict get their own velocity back (track from ``atan2`` of the ground
@@ -353,6 +355,37 @@ class ResolutionState(Protocol):
     vmax: Array  # m/s CAS
 
 
+class TypedResolutionState(ResolutionState, Protocol):
+    """A :class:`ResolutionState` that knows the type of every aircraft (a :class:`~bluesky_gym.core.physics.Physics`)."""
+
+    def aircraft_type(self, env: ArrayLike, slot: ArrayLike) -> list[str]:
+        """Type names of aircraft (as given at creation)."""
+        ...
+
+
+def vertical_speed_limits(state: TypedResolutionState) -> tuple[Array, Array]:
+    """Every aircraft's vertical-speed envelope ``(vsmin, vsmax)`` [m/s] from its type, (n_envs, n_aircraft) each.
+
+    These are what BlueSky 1.1.1's MVP caps an aircraft's resolution vertical speed with: the
+    arrays ``ownship.perf.vsmin`` and ``ownship.perf.vsmax`` of its performance model, which
+    holds them per aircraft, set at creation from the aircraft's type (OpenAP limits; an unknown
+    type flies as the B744). Empty slots are NaN.
+
+    Args:
+        state: The aircraft state with the aircraft types.
+    """
+    active = np.asarray(state.active, dtype=np.bool_)
+    vsmin = np.full(active.shape, np.nan)
+    vsmax = np.full(active.shape, np.nan)
+    env, slot = np.nonzero(active)
+    if env.size:
+        types = state.aircraft_type(env, slot)
+        perf = {t: aircraft_performance(t) for t in set(types)}
+        vsmin[env, slot] = [perf[t].vsmin for t in types]
+        vsmax[env, slot] = [perf[t].vsmax for t in types]
+    return vsmin, vsmax
+
+
 @dataclass(frozen=True)
 class Resolution:
     """MVP's resolution of every aircraft, (n_envs, n_aircraft) (NaN in empty slots).
@@ -542,8 +575,9 @@ class MVPResolver:
         rpz: Protected-zone radius [m].
         hpz: Protected-zone half height [m].
         lookahead: Look-ahead time [s].
-        vsmin: Lower vertical-speed limit [m/s], scalar or per aircraft (default: the A320's).
-        vsmax: Upper vertical-speed limit [m/s], scalar or per aircraft (default: the A320's).
+        vsmin: Lower vertical-speed limit [m/s], scalar or per aircraft (default: every aircraft's
+            own, from its type, as BlueSky: :func:`vertical_speed_limits`).
+        vsmax: Upper vertical-speed limit [m/s], scalar or per aircraft (default: every aircraft's own).
         detector: The conflict detection, by BlueSky name: ``"CSTATEBASED"`` (:func:`~bluesky_gym.core.conflicts.detect`,
             the default) or ``"STATEBASED"`` (:func:`~bluesky_gym.core.conflicts.detect_statebased`, what ``ASAS ON`` selects).
         python_geo: STATEBASED with BlueSky's Python geo functions instead of its compiled ones.
@@ -581,8 +615,8 @@ class MVPResolver:
             self.pairs[envs] = False
             self.held[:, envs] = np.nan
 
-    def update(self, state: ResolutionState) -> ResolutionCommand:
-        """Detect, resolve and decide who follows a resolution, from the current state."""
+    def update(self, state: TypedResolutionState) -> ResolutionCommand:
+        """Detect, resolve and decide who follows a resolution, from the current state (a :class:`~bluesky_gym.core.physics.Physics`)."""
         shape = state.active.shape
         if self.pairs.shape != shape + (shape[1],):
             self.pairs = np.zeros(shape + (shape[1],), np.bool_)
@@ -601,7 +635,12 @@ class MVPResolver:
             self.lookahead,
             self.python_geo,
         )
-        res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=self.vsmin, vsmax=self.vsmax)
+        vsmin, vsmax = self.vsmin, self.vsmax
+        if vsmin is None or vsmax is None:
+            own_min, own_max = vertical_speed_limits(state)
+            vsmin = own_min if vsmin is None else vsmin
+            vsmax = own_max if vsmax is None else vsmax
+        res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
         renew = np.asarray(c.conflict.any(axis=(1, 2)))[None, :, None]
         self.held = np.where(renew, np.stack([res.trk, res.gs, res.vs, res.alt]), self.held)
         candidates = self.pairs | c.conflict

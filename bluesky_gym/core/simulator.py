@@ -856,6 +856,11 @@ class _AirspaceView:
         self.lat, self.lon, self.alt, self.tas = sim.lat[k], sim.lon[k], sim.alt[k], sim.tas[k]
         self.gs, self.trk, self.vs, self.gseast, self.gsnorth = sim.gs[k], sim.trk[k], sim.vs[k], sim.gseast[k], sim.gsnorth[k]
         self.selalt, self.ap_vs, self.vmin, self.vmax = sim.selalt[k], sim.ap_vs[k], sim.vmin[k], sim.vmax[k]
+        self._sim, self._envs = sim, envs
+
+    def aircraft_type(self, env: ArrayLike, slot: ArrayLike) -> list[str]:
+        """Type names of aircraft; ``env`` counts the airspaces of this view."""
+        return self._sim.aircraft_type(self._envs[np.asarray(env, dtype=np.int64)], slot)
 
 
 for _name, _i in FIELD_INDEX.items():

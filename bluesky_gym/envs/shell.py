@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-from types import FrameType
+from types import FrameType, TracebackType
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -83,6 +83,55 @@ def requested_time_limit(max_episode_steps: int | None) -> int | None:
     return None
 
 
+def requested_id(task_class: type[Task]) -> str:
+    """The id an environment constructor is making: that of the :func:`gymnasium.make` or :func:`gymnasium.make_vec` call constructing it.
+
+    As for :func:`requested_time_limit`, Gymnasium sets the environment's ``spec`` (and so its id)
+    only after the constructor has returned; the id is read from the making call's arguments so
+    that the constructor's own errors (bad options) name it too. Without such a call (the class
+    constructed directly), it is the task's :attr:`~bluesky_gym.tasks.base.Task.env_id`.
+
+    Args:
+        task_class: The environment's task class.
+    """
+    frame: FrameType | None = sys._getframe(1)
+    while frame is not None and frame.f_code.co_name == "__init__":  # the constructor chain
+        frame = frame.f_back
+    if frame is not None and frame.f_code in (gym.make.__code__, gym.make_vec.__code__):
+        made = getattr(frame.f_locals.get("env_spec"), "id", None)
+        if isinstance(made, str):
+            return made
+    return task_class.env_id
+
+
+class ErrorsNameTheId:
+    """Context in which a ``ValueError``, ``TypeError`` or ``RuntimeError`` names the id the environment was made with.
+
+    A ``-v1`` id (or any id registered with another configuration of a task) shares its task and
+    configuration classes with the task's own id, whose messages would otherwise be all the user
+    sees; its messages start with ``"<id>: "`` unless they name the id already. The messages of
+    the task's own id (the paper's ``-v0``) are left as they are.
+
+    Args:
+        env_id: The id the environment was made with.
+        own_id: The task's own id (:attr:`~bluesky_gym.tasks.base.Task.env_id`).
+    """
+
+    __slots__ = ("env_id", "own_id")
+
+    def __init__(self, env_id: str, own_id: str) -> None:
+        self.env_id, self.own_id = env_id, own_id
+
+    def __enter__(self) -> None:
+        """Enter the context."""
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
+        """Name the id in the message of an error leaving the context (the error itself propagates)."""
+        if isinstance(exc, (ValueError, TypeError, RuntimeError)) and self.env_id != self.own_id and exc.args and isinstance(exc.args[0], str):
+            if self.env_id not in exc.args[0]:
+                exc.args = (f"{self.env_id}: {exc.args[0]}", *exc.args[1:])
+
+
 class TaskSpecMixin:
     """``spec`` as Gymnasium sets it, with ``max_episode_steps`` the task's own limit."""
 
@@ -99,9 +148,25 @@ class TaskSpecMixin:
     @spec.setter
     def spec(self, value: EnvSpec | None) -> None:
         self._spec = value
+        if value is not None:
+            self._run_as(value.id)
+
+    def _run_as(self, env_id: str) -> None:
+        """Called with the id of the spec Gymnasium sets once the environment is made (nothing to do by default)."""
 
 
-class BlueSkyEnv(TaskSpecMixin, gym.Env):
+class MadeIdMixin(TaskSpecMixin):
+    """The task runs as the id the environment was made with: its messages, its pictures and the environment's errors name that id."""
+
+    _errors: ErrorsNameTheId
+
+    def _run_as(self, env_id: str) -> None:
+        """Name ``env_id`` in the task's messages and pictures and in this environment's errors."""
+        self.task.id = env_id
+        self._errors.env_id = env_id
+
+
+class BlueSkyEnv(MadeIdMixin, gym.Env):
     """Base of the single-episode environments (subclasses set ``task_class``).
 
     Args:
@@ -115,18 +180,22 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
     metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}  # noqa: RUF012 - Gymnasium declares it an instance attribute
 
     def __init__(self, render_mode: str | None = None, backend: str = "native", max_episode_steps: int | None = None, **options: Any) -> None:
-        _check_render_mode(render_mode)
-        self.render_mode = render_mode
-        self.backend = backend
-        limit = requested_time_limit(max_episode_steps)
-        self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
-        self._observation_space = (self.task.observation_spec, observation_space(self.task))
-        self.action_space = _box(self.task.action_spec, self.task.space_dtype)
-        self._renderer: Any = None
-        self._needs_reset = True
-        self._reset_once = False
-        self._last_reward = 0.0
-        self._last_info: dict[str, Any] = {}
+        env_id = requested_id(self.task_class)
+        self._errors = ErrorsNameTheId(env_id, self.task_class.env_id)
+        with self._errors:
+            _check_render_mode(render_mode)
+            self.render_mode = render_mode
+            self.backend = backend
+            limit = requested_time_limit(max_episode_steps)
+            self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
+            self._observation_space = (self.task.observation_spec, observation_space(self.task))
+            self.action_space = _box(self.task.action_spec, self.task.space_dtype)
+            self._renderer: Any = None
+            self._needs_reset = True
+            self._reset_once = False
+            self._last_reward = 0.0
+            self._last_info: dict[str, Any] = {}
+        self._run_as(env_id)
 
     @property
     def config(self) -> Any:
@@ -144,55 +213,60 @@ class BlueSkyEnv(TaskSpecMixin, gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start a new episode; ``seed`` seeds the episode generator (``self.np_random``)."""
-        super().reset(seed=seed)
-        if options:
-            raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make)")
-        self.task.seed(np.array([0]), [self.np_random])
-        self.task.reset()
-        self._needs_reset = False
-        self._reset_once = True
-        self._last_reward = 0.0
-        obs = {k: v[0].copy() for k, v in _typed(self.task, self.task.observation()).items()}
-        info = {k: _scalar(v[0]) for k, v in self.task.episode_info().items()}
-        self._last_info = info
-        if self.render_mode == "human":
-            self.render()
-        return obs, info
+        with self._errors:
+            super().reset(seed=seed)
+            if options:
+                raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make)")
+            self.task.seed(np.array([0]), [self.np_random])
+            self.task.reset()
+            self._needs_reset = False
+            self._reset_once = True
+            self._last_reward = 0.0
+            obs = {k: v[0].copy() for k, v in _typed(self.task, self.task.observation()).items()}
+            info = {k: _scalar(v[0]) for k, v in self.task.episode_info().items()}
+            self._last_info = info
+            if self.render_mode == "human":
+                self.render()
+            return obs, info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         """Advance one decision step. Out-of-range actions are clipped to the action space."""
-        if self._needs_reset:
-            raise RuntimeError("step() called before reset() or after the episode ended (terminated or truncated); call reset() first")
-        a = numeric_action(action, self.task.action_spec.shape)
-        if a.shape != self.action_space.shape:
-            if a.size == int(np.prod(self.task.action_spec.shape)) and a.ndim <= 1:
-                a = a.reshape(self.action_space.shape)
-            else:
-                raise ValueError(f"action has shape {a.shape}, expected {self.action_space.shape} for {self.task.env_id}")
-        res = self.task.step(a[None])
-        obs = {k: v[0].copy() for k, v in _typed(self.task, res.observation).items()}
-        terminated, truncated = bool(res.terminated[0]), bool(res.truncated[0])
-        info = {k: _scalar(v[0]) for k, v in res.info.items()}
-        self._needs_reset = terminated or truncated
-        self._last_reward = float(res.reward[0])
-        self._last_info = info
-        if self.render_mode == "human":
-            self.render()
-        return obs, float(res.reward[0]), terminated, truncated, info
+        with self._errors:
+            if self._needs_reset:
+                raise RuntimeError("step() called before reset() or after the episode ended (terminated or truncated); call reset() first")
+            a = numeric_action(action, self.task.action_spec.shape)
+            if a.shape != self.action_space.shape:
+                if a.size == int(np.prod(self.task.action_spec.shape)) and a.ndim <= 1:
+                    a = a.reshape(self.action_space.shape)
+                else:
+                    raise ValueError(f"action has shape {a.shape}, expected {self.action_space.shape} for {self.task.id}")
+            res = self.task.step(a[None])
+            obs = {k: v[0].copy() for k, v in _typed(self.task, res.observation).items()}
+            terminated, truncated = bool(res.terminated[0]), bool(res.truncated[0])
+            info = {k: _scalar(v[0]) for k, v in res.info.items()}
+            self._needs_reset = terminated or truncated
+            self._last_reward = float(res.reward[0])
+            self._last_info = info
+            if self.render_mode == "human":
+                self.render()
+            return obs, float(res.reward[0]), terminated, truncated, info
 
     def render(self) -> np.ndarray | None:
         """Draw the current state: an RGB frame (``rgb_array``) or the window (``human``)."""
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human' to gym.make")
-            return None
-        if not self._reset_once:
-            raise RuntimeError("render() called before reset(): there is no state to draw yet; call reset() first")
-        if self._renderer is None:
-            from bluesky_gym.render import make_renderer
+        with self._errors:
+            if self.render_mode is None:
+                gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human' to gym.make")
+                return None
+            if not self._reset_once:
+                raise RuntimeError("render() called before reset(): there is no state to draw yet; call reset() first")
+            if self._renderer is None:
+                from bluesky_gym.render import make_renderer
 
-            self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id))
-        frame: np.ndarray | None = self._renderer.render(0, reward=self._last_reward, info=self._last_info)
-        return frame
+                self._renderer = make_renderer(
+                    self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id), title=self.task.id
+                )
+            frame: np.ndarray | None = self._renderer.render(0, reward=self._last_reward, info=self._last_info)
+            return frame
 
     def close(self) -> None:
         """Release this environment's window (and its BlueSky backend, if any)."""
@@ -210,7 +284,7 @@ def _scalar(v: Any) -> Any:
     return v
 
 
-class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
+class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     """Native batched environment: ``num_envs`` episodes stepped with array operations.
 
     Autoreset is ``SAME_STEP``: when an episode ends, the returned observation is the first of
@@ -247,30 +321,34 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         max_episode_steps: int | None = None,
         **options: Any,
     ) -> None:
-        _check_render_mode(render_mode)
-        check_int("num_envs", num_envs, 1)
-        check_int("render_env", render_env, 0)
-        check_int("render_grid", render_grid, 1)
-        self.num_envs = int(num_envs)
-        self.render_mode = render_mode
-        self.render_env = int(render_env)
-        self.render_grid = int(render_grid)
-        limit = requested_time_limit(max_episode_steps)
-        self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
-        if not 0 <= self.render_env < self.num_envs:
-            raise ValueError(f"render_env must be in [0, {self.num_envs}), got {render_env}")
-        single = observation_space(self.task)
-        self._observation_spaces: tuple[dict[str, BoxSpec], spaces.Dict, gym.Space[Any]] = (
-            self.task.observation_spec,
-            single,
-            batch_space(single, self.num_envs),
-        )
-        self.single_action_space = _box(self.task.action_spec, self.task.space_dtype)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._renderer: Any = None
-        self._reset_once = False
-        self._last_reward = np.zeros(self.num_envs)
-        self._last_info: dict[str, Any] = {}
+        env_id = requested_id(self.task_class)
+        self._errors = ErrorsNameTheId(env_id, self.task_class.env_id)
+        with self._errors:
+            _check_render_mode(render_mode)
+            check_int("num_envs", num_envs, 1)
+            check_int("render_env", render_env, 0)
+            check_int("render_grid", render_grid, 1)
+            self.num_envs = int(num_envs)
+            self.render_mode = render_mode
+            self.render_env = int(render_env)
+            self.render_grid = int(render_grid)
+            limit = requested_time_limit(max_episode_steps)
+            self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
+            if not 0 <= self.render_env < self.num_envs:
+                raise ValueError(f"render_env must be in [0, {self.num_envs}), got {render_env}")
+            single = observation_space(self.task)
+            self._observation_spaces: tuple[dict[str, BoxSpec], spaces.Dict, gym.Space[Any]] = (
+                self.task.observation_spec,
+                single,
+                batch_space(single, self.num_envs),
+            )
+            self.single_action_space = _box(self.task.action_spec, self.task.space_dtype)
+            self.action_space = batch_space(self.single_action_space, self.num_envs)
+            self._renderer: Any = None
+            self._reset_once = False
+            self._last_reward = np.zeros(self.num_envs)
+            self._last_info: dict[str, Any] = {}
+        self._run_as(env_id)
 
     @property
     def config(self) -> Any:
@@ -299,75 +377,80 @@ class BlueSkyVectorEnv(TaskSpecMixin, VectorEnv):
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Reset every episode. ``seed`` int s seeds episode i with s + i; a list seeds each."""
-        if options:
-            raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make_vec)")
-        if seed is None:
-            seeds: list[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"got {len(seeds)} seeds for {self.num_envs} environments")
-        gens = [seeding.np_random(s)[0] for s in seeds]
-        self.task.seed(self.task.all_envs, gens)
-        self.task.reset()
-        self._reset_once = True
-        self._last_reward = np.zeros(self.num_envs)
-        info = self.task.episode_info()
-        self._last_info = info
-        if self.render_mode == "human":
-            self.render()
-        return _typed(self.task, self.task.observation()), info
+        with self._errors:
+            if options:
+                raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make_vec)")
+            if seed is None:
+                seeds: list[int | None] = [None] * self.num_envs
+            elif isinstance(seed, (int, np.integer)):
+                seeds = [int(seed) + i for i in range(self.num_envs)]
+            else:
+                seeds = list(seed)
+                if len(seeds) != self.num_envs:
+                    raise ValueError(f"got {len(seeds)} seeds for {self.num_envs} environments")
+            gens = [seeding.np_random(s)[0] for s in seeds]
+            self.task.seed(self.task.all_envs, gens)
+            self.task.reset()
+            self._reset_once = True
+            self._last_reward = np.zeros(self.num_envs)
+            info = self.task.episode_info()
+            self._last_info = info
+            if self.render_mode == "human":
+                self.render()
+            return _typed(self.task, self.task.observation()), info
 
     def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every episode; ended episodes are reset in the same call (SAME_STEP)."""
-        if not self._reset_once:
-            raise RuntimeError("step() called before reset(); call reset() first")
-        res: StepResult = self.task.step(actions)
-        done = res.terminated | res.truncated
-        info: dict[str, Any] = dict(res.info)
-        for k in res.info:
-            if k.startswith("kpi_"):
-                info[f"_{k}"] = done.copy()
-        obs = _typed(self.task, res.observation)
-        if done.any():
-            ended = np.flatnonzero(done)
-            final_obs = {k: v.copy() for k, v in obs.items()}
-            final_info = {k: v.copy() for k, v in res.info.items()}
-            self.task.reset(ended)
-            new_obs = _typed(self.task, self.task.observation(ended))
-            obs = {k: v.copy() for k, v in obs.items()}
-            for k, v in obs.items():
-                v[ended] = new_obs[k]
-            info["final_obs"] = final_obs
-            info["_final_obs"] = done.copy()
-            info["final_info"] = final_info
-            info["_final_info"] = done.copy()
-        self._last_reward = res.reward
-        self._last_info = res.info
-        if self.render_mode == "human":
-            self.render()
-        return obs, res.reward, res.terminated, res.truncated, info
+        with self._errors:
+            if not self._reset_once:
+                raise RuntimeError("step() called before reset(); call reset() first")
+            res: StepResult = self.task.step(actions)
+            done = res.terminated | res.truncated
+            info: dict[str, Any] = dict(res.info)
+            for k in res.info:
+                if k.startswith("kpi_"):
+                    info[f"_{k}"] = done.copy()
+            obs = _typed(self.task, res.observation)
+            if done.any():
+                ended = np.flatnonzero(done)
+                final_obs = {k: v.copy() for k, v in obs.items()}
+                final_info = {k: v.copy() for k, v in res.info.items()}
+                self.task.reset(ended)
+                new_obs = _typed(self.task, self.task.observation(ended))
+                obs = {k: v.copy() for k, v in obs.items()}
+                for k, v in obs.items():
+                    v[ended] = new_obs[k]
+                info["final_obs"] = final_obs
+                info["_final_obs"] = done.copy()
+                info["final_info"] = final_info
+                info["_final_info"] = done.copy()
+            self._last_reward = res.reward
+            self._last_info = res.info
+            if self.render_mode == "human":
+                self.render()
+            return obs, res.reward, res.terminated, res.truncated, info
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]  # one frame, not Gymnasium's tuple of sub-environment frames
         """A frame of episode ``render_env`` (or a grid of the first ``render_grid`` episodes)."""
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode")
-            return None
-        if not self._reset_once:
-            raise RuntimeError("render() called before reset(): there is no state to draw yet; call reset() first")
-        if self._renderer is None:
-            from bluesky_gym.render import make_renderer
+        with self._errors:
+            if self.render_mode is None:
+                gym.logger.warn("render() called without a render_mode")
+                return None
+            if not self._reset_once:
+                raise RuntimeError("render() called before reset(): there is no state to draw yet; call reset() first")
+            if self._renderer is None:
+                from bluesky_gym.render import make_renderer
 
-            self._renderer = make_renderer(self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id))
-        frame: np.ndarray | None
-        if self.render_grid > 1:
-            frame = self._renderer.render_grid(min(self.render_grid, self.num_envs), rewards=self._last_reward, info=self._last_info)
-        else:
-            reward = float(self._last_reward[self.render_env])
-            frame = self._renderer.render(self.render_env, reward=reward, info=_pick(self._last_info, self.render_env))
-        return frame
+                self._renderer = make_renderer(
+                    self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id), title=self.task.id
+                )
+            frame: np.ndarray | None
+            if self.render_grid > 1:
+                frame = self._renderer.render_grid(min(self.render_grid, self.num_envs), rewards=self._last_reward, info=self._last_info)
+            else:
+                reward = float(self._last_reward[self.render_env])
+                frame = self._renderer.render(self.render_env, reward=reward, info=_pick(self._last_info, self.render_env))
+            return frame
 
     def close_extras(self, **kwargs: Any) -> None:
         """Release the window."""

@@ -21,8 +21,8 @@ Interfaces:
   row of the VecEnv);
 * the batched tasks themselves (:mod:`bluesky_gym.multiagent.base` and one module per problem),
   reference policies (:mod:`bluesky_gym.multiagent.policies`) and evaluation
-  (:mod:`bluesky_gym.multiagent.evaluation`); the training script is
-  ``python -m bluesky_gym.multiagent.train``.
+  (:mod:`bluesky_gym.multiagent.evaluation`); training is ``bluesky-gym train-ma``
+  (:func:`bluesky_gym.multiagent.train.train_and_compare`).
 """
 
 from __future__ import annotations

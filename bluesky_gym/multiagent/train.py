@@ -1,17 +1,21 @@
 """Train a policy shared by all agents with PPO and compare its KPIs with random and classical policies.
 
-Usage (the command line is ``bluesky-gym train-ma``; this module's own ``main`` is kept for
-existing scripts and prints a deprecation warning)::
+The command line is ``bluesky-gym train-ma`` (:mod:`bluesky_gym.cli.train_ma`, which calls
+:func:`train_and_compare`)::
 
     bluesky-gym train-ma --env sector_cr_v0 --steps 1e6 --seed 0
 
+``python -m bluesky_gym.multiagent.train`` is deprecated: it hands its arguments to
+``bluesky-gym train-ma`` (the old ``--timesteps`` and ``--episodes`` renamed to ``--steps`` and
+``--num-envs``), which parses, checks and runs them; this module keeps no parser of its own.
+
 The policy is trained on :class:`~bluesky_gym.multiagent.sb3.SharedPolicyVecEnv`: every agent
-slot of ``--episodes`` parallel multi-agent episodes is one row, ``--timesteps`` counts row-steps
+slot of ``episodes`` parallel multi-agent episodes is one row, ``timesteps`` counts row-steps
 (dummy rows of empty slots included). Observations are normalised with running statistics of the
 live rows (:class:`~bluesky_gym.multiagent.sb3.LiveRowsVecNormalize`) and PPO's minibatches are
 drawn from live transitions only (:class:`~bluesky_gym.multiagent.sb3.LiveRowsRolloutBuffer`).
 
-The trained policy is then evaluated deterministically on ``--eval-episodes`` held-out scenarios
+The trained policy is then evaluated deterministically on ``eval_episodes`` held-out scenarios
 (evaluation seeds, never used in training), together with the random policy, the classical
 geometric rule (:class:`~bluesky_gym.multiagent.policies.GeometricCRPolicy`) and MVP conflict
 resolution (:class:`~bluesky_gym.multiagent.policies.MVPPolicy`), on the same scenarios, and a
@@ -24,14 +28,15 @@ Needs Stable-Baselines3 and PyTorch: ``pip install -e ".[train]"``.
 
 from __future__ import annotations
 
-import argparse
+import os
+import subprocess
 import sys
 import time
 import warnings
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
-from bluesky_gym.multiagent import names
 from bluesky_gym.multiagent.evaluation import evaluate, kpi_table
 from bluesky_gym.multiagent.policies import GeometricCRPolicy, MVPPolicy, RandomPolicy, SharedSB3Policy
 
@@ -46,25 +51,6 @@ DEFAULTS: dict[str, Any] = {
     "log_std_init": -1.0,
     "eval_episodes": 32,
 }
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Return the command-line parser."""
-    p = argparse.ArgumentParser(prog="python -m bluesky_gym.multiagent.train", description=(__doc__ or "").split("\n\n")[0])
-    p.add_argument("--env", default="sector_cr_v0", choices=sorted(names()), help="multi-agent environment")
-    p.add_argument("--timesteps", type=int, default=DEFAULTS["timesteps"], help="PPO row-steps (all agent slots)")
-    p.add_argument("--episodes", type=int, default=DEFAULTS["episodes"], help="parallel multi-agent training episodes")
-    p.add_argument("--n-steps", type=int, default=DEFAULTS["n_steps"], help="PPO rollout length per row")
-    p.add_argument("--batch-size", type=int, default=DEFAULTS["batch_size"], help="PPO minibatch size (live transitions)")
-    p.add_argument("--n-epochs", type=int, default=DEFAULTS["n_epochs"], help="PPO epochs per rollout")
-    p.add_argument("--learning-rate", type=float, default=DEFAULTS["learning_rate"], help="PPO learning rate")
-    p.add_argument("--gamma", type=float, default=DEFAULTS["gamma"], help="discount factor")
-    p.add_argument("--log-std-init", type=float, default=DEFAULTS["log_std_init"], help="initial log standard deviation of the actions")
-    p.add_argument("--eval-episodes", type=int, default=DEFAULTS["eval_episodes"], help="held-out evaluation episodes")
-    p.add_argument("--seed", type=int, default=0, help="run seed (training scenarios, network initialisation)")
-    p.add_argument("--threads", type=int, default=1, help="PyTorch threads")
-    p.add_argument("--save", default=None, help="save the model to PATH.zip and the observation statistics to PATH.pkl")
-    return p
 
 
 def train(
@@ -172,26 +158,31 @@ def train_and_compare(
     print(kpi_table(results))
 
 
+#: Options of the deprecated entry point that ``bluesky-gym train-ma`` spells differently.
+RENAMED_OPTIONS = {"--timesteps": "--steps", "--episodes": "--num-envs"}
+
+
+def train_ma_arguments(argv: Sequence[str]) -> list[str]:
+    """The ``bluesky-gym train-ma`` arguments of the deprecated entry point's ``argv`` (renamed options translated)."""
+    out = []
+    for arg in argv:
+        name, sep, value = arg.partition("=")
+        out.append(RENAMED_OPTIONS[name] + sep + value if name in RENAMED_OPTIONS else arg)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Train, evaluate and print the KPI table; returns the exit code (deprecated: use ``bluesky-gym train-ma``)."""
-    args = build_parser().parse_args(argv)
-    print("python -m bluesky_gym.multiagent.train: warning: deprecated; use `bluesky-gym train-ma` (--steps, --num-envs)", file=sys.stderr)
-    train_and_compare(
-        args.env,
-        args.timesteps,
-        eval_episodes=args.eval_episodes,
-        threads=args.threads,
-        save=args.save,
-        episodes=args.episodes,
-        n_steps=args.n_steps,
-        batch_size=args.batch_size,
-        n_epochs=args.n_epochs,
-        learning_rate=args.learning_rate,
-        gamma=args.gamma,
-        log_std_init=args.log_std_init,
-        seed=args.seed,
-    )
-    return 0
+    """Deprecated: run ``bluesky-gym train-ma`` with these arguments and return its exit code.
+
+    The command runs in a new interpreter (``python -m bluesky_gym train-ma``): the command line
+    sits above this package, which does not import it.
+    """
+    args = train_ma_arguments(sys.argv[1:] if argv is None else argv)
+    print(f"python -m bluesky_gym.multiagent.train: warning: deprecated; use `bluesky-gym train-ma {' '.join(args)}`", file=sys.stderr, flush=True)
+    sys.stdout.flush()
+    package_root = str(Path(__file__).resolve().parents[2])  # this copy of the package, in the new interpreter too
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH", "")) if p))
+    return subprocess.call([sys.executable, "-m", "bluesky_gym", "train-ma", *args], env=env)
 
 
 if __name__ == "__main__":

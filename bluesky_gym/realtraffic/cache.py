@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from bluesky_gym.realtraffic.flights import FORMAT_VERSION, RecordedFlights
+from bluesky_gym.realtraffic.scenario import Window
 
 CACHE_ENV = "BLUESKY_GYM_CACHE"
 GAP_BETWEEN_COLLECTIONS = 86400.0  # s: time put between combined collections (no window spans two)
@@ -83,11 +84,7 @@ def combine(parts: list[RecordedFlights], name: str) -> tuple[RecordedFlights, l
     Returns:
         The combined flights and each part's time shift [s] (its t = 0 in the combined clock).
     """
-    shifts: list[float] = []
-    t = 0.0
-    for p in parts:
-        shifts.append(t - float(p.t0.min()))
-        t += float(p.t_end.max() - p.t0.min()) + GAP_BETWEEN_COLLECTIONS
+    shifts = time_shifts(parts)
     counts = [int(p.offset[-1]) for p in parts]
     wps = [int(p.wp_offset[-1]) for p in parts]
     sample_base = np.concatenate([[0], np.cumsum(counts)])
@@ -114,3 +111,29 @@ def combine(parts: list[RecordedFlights], name: str) -> tuple[RecordedFlights, l
         ),
         shifts,
     )
+
+
+def time_shifts(parts: list[RecordedFlights]) -> list[float]:
+    """Each part's time shift in :func:`combine` [s]: its t = 0 in the combined clock."""
+    shifts: list[float] = []
+    t = 0.0
+    for p in parts:
+        shifts.append(t - float(p.t0.min()))
+        t += float(p.t_end.max() - p.t0.min()) + GAP_BETWEEN_COLLECTIONS
+    return shifts
+
+
+def window_of_part(parts: list[RecordedFlights], window: Window) -> tuple[int, Window]:
+    """The part a window of the :func:`combine`-d ``parts`` comes from, and the window in that part's own flights and clock.
+
+    Raises:
+        ValueError: The window's flights are not all in one part.
+    """
+    base = 0
+    for k, (part, shift) in enumerate(zip(parts, time_shifts(parts))):
+        if base <= window.ownship < base + part.n_flights:
+            if not all(base <= f < base + part.n_flights for f in window.flights):
+                raise ValueError(f"the window's flights {window.flights} span several collections")
+            return k, Window(window.start - shift, window.duration, window.ownship - base, tuple(f - base for f in window.traffic))
+        base += part.n_flights
+    raise ValueError(f"the window's ownship {window.ownship} is not a flight of the collections ({base} flights)")

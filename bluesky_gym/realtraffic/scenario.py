@@ -12,7 +12,7 @@ recorded time. :class:`ScenarioPlayer` plays windows on any :class:`~bluesky_gym
   :mod:`bluesky_gym.realtraffic.sources`) ahead of it, flown with LNAV;
 * its vertical and speed profile is the recorded one: before every decision step each
   aircraft gets as targets the recorded altitude :data:`ALT_LOOKAHEAD` ahead, with the vertical
-  speed that reaches it in time, and the recorded speed :data:`SPEED_LOOKAHEAD` ahead (as CAS,
+  speed that reaches it in time (at most its type's maximum), and the recorded speed :data:`SPEED_LOOKAHEAD` ahead (as CAS,
   ground speed taken as TAS).
 
 With no other command every aircraft so follows its recorded path; how closely is what
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.aircraft import FALLBACK_TYPE, ROTORCRAFT_TYPES
+from bluesky_gym.core.aircraft import FALLBACK_TYPE, ROTORCRAFT_TYPES, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FT, NM
@@ -140,9 +140,17 @@ def create_recorded(
     (which BlueSky flies with a rotor model the core does not have) fly with BlueSky's fallback
     for an unknown type, the B744.
     """
-    codes = [str(t).strip().upper() for t in np.atleast_1d(typecode)]
-    actype = [FALLBACK_TYPE if (not t or t in ROTORCRAFT_TYPES) else t for t in codes]
+    actype = [simulator_type(str(t)) for t in np.atleast_1d(typecode)]
     sim.create(env, slot, lat=lat, lon=lon, hdg=hdg, alt=alt, spd=cas, actype=actype)
+
+
+def simulator_type(typecode: str) -> str:
+    """The type name :func:`create_recorded` gives the simulator for a recorded ``typecode`` (upper case).
+
+    ``resolve_type`` of it is the type whose performance the aircraft flies with.
+    """
+    code = typecode.strip().upper()
+    return FALLBACK_TYPE if (not code or code in ROTORCRAFT_TYPES) else code
 
 
 class ScenarioPlayer:
@@ -257,7 +265,10 @@ class ScenarioPlayer:
 
         The altitude target is the recorded altitude :data:`ALT_LOOKAHEAD` ahead; the vertical speed
         is the recorded one over the next :data:`PROFILE_STEP` plus a correction of the current
-        altitude error over :data:`ALT_CORRECTION_TIME`.
+        altitude error over :data:`ALT_CORRECTION_TIME`, at most the aircraft type's ``vsmax``: a
+        larger request makes BlueSky's performance limit trade climb for acceleration
+        (``(1 - ax/axmax) vsmax``, docs/dynamics.md §1.5), so an aircraft accelerating at its limit
+        would stop climbing.
         """
         alt_target, cas_target = self.targets(e, s, t)
         alt_target = alt_target + alt_offset
@@ -275,5 +286,7 @@ class ScenarioPlayer:
         if hold.any():
             sim.cmd_altitude(e[hold], s[hold], sim.alt[e[hold], s[hold]])
         if move.any():
-            sim.cmd_altitude(e[move], s[move], alt_target[move], np.sign(dz[move]) * np.maximum(np.abs(vs[move]), MIN_VS))
+            em, sm = e[move], s[move]
+            vsmax = np.array([aircraft_performance(name).vsmax for name in sim.aircraft_type(em, sm)])
+            sim.cmd_altitude(em, sm, alt_target[move], np.sign(dz[move]) * np.clip(np.abs(vs[move]), MIN_VS, vsmax))
         sim.cmd_speed(e, s, np.maximum(cas_target + cas_offset, MIN_CAS))

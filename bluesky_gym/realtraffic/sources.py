@@ -20,6 +20,7 @@ Units are converted to SI here, at the edge (ft, kt, ft/min in; m, m/s out).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -161,9 +162,15 @@ def clean(raw: Any, name: str, consistency: bool = True) -> RecordedFlights:
         raise ValueError(f"{name}: no flights left after cleaning")
     epoch = traffic.data["timestamp"].min().floor("h")
     flights: list[dict[str, Any]] = []
-    for flight in traffic:
-        for segment in _clean_flight(flight, consistency):
-            flights.append(_arrays(segment, epoch))
+    with warnings.catch_warnings():
+        # Two known, harmless notices of the library: its consistency filter falls back from the
+        # optional graph-tool to NetworkX (slower, same result), and Douglas-Peucker divides by the
+        # zero length of a stretch that returns to its start (it then splits that stretch instead).
+        warnings.filterwarnings("ignore", message="graph-tool library not installed", category=UserWarning)
+        warnings.filterwarnings("ignore", message="invalid value encountered in divide", category=RuntimeWarning, module="traffic")
+        for flight in traffic:
+            for segment in _clean_flight(flight, consistency):
+                flights.append(_arrays(segment, epoch))
     if not flights:
         raise ValueError(f"{name}: no flight of at least {MIN_DURATION_S:.0f} s above {MIN_ALTITUDE_FT:.0f} ft left after cleaning")
     flights.sort(key=lambda f: (f["t0"], f["flight_id"]))

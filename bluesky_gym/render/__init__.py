@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 __all__ = ["VideoWriter", "import_pygame", "make_renderer", "write_video"]
 
 
-def make_renderer(task: Any, render_mode: str, fps: float = 30.0, scene: SceneBuilder | None = None) -> Renderer:
+def make_renderer(task: Any, render_mode: str, fps: float = 30.0, scene: SceneBuilder | None = None, title: str | None = None) -> Renderer:
     """The renderer of a batched task.
 
     Args:
@@ -39,6 +39,7 @@ def make_renderer(task: Any, render_mode: str, fps: float = 30.0, scene: SceneBu
         scene: What to draw, a scene builder ``(task, env_index) -> Scene`` (the environment
             table's scene of the task's id; default: every aircraft on a plan view around the
             ownship, :func:`~bluesky_gym.render.scenes.generic.generic_scene`).
+        title: The id shown in the panel and the window title (default: the task's ``env_id``).
 
     Returns:
         An object with ``render(env_index, reward=..., info=...)``, ``render_grid(n, rewards=...,
@@ -55,4 +56,4 @@ def make_renderer(task: Any, render_mode: str, fps: float = 30.0, scene: SceneBu
         from bluesky_gym.render.scenes.generic import generic_scene
 
         scene = generic_scene
-    return Renderer(task, render_mode, fps, scene=scene)
+    return Renderer(task, render_mode, fps, scene=scene, title=title)

@@ -3,7 +3,8 @@
 pygame is an optional dependency (the ``render`` extra); it is imported only when a renderer is
 created. The display of a pygame process is a single window, shared by every renderer in
 ``"human"`` mode: it is opened by the first renderer that shows a frame and closed when the last
-renderer that used it is closed (or when the user closes it).
+renderer that used it is closed (or when the user closes it). The window also tracks the mouse
+pointer, so that the renderer can label the aircraft under it.
 """
 
 from __future__ import annotations
@@ -42,6 +43,8 @@ class _Window:
         self.surface: Any = None
         self.clock: Any = None
         self.closed_for: set[int] = set()  # renderers whose window the user closed
+        self.shown_by: int | None = None  # renderer whose frame the window shows
+        self.mouse: tuple[int, int] | None = None  # pointer position [px], None when outside the window
 
     def show(self, owner: int, frame: Any, caption: str, fps: float) -> bool:
         """Draw ``frame`` (a pygame Surface) in the window, pump events and keep the frame rate.
@@ -72,11 +75,44 @@ class _Window:
                 self.closed_for |= self.users
                 self.users.clear()
                 return False
+            self._track(pg, event)
+        self.shown_by = owner
         self.surface.blit(frame, (0, 0))
         pg.display.flip()
         if fps > 0:
             self.clock.tick(fps)
         return True
+
+    def pointer(self, owner: int) -> tuple[int, int] | None:
+        """Where the mouse pointer is over the frame ``owner`` showed last.
+
+        Reads the pending pointer events (leaving every other event for :meth:`show`).
+
+        Args:
+            owner: Identity of the renderer asking.
+
+        Returns:
+            The pointer's pixel position in that frame, or None when the pointer is outside the
+            window, or the window is closed or shows another renderer's frame.
+        """
+        if self.surface is None or self.shown_by != owner or owner in self.closed_for:
+            return None
+        pg = import_pygame()
+        if not pg.display.get_init():
+            return None
+        for event in pg.event.get((pg.MOUSEMOTION, pg.WINDOWLEAVE)):
+            self._track(pg, event)
+        if pg.mouse.get_focused():  # the pointer is over the window: its current position
+            x, y = pg.mouse.get_pos()
+            self.mouse = (int(x), int(y))
+        return self.mouse
+
+    def _track(self, pg: ModuleType, event: Any) -> None:
+        """Follow the pointer: motion events give its position, leaving the window clears it."""
+        if event.type == pg.MOUSEMOTION:
+            self.mouse = (int(event.pos[0]), int(event.pos[1]))
+        elif event.type == pg.WINDOWLEAVE:
+            self.mouse = None
 
     def release(self, owner: int) -> None:
         """Forget ``owner``; close the window when no renderer uses it any more."""
@@ -90,6 +126,8 @@ class _Window:
             pg.display.quit()
         self.surface = None
         self.clock = None
+        self.shown_by = None
+        self.mouse = None
 
 
 WINDOW = _Window()

@@ -21,7 +21,7 @@ from bluesky_gym.core.units import FT, MPS2KT, NM2KM
 from bluesky_gym.render import draw
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.backend import WINDOW
-from bluesky_gym.render.scene import MapScene, Scene, SideScene
+from bluesky_gym.render.scene import MapAircraft, MapScene, Scene, SideScene
 from bluesky_gym.render.scenes import SceneBuilder
 from bluesky_gym.render.views import MapView, SideView, nice_step, scale_bar_nm
 
@@ -37,6 +37,7 @@ SPEED_VECTOR_S = 120.0  # the speed vector shows the position this many seconds 
 FOLLOW_MARGIN = 0.9  # zoom out when the followed aircraft leaves this fraction of the view ...
 ZOOM_OUT_MARGIN = 0.7  # ... so that it is back within this fraction
 MAX_ZOOM_OUT = 3.0  # beyond this factor of the scene's width the view pans instead
+HOVER_PX = 12.0  # the pointer labels an aircraft when within this distance of the symbol's centre [px]
 
 _tokens = itertools.count(1)
 
@@ -63,9 +64,10 @@ class Renderer:
         fps: Frame-rate limit of the window in ``"human"`` mode.
         scene: The scene builder ``(task, env_index) -> Scene`` that says what to draw (see
             :mod:`bluesky_gym.render.scenes`).
+        title: The id shown in the panel and the window title (default: the task's ``env_id``).
     """
 
-    def __init__(self, task: Any, render_mode: str, fps: float, scene: SceneBuilder) -> None:
+    def __init__(self, task: Any, render_mode: str, fps: float, scene: SceneBuilder, title: str | None = None) -> None:
         if render_mode not in ("rgb_array", "human"):
             raise ValueError(f"render_mode must be 'rgb_array' or 'human', got {render_mode!r}")
         if not callable(scene):
@@ -74,6 +76,7 @@ class Renderer:
         self.render_mode = render_mode
         self.fps = float(fps)
         self.scene = scene
+        self.title = str(task.env_id) if title is None else title
         self._memory: dict[int, _EpisodeMemory] = {}
         self._dot_steps = max(1, round(TRAIL_DOT_S / (float(task.dt) * int(task.action_frequency))))
         self._token = next(_tokens)
@@ -92,7 +95,7 @@ class Renderer:
             An (H, W, 3) uint8 frame in ``"rgb_array"`` mode; None in ``"human"`` mode.
         """
         self._check_index(env_index)
-        frame = self.draw_frame(env_index, reward, info)
+        frame = self.draw_frame(env_index, reward, info, hover=self._pointer())
         return self._output(frame)
 
     def render_grid(self, n: int, rewards: Any = None, info: Mapping[str, Any] | None = None) -> np.ndarray | None:
@@ -111,6 +114,11 @@ class Renderer:
             raise ValueError(f"n must be in [1, {self.task.n_envs}], got {n}")
         r = None if rewards is None else np.asarray(rewards, dtype=np.float64).reshape(-1)
         tiles = [self.draw_frame(i, None if r is None else float(r[i]), _pick(info, i)) for i in range(n)]
+        pointer = self._pointer()
+        hit = None if pointer is None else _tile_point(pointer, n, tiles[0].get_size())
+        if hit is not None:  # the tile under the pointer again, with the pointer
+            k, point = hit
+            tiles[k] = self.draw_frame(k, None if r is None else float(r[k]), _pick(info, k), hover=point)
         return self._output(_tile(tiles))
 
     def close(self) -> None:
@@ -121,14 +129,24 @@ class Renderer:
         self._memory.clear()
 
     # --- drawing -------------------------------------------------------------------------------
-    def draw_frame(self, env_index: int, reward: float | None = None, info: Mapping[str, Any] | None = None) -> pygame.Surface:
-        """The picture of episode ``env_index`` as a pygame Surface."""
+    def draw_frame(
+        self, env_index: int, reward: float | None = None, info: Mapping[str, Any] | None = None, hover: draw.Point | None = None
+    ) -> pygame.Surface:
+        """The picture of episode ``env_index`` as a pygame Surface.
+
+        Args:
+            env_index: Episode of the batch to draw.
+            reward: Reward of the last step (shown in the panel).
+            info: Info dict of the last step for this episode (scalars).
+            hover: Mouse pointer [px of the frame], or None: on a plan view the aircraft under it is
+                labelled (see :func:`draw_map`).
+        """
         scene = self.scene(self.task, env_index)
         mem = self._remember(env_index, scene)
         if isinstance(scene, MapScene):
             plot = pygame.Surface(MAP_SIZE)
             view = self._map_view(scene, mem, (0, 0, *MAP_SIZE))
-            draw_map(plot, view, scene, mem.trails)
+            draw_map(plot, view, scene, mem.trails, hover=hover)
         else:
             plot = pygame.Surface(SIDE_SIZE)
             draw_side(plot, scene, mem)
@@ -142,11 +160,15 @@ class Renderer:
         if not 0 <= int(env_index) < self.task.n_envs:
             raise ValueError(f"env_index must be in [0, {self.task.n_envs}), got {env_index}")
 
+    def _pointer(self) -> tuple[int, int] | None:
+        """The mouse pointer over this renderer's window frame ("human" mode), else None."""
+        return WINDOW.pointer(self._token) if self.render_mode == "human" and not self._closed else None
+
     def _output(self, frame: pygame.Surface) -> np.ndarray | None:
         if self.render_mode == "rgb_array":
             return surface_to_array(frame)
         self._closed = False
-        WINDOW.show(self._token, frame, f"BlueSky-Gym - {self.task.env_id}", self.fps)
+        WINDOW.show(self._token, frame, f"BlueSky-Gym - {self.title}", self.fps)
         return None
 
     def _remember(self, i: int, scene: Scene) -> _EpisodeMemory:
@@ -208,7 +230,7 @@ class Renderer:
         pygame.draw.line(frame, pal.PANEL_EDGE, rect.topleft, rect.bottomleft)
         x0, x1 = rect.left + 12, rect.right - 12
         y = rect.top + 10
-        draw.text(frame, task.env_id, (x0, y), 22, pal.TEXT)
+        draw.text(frame, self.title, (x0, y), 22, pal.TEXT)
         y += 20
         if task.n_envs > 1:
             draw.text(frame, f"episode slot {i} of {task.n_envs}", (x0, y), 16, pal.TEXT_DIM)
@@ -280,6 +302,7 @@ INFO_DISPLAY: dict[str, tuple[str, Any]] = {
     "faf_reach": ("reached FAF", lambda v: "yes" if v else "no"),
     "waypoint_reached": ("reached goal", lambda v: "yes" if v else "no"),
     "crashed": ("restricted area", lambda v: "entered" if v else "clear"),
+    "average_route_deviation_nm": ("mean route dev.", lambda v: f"{float(v):.2f} NM"),
 }
 
 
@@ -320,27 +343,59 @@ def surface_to_array(surf: pygame.Surface) -> np.ndarray:
     return np.frombuffer(pygame.image.tobytes(surf, "RGB"), dtype=np.uint8).reshape(h, w, 3).copy()
 
 
-def _tile(tiles: list[pygame.Surface]) -> pygame.Surface:
-    """Tiles in a near-square grid, scaled down to fit :data:`GRID_MAX` (even dimensions)."""
-    n = len(tiles)
+GRID_GAP = 4  # pixels between the tiles of a grid (before scaling)
+
+
+def _grid_layout(n: int, tile: tuple[int, int]) -> tuple[int, tuple[int, int], tuple[int, int]]:
+    """Columns, unscaled size and final size (even, within :data:`GRID_MAX`) of a grid of ``n`` tiles of size ``tile``."""
     cols = math.ceil(math.sqrt(n))
     rows = math.ceil(n / cols)
+    w, h = tile
+    bw, bh = cols * w + (cols - 1) * GRID_GAP, rows * h + (rows - 1) * GRID_GAP
+    s = min(1.0, GRID_MAX[0] / bw, GRID_MAX[1] / bh)
+    return cols, (bw, bh), (max(2, int(bw * s) // 2 * 2), max(2, int(bh * s) // 2 * 2))
+
+
+def _tile(tiles: list[pygame.Surface]) -> pygame.Surface:
+    """Tiles in a near-square grid, scaled down to fit :data:`GRID_MAX` (even dimensions)."""
     w, h = tiles[0].get_size()
-    gap = 4
-    big = pygame.Surface((cols * w + (cols - 1) * gap, rows * h + (rows - 1) * gap))
+    cols, full, size = _grid_layout(len(tiles), (w, h))
+    big = pygame.Surface(full)
     big.fill(pal.PANEL_EDGE)
     for k, t in enumerate(tiles):
-        big.blit(t, ((k % cols) * (w + gap), (k // cols) * (h + gap)))
-    bw, bh = big.get_size()
-    s = min(1.0, GRID_MAX[0] / bw, GRID_MAX[1] / bh)
-    size = (max(2, int(bw * s) // 2 * 2), max(2, int(bh * s) // 2 * 2))
-    if size != (bw, bh):
+        big.blit(t, ((k % cols) * (w + GRID_GAP), (k // cols) * (h + GRID_GAP)))
+    if size != full:
         big = pygame.transform.smoothscale(big, size)
     return big
 
 
+def _tile_point(point: tuple[int, int], n: int, tile: tuple[int, int]) -> tuple[int, draw.Point] | None:
+    """Which tile of a grid of ``n`` (see :func:`_tile`) a pixel of the grid falls in, and where in it.
+
+    Returns:
+        (tile index, pixel position in that tile), or None for a point in a gap or outside the tiles.
+    """
+    cols, full, size = _grid_layout(n, tile)
+    x, y = point[0] * full[0] / size[0], point[1] * full[1] / size[1]
+    w, h = tile
+    col, row = int(x // (w + GRID_GAP)), int(y // (h + GRID_GAP))
+    tx, ty = x - col * (w + GRID_GAP), y - row * (h + GRID_GAP)
+    k = row * cols + col
+    if not (0 <= col < cols and 0 <= tx < w and 0 <= ty < h and 0 <= k < n):
+        return None
+    return k, (tx, ty)
+
+
 # --- plan view ------------------------------------------------------------------------------------
-def draw_map(surf: pygame.Surface, view: MapView, scene: MapScene, trails: Mapping[int, Any], inset: bool = False, trail_offset: int = 0) -> None:
+def draw_map(
+    surf: pygame.Surface,
+    view: MapView,
+    scene: MapScene,
+    trails: Mapping[int, Any],
+    inset: bool = False,
+    trail_offset: int = 0,
+    hover: draw.Point | None = None,
+) -> None:
     """Draw a plan view filling ``surf``.
 
     Args:
@@ -350,6 +405,9 @@ def draw_map(surf: pygame.Surface, view: MapView, scene: MapScene, trails: Mappi
         trails: Per-aircraft (lat, lon) histories, keyed by ``trail_offset`` of the aircraft key.
         inset: Small variant (no labels, scale bar only).
         trail_offset: Trails are looked up as ``key`` (0) or ``-1 - key`` (-1).
+        hover: Mouse pointer [px of ``surf``], or None; the aircraft whose symbol is nearest to it,
+            within :data:`HOVER_PX`, gets its full label (callsign, flight level, ground speed) on
+            top, whether or not the scene labels it.
     """
     surf.fill(pal.BACKGROUND)
     _graticule(surf, view)
@@ -396,11 +454,14 @@ def draw_map(surf: pygame.Surface, view: MapView, scene: MapScene, trails: Mappi
                 c = pal.mix(pal.BACKGROUND, base, 0.25 + 0.6 * (k + 1) / len(pts))
                 draw.circle(surf, c, (x, y), 1.6, fill=c)
     own = next((a for a in scene.aircraft if a.role == "own"), None)
+    hovered = None if inset or hover is None else _under_pointer(view, scene, hover)
     for ac in sorted(scene.aircraft, key=lambda a: (a.role == "own", a.los)):
         p = view.point(ac.lat, ac.lon)
         color = _aircraft_color(ac.role, ac.los, ac.dim)
-        labelled = not inset and (
-            ac.role == "own" or ac.los or own is None or scene.label_range_nm is None or _nm_apart(own, ac) <= scene.label_range_nm
+        labelled = (
+            not inset
+            and scene.labels
+            and (ac.role == "own" or ac.los or own is None or scene.label_range_nm is None or _nm_apart(own, ac) <= scene.label_range_nm)
         )
         if ac.ring_nm:
             ring = pal.LOS if ac.los else pal.mix(pal.BACKGROUND, color, 0.55 if ac.role == "own" else 0.35)
@@ -409,15 +470,33 @@ def draw_map(surf: pygame.Surface, view: MapView, scene: MapScene, trails: Mappi
         vec = ac.gs * SPEED_VECTOR_S / 1852.0 * view.px_per_nm
         draw.line(surf, color, p, (p[0] + vx * vec, p[1] + vy * vec))
         draw.plan_aircraft(surf, color, p, ac.hdg, size)
-        if labelled:
-            draw.text_with_halo(surf, ac.callsign, (p[0] + 10, p[1] + 6), 15, color)
-            if ac.role == "own" or scene.traffic_details:
-                fl = max(ac.alt, 0.0) / FT / 100.0
-                draw.text_with_halo(surf, f"FL{fl:03.0f} {ac.gs * MPS2KT:.0f}kt", (p[0] + 10, p[1] + 17), 14, pal.mix(color, pal.TEXT_DIM, 0.4))
+        if labelled and ac is not hovered:
+            _aircraft_label(surf, ac, p, color, details=ac.role == "own" or scene.traffic_details)
+    if hovered is not None:  # last, so that no other symbol covers it
+        _aircraft_label(surf, hovered, view.point(hovered.lat, hovered.lon), _aircraft_color(hovered.role, hovered.los, hovered.dim), details=True)
     _scale_bar(surf, view, small=inset)
     if not inset:
         _north_arrow(surf, (surf.get_width() - 26, 30))
     pygame.draw.rect(surf, pal.PANEL_EDGE, surf.get_rect(), 1)
+
+
+def _aircraft_label(surf: pygame.Surface, ac: MapAircraft, p: draw.Point, color: pal.Color, details: bool) -> None:
+    """The label beside an aircraft symbol at ``p``: its callsign and, with ``details``, flight level and ground speed."""
+    draw.text_with_halo(surf, ac.callsign, (p[0] + 10, p[1] + 6), 15, color)
+    if details:
+        fl = max(ac.alt, 0.0) / FT / 100.0
+        draw.text_with_halo(surf, f"FL{fl:03.0f} {ac.gs * MPS2KT:.0f}kt", (p[0] + 10, p[1] + 17), 14, pal.mix(color, pal.TEXT_DIM, 0.4))
+
+
+def _under_pointer(view: MapView, scene: MapScene, hover: draw.Point) -> MapAircraft | None:
+    """The aircraft whose symbol centre is nearest to ``hover`` [px], if within :data:`HOVER_PX`."""
+    best, best_d = None, HOVER_PX
+    for ac in scene.aircraft:
+        x, y = view.point(ac.lat, ac.lon)
+        d = math.hypot(x - hover[0], y - hover[1])
+        if d <= best_d:
+            best, best_d = ac, d
+    return best
 
 
 def _nm_apart(a: Any, b: Any) -> float:

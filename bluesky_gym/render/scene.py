@@ -146,6 +146,8 @@ class MapScene:
             always is); off where all traffic shares them.
         label_range_nm: Label only the traffic within this distance of the ownship (and any in a
             loss of separation); None labels all.
+        labels: Draw labels at all; when False only the aircraft under the mouse pointer of the
+            window is labelled.
         panel: Scene-specific (label, value) lines of the text panel.
         legend: (colour, text) entries of the legend.
     """
@@ -161,6 +163,7 @@ class MapScene:
     follow: int | None = 0
     traffic_details: bool = False
     label_range_nm: float | None = None
+    labels: bool = True
     panel: list[tuple[str, str]] = field(default_factory=list)
     legend: list[tuple[Color, str]] = field(default_factory=list)
 

@@ -15,13 +15,15 @@ that BlueSky (and ``bluesky-gym replay``) plays back:
   opposite signs, where BlueSky's ``ALT`` resets the rate), ``swvnav=False`` as ``VNAV OFF``,
   ``ap_trk`` as ``HDG`` (identical without wind), and ``set_state`` after the first step as ``MOVE``.
 
-Numbers are written with full precision (``repr``), converted to BlueSky's units (ft, kt, fpm).
+Aircraft are named ``AC000``, ``AC001``, ... by slot, unless :meth:`ScenarioRecorder.set_callsigns`
+names them (e.g. with their recorded callsigns). Numbers are written with full precision (``repr``), converted to BlueSky's units (ft, kt, fpm).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+import re
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,8 +38,27 @@ from bluesky_gym.core.wind import WindField
 
 
 def callsign(slot: int) -> str:
-    """The callsign written for an aircraft slot."""
+    """The callsign written for an aircraft slot (unless it was given another name)."""
     return f"AC{int(slot):03d}"
+
+
+def unique_callsigns(names: Sequence[str], reserved: Sequence[str] = ()) -> list[str]:
+    """Callsigns for slots ``0, 1, ...`` from ``names``: upper case, letters and digits only, unique.
+
+    An empty name (after dropping other characters) becomes :func:`callsign` of its slot; a name
+    already taken (by an earlier slot or in ``reserved``) gets ``_2``, ``_3``, ... appended.
+    """
+    out: list[str] = []
+    taken: set[str] = set(reserved)
+    for slot, name in enumerate(names):
+        base = re.sub(r"[^A-Z0-9]", "", str(name).upper()) or callsign(slot)
+        acid, k = base, 1
+        while acid in taken:
+            k += 1
+            acid = f"{base}_{k}"
+        taken.add(acid)
+        out.append(acid)
+    return out
 
 
 def scn_time(t: float) -> str:
@@ -112,6 +133,7 @@ class ScenarioRecorder:
     def __init__(self, inner: Physics) -> None:
         self.inner = inner
         self.episodes: list[list[Episode]] = [[] for _ in range(inner.n_envs)]
+        self._names: list[dict[int, str]] = [{} for _ in range(inner.n_envs)]
         self._pending: list[tuple[int, _Created]] = []
         self._wind = _LoggedWind(self)
 
@@ -138,6 +160,23 @@ class ScenarioRecorder:
     def _index(self, env: ArrayLike, slot: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         return aircraft_index(env, slot, self.inner.n_envs, self.inner.max_aircraft)
 
+    def acid(self, env: int, slot: int) -> str:
+        """The callsign written for slot ``slot`` of airspace ``env``."""
+        return self._names[env].get(slot) or callsign(slot)
+
+    def set_callsigns(self, env: int, names: Sequence[str]) -> list[str]:
+        """Name the aircraft of slots ``0 .. len(names) - 1`` of airspace ``env`` in the written scenario.
+
+        Call it after :meth:`reset_envs` (a reset restores the slot names ``AC000``, ...) and before
+        the aircraft are created. The names are made valid and unique by :func:`unique_callsigns`.
+
+        Returns:
+            The callsigns used, one per slot.
+        """
+        acids = unique_callsigns(names, [callsign(s) for s in range(len(names), self.inner.max_aircraft)])
+        self._names[int(env)] = dict(enumerate(acids))
+        return acids
+
     def _flush(self) -> None:
         """Write the creations of the starting step with the aircraft's current state."""
         p = self.inner
@@ -145,7 +184,7 @@ class ScenarioRecorder:
             s = created.slot
             if p.active[env, s]:
                 created.line = (
-                    f"CRE {callsign(s)} {created.actype} {_num(p.lat[env, s])} {_num(p.lon[env, s])} {_num(p.hdg[env, s])} "
+                    f"CRE {self.acid(env, s)} {created.actype} {_num(p.lat[env, s])} {_num(p.lon[env, s])} {_num(p.hdg[env, s])} "
                     f"{_num(p.alt[env, s] / FT)} {_num(p.cas[env, s] / KTS)}"
                 )
         self._pending.clear()
@@ -162,6 +201,7 @@ class ScenarioRecorder:
         idx = range(self.inner.n_envs) if envs is None else np.atleast_1d(np.asarray(envs, dtype=np.int64))
         for e in idx:
             self.episodes[int(e)].append(Episode(self.inner.simt))
+            self._names[int(e)] = {}
         self._pending = [(e, c) for e, c in self._pending if e not in set(int(i) for i in idx)]
 
     def create(
@@ -214,19 +254,19 @@ class ScenarioRecorder:
         e, s = self._index(env, slot)
         alive = self.inner.active[e, s].copy()
         self.inner.delete(e, s)
-        self._each(e[alive], s[alive], lambda k, e_, s_: f"DEL {callsign(s_)}")
+        self._each(e[alive], s[alive], lambda k, e_, s_: f"DEL {self.acid(e_, s_)}")
 
     def cmd_heading(self, env: ArrayLike, slot: ArrayLike, hdg: ArrayLike) -> None:
         """``HDG``."""
         self.inner.cmd_heading(env, slot, hdg)
         h = np.broadcast_to(np.asarray(hdg, dtype=np.float64), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"HDG {callsign(s)} {_num(h[k])}")
+        self._each(env, slot, lambda k, e, s: f"HDG {self.acid(e, s)} {_num(h[k])}")
 
     def cmd_speed(self, env: ArrayLike, slot: ArrayLike, casmach: ArrayLike) -> None:
         """``SPD``."""
         self.inner.cmd_speed(env, slot, casmach)
         v = np.broadcast_to(np.asarray(casmach, dtype=np.float64), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"SPD {callsign(s)} {speed_text(v[k])}")
+        self._each(env, slot, lambda k, e, s: f"SPD {self.acid(e, s)} {speed_text(v[k])}")
 
     def cmd_altitude(self, env: ArrayLike, slot: ArrayLike, alt: ArrayLike, vs: ArrayLike | None = None) -> None:
         """``ALT alt [vs]``."""
@@ -234,27 +274,27 @@ class ScenarioRecorder:
         shape = self._index(env, slot)[0].shape
         a = np.broadcast_to(np.asarray(alt, dtype=np.float64), shape)
         v = None if vs is None else np.broadcast_to(np.asarray(vs, dtype=np.float64), shape)
-        self._each(env, slot, lambda k, e, s: f"ALT {callsign(s)} {_num(a[k] / FT)}" + ("" if v is None or v[k] == 0 else f" {_num(v[k] / FPM)}"))
+        self._each(env, slot, lambda k, e, s: f"ALT {self.acid(e, s)} {_num(a[k] / FT)}" + ("" if v is None or v[k] == 0 else f" {_num(v[k] / FPM)}"))
 
     def cmd_vertical_speed(self, env: ArrayLike, slot: ArrayLike, vs: ArrayLike) -> None:
         """``VS``."""
         self.inner.cmd_vertical_speed(env, slot, vs)
         v = np.broadcast_to(np.asarray(vs, dtype=np.float64), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"VS {callsign(s)} {_num(v[k] / FPM)}")
+        self._each(env, slot, lambda k, e, s: f"VS {self.acid(e, s)} {_num(v[k] / FPM)}")
 
     def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """``ADDWPT``."""
         self.inner.add_waypoint(env, slot, lat, lon)
         shape = self._index(env, slot)[0].shape
         la, lo = (np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (lat, lon))
-        self._each(env, slot, lambda k, e, s: f"ADDWPT {callsign(s)} {_num(la[k])} {_num(lo[k])}")
+        self._each(env, slot, lambda k, e, s: f"ADDWPT {self.acid(e, s)} {_num(la[k])} {_num(lo[k])}")
 
     def set_destination(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """``DEST``."""
         self.inner.set_destination(env, slot, lat, lon)
         shape = self._index(env, slot)[0].shape
         la, lo = (np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (lat, lon))
-        self._each(env, slot, lambda k, e, s: f"DEST {callsign(s)} {_num(la[k])} {_num(lo[k])}")
+        self._each(env, slot, lambda k, e, s: f"DEST {self.acid(e, s)} {_num(la[k])} {_num(lo[k])}")
 
     def cmd_direct(self, env: ArrayLike, slot: ArrayLike, waypoint: ArrayLike) -> None:
         """``DIRECT``, written with BlueSky's name of the ``k``-th waypoint added by ``ADDWPT`` (callsign + ``k``)."""
@@ -262,7 +302,7 @@ class ScenarioRecorder:
             raise TypeError(f"{type(self.inner).__name__} has no DIRECT command")
         self.inner.cmd_direct(env, slot, waypoint)
         w = np.broadcast_to(np.asarray(waypoint, dtype=np.int64), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"DIRECT {callsign(s)} {callsign(s)}{int(w[k]) + 1:03d}")
+        self._each(env, slot, lambda k, e, s: f"DIRECT {self.acid(e, s)} {self.acid(e, s)}{int(w[k]) + 1:03d}")
 
     def cmd_lnav(self, env: ArrayLike, slot: ArrayLike, on: ArrayLike) -> None:
         """``LNAV ON/OFF``."""
@@ -270,7 +310,7 @@ class ScenarioRecorder:
             raise TypeError(f"{type(self.inner).__name__} has no LNAV command")
         self.inner.cmd_lnav(env, slot, on)
         f = np.broadcast_to(np.asarray(on, dtype=bool), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"LNAV {callsign(s)} {'ON' if f[k] else 'OFF'}")
+        self._each(env, slot, lambda k, e, s: f"LNAV {self.acid(e, s)} {'ON' if f[k] else 'OFF'}")
 
     def set_autopilot(
         self,
@@ -292,7 +332,7 @@ class ScenarioRecorder:
         a, v, n, t = arr(selalt), arr(selvs), arr(swvnav), arr(ap_trk)
 
         def fmt(k: int, e: int, s: int) -> str:
-            acid = callsign(s)
+            acid = self.acid(e, s)
             parts = []
             if n is not None:
                 parts.append(f"VNAV {acid} {'ON' if n[k] else 'OFF'}")
@@ -316,7 +356,9 @@ class ScenarioRecorder:
         self._each(
             e[later],
             s[later],
-            lambda k, e_, s_: f"MOVE {callsign(s_)} {_num(p.lat[e_, s_])} {_num(p.lon[e_, s_])} {_num(p.alt[e_, s_] / FT)} {_num(p.hdg[e_, s_])}",
+            lambda k, e_, s_: (
+                f"MOVE {self.acid(e_, s_)} {_num(p.lat[e_, s_])} {_num(p.lon[e_, s_])} {_num(p.alt[e_, s_] / FT)} {_num(p.hdg[e_, s_])}"
+            ),
         )
 
     def step(self) -> None:

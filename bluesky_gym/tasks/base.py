@@ -94,6 +94,12 @@ class TaskConfig:
         for f in dataclasses.fields(self):
             if f.name in TYPE_MIX_OPTIONS:
                 object.__setattr__(self, f.name, freeze_type_mix(getattr(self, f.name)))
+            elif f.type in ("bool", bool):
+                # A switch (float32_spaces, the -v1 fixes): "no" or 0 would silently mean something else.
+                value = getattr(self, f.name)
+                if not isinstance(value, (bool, np.bool_)):
+                    raise ValueError(f"{f.name} must be True or False, got {value!r}")
+                object.__setattr__(self, f.name, bool(value))
 
     def replace(self, **changes: Any) -> TaskConfig:
         """A copy with ``changes`` applied, validated."""
@@ -374,7 +380,7 @@ class Task(abc.ABC):
             reference's limit).
     """
 
-    #: Gymnasium id of the single-agent environment.
+    #: Gymnasium id of the single-agent environment of the task's default configuration (its ``-v0`` id).
     env_id: ClassVar[str]
     #: Simulation time step [s] and physics sub-steps per action (reference values).
     dt: ClassVar[float]
@@ -391,6 +397,9 @@ class Task(abc.ABC):
     ) -> None:
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"n_envs must be a positive integer, got {n_envs!r}")
+        #: The id this task runs as, named by its messages and pictures: :attr:`env_id`, or the id
+        #: its environment was made with (a ``-v1`` id is this task configured; the shells set it).
+        self.id: str = type(self).env_id
         self.n_envs = int(n_envs)
         if max_episode_steps is not None:
             check_int("max_episode_steps", max_episode_steps, 1)
@@ -595,7 +604,7 @@ class Task(abc.ABC):
         spec = self.action_spec
         a = numeric_action(action, (self.n_envs, *spec.shape))
         if a.shape != (self.n_envs, *spec.shape):
-            raise ValueError(f"action has shape {a.shape}, expected {(self.n_envs, *spec.shape)} for {self.env_id}")
+            raise ValueError(f"action has shape {a.shape}, expected {(self.n_envs, *spec.shape)} for {self.id}")
         if not np.isfinite(a).all():
             raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
         return np.minimum(np.maximum(a, spec.low), spec.high)  # np.clip's result, for finite values

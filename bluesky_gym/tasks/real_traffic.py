@@ -15,6 +15,7 @@ range, see :meth:`RealTrafficTask.set_test_split`).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import ClassVar
@@ -88,7 +89,8 @@ class RealTrafficConfig(TaskConfig):
         altitude_action: Add a third action, an altitude offset from the recorded profile.
         cache_dir: Directory of the cleaned collections (default: see :mod:`bluesky_gym.realtraffic.cache`).
         labels: Callsign labels in rendered frames: ``"near"`` (aircraft within 20 NM of the
-            ownship, and any in a loss of separation), ``"all"`` or ``"none"``.
+            ownship, and any in a loss of separation), ``"all"`` or ``"none"``; in the
+            ``"human"`` window the aircraft under the mouse pointer is labelled whatever this says.
     """
 
     collections: tuple[str, ...] = SAMPLE_COLLECTIONS
@@ -340,6 +342,12 @@ class RealTrafficTask(Task):
         self.window_index = np.full(self.n_envs, -1, np.int64)
         self.route_sum = np.zeros(self.n_envs)
         self.intrusions = np.zeros(self.n_envs)
+
+    def wrap_physics(self, wrapper: Callable[[Physics], Physics]) -> Physics:
+        """Put a wrapper around the physics (see :meth:`Task.wrap_physics`); the recorded traffic's player commands through it too."""
+        wrapped = super().wrap_physics(wrapper)
+        self.player.sim = wrapped
+        return wrapped
 
     def set_test_split(self, envs: NDArray[np.int64], test: BoolArray) -> None:
         """Choose the split the next episodes of ``envs`` are drawn from (``split="auto"`` only; fixed splits ignore it)."""

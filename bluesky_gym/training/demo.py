@@ -4,8 +4,9 @@
 
 1. PPO on the natively batched environment with ``configs/demo.toml``'s settings (a normal,
    resumable run in ``out/<ID>/PPO/seed_<S>``);
-2. a deterministic evaluation of the trained policy, ``random`` and ``classical`` on the same
-   held-out scenarios, printed as a KPI table with normalised scores
+2. a deterministic evaluation of the trained policy, ``random``, ``classical`` and, for the
+   environments with traffic, ``mvp`` on the same held-out scenarios, printed as a KPI table
+   with normalised scores
    (``out/eval_*.json``, ``out/eval_*_episodes.csv``);
 3. the learning curves and the aggregate plot (``out/plots``);
 4. a GIF of the trained policy on a held-out scenario (``out/<ID>_ppo.gif``), when the renderer
@@ -31,6 +32,7 @@ from bluesky_gym.training.evaluation import (
 )
 from bluesky_gym.training.hyperparams import DEMO, PAPER, merge
 from bluesky_gym.training.io import atomic_write_json
+from bluesky_gym.training.policies import reference_names
 from bluesky_gym.training.runner import make_run_spec, run_dir_for, run_training
 
 
@@ -75,18 +77,18 @@ def run_demo(
     t = time.perf_counter()
     trained = load_result(run_dir, "eval")
     trained.policy = "PPO (trained)"
-    refs = {name: evaluate(env_id, make_policy(name, env_id), episodes) for name in ("random", "classical")}
+    refs = {name: evaluate(env_id, make_policy(name, env_id), episodes) for name in reference_names(env_id)}
     for name, res in refs.items():
         save_result(res, out, stem=f"eval_{name}")
     save_result(trained, out, stem="eval_ppo")
     ref_returns = {k: v.mean_return for k, v in refs.items()}
     write_references(out / "references", env_id, episodes, refs)  # where `bluesky-gym plot` looks for them
-    table = format_table([trained, refs["random"], refs["classical"]], ref_returns)
+    table = format_table([trained, *refs.values()], ref_returns)
     timings["evaluate_s"] = time.perf_counter() - t
 
     t = time.perf_counter()
     run = load_run(run_dir)
-    plots = [str(p) for p in plot_learning_curves([run], out / "plots")]
+    plots = [str(p) for p in plot_learning_curves([run], out / "plots", references={env_id: ref_returns})]
     agg = aggregate([run], {env_id: ref_returns})
     plots += [str(p) for p in plot_aggregate(agg, out / "plots")]
     timings["plot_s"] = time.perf_counter() - t

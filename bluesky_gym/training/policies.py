@@ -132,6 +132,22 @@ class Policy(abc.ABC):
         """Actions for a batch of observations."""
 
 
+class FunctionPolicy(Policy):
+    """A stateless policy given as a function of the batched observation.
+
+    Args:
+        act: Batched observation dict -> batch of actions.
+        name: Name shown in result tables.
+    """
+
+    def __init__(self, act: Callable[[Obs], Array], name: str) -> None:
+        self._act, self.name = act, name
+
+    def act(self, obs: Obs) -> Array:
+        """The function's actions."""
+        return self._act(obs)
+
+
 class RandomPolicy(Policy):
     """Uniform random actions in ``[low, high]`` from a seeded generator.
 
@@ -498,7 +514,7 @@ class MVPPolicy(Policy):
         base = getattr(env, "unwrapped", env)
         task = getattr(base, "task", None)
         spec = getattr(base, "spec", None)
-        if task is None or getattr(spec, "id", task.env_id) != self.env_id:
+        if task is None or getattr(spec, "id", task.id) != self.env_id:
             raise ValueError(f"the mvp policy of {self.env_id} needs that environment, got {env!r}")
         self.physics = task.sim
         self.resolver.reset()

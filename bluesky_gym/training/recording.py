@@ -1,49 +1,54 @@
 """Fly episodes of an environment with a policy and film them (the ``render`` command and the demo).
 
 The policy is ``random`` (uniform actions, seeded), ``classical`` (the benchmark's hand-written
-controller) or the path of a Stable-Baselines3 model ``.zip`` (its algorithm is read from the
-file, or given).
+controller), ``mvp`` (BlueSky's MVP conflict resolution, for the environments with traffic) or
+the path of a Stable-Baselines3 model ``.zip`` (its algorithm is read from the file, or given).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from bluesky_gym.core.extras import missing_extra
 
-Actor = Callable[[dict[str, np.ndarray]], np.ndarray]
-NAMED_POLICIES = ("random", "classical")
+if TYPE_CHECKING:
+    from bluesky_gym.training.policies import Policy
+
+NAMED_POLICIES = ("random", "classical", "mvp")
 SB3_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "a2c": "A2C"}
 
 
 def make_actor(
     policy: str, env_id: str, action_space: Any, seed: int, algo: str | None = None, deterministic: bool = True, observation_space: Any = None
-) -> Actor:
-    """A function from a batched observation dict to a batch of actions.
+) -> Policy:
+    """The policy that flies the episodes: a batched observation dict to a batch of actions.
+
+    Bind it to the environment (:meth:`Policy.bind`) before its first reset and reset it
+    (:meth:`Policy.reset`) when episodes end: ``mvp`` reads the simulator state and holds
+    resolutions per episode; the others ignore both calls.
 
     Args:
-        policy: ``random``, ``classical`` or the path of a Stable-Baselines3 model ``.zip``.
-        env_id: Environment id (selects the classical controller).
+        policy: ``random``, ``classical``, ``mvp`` or the path of a Stable-Baselines3 model ``.zip``.
+        env_id: Environment id (selects the classical controller and MVP's mapping).
         action_space: Action space of one environment.
         seed: Seed of the random actions.
         algo: Algorithm of the model file (default: read from its run or the file; must agree).
         deterministic: Deterministic model actions.
         observation_space: Observation space of one environment (checked against the model's).
     """
+    from bluesky_gym.training.policies import FunctionPolicy, reference_policy
+
     low = np.asarray(action_space.low, dtype=np.float64)
     high = np.asarray(action_space.high, dtype=np.float64)
     if policy == "random":
         rng = np.random.default_rng(seed)
-        return lambda obs: rng.uniform(low, high, size=(next(iter(obs.values())).shape[0], *low.shape))
-    if policy == "classical":
-        from bluesky_gym.training.policies import reference_policy
-
-        controller = reference_policy("classical", env_id, low, high)
-        return controller.act
+        return FunctionPolicy(lambda obs: rng.uniform(low, high, size=(next(iter(obs.values())).shape[0], *low.shape)), "random")
+    if policy in ("classical", "mvp"):
+        return reference_policy(policy, env_id, low, high)
     path = Path(policy)
     if not path.is_file():
         raise ValueError(f"--policy must be one of {', '.join(NAMED_POLICIES)} or an existing model .zip file, got {policy!r}")
@@ -66,7 +71,7 @@ def make_actor(
         action, _ = model.predict(obs, deterministic=deterministic)
         return np.asarray(action, dtype=np.float64).reshape(-1, *low.shape)
 
-    return act
+    return FunctionPolicy(act, name)
 
 
 def record(
@@ -125,12 +130,15 @@ def record(
     if grid > 1:
         env: Any = gym.make_vec(env_id, num_envs=grid, vectorization_mode="vector_entry_point", render_mode=mode, render_grid=grid, **kwargs)
         actor = make_actor(policy, env_id, env.single_action_space, seed, algo, deterministic, env.single_observation_space)
+        actor.bind(env)
         obs, _ = env.reset(seed=seed)
+        actor.reset(None)
         ended = np.zeros(grid, int)
         step = 0
         stop = emit(env)
         while not stop and ended.min() < episodes:
-            obs, _, te, tr, _ = env.step(actor(obs))
+            obs, _, te, tr, _ = env.step(actor.act(obs))
+            actor.reset(np.asarray(te | tr))
             ended += np.asarray(te | tr, int)
             step += 1
             if step % every == 0 or ended.min() >= episodes:
@@ -141,6 +149,7 @@ def record(
         else:
             env = gym.make(env_id, render_mode=mode, **kwargs)
         actor = make_actor(policy, env_id, env.action_space, seed, algo, deterministic, env.observation_space)
+        actor.bind(env)
         recorder = None
         if scn is not None:
             from bluesky_gym.scenarios.export import ScenarioRecorder
@@ -149,11 +158,12 @@ def record(
         stop = False
         for k in range(episodes):
             obs, _ = env.reset(seed=seed if k == 0 else None)
+            actor.reset(None)
             stop = emit(env)
             step = 0
             done = False
             while not (done or stop):
-                action = actor({key: v[None] for key, v in obs.items()})[0]
+                action = actor.act({key: v[None] for key, v in obs.items()})[0]
                 obs, reward, te, tr, _ = env.step(action)
                 done = te or tr
                 step += 1

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.core.extras import require_rliable
+from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.training.evaluation import KPI_COLUMNS, format_number, normalised_score
 from bluesky_gym.training.io import atomic_path, read_csv_rows, read_json
 from bluesky_gym.training.plotting import Run, find_runs, load_run, plot_learning_curves
@@ -338,6 +339,12 @@ def _budget(runs: Sequence[Run], run_configs: dict[Path, dict[str, Any]]) -> lis
     return lines
 
 
+def _not_run(runs: Sequence[Run]) -> list[str]:
+    """A line naming the algorithms of the package that no run of the page used (none when all were)."""
+    missing = [a for a in ALGORITHMS if a not in {r.algo for r in runs}]
+    return [f"Not run for this page: {', '.join(missing)}.", ""] if missing else []
+
+
 def _plot_aggregate(agg: dict[str, Any], version: str, path: Path) -> None:
     from bluesky_gym.training.plotting import ALGO_COLOURS, pyplot
 
@@ -404,6 +411,7 @@ def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Se
         "",
         *_budget(runs, configs),
         "",
+        *_not_run(runs),
         "The full grid of the paper (all environments and algorithms, 3 seeds, 2e6 steps each) on a Ray cluster:",
         "",
         "```bash",
@@ -440,7 +448,7 @@ def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Se
     lines += ["## Per environment", ""]
     for er in results:
         env_dir = fig_dir / er.env_id
-        written = plot_learning_curves(er.runs, env_dir, seed=seed)
+        written = plot_learning_curves(er.runs, env_dir, seed=seed, references={er.env_id: er.references})
         lines += [f"### {er.env_id}", "", *kpi_table(er), ""]
         lines += [f"![{er.env_id} learning curves]({rel}/{er.env_id}/{written[0].name})", ""]
         lines += [f"![{er.env_id} KPIs]({rel}/{er.env_id}/{p.name})" for p in written[1:]]

@@ -234,7 +234,17 @@ def test_sweep_on_ray(tmp_path: Path, tiny_config: Path) -> None:
 
 
 @needs_sb3
-def test_demo(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_demo(tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    import bluesky_gym.training.plotting as plotting
+
+    drawn: dict[str, dict[str, float]] = {}
+    plot = plotting.plot_learning_curves
+
+    def spy(runs, out_dir, seed=0, references=None):  # type: ignore[no-untyped-def]
+        drawn.update(references or {})
+        return plot(runs, out_dir, seed=seed, references=references)
+
+    monkeypatch.setattr(plotting, "plot_learning_curves", spy)
     out = tmp_path / "demo"
     assert main(["demo", "--steps", "2048", "--n-envs", "8", "--episodes", "6", "--out", str(out), "--no-progress"]) == 0
     text = capsys.readouterr().out
@@ -242,6 +252,9 @@ def test_demo(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     demo = read_json(out / "demo.json")
     assert demo["timesteps"] == 2048 and demo["timings_s"]["total_s"] > 0
     assert set(demo["kpis"]) == {"PPO", "random", "classical"}
+    # the learning curve shows the reference policies' held-out returns as lines
+    assert set(drawn) == {demo["env_id"]} and set(drawn[demo["env_id"]]) == {"random", "classical"}
+    assert drawn[demo["env_id"]]["classical"] == pytest.approx(demo["kpis"]["classical"]["return"]["mean"])
     assert {Path(p).name for p in demo["plots"]} >= {"learning_curves.png", "aggregate.png"}
     try:
         import pygame  # noqa: F401

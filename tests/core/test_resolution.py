@@ -12,7 +12,7 @@ import pytest
 from bluesky_gym.core import Simulator
 from bluesky_gym.core.aircraft import aircraft_performance
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, detect
-from bluesky_gym.core.resolution import RESO_FACTOR, MVPResolver, ResolutionSettings, mvp, resume
+from bluesky_gym.core.resolution import RESO_FACTOR, MVPResolver, ResolutionSettings, mvp, resume, vertical_speed_limits
 
 A320 = aircraft_performance("A320")
 
@@ -172,3 +172,26 @@ def test_pair_kernel_compiled_and_plain_python_agree_on_edge_cases(args: tuple[f
     compiled = np.array(mvp_pair(*args, *rest))
     plain = np.array(python_form(mvp_pair)(*args, *rest))
     np.testing.assert_array_equal(compiled, plain)
+
+
+def test_each_aircraft_is_capped_with_its_own_vertical_envelope() -> None:
+    """BlueSky caps with every aircraft's own perf.vsmin/vsmax: a B744's resolution with the B744's, an A320's with the A320's.
+
+    BlueSky's equality is checked in test_resolution_bluesky.py (mixed-type geometries).
+    """
+    b744 = aircraft_performance("B744")
+    assert b744.vsmin != A320.vsmin
+    sim = Simulator(2, 3, dt=1.0)
+    sim.create([0, 1], 0, 52.0, 4.0, 90.0, 6000.0, 140.0, actype=["B744", "A320"])
+    sim.creconfs([0, 1], 0, 1, 180.0, 1.0, 180.0, 50.0, 150.0)  # small vertical changes: capped at vsmin
+    sim.step()
+    vsmin, vsmax = vertical_speed_limits(sim)
+    np.testing.assert_array_equal(vsmin[:, :2], [[b744.vsmin, A320.vsmin], [A320.vsmin, A320.vsmin]])
+    np.testing.assert_array_equal(vsmax[:, :2], [[b744.vsmax, A320.vsmax], [A320.vsmax, A320.vsmax]])
+    assert np.isnan(vsmin[:, 2]).all() and np.isnan(vsmax[:, 2]).all()  # empty slots
+    settings = ResolutionSettings.from_methods(None, "V/S")
+    cmd = MVPResolver(settings).update(sim)  # the resolver's default: every aircraft's own envelope
+    assert cmd.follow[:, 0].all()
+    np.testing.assert_array_equal(cmd.vs[:, 0], [b744.vsmin, A320.vsmin])
+    np.testing.assert_array_equal(cmd.vs[:, :2], mvp(sim, _detect(sim), settings, vsmin=vsmin, vsmax=vsmax).vs[:, :2])
+    assert mvp(sim, _detect(sim), settings).vs[0, 0] == A320.vsmin  # mvp() alone defaults to the A320's

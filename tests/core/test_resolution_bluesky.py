@@ -16,6 +16,8 @@ extrapolates over up to 1e9 s for aircraft without a vertical conflict).
 * The same geometries with ``ASAS ON`` (BlueSky's Python STATEBASED detector, which misses some
   reverse pairs, docs/dynamics.md §5): BlueSky's own conflict list is fed to the resolution
   kernel, so the resolution itself is checked for that detector too.
+* 24 mixed-type geometries (A320, B744, E190, A388, B738): BlueSky caps every aircraft with its own
+  ``perf.vsmin``/``vsmax`` (:func:`~bluesky_gym.core.resolution.vertical_speed_limits`), not the A320's.
 * The creconfs scenarios: the recorded ``s9`` scenario flown for 200 s with MVP resolving (also
   checking which aircraft follow their resolution, BlueSky's ``resumenav``), and HorizontalCR and
   VerticalCR episodes on the BlueSky backend, state by state.
@@ -38,7 +40,7 @@ import bluesky_gym  # noqa: E402,F401  (registers the environments)
 from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics  # noqa: E402
 from bluesky_gym.core.aircraft import aircraft_performance  # noqa: E402
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect  # noqa: E402
-from bluesky_gym.core.resolution import MVPResolver, Resolution, ResolutionSettings, mvp  # noqa: E402
+from bluesky_gym.core.resolution import MVPResolver, Resolution, ResolutionSettings, mvp, vertical_speed_limits  # noqa: E402
 from bluesky_gym.core.units import FT, KTS  # noqa: E402
 
 A320 = aircraft_performance("A320")
@@ -92,11 +94,16 @@ def _configure(sim: Any, detector: str, rmethh: str | None, rmethv: str | None, 
     return ResolutionSettings.from_methods(rmethh, rmethv, rfach, rfacv)
 
 
-def _random_geometry(sim: BlueSkyPhysics, rng: np.random.Generator) -> None:
-    """An ownship, intruders in conflict with it or with each other, maybe climbing, maybe flown a little."""
+def _random_geometry(sim: BlueSkyPhysics, rng: np.random.Generator, types: tuple[str, ...] | None = None) -> None:
+    """An ownship, intruders in conflict with it or with each other, maybe climbing, maybe flown a little.
+
+    Every aircraft is an A320, or of a type drawn from ``types``.
+    """
     hdg = rng.uniform(0.0, 360.0)
     alt = rng.uniform(2000.0, 9000.0)
-    sim.create(0, 0, rng.uniform(-60.0, 60.0), rng.uniform(-170.0, 170.0), hdg, alt, rng.uniform(110.0, 160.0))
+    n_types = 0 if types is None else MAX_AC
+    drawn = [str(t) for t in rng.choice(types, n_types)] if types is not None else [None] * MAX_AC
+    sim.create(0, 0, rng.uniform(-60.0, 60.0), rng.uniform(-170.0, 170.0), hdg, alt, rng.uniform(110.0, 160.0), actype=drawn[0])
     n = int(rng.integers(1, MAX_AC))
     for slot in range(1, n + 1):
         target = 0 if slot == 1 or rng.random() < 0.6 else int(rng.integers(0, slot))
@@ -107,7 +114,7 @@ def _random_geometry(sim: BlueSkyPhysics, rng: np.random.Generator) -> None:
         if rng.random() < 0.5:
             spd = float(rng.uniform(100.0, 170.0))
         dcpa = 0.0 if rng.random() < 0.15 else float(rng.uniform(0.0, 7.0))
-        sim.creconfs(0, target, slot, rng.uniform(0.0, 360.0), dcpa, rng.uniform(10.0, 400.0), dh, tlosv, spd)
+        sim.creconfs(0, target, slot, rng.uniform(0.0, 360.0), dcpa, rng.uniform(10.0, 400.0), dh, tlosv, spd, actype=drawn[slot])
     for slot in range(n + 1):
         if rng.random() < 0.3:  # a climb or descent in progress (vertical speed, selected altitude)
             sim.cmd_altitude(0, slot, sim.alt[0, slot] + rng.uniform(-1500.0, 1500.0), rng.uniform(3.0, 12.0))
@@ -181,6 +188,40 @@ def test_random_geometries_cstatebased(physics: BlueSkyPhysics) -> None:
         conflicts_seen += int(conflicts.conflict.sum())
         _assert_same(ours, theirs, f"geometry {k} {SETTINGS[k % len(SETTINGS)]}")
     assert conflicts_seen > 2 * N_GEOMETRIES  # the geometries do produce conflicts
+
+
+#: Types of different vertical-speed envelopes (OpenAP; the B744 is also BlueSky's fallback type).
+MIXED_TYPES = ("A320", "B744", "E190", "A388", "B738")
+
+
+def test_mixed_types_are_capped_with_each_aircraft_envelope(physics: BlueSkyPhysics) -> None:
+    """BlueSky's MVP caps each aircraft's vertical speed with its own ``perf.vsmin``/``vsmax`` (per type, not global).
+
+    With every aircraft's limits from its type (:func:`vertical_speed_limits`, MVPResolver's
+    default), the package's MVP equals BlueSky's on 24 mixed-type geometries with vertical
+    resolutions; with the A320's limits for all it does not.
+    """
+    rng = np.random.default_rng(11)
+    vertical = [s for s in SETTINGS if s[1] is not None or s[0] == "NONE"]
+    differs = 0
+    for k in range(24):
+        physics.reset_envs()
+        settings = _configure(physics, "CSTATEBASED", *vertical[k % len(vertical)])
+        _random_geometry(physics, rng, MIXED_TYPES)
+        vsmin, vsmax = vertical_speed_limits(physics)
+        slots = np.flatnonzero(physics.active[0])
+        idx = physics.traffic.id2idx([physics.acid(s) for s in slots])
+        np.testing.assert_array_equal(np.asarray(physics.traffic.perf.vsmin)[idx], vsmin[0, slots])
+        np.testing.assert_array_equal(np.asarray(physics.traffic.perf.vsmax)[idx], vsmax[0, slots])
+        theirs = _bluesky_resolution(physics)
+        conflicts = detect(
+            physics.lat, physics.lon, physics.alt, physics.gs, physics.trk, physics.vs, physics.active, PZ_RADIUS, PZ_HEIGHT, LOOKAHEAD
+        )
+        _assert_same(mvp(physics, conflicts, settings, vsmin=vsmin, vsmax=vsmax), theirs, f"mixed geometry {k}")
+        a320 = mvp(physics, conflicts, settings)
+        live = np.isfinite(theirs[2])
+        differs += int(np.any(np.abs(a320.vs[live] - theirs[2][live]) > TOL))
+    assert differs > 0  # the A320's limits for every aircraft would not be BlueSky's
 
 
 def test_random_geometries_asas_on(physics: BlueSkyPhysics) -> None:

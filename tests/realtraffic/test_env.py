@@ -191,3 +191,32 @@ def test_cache_directory_order_and_availability(tmp_path, monkeypatch) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         traffic_collection(n_flights=2).save(path)
     assert entry(ENV).data_ready() and ENV in available_envs()
+
+
+def test_an_episode_written_as_scn_replays_exactly(options) -> None:
+    """``render --scn`` of an episode with an agent acting: the recorded traffic's commands are in the file too, and it replays bit for bit."""
+    from bluesky_gym.core.simulator import Simulator
+    from bluesky_gym.scenarios import ScenarioPlayer, parse_scenario
+    from bluesky_gym.scenarios.export import ScenarioRecorder
+    from bluesky_gym.scenarios.player import slots_needed, waypoints_needed
+
+    env = gym.make(ENV, **options)
+    rec = env.unwrapped.task.wrap_physics(ScenarioRecorder)
+    env.reset(seed=5)
+    env.action_space.seed(5)
+    sim = env.unwrapped.task.sim
+    track = []
+    for _ in range(30):
+        env.step(env.action_space.sample())
+        track.append((sim.simt - rec.episodes[0][-1].start, sim.lat[0].copy(), sim.lon[0].copy(), sim.alt[0].copy(), sim.active[0].copy()))
+    scenario = parse_scenario(rec.scenario_text(), "episode.scn")
+    assert len(scenario.callsigns) >= 2 and sum(c.__class__.__name__ == "Heading" for c in scenario.commands) == 30  # the agent's turns
+    replay = Simulator(1, slots_needed(scenario), dt=sim.dt, max_waypoints=waypoints_needed(scenario))
+    player = ScenarioPlayer([scenario], replay)
+    for t, lat, lon, alt, active in track:
+        player.advance(int(round(t / sim.dt)) - player.steps_done)
+        slot_of = {acid: s for s, acid in player.slots(0)}
+        assert set(slot_of) == {f"AC{s:03d}" for s in np.flatnonzero(active)}
+        for s in np.flatnonzero(active):
+            j = slot_of[f"AC{s:03d}"]
+            assert (replay.lat[0, j], replay.lon[0, j], replay.alt[0, j]) == (lat[s], lon[s], alt[s])

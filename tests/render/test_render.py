@@ -412,6 +412,17 @@ def test_panel_shows_info_values_with_units() -> None:
     assert info_line("faf_reach", True) == ("reached FAF", "yes")
     assert info_line("average_drift", float("nan")) == ("mean |drift|", "-")
     assert info_line("something_new", 2.5) == ("something_new", "2.500")
+    assert info_line("average_route_deviation_nm", 0.1934) == ("mean route dev.", "0.19 NM")
+
+
+def test_every_info_value_of_the_environments_has_a_panel_label() -> None:
+    """The panel's label column is narrow: every task's info entry has a short label and a unit, not its key."""
+    from bluesky_gym.envs.registry import ENVIRONMENTS, resolve
+    from bluesky_gym.render.renderer import INFO_DISPLAY
+
+    keys = {k for entry in ENVIRONMENTS for k in resolve(entry.task).info_keys if k != "total_reward"}
+    assert keys and keys <= set(INFO_DISPLAY), sorted(keys - set(INFO_DISPLAY))
+    assert all(len(label) <= 16 for label, _ in INFO_DISPLAY.values())
 
 
 # --- the command --------------------------------------------------------------------------------

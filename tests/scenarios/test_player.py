@@ -16,7 +16,7 @@ from bluesky_gym.core import Simulator
 from bluesky_gym.core.geo import qdrdist
 from bluesky_gym.core.units import FT, KTS, NM
 from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioError, ScenarioPlayer, parse_scenario, read_scenario
-from bluesky_gym.scenarios.export import ScenarioRecorder, scn_time, speed_text
+from bluesky_gym.scenarios.export import ScenarioRecorder, scn_time, speed_text, unique_callsigns
 from bluesky_gym.scenarios.geometries import shipped_scenario, shipped_scenarios, sphere_conflict, super_conflict, wall_conflict, write_shipped
 from bluesky_gym.scenarios.player import common_dt, slots_needed, waypoints_needed
 from tests.core.reference_scenarios import DATA
@@ -308,3 +308,27 @@ def test_the_python_snippets_of_the_scenarios_page_run(tmp_path: Path, monkeypat
     assert page.closest[0] < 0.1 and 0.5 < page.closest[1] < 5.0 and page.closest[2] > 5.0
     assert len(page.rows) == 4 * 8  # four copies of eight aircraft
     assert parse_scenario((tmp_path / "episode.scn").read_text()).callsigns[0] == "AC000"
+
+
+def test_recorder_writes_given_callsigns_valid_and_unique() -> None:
+    assert unique_callsigns(["klm 12", "", "KLM12", "AC003", "ab-c/1"], reserved=["AC004"]) == ["KLM12", "AC001", "KLM12_2", "AC003", "ABC1"]
+    assert unique_callsigns(["AC004", "x"], reserved=["AC004"]) == ["AC004_2", "X"]
+    sim = Simulator(2, 3, max_waypoints=4)
+    rec = ScenarioRecorder(sim)
+    rec.reset_envs()
+    assert rec.set_callsigns(0, ["swr 1", "AC002"]) == ["SWR1", "AC002_2"]  # slot 2 keeps its name AC002
+    rec.create(0, [0, 1, 2], 52.0, 4.0, 90.0, 3000.0, 150.0)
+    rec.create(1, 0, 52.0, 4.0, 90.0, 3000.0, 150.0)
+    rec.run(1)
+    rec.cmd_heading(0, [0, 1, 2], 45.0)
+    rec.add_waypoint(0, 0, 52.5, 4.5)
+    rec.cmd_direct(0, 0, 0)
+    rec.delete(0, 1)
+    text = rec.scenario_text(0)
+    assert [ln.split(">", 1)[1].split()[1] for ln in text.splitlines() if ">CRE " in ln] == ["SWR1", "AC002_2", "AC002"]
+    assert "00:00:01.00>HDG SWR1 45.0" in text and "HDG AC002_2 45.0" in text and "DIRECT SWR1 SWR1001" in text and "DEL AC002_2" in text
+    assert ">CRE AC000 " in rec.scenario_text(1)  # other airspaces keep the slot names
+    sc = parse_scenario(text, "named.scn")
+    assert sc.callsigns == ["SWR1", "AC002_2", "AC002"]
+    rec.reset_envs([0])
+    assert rec.acid(0, 0) == "AC000"  # a reset restores the slot names

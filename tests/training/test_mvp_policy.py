@@ -123,3 +123,68 @@ def test_eval_cli_with_mvp(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert result["policy"] == "mvp" and result["episodes"] == 3
     assert main(["eval", "DescentEnv-v0", "--model", "mvp", "--episodes", "1", "--out", str(tmp_path)]) == 2
     assert "no MVP mapping for DescentEnv-v0" in capsys.readouterr().err
+
+
+def test_mvp_caps_the_ownship_vertical_speed_with_its_own_type() -> None:
+    """VerticalCR with a B744 ownship: MVP's vertical speed is capped with the B744's envelope (BlueSky's perf per aircraft)."""
+    from bluesky_gym.core.aircraft import aircraft_performance
+    from bluesky_gym.training.policies import ACTION_2_MS
+
+    b744, a320 = aircraft_performance("B744"), aircraft_performance("A320")
+    venv = gym.make_vec("VerticalCREnv-v0", num_envs=4, vectorization_mode="vector_entry_point", ownship_types="B744")
+    own, fixed = MVPPolicy("VerticalCREnv-v0"), MVPPolicy("VerticalCREnv-v0")
+    own.bind(venv)
+    fixed.bind(venv)
+    fixed.resolver.vsmin, fixed.resolver.vsmax = a320.vsmin, a320.vsmax  # one envelope for every aircraft
+    obs, _ = venv.reset(seed=0)
+    assert venv.unwrapped.task.sim.aircraft_type(range(4), 0) == ["B744"] * 4
+    followed = differ = 0
+    for _ in range(60):
+        nominal = own.nominal.act(obs)[:, 0]
+        a, b = own.act(obs)[:, 0], fixed.act(obs)[:, 0]
+        resolving = a != nominal
+        followed += int(resolving.sum())
+        differ += int((a != b).sum())
+        # A capped vertical speed is at least vsmin in magnitude: the B744's, not the A320's.
+        assert np.all(np.abs(a[resolving]) >= b744.vsmin / ACTION_2_MS - 1e-12)
+        obs, _, terminated, truncated, _ = venv.step(a[:, None])
+        own.reset(terminated | truncated)
+        fixed.reset(terminated | truncated)
+    venv.close()
+    assert followed > 0 and differ > 0
+
+
+@pytest.mark.parametrize("env_id", sorted(MVP))
+def test_render_and_eval_commands_fly_mvp(env_id: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``render --policy mvp`` (single and batched) and ``eval --model mvp`` work for every environment with MVP."""
+    pytest.importorskip("pygame")
+    out = tmp_path / "mvp.gif"
+    assert main(["render", "--env", env_id, "--policy", "mvp", "--episodes", "2", "--max-steps", "3", "--out", str(out)]) == 0
+    assert out.stat().st_size > 1000
+    assert capsys.readouterr().err.count("episode ") == 2
+    grid = tmp_path / "grid.gif"
+    assert main(["render", "--env", env_id, "--policy", "mvp", "--grid", "2", "--max-frames", "3", "--out", str(grid)]) == 0
+    assert grid.stat().st_size > 1000
+    assert main(["eval", "--env", env_id, "--model", "mvp", "--episodes", "1", "--num-envs", "1", "--out", str(tmp_path / "eval")]) == 0
+    assert json.loads((tmp_path / "eval" / "eval_mvp.json").read_text())["policy"] == "mvp"
+
+
+def test_render_command_refuses_mvp_without_traffic(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["render", "--env", "DescentEnv-v1", "--policy", "mvp", "--max-frames", "2", "--out", str(tmp_path / "d.gif")]) == 2
+    assert "no MVP mapping for DescentEnv-v1" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_demo_compares_with_mvp_where_it_exists(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The demo on an environment with traffic evaluates mvp with the other references (and caches it with them)."""
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path / "demo"
+    common = ["--steps", "512", "--num-envs", "4", "--episodes", "2", "--out", str(out), "--no-progress", "--no-gif"]
+    assert main(["demo", "--env", "MergeEnv-v0", *common]) == 0  # 50-step episodes: some end within 128 steps per env
+    rows = [line.split()[0] for line in capsys.readouterr().out.splitlines() if line.split()[:1] in (["mvp"], ["classical"], ["random"])]
+    assert sorted(rows) == ["classical", "mvp", "random"]
+    demo = json.loads((out / "demo.json").read_text())
+    assert set(demo["kpis"]) == {"PPO", "random", "classical", "mvp"}
+    assert json.loads((out / "eval_mvp.json").read_text())["policy"] == "mvp"
+    cached = json.loads((out / "references" / "MergeEnv-v0.json").read_text())
+    assert {"random", "classical", "mvp"} <= set(cached)  # a complete cache: reference_scores reads it as it is

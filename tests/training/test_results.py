@@ -64,7 +64,7 @@ def test_bootstrap_point_is_the_mean_of_seed_means_and_the_interval_holds_it():
     assert all(math.isnan(x) for x in seed_episode_bootstrap([np.zeros(0)], rng))
 
 
-def test_kpi_table_rows_and_normalised_aggregate(tmp_path):
+def test_kpi_table_rows_and_normalised_aggregate(tmp_path, monkeypatch):
     sweep = _sweep(
         tmp_path / "sweep",
         {"AEnv-v0": [[5, 5, 5, 5], [7, 7, 7, 7], [3, 3, 3, 3]], "BEnv-v0": [[2, 2, 2, 2], [4, 4, 4, 4], [9, 9, 9, 9]]},
@@ -80,10 +80,23 @@ def test_kpi_table_rows_and_normalised_aggregate(tmp_path):
     assert a.rows[0].kpis["return"] == (0.0, 0.0, 0.0)
     assert "min_sep_nm" not in ppo.kpis  # no traffic: no separation KPI
 
+    import bluesky_gym.training.results as results_module
+
+    drawn: dict[str, dict[str, float]] = {}
+    plot = results_module.plot_learning_curves
+
+    def spy(runs, out_dir, seed=0, references=None):
+        drawn.update(references or {})
+        return plot(runs, out_dir, seed=seed, references=references)
+
+    monkeypatch.setattr(results_module, "plot_learning_curves", spy)
     page = build_results([sweep], tmp_path / "site" / "results.md", ["bluesky-gym", "results", "SWEEP", "--out", "results.md"], reps=300)
+    # the learning curves carry the reference policies' held-out returns as lines
+    assert drawn == {"AEnv-v0": {"random": 0.0, "classical": 10.0}, "BEnv-v0": {"random": 0.0, "classical": 10.0}}
     text = page.read_text()
     assert "bluesky-gym results SWEEP --out results.md" in text
     assert "| PPO | 3 | 12 | 5.000 [" in text
+    assert "Not run for this page: TD3, DDPG." in text
     # normalised PPO scores (random 0, classical 10): A 0.5 0.7 0.3, B 0.2 0.4 0.9
     scores = np.sort([0.5, 0.7, 0.3, 0.2, 0.4, 0.9])
     from scipy.stats import trim_mean
@@ -108,6 +121,7 @@ def test_page_is_reproducible_and_versions_are_aggregated_apart(tmp_path):
     assert first == second
     assert "## Aggregate over the -v0 environments" in first and "## Aggregate over the -v1 environments" in first
     assert "Probability of improvement needs two trained algorithms" in first
+    assert "Not run for this page: SAC, TD3, DDPG." in first
 
 
 def test_cli_names_a_missing_directory_in_one_line(tmp_path):

@@ -28,7 +28,7 @@ def real_traffic_scene(task: Any, i: int) -> MapScene:
 
     def callsign(slot: int) -> str:
         f = int(player.flight[i, slot])
-        return str(flights.callsign[f]) if f >= 0 and labels != "none" else ""
+        return str(flights.callsign[f]) if f >= 0 else ""
 
     aircraft = map_traffic(task, i, callsign=callsign)
     lines = []
@@ -57,6 +57,7 @@ def real_traffic_scene(task: Any, i: int) -> MapScene:
         lines=lines,
         traffic_details=True,
         label_range_nm=LABEL_RANGE_NM.get(labels),
+        labels=labels != "none",
         panel=panel,
         legend=legend,
     )
