@@ -44,7 +44,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, resolve_type
 from bluesky_gym.core.extras import missing_extra
+from bluesky_gym.core.resolution import AsasConfig
 from bluesky_gym.core.state import STATE_FIELDS, aircraft_index
+from bluesky_gym.core.units import FT, NM
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
@@ -374,6 +376,8 @@ class BlueSkyPhysics:
         #: reference gym environments do). They differ in the last bits; see ``Simulator(geo=...)``.
         self.geo = "python" if bs_geo.qdrdist is _geo.qdrdist else "compiled"
         self._acid = [f"AC{k}" for k in range(self.max_aircraft)]
+        # ASAS methods set_conflict_resolution selected (BlueSky keeps settings per method and process).
+        self._asas_methods: set[str] = set()
         self._slots = np.zeros(0, dtype=np.int64)  # active slots, in BlueSky's traffic order
         self._tidx = np.zeros(0, dtype=np.int64)  # their BlueSky traffic indices
         self.reset_envs()
@@ -396,6 +400,7 @@ class BlueSkyPhysics:
         self._check_open()
         if envs is not None:
             self._index(envs, 0)
+        self._undo_conflict_resolution()
         self._bs.traf.reset()
         for name, (_dtype, value) in self._defaults.items():
             self._data[name][...] = value
@@ -495,6 +500,40 @@ class BlueSkyPhysics:
         if not ok:
             raise RuntimeError(f"BlueSky rejected {line!r}: {text}")
         self._sync_out()
+
+    def set_conflict_resolution(self, env: ArrayLike, config: AsasConfig) -> None:
+        """Switch BlueSky's own ASAS to ``config`` with its stack commands (``ASAS``, ``RESO``, ``RFACH``, ``ZONER``, ``RMETHH``, ...).
+
+        The factors are given before and after the zones, so that a zone change does not rescale them.
+        """
+        if np.any(np.asarray(env) != 0):
+            raise IndexError("the BlueSky backend has one airspace (env 0)")
+        self._asas_methods |= {config.detector or "OFF", "MVP" if config.resolution else "OFF"}
+        self.command(f"ASAS {config.detector or 'OFF'}")
+        self.command(f"RESO {'MVP' if config.resolution else 'OFF'}")
+        s = config.settings
+        factors = (f"RFACH {s.resofach!r}", f"RFACV {s.resofacv!r}")
+        methods = {0: ("RMETHH BOTH",), 1: ("RMETHH SPD",), 2: ("RMETHH HDG",), 3: ("RMETHV V/S",), 4: ("RMETHH NONE", "RMETHV NONE")}
+        lines = [*factors, f"ZONER {config.rpz / NM!r}", f"ZONEDH {config.hpz / FT!r}", f"DTLOOK {config.lookahead!r}", *factors]
+        if config.resolution:
+            lines += methods[s.mode]
+        for line in lines:
+            self.command(line)
+
+    def _undo_conflict_resolution(self) -> None:
+        """Give every ASAS method :meth:`set_conflict_resolution` selected its defaults back, and switch detection and resolution off.
+
+        BlueSky keeps these settings per method across ``traf.reset()`` (and for the next backend of
+        the process), so a reset airspace would otherwise go on resolving.
+        """
+        methods, self._asas_methods = self._asas_methods, set()
+        if not methods:
+            return
+        for detector in sorted(methods - {"MVP"}):
+            self.set_conflict_resolution(0, AsasConfig(None if detector == "OFF" else detector, resolution="MVP" in methods))
+        self._asas_methods = set()
+        self.command("ASAS OFF")
+        self.command("RESO OFF")
 
     def cmd_heading(self, env: ArrayLike, slot: ArrayLike, hdg: ArrayLike) -> None:
         """Stack ``HDG acid hdg`` [deg] (a track with wind above 50 ft; LNAV off)."""
@@ -721,6 +760,7 @@ class BlueSkyPhysics:
         global _owner
         if self.closed:
             return
+        self._undo_conflict_resolution()
         self._bs.traf.reset()
         self._data["active"][:] = False
         self.closed = True

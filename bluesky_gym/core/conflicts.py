@@ -261,9 +261,121 @@ def detect(
     return Conflicts(conflict, los, q * RAD2DEG, d, tcpa, dcpa, tin)
 
 
+#: Conflict detectors by BlueSky name (``ASAS <name>``): the compiled CSTATEBASED and the Python STATEBASED.
+DETECTORS = ("CSTATEBASED", "STATEBASED")
+NO_CONFLICT_TIME = 1e8  # s, STATEBASED's entry/exit time of a pair without horizontal conflict
+SELF_PAIR = 1e9  # m, s: what STATEBASED adds on the diagonal (distance, time to CPA, altitude difference)
+SPEED2_FLOOR = 1e-6  # m^2/s^2 and m/s: STATEBASED's floor of the squared relative speed and of the vertical-speed difference
+
+
+def detect_statebased(
+    lat: Array,
+    lon: Array,
+    alt: Array,
+    gs: Array,
+    trk: Array,
+    vs: Array,
+    active: NDArray[np.bool_],
+    rpz: float = PZ_RADIUS,
+    hpz: float = PZ_HEIGHT,
+    lookahead: float = LOOKAHEAD,
+    python_geo: bool = False,
+) -> Conflicts:
+    """BlueSky 1.1.1's Python STATEBASED detection (what ``ASAS ON`` selects), over all ordered pairs [docs/dynamics.md §5].
+
+    Its formulas differ from CSTATEBASED's (:func:`detect`) in their floors and in how a pair
+    without horizontal conflict is timed. It takes its bearings from BlueSky's
+    ``kwikqdrdist_matrix``: the compiled one (BlueSky's default, ``python_geo=False``) gives the
+    pair (i, j) with i > j the bearing j -> i, so the higher-index aircraft see approaching
+    intruders on the wrong side and those pairs appear only in loss of separation; the Python one
+    (when BlueSky runs with its Python geo functions, see ``Simulator(geo=...)``) is correct.
+    Aircraft are indexed by slot, which is BlueSky's creation order. All inputs are shaped
+    (n_envs, n_aircraft).
+    """
+    n = lat.shape[-1]
+    upper = np.triu(np.ones((n, n), dtype=bool), 1)
+    eye = np.eye(n)
+    with np.errstate(all="ignore"):
+        if python_geo:
+            qdr, dist_nm = geo.kwikqdrdist_matrix_python(lat, lon)
+        else:
+            q_ij, d_ij = geo.kwikqdrdist(lat[..., :, None], lon[..., :, None], lat[..., None, :], lon[..., None, :])
+            qdr = np.where(upper, q_ij, np.swapaxes(q_ij, -1, -2))  # the matrix form copies i -> j into (j, i)
+            qdr = np.where(eye > 0, 0.0, qdr)
+            dist_nm = np.where(eye > 0, 0.0, np.where(upper, d_ij, np.swapaxes(d_ij, -1, -2)))
+        dist = dist_nm * NM + SELF_PAIR * eye
+        qdrrad = np.radians(qdr)
+        dx = dist * np.sin(qdrrad)
+        dy = dist * np.cos(qdrrad)
+        trkrad = np.radians(trk)
+        u = gs * np.sin(trkrad)
+        v = gs * np.cos(trkrad)
+        du = u[..., None, :] - u[..., :, None]
+        dv = v[..., None, :] - v[..., :, None]
+        dv2 = du * du + dv * dv
+        dv2 = np.where(np.abs(dv2) < SPEED2_FLOOR, SPEED2_FLOOR, dv2)
+        vrel = np.sqrt(dv2)
+        tcpa = -(du * dx + dv * dy) / dv2 + SELF_PAIR * eye
+        dcpa2 = np.abs(dist * dist - tcpa * tcpa * dv2)
+        r2 = rpz * rpz
+        swhorconf = dcpa2 < r2
+        dtinhor = np.sqrt(np.maximum(0.0, r2 - dcpa2)) / vrel
+        tinhor = np.where(swhorconf, tcpa - dtinhor, NO_CONFLICT_TIME)
+        touthor = np.where(swhorconf, tcpa + dtinhor, -NO_CONFLICT_TIME)
+        dalt = alt[..., None, :] - alt[..., :, None] + SELF_PAIR * eye
+        dvs = vs[..., None, :] - vs[..., :, None]
+        dvs = np.where(np.abs(dvs) < SPEED2_FLOOR, SPEED2_FLOOR, dvs)
+        tcrosshi = (dalt + hpz) / -dvs
+        tcrosslo = (dalt - hpz) / -dvs
+        tinconf = np.maximum(np.minimum(tcrosshi, tcrosslo), tinhor)
+        toutconf = np.minimum(np.maximum(tcrosshi, tcrosslo), touthor)
+        pair = active[..., :, None] & active[..., None, :] & ~np.eye(n, dtype=bool)
+        conflict = pair & swhorconf & (tinconf <= toutconf) & (toutconf > 0.0) & (tinconf < lookahead)
+        los = pair & (dist < rpz) & (np.abs(dalt) < hpz)
+        return Conflicts(conflict, los, qdr, dist, tcpa, np.sqrt(dcpa2), tinconf)
+
+
+def detect_with(
+    detector: str,
+    lat: Array,
+    lon: Array,
+    alt: Array,
+    gs: Array,
+    trk: Array,
+    vs: Array,
+    active: NDArray[np.bool_],
+    rpz: float = PZ_RADIUS,
+    hpz: float = PZ_HEIGHT,
+    lookahead: float = LOOKAHEAD,
+    python_geo: bool = False,
+) -> Conflicts:
+    """:func:`detect` (``"CSTATEBASED"``) or :func:`detect_statebased` (``"STATEBASED"``, with ``python_geo``).
+
+    Raises:
+        ValueError: Another detector name.
+    """
+    if detector == "CSTATEBASED":
+        return detect(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead)
+    if detector == "STATEBASED":
+        return detect_statebased(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, python_geo)
+    raise ValueError(f"conflict detector {detector!r} not known; choose one of {', '.join(DETECTORS)}")
+
+
 def horizontal_distance_nm(lat: Array, lon: Array) -> Array:
     """(…, n, n) kwik distance [NM] between all aircraft pairs of each airspace."""
     return geo.kwikdist(lat[..., :, None], lon[..., :, None], lat[..., None, :], lon[..., None, :])
 
 
-__all__ = ["Conflicts", "create_conflicts", "detect", "horizontal_distance_nm", "PZ_RADIUS", "PZ_HEIGHT", "LOOKAHEAD", "M2NM"]
+__all__ = [
+    "Conflicts",
+    "DETECTORS",
+    "create_conflicts",
+    "detect",
+    "detect_statebased",
+    "detect_with",
+    "horizontal_distance_nm",
+    "PZ_RADIUS",
+    "PZ_HEIGHT",
+    "LOOKAHEAD",
+    "M2NM",
+]

@@ -217,6 +217,28 @@ def kwikdist(latd1: ArrayLike, lond1: ArrayLike, latd2: ArrayLike, lond2: ArrayL
     return _pairs(3, latd1, lond1, latd2, lond2, two=False)  # type: ignore[return-value]
 
 
+def kwikqdrdist_matrix_python(lat: Array, lon: Array) -> tuple[Array, Array]:
+    """BlueSky's Python ``kwikqdrdist_matrix`` of every ordered pair (i, j) of each airspace, in its operation order.
+
+    Args:
+        lat: (..., n) latitudes [deg].
+        lon: (..., n) longitudes [deg].
+
+    Returns:
+        Bearing i -> j [deg, [0, 360)] and distance [NM], each (..., n, n). Unlike the compiled
+        form BlueSky 1.1.1 prefers, it wraps the longitude difference and gives every pair its own bearing.
+    """
+    lata, latb = lat[..., :, None], lat[..., None, :]
+    lona, lonb = lon[..., :, None], lon[..., None, :]
+    dlat = np.radians(latb - lata)
+    dlon = np.radians(((lonb - lona) + 180) % 360 - 180)
+    cavelat = np.cos(np.radians(latb + lata) * 0.5)
+    dangle = np.sqrt(np.multiply(dlat, dlat) + np.multiply(np.multiply(dlon, dlon), np.multiply(cavelat, cavelat)))
+    dist = R_EARTH * dangle / NM
+    qdr = np.degrees(np.arctan2(np.multiply(dlon, cavelat), dlat)) % 360.0
+    return qdr, dist
+
+
 def kwikpos(latd1: ArrayLike, lond1: ArrayLike, qdr: ArrayLike, dist: ArrayLike) -> tuple[Array, Array]:
     """BlueSky's Python ``geo.kwikpos`` (see :func:`kwikpos_s`), broadcast: (lat, lon) [deg]."""
     return _pairs(4, latd1, lond1, qdr, dist)  # type: ignore[return-value]

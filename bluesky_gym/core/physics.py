@@ -19,6 +19,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bluesky_gym.core.resolution import AsasConfig
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
@@ -195,4 +196,13 @@ class RouteCommands(Protocol):
 
     def cmd_lnav(self, env: ArrayLike, slot: ArrayLike, on: ArrayLike) -> None:
         """``LNAV ON/OFF``."""
+        ...
+
+
+@runtime_checkable
+class ConflictResolutionCommands(Protocol):
+    """BlueSky's conflict detection and MVP resolution flown by the aircraft (the native core and BlueSky have them)."""
+
+    def set_conflict_resolution(self, env: ArrayLike, config: AsasConfig) -> None:
+        """Switch the ASAS of airspaces ``env`` to ``config`` (``ASAS``, ``RESO MVP``, zones, RMETH switches and factors)."""
         ...

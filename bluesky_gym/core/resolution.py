@@ -28,6 +28,9 @@ flies):
 Not modelled: priority rules (``PRIORULES``, off by default), ``NORESO`` / ``RESOOFF`` lists and
 per-aircraft zone sizes (the package uses one protected zone per call).
 
+:class:`AsasConfig` is BlueSky's ASAS switches of one airspace (detection method, ``RESO MVP``,
+zones, settings); :meth:`bluesky_gym.core.Simulator.set_conflict_resolution` flies it.
+
 :func:`resume` is BlueSky's ``resumenav`` bookkeeping: which pairs are still being resolved
 (before their closest point of approach, in horizontal loss of separation, or "bouncing"), and
 so which aircraft still follow their resolution.
@@ -44,7 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
-from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect
+from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect_with
 from bluesky_gym.core.jit import jit
 from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
@@ -102,7 +105,15 @@ class ResolutionSettings:
         for name, value in (("resofach", resofach), ("resofacv", resofacv)):
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-        h, spd, hdg, vert = cls.swresohoriz, cls.swresospd, cls.swresohdg, cls.swresovert
+        return cls(resofach=float(resofach), resofacv=float(resofacv)).with_methods(rmethh, rmethv)
+
+    def with_methods(self, rmethh: str | None = None, rmethv: str | None = None) -> ResolutionSettings:
+        """These settings after ``RMETHH rmethh``, then ``RMETHV rmethv`` (None: not given), as BlueSky's MVP changes its switches.
+
+        Raises:
+            ValueError: An unknown method.
+        """
+        h, spd, hdg, vert = self.swresohoriz, self.swresospd, self.swresohdg, self.swresovert
         if rmethh is not None:
             if rmethh not in RMETHH_VALUES:
                 raise ValueError(f"RMETHH {rmethh!r} not understood; choose one of {', '.join(RMETHH_VALUES)}")
@@ -121,7 +132,7 @@ class ResolutionSettings:
                 h, spd, hdg, vert = False, False, False, True
             else:  # as BlueSky: leaves swresohoriz as it is
                 vert = False
-        return cls(h, spd, hdg, vert, float(resofach), float(resofacv))
+        return ResolutionSettings(h, spd, hdg, vert, self.resofach, self.resofacv)
 
     @property
     def mode(self) -> int:
@@ -133,6 +144,33 @@ class ResolutionSettings:
                 return 2
             return 0
         return 3 if self.swresovert else 4
+
+
+@dataclass(frozen=True)
+class AsasConfig:
+    """BlueSky's ASAS switches for one airspace: conflict detection, MVP resolution and their zones.
+
+    Attributes:
+        detector: ``ASAS``/``CDMETHOD``: ``"STATEBASED"`` (what ``ASAS ON`` selects),
+            ``"CSTATEBASED"``, or None (off, the default).
+        resolution: ``RESO MVP`` (True) or ``RESO OFF`` (False, the default).
+        settings: ``RMETHH``, ``RMETHV``, ``RFACH``, ``RFACV``.
+        rpz: ``ZONER``: protected-zone radius [m].
+        hpz: ``ZONEDH``: protected-zone half height [m].
+        lookahead: ``DTLOOK``: look-ahead time [s].
+    """
+
+    detector: str | None = None
+    resolution: bool = False
+    settings: ResolutionSettings = ResolutionSettings()
+    rpz: float = PZ_RADIUS
+    hpz: float = PZ_HEIGHT
+    lookahead: float = LOOKAHEAD
+
+    @property
+    def resolving(self) -> bool:
+        """Whether MVP changes the flight: detection on and ``RESO MVP``."""
+        return self.detector is not None and self.resolution
 
 
 @jit
@@ -520,6 +558,7 @@ class ResolutionCommand:
     track_change: Array  # deg, resolution track minus the current track, in [-180, 180)
     cas_change: Array  # m/s, CAS change giving the resolution ground speed (same TAS change)
     vertical_speed: Array  # m/s, signed vertical speed flown: ``vs`` towards ``alt``
+    ended: BoolArray  # the aircraft's last resolution pair ended in this update (BlueSky then sends it DIRECT to its active waypoint)
 
 
 class MVPResolver:
@@ -539,6 +578,9 @@ class MVPResolver:
         vsmin: Lower vertical-speed limit [m/s], scalar or per aircraft (default: every aircraft's
             own, from its type, as BlueSky: :func:`vertical_speed_limits`).
         vsmax: Upper vertical-speed limit [m/s], scalar or per aircraft (default: every aircraft's own).
+        detector: The conflict detection, by BlueSky name: ``"CSTATEBASED"`` (:func:`~bluesky_gym.core.conflicts.detect`,
+            the default) or ``"STATEBASED"`` (:func:`~bluesky_gym.core.conflicts.detect_statebased`, what ``ASAS ON`` selects).
+        python_geo: STATEBASED with BlueSky's Python geo functions instead of its compiled ones.
     """
 
     def __init__(
@@ -550,7 +592,13 @@ class MVPResolver:
         lookahead: float = LOOKAHEAD,
         vsmin: ArrayLike | None = None,
         vsmax: ArrayLike | None = None,
+        detector: str = "CSTATEBASED",
+        python_geo: bool = False,
     ) -> None:
+        if detector not in DETECTORS:
+            raise ValueError(f"conflict detector {detector!r} not known; choose one of {', '.join(DETECTORS)}")
+        self.detector = detector
+        self.python_geo = python_geo
         self.settings = settings or ResolutionSettings()
         self.rpz, self.hpz, self.lookahead = float(rpz), float(hpz), float(lookahead)
         self.vsmin, self.vsmax = vsmin, vsmax
@@ -573,7 +621,20 @@ class MVPResolver:
         if self.pairs.shape != shape + (shape[1],):
             self.pairs = np.zeros(shape + (shape[1],), np.bool_)
             self.held = np.full((4, *shape), np.nan)
-        c = detect(state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, state.active, self.rpz, self.hpz, self.lookahead)
+        c = detect_with(
+            self.detector,
+            state.lat,
+            state.lon,
+            state.alt,
+            state.gs,
+            state.trk,
+            state.vs,
+            state.active,
+            self.rpz,
+            self.hpz,
+            self.lookahead,
+            self.python_geo,
+        )
         vsmin, vsmax = self.vsmin, self.vsmax
         if vsmin is None or vsmax is None:
             own_min, own_max = vertical_speed_limits(state)
@@ -582,7 +643,9 @@ class MVPResolver:
         res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
         renew = np.asarray(c.conflict.any(axis=(1, 2)))[None, :, None]
         self.held = np.where(renew, np.stack([res.trk, res.gs, res.vs, res.alt]), self.held)
-        self.pairs, follow = resume(state, self.pairs | c.conflict, rpz=self.rpz, resofach=self.settings.resofach)
+        candidates = self.pairs | c.conflict
+        self.pairs, follow = resume(state, candidates, rpz=self.rpz, resofach=self.settings.resofach)
+        ended = candidates.any(axis=-1) & ~follow & np.asarray(state.active, dtype=bool)
         trk, gs, vs, alt = self.held
         with np.errstate(invalid="ignore"):
             tas = np.asarray(state.tas) + (gs - np.asarray(state.gs))
@@ -596,11 +659,13 @@ class MVPResolver:
                 track_change=np.asarray((trk - np.asarray(state.trk) + 180.0) % 360.0 - 180.0),
                 cas_change=np.where(np.isfinite(tas), cas_change, np.nan),
                 vertical_speed=np.asarray(np.sign(alt - np.asarray(state.alt)) * np.abs(vs)),
+                ended=ended,
             )
 
 
 __all__ = [
     "RESO_FACTOR",
+    "AsasConfig",
     "MVPResolver",
     "Resolution",
     "ResolutionCommand",

@@ -25,9 +25,10 @@ from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance, resolv
 from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
+from bluesky_gym.core.resolution import AsasConfig, MVPResolver
 from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, aircraft_index, checked_index
-from bluesky_gym.core.step import MEMO_COLUMNS, run_kernel, step_kernel
-from bluesky_gym.core.units import BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
+from bluesky_gym.core.step import MEMO_COLUMNS, post_kernel, pre_kernel, run_kernel, step_kernel
+from bluesky_gym.core.units import ASAS_INTERVAL, BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
 from bluesky_gym.core.wind import WindField
 
 Array = NDArray[np.float64]
@@ -139,6 +140,11 @@ class Simulator:
         self._memo = np.full((self.n_envs * self.max_aircraft, MEMO_COLUMNS), np.nan)
         self._empty_bool = np.zeros(0, dtype=np.bool_)
         self._empty_int = np.zeros(0, dtype=np.int64)
+        # Conflict resolution (BlueSky's ASAS with RESO MVP): the configuration of each airspace that
+        # has one, and the resolution state of every airspace (pairs being resolved, held values).
+        self._asas: dict[int, AsasConfig] = {}
+        self._reso_pairs = np.zeros((self.n_envs, self.max_aircraft, self.max_aircraft), dtype=np.bool_)
+        self._reso_held = np.full((4, self.n_envs, self.max_aircraft), np.nan)
 
     # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
     active: NDArray[np.bool_]
@@ -195,6 +201,10 @@ class Simulator:
         self.route_lon[idx] = 0.0
         self.type_index[idx] = 0
         self.wind.clear(None if envs is None else idx)
+        for e in range(self.n_envs) if envs is None else np.atleast_1d(np.asarray(envs, dtype=np.int64)).tolist():
+            self._asas.pop(int(e), None)
+        self._reso_pairs[idx] = False
+        self._reso_held[:, idx] = np.nan
 
     def create(
         self,
@@ -566,10 +576,41 @@ class Simulator:
     # ------------------------------------------------------------------------------------------
     # Stepping [docs/dynamics.md §2.1-2.2]
     # ------------------------------------------------------------------------------------------
+    def set_conflict_resolution(self, env: ArrayLike, config: AsasConfig) -> None:
+        """Switch BlueSky's ASAS for airspaces ``env``: conflict detection and MVP resolution flown by the aircraft.
+
+        With detection on and ``RESO MVP`` (:attr:`AsasConfig.resolving`), every step detects the
+        conflicts of the start-of-step state after the autopilot, runs MVP
+        (:class:`~bluesky_gym.core.resolution.MVPResolver`) and flies its track, speed, altitude and
+        vertical speed wherever BlueSky's ASAS would, as BlueSky 1.1.1's ``APorASAS`` does; an
+        aircraft whose resolution ends goes DIRECT to its best active waypoint. A new
+        configuration keeps the resolutions in progress. Without ``resolving`` the airspace flies
+        its autopilot (detection alone changes nothing).
+
+        Raises:
+            ValueError: ``dt`` is below BlueSky's ASAS interval (1 s; the ASAS would then run every
+                few steps, which is not modelled).
+        """
+        envs = checked_index(env, self.n_envs, "environment index")
+        if config.resolving and self.dt < ASAS_INTERVAL - 1e-9:
+            raise ValueError(f"conflict resolution needs dt >= {ASAS_INTERVAL} s (BlueSky's asas_dt), got {self.dt} s")
+        for e in np.atleast_1d(envs).tolist():
+            self._asas[int(e)] = config
+        if not config.resolving:
+            self._reso_pairs[envs] = False
+            self._reso_held[:, envs] = np.nan
+
+    def conflict_resolution(self, env: int) -> AsasConfig:
+        """The ASAS configuration of airspace ``env`` (BlueSky's defaults unless set)."""
+        return self._asas.get(int(env), AsasConfig())
+
     def step(self) -> None:
         """Advance every airspace by ``dt`` seconds."""
         do_perf = self._performance_due()
         self.simt += self.dt
+        if any(c.resolving for c in self._asas.values()):
+            self._step_resolving(do_perf)
+            return
         if self.swlnav.any():
             lnav_kernel(self._float_flat, *self._lnav_args())
         wn, we, haswind, any_wind = self._wind_args()
@@ -586,6 +627,61 @@ class Simulator:
             self._type_args(),
             self._memo,
             self._active_flat,
+        )
+
+    def _step_resolving(self, do_perf: bool) -> None:
+        """:meth:`step` with conflict resolution: autopilot, then ASAS, then the kinematics (BlueSky's ``traf.update``)."""
+        if self.swlnav.any():
+            lnav_kernel(self._float_flat, *self._lnav_args())
+        type_args = self._type_args()
+        pre_kernel(self._float_flat, self._phase_flat, do_perf, self._table, type_args, self._memo, self._active_flat)
+        shape = (self.n_envs, self.max_aircraft)
+        follow = np.zeros(shape, dtype=np.bool_)
+        targets = np.zeros((4, *shape))  # track, ground speed, altitude, vertical speed
+        vsmin = np.array([p.vsmin for p in self._type_perf])
+        vsmax = np.array([p.vsmax for p in self._type_perf])
+        groups: dict[AsasConfig, list[int]] = {}
+        for e, config in self._asas.items():
+            if config.resolving:
+                groups.setdefault(config, []).append(e)
+        for config, members in groups.items():  # airspaces with the same settings resolve in one batch
+            envs = np.array(sorted(members), dtype=np.int64)
+            view = _AirspaceView(self, envs)
+            resolver = MVPResolver(
+                config.settings,
+                rpz=config.rpz,
+                hpz=config.hpz,
+                lookahead=config.lookahead,
+                vsmin=vsmin[view.type_index],
+                vsmax=vsmax[view.type_index],
+                detector=str(config.detector),
+                python_geo=self.geo == "python",
+            )
+            resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
+            cmd = resolver.update(view)
+            self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
+            follow[envs] = cmd.follow
+            targets[:, envs] = np.nan_to_num(np.stack([cmd.trk, cmd.gs, cmd.alt, cmd.vs]))
+            # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
+            for k, s in zip(*np.nonzero(cmd.ended & (self.nwp[envs] > 0))):
+                e = int(envs[k])
+                self.iactwp[e, s] = self._find_active(e, int(s))
+                self._direct(np.array([e]), np.array([s]))
+        wn, we, haswind, any_wind = self._wind_args()
+        post_kernel(
+            self._float_flat,
+            self._phase_flat,
+            wn,
+            we,
+            haswind,
+            any_wind,
+            self.dt,
+            self._table,
+            type_args,
+            self._memo,
+            self._active_flat,
+            follow.reshape(-1),
+            *(np.ascontiguousarray(t).reshape(-1) for t in targets),
         )
 
     def run(self, n_steps: int, trace: bool = False, stop: Callable[[Array], ArrayLike] | None = None) -> Array | None:
@@ -613,6 +709,8 @@ class Simulator:
         """
         if n_steps < 0:
             raise ValueError(f"n_steps must be >= 0, got {n_steps}")
+        if stop is not None and any(c.resolving for c in self._asas.values()):
+            raise ValueError("run(stop=...) cannot rewind airspaces with conflict resolution; step them instead")
         if stop is None:
             return self._run(n_steps, trace)
         start = self._snapshot()
@@ -641,7 +739,7 @@ class Simulator:
     def _run(self, n_steps: int, trace: bool) -> Array | None:
         """:meth:`run` without ``stop``."""
         track = np.empty((n_steps, 2, self.n_envs, self.max_aircraft)) if trace else None
-        independent = n_steps > 1 and not (self.wind.count > 1).any()
+        independent = n_steps > 1 and not (self.wind.count > 1).any() and not any(c.resolving for c in self._asas.values())
         if not independent:
             for k in range(n_steps):
                 self.step()
@@ -746,6 +844,23 @@ class Simulator:
     def state_fields(self) -> Sequence[str]:
         """Names of the per-aircraft state arrays."""
         return [name for name, _, _ in STATE_FIELDS]
+
+
+class _AirspaceView:
+    """The state arrays MVP reads of some airspaces of a :class:`Simulator`, shaped (len(envs), max_aircraft)."""
+
+    def __init__(self, sim: Simulator, envs: IntArray) -> None:
+        k = envs
+        self.active = sim.active[k]
+        self.type_index = sim.type_index[k]
+        self.lat, self.lon, self.alt, self.tas = sim.lat[k], sim.lon[k], sim.alt[k], sim.tas[k]
+        self.gs, self.trk, self.vs, self.gseast, self.gsnorth = sim.gs[k], sim.trk[k], sim.vs[k], sim.gseast[k], sim.gsnorth[k]
+        self.selalt, self.ap_vs, self.vmin, self.vmax = sim.selalt[k], sim.ap_vs[k], sim.vmin[k], sim.vmax[k]
+        self._sim, self._envs = sim, envs
+
+    def aircraft_type(self, env: ArrayLike, slot: ArrayLike) -> list[str]:
+        """Type names of aircraft; ``env`` counts the airspaces of this view."""
+        return self._sim.aircraft_type(self._envs[np.asarray(env, dtype=np.int64)], slot)
 
 
 for _name, _i in FIELD_INDEX.items():

@@ -50,4 +50,5 @@ VS_RAMP = 300 * FPM  # m/s per s: vertical acceleration, threshold NOT scaled by
 WIND_MIN_ALT = 50.0 * FT  # m: wind only acts above this altitude [docs/dynamics.md §1.7]
 TAS_EPS = 0.01  # m/s, BlueSky's traf.eps: floor of TAS in the turn-rate formula
 PERFORMANCE_INTERVAL = 1.0  # s, BlueSky's performance_dt timer
+ASAS_INTERVAL = 1.0  # s, BlueSky's conflict detection and resolution update interval (asas_dt)
 NO_VALUE = -999.0  # BlueSky's marker for "not set"

@@ -8,7 +8,8 @@ traffic geometries. This module generates them as ``.scn`` text that both BlueSk
   same speed and level, so that every pair is in conflict at the same moment;
 * :func:`sphere_conflict`: the same on several levels: rings above and below the centre altitude
   whose aircraft climb or descend so that all arrive at the centre, at its altitude, together;
-* :func:`wall_conflict`: two lines of aircraft abreast ("walls") flying head-on into each other.
+* :func:`wall_conflict`: two lines of aircraft abreast ("walls") flying head-on into each other;
+* :func:`with_resolution`: any of them with BlueSky's conflict detection and MVP resolution on.
 
 Positions are around a centre latitude/longitude, distances along great circles with the core's
 Earth radius. A few generated files ship with the package (:func:`shipped_scenarios`); regenerate
@@ -202,9 +203,25 @@ def wall_conflict(
     return "\n".join(lines) + "\n"
 
 
+def with_resolution(text: str, detector: str = "ON", settings: tuple[str, ...] = ()) -> str:
+    """A scenario text with BlueSky's conflict detection and MVP resolution switched on at time 0.
+
+    Args:
+        text: A ``.scn`` text (for instance a geometry of this module).
+        detector: The ``ASAS`` argument: ``ON`` (BlueSky's STATEBASED detection) or ``CSTATEBASED``.
+        settings: Further commands at time 0 after ``RESO MVP``, e.g. ``("RMETHH HDG", "RFACH 1.2")``.
+
+    Returns:
+        The text with ``ASAS detector``, ``RESO MVP`` and the settings appended.
+    """
+    lines = [f"ASAS {detector}", "RESO MVP", *settings]
+    return text.rstrip("\n") + "\n" + "".join(f"00:00:00.00>{line}\n" for line in lines)
+
+
 #: The shipped files: name -> generator call.
 SHIPPED = {
     "super8.scn": lambda: super_conflict(8),
+    "super8_mvp.scn": lambda: with_resolution(super_conflict(8)),
     "super16.scn": lambda: super_conflict(16, radius_nm=50.0),
     "sphere3x6.scn": lambda: sphere_conflict(6, 3),
     "wall6.scn": lambda: wall_conflict(6),

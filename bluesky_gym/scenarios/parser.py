@@ -7,6 +7,9 @@ does). Each command is parsed into one of the dataclasses below, with every valu
 the line it came from; aircraft are named by callsign. A command may also be written callsign
 first (``KL204 HDG 90``), as BlueSky's stack accepts.
 
+Conflict detection and resolution commands become :class:`Asas` commands carrying BlueSky's ASAS
+configuration after them (:mod:`~bluesky_gym.scenarios.asas`).
+
 Every problem is a :class:`ScenarioError` naming the file, the line and the command.
 """
 
@@ -17,6 +20,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from bluesky_gym.core.resolution import AsasConfig
 from bluesky_gym.scenarios.arguments import (
     is_latitude,
     parse_altitude,
@@ -29,6 +33,7 @@ from bluesky_gym.scenarios.arguments import (
     parse_vertical_speed,
     split_arguments,
 )
+from bluesky_gym.scenarios.asas import ASAS_COMMANDS, AsasState
 
 #: The only aircraft type the core flies until per-aircraft types are available.
 DEFAULT_ACTYPE = "A320"
@@ -181,8 +186,19 @@ class TimeStep(Command):
 
 
 @dataclass(frozen=True)
+class Asas(Command):
+    """A conflict detection or resolution command (``ASAS``, ``RESO``, ``ZONER``, ``RMETHH``, ...; see :mod:`~bluesky_gym.scenarios.asas`).
+
+    ``config`` is BlueSky's ASAS configuration after the command (the file's earlier ASAS commands included).
+    """
+
+    name: str
+    config: AsasConfig
+
+
+@dataclass(frozen=True)
 class Ignored(Command):
-    """A command with no effect on the aircraft (display, simulation control, conflict-detection settings)."""
+    """A command with no effect on the aircraft (display, simulation control)."""
 
     name: str
 
@@ -193,11 +209,11 @@ DISPLAY_COMMANDS = frozenset(
 )
 #: Simulation control: a replay always runs in fast time for its whole duration.
 CONTROL_COMMANDS = frozenset({"FF", "OP", "HOLD", "REALTIME", "DTMULT", "RTF", "SEED"})
-#: Conflict detection settings: the core does not feed detection back into the flight (no resolution).
-DETECTION_COMMANDS = frozenset({"ASAS", "CDMETHOD", "DTLOOK", "DTNOLOOK", "ZONER", "PZR", "ZONEDH", "PZH", "RMETHH", "RMETHV", "RFACH", "RFACV"})
+#: Conflict detection and resolution commands, with BlueSky's aliases (see :mod:`~bluesky_gym.scenarios.asas`).
+DETECTION_COMMANDS = frozenset(ASAS_COMMANDS)
 #: Commands that are parsed into typed commands.
 TYPED_COMMANDS = frozenset({"CRE", "CREATE", "CRECONFS", "DEL", "DELETE", "HDG", "HEADING", "TURN", "SPD", "SPEED", "ALT", "VS"}) | frozenset(
-    {"ADDWPT", "DEST", "DIRECT", "LNAV", "VNAV", "DT", "RESO", "NOISE"}
+    {"ADDWPT", "DEST", "DIRECT", "LNAV", "VNAV", "DT", "NOISE"}
 )
 #: Every command word this reader knows.
 KNOWN_COMMANDS = TYPED_COMMANDS | DISPLAY_COMMANDS | CONTROL_COMMANDS | DETECTION_COMMANDS
@@ -214,6 +230,7 @@ class _Context:
     file: str
     alive: set[str] = field(default_factory=set)
     routes: dict[str, list[str]] = field(default_factory=dict)  # acid -> waypoint names (destination last)
+    asas: AsasState = field(default_factory=AsasState)
 
 
 @dataclass(frozen=True)
@@ -387,7 +404,6 @@ USAGE = {
     "LNAV": "LNAV acid,ON/OFF",
     "VNAV": "VNAV acid,OFF",
     "DT": "DT dt",
-    "RESO": "RESO OFF",
     "NOISE": "NOISE OFF",
 }
 _ALIASES = {"CREATE": "CRE", "DELETE": "DEL", "HEADING": "HDG", "TURN": "HDG", "SPEED": "SPD"}
@@ -403,8 +419,13 @@ def _parse_command(t: float, src: Source, ctx: _Context) -> Command:
         # "KL204 HDG 90" is "HDG KL204 90"
         cmd, args = args[0].upper(), [words[0], *args[1:]]
     cmd = _ALIASES.get(cmd, cmd)
-    if cmd in DISPLAY_COMMANDS or cmd in CONTROL_COMMANDS or cmd in DETECTION_COMMANDS:
+    if cmd in DISPLAY_COMMANDS or cmd in CONTROL_COMMANDS:
         return Ignored(t, src, cmd)
+    if cmd in DETECTION_COMMANDS:
+        try:
+            return Asas(t, src, ASAS_COMMANDS[cmd], ctx.asas.apply(ASAS_COMMANDS[cmd], args, t))
+        except ValueError as exc:
+            raise ScenarioError(f"{src}: {cmd}: {exc} (line: {src.text!r})") from None
     if cmd not in TYPED_COMMANDS:
         raise ScenarioError(f"{src}: unsupported command {cmd!r} (see docs/scenarios.md for the supported commands; line: {src.text!r})")
     a = _Args(cmd, args, src, USAGE[cmd])
@@ -509,12 +530,11 @@ def _parse_command(t: float, src: Source, ctx: _Context) -> Command:
         if t > 0:
             raise a.fail("DT is only supported at time 0 (every scenario of a batch shares one clock)")
         out = TimeStep(t, src, dt)
-    else:  # RESO, NOISE: accepted when they switch off what the core does not model
-        on = a.take("method" if cmd == "RESO" else "ON/OFF", str)
+    else:  # NOISE: accepted when it switches off what the core does not model
+        on = a.take("ON/OFF", str)
         a.done()
         if str(on).upper() not in ("OFF", "FALSE", "0"):
-            what = "conflict resolution" if cmd == "RESO" else "turbulence noise"
-            raise a.fail(f"{cmd} {on}: {what} is not supported by the core")
+            raise a.fail(f"{cmd} {on}: turbulence noise is not supported by the core")
         out = Ignored(t, src, cmd)
     return out
 

@@ -6,6 +6,9 @@ timing: the commands at time 0 run before the first recorded state; a command at
 runs at the start of the first step that starts at or after ``t`` (BlueSky's scenario stack is
 checked at the start of every step), so a command at a multiple of ``dt`` acts in the step that
 ends at ``t + dt``. Identical scenarios (copies) are commanded together, in one call per command.
+Conflict detection and resolution commands (``ASAS``, ``RESO MVP``, ...) reach a physics that
+implements :class:`~bluesky_gym.core.physics.ConflictResolutionCommands`; on another physics a
+scenario that switches resolution on is an error.
 """
 
 from __future__ import annotations
@@ -18,11 +21,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.physics import Physics, RouteCommands
+from bluesky_gym.core.physics import ConflictResolutionCommands, Physics, RouteCommands
 from bluesky_gym.scenarios.parser import (
     DEFAULT_ACTYPE,
     AddWaypoint,
     Altitude,
+    Asas,
     Command,
     Create,
     CreateConflict,
@@ -299,6 +303,11 @@ class ScenarioPlayer:
             elif isinstance(cmd, TimeStep):
                 if abs(cmd.dt - p.dt) > TIME_EPS:
                     raise ScenarioError(f"{cmd.source}: DT {cmd.dt} s differs from the replay's time step {p.dt} s")
+            elif isinstance(cmd, Asas):
+                if isinstance(p, ConflictResolutionCommands):
+                    p.set_conflict_resolution(envs, cmd.config)
+                elif cmd.config.resolving:
+                    raise ScenarioError(f"{cmd.source}: this physics cannot fly conflict resolution (RESO MVP); line: {cmd.source.text!r}")
             elif not isinstance(cmd, Ignored):  # pragma: no cover - every command class is handled above
                 raise ScenarioError(f"{cmd.source}: no player for {type(cmd).__name__}")
         except ScenarioError:

@@ -21,6 +21,7 @@ from bluesky_gym.scenarios.arguments import (
 from bluesky_gym.scenarios.parser import (
     AddWaypoint,
     Altitude,
+    Asas,
     Create,
     CreateConflict,
     Delete,
@@ -169,8 +170,8 @@ def test_a_scenario_file_is_parsed_in_time_order() -> None:
         Lnav,
         Vnav,
         Delete,
-        Ignored,
-        Ignored,
+        Asas,
+        Asas,
         Ignored,
     ]
     c = sc.commands
@@ -211,7 +212,7 @@ def test_read_scenario_names_the_file(tmp_path) -> None:  # type: ignore[no-unty
         ("DIRECT AC1 AC1005", "not in the route"),
         ("LNAV AC1 ON", "no waypoints"),
         ("VNAV AC1 ON", "VNAV ON is not supported"),
-        ("RESO MVP", "conflict resolution is not supported"),
+        ("RESO SWARM", "resolution method 'SWARM' is not supported"),
         ("NOISE ON", "turbulence"),
         ("DT 0", "dt must be > 0"),
         ("DEL", "missing argument"),

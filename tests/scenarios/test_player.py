@@ -148,9 +148,9 @@ def test_replay_cli_writes_the_reference_columns(tmp_path: Path, capsys: pytest.
 
 def test_replay_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bad = tmp_path / "bad.scn"
-    bad.write_text("00:00:00.00>CRE AC1 A320 52 4\n00:00:01.00>RESO MVP\n")
+    bad.write_text("00:00:00.00>CRE AC1 A320 52 4\n00:00:01.00>RESO SWARM\n")
     assert main(["replay", str(bad), "--duration", "5"]) == 2
-    assert "bad.scn:2: RESO: RESO MVP: conflict resolution is not supported" in capsys.readouterr().err
+    assert "bad.scn:2: RESO: resolution method 'SWARM' is not supported" in capsys.readouterr().err
     assert main(["replay", "nothing.scn", "--duration", "5"]) == 2
     assert "no shipped scenario" in capsys.readouterr().err
     assert main(["replay", "super8", "--duration", "2.5", "--dt", "1"]) == 2
@@ -302,6 +302,10 @@ def test_the_python_snippets_of_the_scenarios_page_run(tmp_path: Path, monkeypat
     out = capsys.readouterr().out
     assert "32 rows at t=600 s" in out
     assert "['B744', 'E190', 'ZZZZ'] B744" in out  # the aircraft types section
+    # conflict resolution: the super conflict collides without it, keeps 5 NM with CSTATEBASED, and loses
+    # separation with ASAS ON (STATEBASED's reverse bearings; BlueSky's own recording comes within 2.0 NM)
+    assert "closest approach [NM]: 0.0 without resolution" in out
+    assert page.closest[0] < 0.1 and 0.5 < page.closest[1] < 5.0 and page.closest[2] > 5.0
     assert len(page.rows) == 4 * 8  # four copies of eight aircraft
     assert parse_scenario((tmp_path / "episode.scn").read_text()).callsigns[0] == "AC000"
 
