@@ -38,6 +38,8 @@ def _table(tmp_path, **changes):
     df = pd.DataFrame(rows)
     for key, value in changes.items():
         row, col = key.split("__")
+        if isinstance(value, str):
+            df[col] = df[col].astype(object)  # a bad text value in a numeric column, as a user's file may have
         df.loc[int(row), col] = value
     path = tmp_path / "adsb.csv"
     df.to_csv(path, index=False)
