@@ -79,7 +79,12 @@ def add_parser(subparsers: Any) -> None:
     st.add_argument("--collections", nargs="+", default=None, metavar="NAME", help="collections (default: switzerland quickstart)")
     st.add_argument("--windows", type=positive_int, default=64, metavar="N", help="windows replayed for the conflict rate (default: 64)")
     st.add_argument("--episodes", type=positive_int, default=50, metavar="N", help="test episodes per policy (default: 50)")
-    st.add_argument("--model", metavar="PATH", help="also evaluate a trained model (run directory or .zip), e.g. the demo's PPO")
+    st.add_argument(
+        "--model",
+        nargs="+",
+        metavar="PATH",
+        help="also evaluate trained models (run directories or .zip), e.g. the demo's PPO; several of one algorithm (seeds) make one row, their mean",
+    )
     st.add_argument("--cache-dir", metavar="DIR", help="cache directory")
     st.add_argument("--json", type=Path, metavar="FILE", help="also write the figures as JSON (for 'realtraffic report')")
     st.set_defaults(func=run_stats)
@@ -258,21 +263,25 @@ def run_stats(args: argparse.Namespace) -> int:
     import bluesky_gym
     from bluesky_gym.realtraffic.report import clean_path, command_line, stats_document, stats_lines
     from bluesky_gym.training.evaluation import evaluate, load_policy
-    from bluesky_gym.training.policies import SB3Policy, reference_policy
+    from bluesky_gym.training.policies import Policy, reference_policy
 
     bluesky_gym.register_envs()
 
     rows = []
-    policies = ["random", "classical"] + ([args.model] if args.model else [])
+    models: list[str] = list(args.model or [])
     try:
         names = _collections(args)
         for name in names:
             space = gym.make("RealTrafficCREnv-v0", collections=(name,), cache_dir=args.cache_dir).action_space
             # fresh per collection: the random policy's generator restarts
             low, high = np.asarray(getattr(space, "low")), np.asarray(getattr(space, "high"))  # noqa: B009 - a Box
-            made = {p: reference_policy(p, "RealTrafficCREnv-v0", low, high) for p in policies[:2]}
-            if args.model:
-                made[args.model] = load_policy(args.model)
+            # rows: random, classical, then one per algorithm of the models (its seeds averaged)
+            acting: dict[str, list[Policy]] = {p: [reference_policy(p, "RealTrafficCREnv-v0", low, high)] for p in ("random", "classical")}
+            trained: dict[str, list[Policy]] = {}
+            for path in models:
+                loaded = load_policy(path)
+                trained.setdefault(type(loaded.model).__name__, []).append(loaded)
+            acting.update({algo if len(ms) == 1 else f"{algo} ({len(ms)} seeds)": ms for algo, ms in trained.items()})
             flights, replay, _ = _replay(name, args.windows, args.cache_dir)
             row: dict[str, Any] = {
                 "collection": flights.name,
@@ -282,27 +291,29 @@ def run_stats(args: argparse.Namespace) -> int:
                 "policies": {},
             }
             options = {"collections": (name,), "split": "test", "cache_dir": args.cache_dir}
-            for policy in policies:
-                res = evaluate("RealTrafficCREnv-v0", made[policy], args.episodes, env_options=options)
-                s = res.summary
-                route = [float(e.get("kpi_mean_route_deviation_nm", "nan")) for e in res.episodes]
-                # random, classical, or the model's algorithm (the model's path is in the command)
-                acting = made[policy]
-                label = type(acting.model).__name__ if isinstance(acting, SB3Policy) else policy
-                row["policies"][label] = {
-                    "return": s["return"]["mean"],
-                    "los_per_episode": s["los"]["mean"],
-                    "min_separation_nm": s["min_sep_nm"]["mean"],
-                    "route_deviation_nm": float(np.nanmean(route)) if route else float("nan"),
-                }
+            for label, members in acting.items():
+                kpis = []
+                for member in members:
+                    res = evaluate("RealTrafficCREnv-v0", member, args.episodes, env_options=options)
+                    s = res.summary
+                    route = [float(e.get("kpi_mean_route_deviation_nm", "nan")) for e in res.episodes]
+                    kpis.append(
+                        {
+                            "return": s["return"]["mean"],
+                            "los_per_episode": s["los"]["mean"],
+                            "min_separation_nm": s["min_sep_nm"]["mean"],
+                            "route_deviation_nm": float(np.nanmean(route)) if route else float("nan"),
+                        }
+                    )
+                row["policies"][label] = {key: float(np.mean([k[key] for k in kpis])) for key in kpis[0]}
             rows.append(row)
     except (MissingDependencyError, ValueError, FileNotFoundError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)
         return 2
     print("\n".join(stats_lines(rows)))
     if args.json:
-        model = clean_path(args.model) if args.model else None
-        given = {"--collections": names, "--windows": args.windows, "--episodes": args.episodes, "--model": args.model, "--json": args.json}
+        model = [clean_path(m) for m in models] if models else None
+        given = {"--collections": names, "--windows": args.windows, "--episodes": args.episodes, "--model": models or None, "--json": args.json}
         inputs = {
             "collections": [clean_path(n) if _is_path(n) else n for n in names],
             "windows": args.windows,

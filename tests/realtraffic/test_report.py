@@ -92,3 +92,34 @@ def test_commands_save_json_and_report_fills_and_checks_a_page(tmp_path: Path, m
     assert main(["realtraffic", "report", str(out), str(page), "--check"]) == 1
     assert main(["realtraffic", "report", str(tmp_path / "missing"), str(page)]) == 2
     assert "missing: no such directory of measurements" in capsys.readouterr().err
+
+
+def test_stats_of_several_seeds_is_one_row_their_mean(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``stats --model A B``: models of one algorithm (seeds) make one row, the mean of each model's own figures."""
+    pytest.importorskip("stable_baselines3")
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    import bluesky_gym
+
+    bluesky_gym.register_envs()
+    data = save(traffic_collection(n_flights=16, spacing_s=300.0), tmp_path / "data")
+    monkeypatch.chdir(tmp_path)
+    env = gym.make("RealTrafficCREnv-v0", collections=(data,), min_traffic=1)
+    models = []
+    for seed in (0, 1):  # two untrained policies: different weights, different actions
+        PPO("MultiInputPolicy", env, seed=seed, n_steps=8, batch_size=8, device="cpu").save(tmp_path / f"m{seed}.zip")
+        models.append(f"m{seed}.zip")
+    figures = {}
+    for name, given in (("m0", models[:1]), ("m1", models[1:]), ("both", models)):
+        argv = ["realtraffic", "stats", "--collections", data, "--windows", "2", "--episodes", "2", "--model", *given, "--json", f"{name}.json"]
+        assert main(argv) == 0
+        figures[name] = json.loads(Path(f"{name}.json").read_text())
+    both = figures["both"]
+    assert both["command"].endswith("--model m0.zip m1.zip --json both.json") and both["inputs"]["model"] == models
+    (row,) = both["rows"]
+    assert list(row["policies"]) == ["random", "classical", "PPO (2 seeds)"]
+    one = [figures[k]["rows"][0]["policies"]["PPO"] for k in ("m0", "m1")]
+    assert one[0]["return"] != one[1]["return"]
+    for key, value in row["policies"]["PPO (2 seeds)"].items():
+        assert value == pytest.approx((one[0][key] + one[1][key]) / 2)
