@@ -104,6 +104,13 @@ def requested_id(task_class: type[Task]) -> str:
     return task_class.env_id
 
 
+def _renderer_of(task: Any, render_mode: str, fps: float) -> Any:
+    """The renderer of a shell's task: its environment's scene, titled with the id the user made (render is imported lazily)."""
+    from bluesky_gym.render import make_renderer
+
+    return make_renderer(task, render_mode, fps, scene=scene_builder(task.env_id), title=task.id)
+
+
 class ErrorsNameTheId:
     """Context in which a ``ValueError``, ``TypeError`` or ``RuntimeError`` names the id the environment was made with.
 
@@ -260,11 +267,7 @@ class BlueSkyEnv(MadeIdMixin, gym.Env):
             if not self._reset_once:
                 raise RuntimeError("render() called before reset(): there is no state to draw yet; call reset() first")
             if self._renderer is None:
-                from bluesky_gym.render import make_renderer
-
-                self._renderer = make_renderer(
-                    self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id), title=self.task.id
-                )
+                self._renderer = _renderer_of(self.task, self.render_mode, self.metadata["render_fps"])
             frame: np.ndarray | None = self._renderer.render(0, reward=self._last_reward, info=self._last_info)
             return frame
 
@@ -439,11 +442,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             if not self._reset_once:
                 raise RuntimeError("render() called before reset(): there is no state to draw yet; call reset() first")
             if self._renderer is None:
-                from bluesky_gym.render import make_renderer
-
-                self._renderer = make_renderer(
-                    self.task, self.render_mode, self.metadata["render_fps"], scene=scene_builder(self.task.env_id), title=self.task.id
-                )
+                self._renderer = _renderer_of(self.task, self.render_mode, self.metadata["render_fps"])
             frame: np.ndarray | None
             if self.render_grid > 1:
                 frame = self._renderer.render_grid(min(self.render_grid, self.num_envs), rewards=self._last_reward, info=self._last_info)
