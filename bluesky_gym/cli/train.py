@@ -1,13 +1,18 @@
-"""``bluesky-gym train`` and ``bluesky-gym demo``: train SB3 agents on the native batched envs.
+"""``bluesky-gym train`` and ``bluesky-gym demo``: train agents on the native batched envs.
 
 Examples::
 
     bluesky-gym train --env DescentEnv-v0 --algo PPO --steps 200000 --num-envs 16 --seed 0
     bluesky-gym train --env SectorCREnv-v0 --algo SAC --steps 2e6 --config configs/paper.toml
+    bluesky-gym train --env SectorCREnv-v0 --algo PPO --steps 2e6 --config configs/paper-fast.toml
     bluesky-gym demo            # the main job: minutes of PPO, evaluation, plots, GIF
 
 ``train`` uses the paper's hyperparameters (``configs/paper.toml``) unless a ``--config`` file
-overrides them; command-line options override both. The run directory
+overrides them; command-line options override both. ``--trainer sb3`` (the default) trains with
+Stable-Baselines3's own loops; ``--trainer fast`` trains the same SB3 networks with the same
+update rules on batched rollouts, many times faster (``docs/training-fast.md``); both write the
+same run directory and SB3 model files. A hyperparameter the fast trainer does not implement is
+an error. The run directory
 ``<out>/<ID>/<ALGO>/seed_<S>`` records the exact configuration, package versions and seeds, the
 episode log (return and KPIs per episode), checkpoints, the final model and its evaluation on
 held-out scenarios, and SB3's TensorBoard log (``tensorboard/``). Rerunning the same command
@@ -35,7 +40,7 @@ from typing import Any
 
 from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int, warn
 from bluesky_gym.core.extras import MissingDependencyError
-from bluesky_gym.training import ALGORITHMS
+from bluesky_gym.training import ALGORITHMS, TRAINERS
 
 
 def algorithm(text: str) -> str:
@@ -54,7 +59,18 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, metavar="FILE", help="TOML or JSON config over the paper's defaults (see configs/paper.toml)")
     p.add_argument("--checkpoint-freq", type=positive_int, metavar="N", help="steps between checkpoints (default: config, 50000)")
     p.add_argument("--eval-episodes", type=non_negative_int, metavar="N", help="held-out episodes evaluated at the end (default: 50)")
-    p.add_argument("--device", help="torch device: cpu, cuda, cuda:1, mps (default: config, cpu)")
+    p.add_argument("--device", help="torch device of the learner: cpu, cuda, cuda:1, mps (default: config, cpu)")
+    p.add_argument(
+        "--trainer",
+        choices=TRAINERS,
+        help="sb3: Stable-Baselines3's own loops; fast: SB3's networks and updates on batched rollouts (docs/training-fast.md) "
+        "(default: config, sb3)",
+    )
+    p.add_argument(
+        "--compile",
+        choices=("auto", "on", "off"),
+        help="compile the fast trainer's PPO update with torch.compile (auto: for small minibatches in long runs; default: config, auto)",
+    )
 
 
 def check_device(device: str) -> None:
@@ -128,12 +144,14 @@ def run_overrides(args: argparse.Namespace) -> dict[str, Any]:
         "checkpoint_freq": args.checkpoint_freq,
         "eval_episodes": args.eval_episodes,
         "device": args.device,
+        "trainer": args.trainer,
+        "compile": {"on": True, "off": False}.get(args.compile, args.compile),
     }
 
 
 def add_parser(subparsers: Any) -> None:
     """Register the ``train`` and ``demo`` subcommands."""
-    p = subparsers.add_parser("train", help="train an SB3 agent on one environment", description=__doc__)
+    p = subparsers.add_parser("train", help="train an agent on one environment (Stable-Baselines3 or the fast trainer)", description=__doc__)
     add_env_option(p)
     p.add_argument("--algo", type=algorithm, default="PPO", help=f"one of {', '.join(ALGORITHMS)} (default: PPO)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="run seed, below 2**31 (default: 0)")

@@ -10,6 +10,7 @@ Modules:
     hyperparams: the paper's hyperparameters and config files.
     policies: the reference policies (``random`` and a classical controller per environment).
     evaluation: deterministic evaluation on held-out scenarios and KPI tables.
+    fast: the fast trainer (SB3's networks and updates, batched rollouts on the native environment).
     runner: one resumable training run in a run directory.
     sweep: the grid of runs, sequential or on Ray.
     plotting: learning curves and the aggregate across environments.
@@ -23,6 +24,8 @@ from bluesky_gym.core.extras import require_sb3
 
 ALGORITHMS = ("PPO", "SAC", "TD3", "DDPG")
 OFF_POLICY = ("SAC", "TD3", "DDPG")
+#: The trainers of ``bluesky-gym train --trainer``: Stable-Baselines3's own loops, or the batched :mod:`~bluesky_gym.training.fast` trainer.
+TRAINERS = ("sb3", "fast")
 
 
 def make_vector_env(env_id: str, num_envs: int, **kwargs: Any) -> Any:

@@ -50,6 +50,8 @@ PAPER: dict[str, Any] = {
         "eval_episodes": 50,
         "device": "cpu",
         "torch_threads": 1,
+        "trainer": "sb3",
+        "compile": "auto",
     },
     "algos": {
         "PPO": {
@@ -156,14 +158,24 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
 RUNNER_ARGUMENTS = frozenset({"self", "policy", "env", "seed", "device", "verbose", "tensorboard_log", "_init_setup_model"})
 
 
-def hyperparameter_names(algo: str) -> frozenset[str] | None:
-    """Return the hyperparameters a config may set for ``algo`` (its SB3 constructor's arguments); None without SB3."""
+def hyperparameter_names(algo: str, trainer: str = "sb3") -> frozenset[str] | None:
+    """Return the hyperparameters a config may set for ``algo`` with ``trainer``; None if SB3 is not installed.
+
+    For SB3 they are the arguments of its constructor; the fast trainer implements a subset of
+    them (:data:`bluesky_gym.training.fast.HYPERPARAMETERS`).
+    """
+    if trainer == "fast":
+        from bluesky_gym.training.fast import HYPERPARAMETERS
+
+        return HYPERPARAMETERS[algo.upper()]
     if importlib.util.find_spec("stable_baselines3") is None:
         return None
     return frozenset(inspect.signature(algorithm_class(algo).__init__).parameters) - RUNNER_ARGUMENTS
 
 
-def check_hyperparameter_names(algo: str, hp: dict[str, Any], source: str = "hyperparameters", table: str = "", text: str = "") -> None:
+def check_hyperparameter_names(
+    algo: str, hp: dict[str, Any], source: str = "hyperparameters", table: str = "", text: str = "", trainer: str = "sb3"
+) -> None:
     """Raise ``ValueError`` naming the first key of ``hp`` that the algorithm does not take, and the valid keys.
 
     Args:
@@ -172,15 +184,18 @@ def check_hyperparameter_names(algo: str, hp: dict[str, Any], source: str = "hyp
         source: Where they come from (a file name), for the message.
         table: The table they sit in, for the message (default ``algos.<ALGO>``).
         text: The source's text, to find the line of the key.
+        trainer: ``"sb3"`` or ``"fast"``: a name SB3 takes but the fast trainer does not implement is refused too.
 
     """
-    valid = hyperparameter_names(algo)
+    valid = hyperparameter_names(algo, trainer)
     if valid is None:
         return
     unknown = sorted(set(hp) - valid - {"envs"})
     if not unknown:
         return
     key = unknown[0]
+    if trainer != "sb3" and key in (hyperparameter_names(algo) or ()):
+        raise ValueError(f"{source}: {key!r} is not supported by the {trainer} trainer; it implements: {', '.join(sorted(valid))}")
     close = difflib.get_close_matches(key, sorted(valid), n=1)
     hint = f" (did you mean {close[0]!r}?)" if close else ""
     found = re.search(rf'^\s*"?{re.escape(key)}"?\s*[=:]', text, flags=re.MULTILINE) if text else None

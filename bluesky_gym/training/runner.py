@@ -55,7 +55,7 @@ from typing import Any
 
 from bluesky_gym.core.extras import MissingDependencyError, missing_extra, require_sb3
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, TRAIN_SEED_LIMIT, train_env_seeds
-from bluesky_gym.training import algorithm_class
+from bluesky_gym.training import TRAINERS, algorithm_class
 from bluesky_gym.training.hyperparams import POLICY, adapt_to_n_envs, check_hyperparameter_names, resolve, sb3_kwargs
 from bluesky_gym.training.io import (
     AppendCSV,
@@ -109,6 +109,8 @@ class RunSpec:
         eval_episodes: Held-out episodes evaluated at the end (0: none).
         device: Torch device.
         torch_threads: Torch intra-op threads (0: leave PyTorch's default).
+        trainer: ``"sb3"`` (Stable-Baselines3's own loops) or ``"fast"`` (:mod:`bluesky_gym.training.fast`).
+        compile: Compile the fast trainer's update with ``torch.compile``.
 
     """
 
@@ -124,24 +126,28 @@ class RunSpec:
     eval_episodes: int = 50
     device: str = "cpu"
     torch_threads: int = 1
+    trainer: str = "sb3"
+    compile: bool = False
 
     def identity(self) -> dict[str, Any]:
-        """Return the parts that determine what is learned (a resumed run must match them)."""
-        return json.loads(
-            json.dumps(
-                {
-                    "env_id": self.env_id,
-                    "algo": self.algo,
-                    "seed": self.seed,
-                    "total_timesteps": self.total_timesteps,
-                    "n_envs": self.n_envs,
-                    "policy": POLICY,
-                    "hyperparams": self.hyperparams,
-                    "env_options": self.env_options,
-                },
-                sort_keys=True,
-            )
-        )
+        """Return the parts that determine what is learned (a resumed run must match them).
+
+        The trainer is part of it when it is not SB3 (so the identities of SB3 runs made before
+        there was a choice stay the same).
+        """
+        identity = {
+            "env_id": self.env_id,
+            "algo": self.algo,
+            "seed": self.seed,
+            "total_timesteps": self.total_timesteps,
+            "n_envs": self.n_envs,
+            "policy": POLICY,
+            "hyperparams": self.hyperparams,
+            "env_options": self.env_options,
+        }
+        if self.trainer != "sb3":
+            identity["trainer"] = self.trainer
+        return json.loads(json.dumps(identity, sort_keys=True))
 
     def digest(self) -> str:
         """Return a short hash of :meth:`identity`."""
@@ -168,7 +174,11 @@ def make_run_spec(config: dict[str, Any], env_id: str, algo: str, seed: int, **r
     n_envs = int(run["n_envs"])
     if n_envs < 1 or int(run["total_timesteps"]) < 1:
         raise ValueError("n_envs and total_timesteps must be positive")
+    trainer = str(run["trainer"])
+    if trainer not in TRAINERS:
+        raise ValueError(f"unknown trainer {trainer!r}; choose one of {', '.join(TRAINERS)}")
     hp, notes = adapt_to_n_envs(algo, hp, n_envs)
+    check_hyperparameter_names(algo, hp, source=f"{algo} hyperparameters", trainer=trainer)
     return RunSpec(
         env_id=env_id,
         algo=algo,
@@ -182,7 +192,34 @@ def make_run_spec(config: dict[str, Any], env_id: str, algo: str, seed: int, **r
         eval_episodes=max(0, int(run["eval_episodes"])),
         device=str(run["device"]),
         torch_threads=int(run["torch_threads"]),
+        trainer=trainer,
+        compile=resolve_compile(run["compile"], trainer, algo, hp, n_envs, int(run["total_timesteps"])),
     )
+
+
+#: ``compile = "auto"`` compiles the fast PPO update from this many minibatch updates on (compiling takes tens of seconds once).
+AUTO_COMPILE_UPDATES = 20_000
+#: ... and only for minibatches up to this size, where the per-minibatch overhead is what compiling removes.
+AUTO_COMPILE_MAX_BATCH = 1024
+
+
+def resolve_compile(value: Any, trainer: str, algo: str, hyperparams: dict[str, Any], n_envs: int, total_timesteps: int) -> bool:
+    """Whether a run compiles its update: ``True``/``False`` as given; ``"auto"``: the fast trainer's PPO with small minibatches in a long run.
+
+    Raises:
+        ValueError: ``value`` is neither a bool nor ``"auto"``.
+
+    """
+    if isinstance(value, bool):
+        return value
+    if value != "auto":
+        raise ValueError(f"compile must be true, false or 'auto', got {value!r}")
+    if trainer != "fast" or algo != "PPO":
+        return False
+    rollout = int(hyperparams.get("n_steps", 2048)) * n_envs
+    batch = int(hyperparams.get("batch_size", 64))
+    updates = -(-total_timesteps // rollout) * int(hyperparams.get("n_epochs", 10)) * -(-rollout // batch)
+    return batch <= AUTO_COMPILE_MAX_BATCH and updates >= AUTO_COMPILE_UPDATES
 
 
 def run_dir_for(out: str | Path, env_id: str, algo: str, seed: int) -> Path:
@@ -292,14 +329,12 @@ def save_checkpoint(model: Any, run_dir: Path, episodes_logged: int, wall_time_s
     rel = Path("checkpoints") / f"step_{step:012d}"
     d = run_dir / rel
     d.mkdir(parents=True, exist_ok=True)
-    with atomic_path(d / "model.zip") as tmp:
-        model.save(tmp)
-    files = {"model.zip": file_record(d / "model.zip")}
-    buffer = getattr(model, "replay_buffer", None)
-    if buffer is not None:
-        with atomic_path(d / "replay_buffer.pkl") as tmp:
-            model.save_replay_buffer(tmp)
-        files["replay_buffer.pkl"] = file_record(d / "replay_buffer.pkl")
+    files = {}
+    for name, write in checkpoint_writers(model).items():
+        with atomic_path(d / name) as tmp:
+            write(tmp)
+        files[name] = file_record(d / name)
+    buffer = next((name for name in files if name.startswith("replay_buffer")), None)
     try:
         current = latest_checkpoint(run_dir)
     except DamagedFileError:
@@ -325,6 +360,22 @@ def save_checkpoint(model: Any, run_dir: Path, episodes_logged: int, wall_time_s
     return record
 
 
+def checkpoint_writers(model: Any) -> dict[str, Any]:
+    """The files of a checkpoint of ``model``, each with the function that writes it to a given path.
+
+    A fast trainer names its own (:meth:`~bluesky_gym.training.fast.base.FastTrainer.checkpoint_writers`);
+    an SB3 model writes ``model.zip`` and, for off-policy algorithms, ``replay_buffer.pkl``.
+    """
+    own = getattr(model, "checkpoint_writers", None)
+    if own is not None:
+        writers: dict[str, Any] = own()
+        return writers
+    writers = {"model.zip": model.save}
+    if getattr(model, "replay_buffer", None) is not None:
+        writers["replay_buffer.pkl"] = model.save_replay_buffer
+    return writers
+
+
 @dataclass
 class RunHealth:
     """What :func:`inspect_run` found in a run directory.
@@ -347,7 +398,7 @@ def _checkpoint_damage(run_dir: Path, record: dict[str, Any], log_rows: int | No
     step = record.get("timesteps", "?")
     if not where.is_dir():
         return [f"checkpoint.json names {where}, which is missing"]
-    names = ["model.zip"] + (["replay_buffer.pkl"] if record.get("replay_buffer") else [])
+    names = list(record.get("files") or {}) or ["model.zip"] + (["replay_buffer.pkl"] if record.get("replay_buffer") else [])
     out = [f"checkpoint at {step} steps: {bad}" for n in names if (bad := file_damage(where / n, record.get("files", {}).get(n), deep))]
     n = int(record.get("episodes_logged", 0))
     log = run_dir / EPISODE_LOG
@@ -448,9 +499,88 @@ def _repair(d: Path, health: RunHealth, on_damage: str, verbose: int) -> tuple[d
     return record, {"damage": health.problems, "action": action}
 
 
-# --- the callback --------------------------------------------------------------------------------------
-def _make_callback(run_dir: Path, spec: RunSpec, log: AppendCSV, start_timesteps: int, wall_offset: float, verbose: int) -> Any:
-    """Build the SB3 callback that logs episodes and takes checkpoints (lazily: it needs SB3)."""
+# --- the bookkeeping during training ----------------------------------------------------------------
+class RunBook:
+    """The episode log and the checkpoints of a run while it trains, for either trainer.
+
+    The SB3 callback (:func:`_make_callback`) and the fast trainer's hooks both report to it: a
+    rollout start (where a checkpoint is taken when one is due) and each finished episode.
+
+    Args:
+        run_dir: The run directory.
+        spec: The run.
+        log: The episode log.
+        start_timesteps: Steps done when this process started.
+        wall_offset: Training wall time of earlier processes.
+        verbose: 1 prints a line per checkpoint.
+
+    """
+
+    def __init__(self, run_dir: Path, spec: RunSpec, log: AppendCSV, start_timesteps: int, wall_offset: float, verbose: int) -> None:
+        self.run_dir, self.spec, self.log, self.verbose = run_dir, spec, log, verbose
+        self.start_timesteps = start_timesteps
+        self.last_checkpoint = start_timesteps
+        self.wall_offset = wall_offset
+        self.t0 = time.time()
+        self.recent: list[float] = []
+
+    def wall_time(self) -> float:
+        """Training wall time of the run so far, earlier processes included."""
+        return self.wall_offset + time.time() - self.t0
+
+    def rollout_start(self, model: Any) -> None:
+        """Take a checkpoint if ``checkpoint_freq`` steps were done since the last one."""
+        if model.num_timesteps - self.last_checkpoint >= self.spec.checkpoint_freq:
+            self.checkpoint(model)
+
+    def checkpoint(self, model: Any) -> None:
+        """Commit a checkpoint of ``model`` (the episode log is flushed first)."""
+        self.log.flush()
+        save_checkpoint(model, self.run_dir, self.log.rows_written, self.wall_time())
+        self.last_checkpoint = model.num_timesteps
+        if self.verbose:
+            mean = sum(self.recent) / len(self.recent) if self.recent else float("nan")
+            rate = (model.num_timesteps - self.start_timesteps) / max(time.time() - self.t0, 1e-9)
+            print(
+                f"[{self.spec.env_id} {self.spec.algo} seed {self.spec.seed}] checkpoint at {model.num_timesteps} steps, "
+                f"{rate:.0f} steps/s, mean return of the last {len(self.recent)} episodes {mean:.2f}",
+                flush=True,
+            )
+            self.recent.clear()
+
+    def episode(self, timesteps: int, record: dict[str, Any]) -> None:
+        """Append a finished episode (``env_index``, ``return``, ``length``, ``terminated``, components, info values) to the log."""
+        self.log.append({"episode": self.log.rows_written, "timesteps": timesteps, "wall_time_s": round(self.wall_time(), 3), **record})
+        self.recent.append(float(record["return"]))
+
+    # the fast trainer's hooks (bluesky_gym.training.fast.base.Hooks)
+    def on_rollout_start(self, trainer: Any) -> None:
+        """A fast trainer's rollout starts."""
+        self.rollout_start(trainer)
+
+    def on_episodes(self, trainer: Any, records: list[dict[str, Any]]) -> None:
+        """A fast trainer's episodes ended."""
+        for record in records:
+            self.episode(trainer.num_timesteps, record)
+
+
+class _AllHooks:
+    """The run's bookkeeping, then any extra hooks (tests use them to stop a run)."""
+
+    def __init__(self, hooks: list[Any]) -> None:
+        self.hooks = hooks
+
+    def on_rollout_start(self, trainer: Any) -> None:
+        for hook in self.hooks:
+            hook.on_rollout_start(trainer)
+
+    def on_episodes(self, trainer: Any, records: list[dict[str, Any]]) -> None:
+        for hook in self.hooks:
+            hook.on_episodes(trainer, records)
+
+
+def _make_callback(book: RunBook) -> Any:
+    """Build the SB3 callback that reports episodes and rollout starts to ``book`` (lazily: it needs SB3)."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     class RunCallback(BaseCallback):
@@ -458,51 +588,21 @@ def _make_callback(run_dir: Path, spec: RunSpec, log: AppendCSV, start_timesteps
 
         def __init__(self) -> None:
             super().__init__(verbose=0)
-            self.last_checkpoint = start_timesteps
-            self.t0 = time.time()
-            self.recent: list[float] = []
-
-        def wall_time(self) -> float:
-            return wall_offset + time.time() - self.t0
 
         def _on_rollout_start(self) -> None:
-            if self.model.num_timesteps - self.last_checkpoint >= spec.checkpoint_freq:
-                self.checkpoint()
-
-        def checkpoint(self) -> None:
-            log.flush()
-            save_checkpoint(self.model, run_dir, log.rows_written, self.wall_time())
-            self.last_checkpoint = self.model.num_timesteps
-            if verbose:
-                mean = sum(self.recent) / len(self.recent) if self.recent else float("nan")
-                rate = (self.model.num_timesteps - start_timesteps) / max(time.time() - self.t0, 1e-9)
-                print(
-                    f"[{spec.env_id} {spec.algo} seed {spec.seed}] checkpoint at {self.model.num_timesteps} steps, "
-                    f"{rate:.0f} steps/s, mean return of the last {len(self.recent)} episodes {mean:.2f}",
-                    flush=True,
-                )
-                self.recent.clear()
+            book.rollout_start(self.model)
 
         def _on_step(self) -> bool:
             for i, info in enumerate(self.locals["infos"]):
                 ep = info.get("episode")
                 if ep is None:
                     continue
-                record = {
-                    "episode": log.rows_written,
-                    "timesteps": self.model.num_timesteps,
-                    "wall_time_s": round(self.wall_time(), 3),
-                    "env_index": i,
-                    "return": ep["r"],
-                    "length": ep["l"],
-                    "terminated": not info.get("TimeLimit.truncated", False),
-                }
+                record = {"env_index": i, "return": ep["r"], "length": ep["l"], "terminated": not info.get("TimeLimit.truncated", False)}
                 record.update(info.get("episode_reward_components", {}))
                 record.update(
                     {k: v for k, v in info.items() if isinstance(v, (int, float)) and k != "TimeLimit.truncated" and not k.startswith("reward_")}
                 )
-                log.append(record)
-                self.recent.append(float(ep["r"]))
+                book.episode(self.model.num_timesteps, record)
             return True
 
     return RunCallback()
@@ -580,7 +680,7 @@ def run_training(
         raise ValueError(f"on_damage must be one of {', '.join(ON_DAMAGE)}, got {on_damage!r}")
     if tensorboard:
         _require_tensorboard()
-    check_hyperparameter_names(spec.algo, spec.hyperparams)
+    check_hyperparameter_names(spec.algo, spec.hyperparams, trainer=spec.trainer)
     d = Path(run_dir)
     venv = _make_venv(spec)  # checks the id and the scenario options before anything is written
     created = [p for p in [d, *d.parents] if not p.exists()]
@@ -688,59 +788,65 @@ def _train(
     tensorboard: bool,
 ) -> dict[str, Any]:
     set_torch_threads(spec.torch_threads)
-    cls = algorithm_class(spec.algo)
     log_path = d / EPISODE_LOG
     tb_dir = str(d / TENSORBOARD_DIR) if tensorboard else None
+    fast = spec.trainer == "fast"
     if record is not None:
         ckpt_dir = d / record["dir"]
-        try:
-            model = cls.load(ckpt_dir / "model.zip", env=venv, device=spec.device, tensorboard_log=tb_dir)
-            if record.get("replay_buffer"):
-                model.load_replay_buffer(ckpt_dir / "replay_buffer.pkl")
-        except Exception as exc:  # damage that no checksum recorded (a checkpoint of an older version)
-            raise RunDamaged(f"{ckpt_dir} cannot be loaded ({type(exc).__name__}: {exc}); rerun with --restart (on_damage='restart')") from exc
-        model.set_random_seed(train_env_seeds(spec.seed, 1, stream=int(record["timesteps"]))[0])
+        model = _load_checkpoint(spec, ckpt_dir, venv, None if fast else tb_dir)
+        stream = train_env_seeds(spec.seed, 1, stream=int(record["timesteps"]))[0]
         _truncate_log(log_path, int(record["episodes_logged"]))
         wall_offset = float(record["wall_time_s"])
         resumed_from: int | None = int(record["timesteps"])
     else:
-        model = new_model(spec, venv, tensorboard_log=tb_dir)
+        model = new_model(spec, venv, tensorboard_log=None if fast else tb_dir)
+        stream = spec.seed
         if verbose and log_path.exists() and read_csv_rows(log_path)[1]:
             print(f"{d}: no checkpoint was taken; starting over (the logged episodes are played again)", flush=True)
         _truncate_log(log_path, 0)
         wall_offset = 0.0
         resumed_from = None
+    trainer = None
+    if fast:
+        trainer = _fast_trainer(spec, model, venv, tb_dir, None if record is None else d / record["dir"])
+        trainer.start(train_env_seeds(stream, spec.n_envs))
+    elif record is not None:
+        model.set_random_seed(stream)
     start = int(model.num_timesteps)
     process = _start_process(d, start, resumed_from, note)
 
     log = AppendCSV(log_path, _episode_header)
-    callback = _make_callback(d, spec, log, start, wall_offset, verbose)
+    book = RunBook(d, spec, log, start, wall_offset, verbose)
+    learner = trainer if trainer is not None else model
     if verbose:
         what = f"resuming from {start} steps" if resumed_from is not None else "starting"
         tag = f"[{spec.env_id} {spec.algo} seed {spec.seed}]"
-        print(f"{tag} {what}; {spec.total_timesteps} steps, {spec.n_envs} environments -> {d}", flush=True)
+        print(f"{tag} {what}; {spec.total_timesteps} steps, {spec.n_envs} environments, {spec.trainer} trainer -> {d}", flush=True)
     try:
-        remaining = spec.total_timesteps - start
-        if remaining > 0:
+        if trainer is not None:
+            try:
+                trainer.learn(spec.total_timesteps, _AllHooks([book, *extra_callbacks]), progress_bar=progress_bar)
+            finally:
+                trainer.close()
+        elif spec.total_timesteps > start:
             model.learn(
-                total_timesteps=remaining,
-                callback=[callback, *extra_callbacks],
+                total_timesteps=spec.total_timesteps - start,
+                callback=[_make_callback(book), *extra_callbacks],
                 reset_num_timesteps=resumed_from is None,
                 progress_bar=progress_bar,
                 tb_log_name=spec.algo,
             )
-        wall = callback.wall_time()
-        if int(model.num_timesteps) != callback.last_checkpoint:
-            log.flush()
-            save_checkpoint(model, d, log.rows_written, wall)
+        wall = book.wall_time()
+        if int(learner.num_timesteps) != book.last_checkpoint:
+            book.checkpoint(learner)
     except BaseException as exc:
-        _end_process(d, process, int(model.num_timesteps), error=f"{type(exc).__name__}: {exc}")
+        _end_process(d, process, int(learner.num_timesteps), error=f"{type(exc).__name__}: {exc}")
         raise
     finally:
         log.close()
 
     with atomic_path(d / "model.zip") as tmp:
-        model.save(tmp)
+        learner.save(tmp)
     eval_summary = None
     if spec.eval_episodes > 0:
         from bluesky_gym.training.evaluation import evaluate, save_result
@@ -749,14 +855,16 @@ def _train(
         res = evaluate(spec.env_id, SB3Policy(model, name=spec.algo), spec.eval_episodes, env_options=spec.env_options)
         save_result(res, d, stem="eval")
         eval_summary = res.summary
-    trained = int(model.num_timesteps) - start
+    timesteps = int(learner.num_timesteps)
+    trained = timesteps - start
     result = {
         "status": "finished",
         "env_id": spec.env_id,
         "algo": spec.algo,
         "seed": spec.seed,
         "digest": spec.digest(),
-        "timesteps": int(model.num_timesteps),
+        "trainer": spec.trainer,
+        "timesteps": timesteps,
         "episodes": log.rows_written,
         "wall_time_s": wall,
         "steps_per_second_last_process": trained / max(wall - wall_offset, 1e-9) if trained else None,
@@ -766,12 +874,37 @@ def _train(
         "files": {"model.zip": file_record(d / "model.zip")},
         "finished_at": _now(),
     }
-    _end_process(d, process, int(model.num_timesteps))
+    _end_process(d, process, timesteps)
     atomic_write_json(d / "result.json", result)
     if verbose:
         ret = f", held-out return {eval_summary['return']['mean']:.2f}" if eval_summary else ""
-        print(f"[{spec.env_id} {spec.algo} seed {spec.seed}] finished: {model.num_timesteps} steps in {wall:.0f} s{ret}", flush=True)
+        print(f"[{spec.env_id} {spec.algo} seed {spec.seed}] finished: {timesteps} steps in {wall:.0f} s{ret}", flush=True)
     return result
+
+
+def _load_checkpoint(spec: RunSpec, ckpt_dir: Path, venv: Any, tensorboard_log: str | None) -> Any:
+    """Load the SB3 model of a checkpoint (and, for the SB3 trainer, its replay buffer)."""
+    cls = algorithm_class(spec.algo)
+    try:
+        model = cls.load(ckpt_dir / "model.zip", env=venv, device=spec.device, tensorboard_log=tensorboard_log)
+        if spec.trainer == "sb3" and (ckpt_dir / "replay_buffer.pkl").exists():
+            model.load_replay_buffer(ckpt_dir / "replay_buffer.pkl")
+    except Exception as exc:  # damage that no checksum recorded (a checkpoint of an older version)
+        raise RunDamaged(f"{ckpt_dir} cannot be loaded ({type(exc).__name__}: {exc}); rerun with --restart (on_damage='restart')") from exc
+    return model
+
+
+def _fast_trainer(spec: RunSpec, model: Any, venv: Any, tensorboard_log: str | None, ckpt_dir: Path | None) -> Any:
+    """The fast trainer of a run on its SB3 model (restored from ``ckpt_dir`` if given)."""
+    from bluesky_gym.training.fast import trainer_class
+
+    trainer = trainer_class(spec.algo)(model, venv.venv, seed=spec.seed, tensorboard_log=tensorboard_log, compile=spec.compile)
+    if ckpt_dir is not None:
+        try:
+            trainer.restore(ckpt_dir)
+        except Exception as exc:
+            raise RunDamaged(f"{ckpt_dir} cannot be loaded ({type(exc).__name__}: {exc}); rerun with --restart (on_damage='restart')") from exc
+    return trainer
 
 
 def _start_process(d: Path, timesteps: int, resumed_from: int | None, note: dict[str, Any] | None = None) -> int:
