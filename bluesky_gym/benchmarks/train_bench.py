@@ -30,6 +30,8 @@ from bluesky_gym.training.runner import make_run_spec, new_model, set_torch_thre
 
 DEFAULT_ENV = "SectorCREnv-v0"
 SEED = 0
+#: The trainers measured: SB3, the fast trainer eager, the fast trainer with its update compiled.
+TRAINERS = ("sb3", "fast", "fast+compile")
 
 
 @dataclass(frozen=True)
@@ -136,7 +138,7 @@ def env_rate(env_id: str, n_envs: int, seconds: float = 2.0) -> float:
 def run(
     env_id: str = DEFAULT_ENV,
     settings: Sequence[str] = tuple(SETTINGS),
-    trainers: Sequence[str] = ("sb3", "fast", "fast+compile"),
+    trainers: Sequence[str] = TRAINERS,
     repeat: int = 1,
     device: str = "cpu",
     threads: int = 1,

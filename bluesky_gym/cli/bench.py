@@ -7,6 +7,7 @@ Examples::
     bluesky-gym bench envs --env DescentEnv-v0 --num-envs 1 64 --reference-python /path/to/python
     bluesky-gym bench all --bluesky-python P --reference-python P --json results.json
     bluesky-gym bench profile                       # where the core's step time goes
+    bluesky-gym bench train --repeat 3              # training throughput: SB3 and the fast trainer
 
 The interpreters can also be given by the environment variables ``BLUESKY_PYTHON`` and
 ``BLUESKY_GYM_REFERENCE_PYTHON``.
@@ -89,7 +90,7 @@ def _add_envs(p: argparse.ArgumentParser, seconds_flag: str = "--seconds", num_e
 
 
 def add_parser(subparsers: Any) -> None:
-    """Register ``bench`` and its ``core``, ``envs``, ``all`` and ``profile`` subcommands."""
+    """Register ``bench`` and its ``core``, ``envs``, ``all``, ``train`` and ``profile`` subcommands."""
     bench = subparsers.add_parser(
         "bench",
         help="measure simulation and environment throughput",
@@ -119,6 +120,21 @@ def add_parser(subparsers: Any) -> None:
     _add_repeat(both)
     _add_common(both)
     both.set_defaults(func=run_all_command)
+
+    train = sub.add_parser(
+        "train",
+        help="training throughput: SB3 and the fast trainer side by side, against the environment alone",
+        description="End-to-end training throughput (env-steps/s of collection and updates) of each trainer, for each setting,\n"
+        "with ratios against the environment alone and SB3 measured in the same run (docs/training-fast.md).",
+    )
+    train.add_argument("--env", default="SectorCREnv-v0", metavar="ID", help="environment id (default: SectorCREnv-v0)")
+    train.add_argument("--setting", action="extend", nargs="+", metavar="NAME", help="settings to measure (default: all; see docs/training-fast.md)")
+    train.add_argument("--trainer", action="extend", nargs="+", metavar="NAME", help="trainers: sb3, fast, fast+compile (default: all)")
+    train.add_argument("--device", default="cpu", help="torch device of the learners (default: cpu)")
+    train.add_argument("--threads", type=int, default=1, metavar="N", help="torch threads (0: PyTorch's default; default: 1)")
+    _add_repeat(train)
+    _add_common(train)
+    train.set_defaults(func=run_train_command)
 
     prof = sub.add_parser("profile", help="cProfile of the core step: where the time goes")
     prof.add_argument("--num-envs", type=positive_int, default=4096, metavar="N", help="airspaces (batch size)")
@@ -230,6 +246,26 @@ def run_all_command(args: argparse.Namespace) -> int:
     print()
     print(format_envs(envs))
     return _finish(args, {"core": core, "envs": envs}, _failed_core(core) or _failed_envs(envs))
+
+
+def run_train_command(args: argparse.Namespace) -> int:
+    """``bench train``."""
+    from bluesky_gym.benchmarks.train_bench import SETTINGS, TRAINERS, format_table, run
+    from bluesky_gym.cli.catalog import known_env
+    from bluesky_gym.cli.train import check_device
+
+    try:
+        known_env(args.env)
+        check_device(args.device)
+        for given, valid, what in ((args.setting, SETTINGS, "setting"), (args.trainer, TRAINERS, "trainer")):
+            unknown = sorted(set(given or ()) - set(valid))
+            if unknown:
+                raise ValueError(f"unknown {what}(s) {', '.join(unknown)}; choose from {', '.join(valid)}")
+    except ValueError as exc:
+        raise SystemExit(f"bluesky-gym bench train: {exc}") from None
+    result = run(args.env, args.setting or list(SETTINGS), args.trainer or list(TRAINERS), args.repeat, args.device, args.threads, _progress(args))
+    print(format_table(result))
+    return _finish(args, {"train": result}, False)
 
 
 def run_profile_command(args: argparse.Namespace) -> int:

@@ -177,12 +177,13 @@ def find_runs(paths: Sequence[str | Path]) -> list[Path]:
 
 
 def load_run(path: str | Path) -> Run:
-    """Read a run's config, episode log and final held-out return."""
+    """Read a run's config, episode log (or a run summary's ``curve.csv``, one row per span of timesteps) and final held-out return."""
     d = Path(path)
     cfg = read_json(d / "config.json")
     columns: dict[str, Array] = {}
-    if (d / "episodes.csv").exists():
-        header, rows = read_csv_rows(d / "episodes.csv")
+    log = d / "episodes.csv" if (d / "episodes.csv").exists() else d / "curve.csv"  # a run summary keeps the binned curve
+    if log.exists():
+        header, rows = read_csv_rows(log)
         data = np.array([[_num(x) for x in r] for r in rows], dtype=np.float64).reshape(len(rows), len(header))
         columns = {h: data[:, j] for j, h in enumerate(header)}
     final = None

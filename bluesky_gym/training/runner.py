@@ -448,13 +448,15 @@ def inspect_run(run_dir: str | Path, deep: bool = True) -> RunHealth:
         elif k == 0:
             problems.extend(damage)
     if result is not None:
-        bad = file_damage(d / "model.zip", result.get("files", {}).get("model.zip"), deep)
+        removed = set((result.get("summarised") or {}).get("removed", ()))  # a run summary (bluesky_gym.training.summary)
+        bad = None if "model.zip" in removed else file_damage(d / "model.zip", result.get("files", {}).get("model.zip"), deep)
         if bad:
             problems.append(f"final model: {bad}")
-        if log_rows is not None and log_rows < int(result.get("episodes", 0)):
-            problems.append(f"{log} has {log_rows} complete rows; result.json counts {result.get('episodes')} (truncated)")
-        elif log_rows is None and int(result.get("episodes", 0)) > 0:
-            problems.append(f"{log} is missing; result.json counts {result.get('episodes')} episodes")
+        if EPISODE_LOG not in removed:
+            if log_rows is not None and log_rows < int(result.get("episodes", 0)):
+                problems.append(f"{log} has {log_rows} complete rows; result.json counts {result.get('episodes')} (truncated)")
+            elif log_rows is None and int(result.get("episodes", 0)) > 0:
+                problems.append(f"{log} is missing; result.json counts {result.get('episodes')} episodes")
     return RunHealth(problems, intact, log_rows)
 
 
