@@ -24,7 +24,7 @@ episode log shorter than its checkpoint, a JSON file that does not parse) is nam
 until rerun with ``--resume-from-last-intact`` (continue from the last intact checkpoint) or
 ``--restart``. The multi-agent environments are trained with ``bluesky-gym train-ma``.
 
-``demo`` trains PPO on 16 batched environments (``configs/demo.toml``), evaluates the policy
+``demo`` trains PPO on 16 batched environments (``configs/demo.toml``, the fast trainer), evaluates the policy
 against the ``random`` and ``classical`` reference policies (and ``mvp`` for the environments with
 traffic) on held-out scenarios, and writes the
 learning curves, the aggregate plot and (when rendering is available) a GIF of the trained
@@ -177,6 +177,7 @@ def add_parser(subparsers: Any) -> None:
     d.add_argument("--out", type=Path, default=Path("runs/demo"), metavar="DIR", help="output directory (default: runs/demo)")
     d.add_argument("--no-gif", action="store_true", help="do not render a GIF")
     d.add_argument("--no-progress", action="store_true", help="no progress bar")
+    d.add_argument("--trainer", choices=TRAINERS, help="fast (default) or sb3 (Stable-Baselines3's own loops)")
     d.set_defaults(func=run_demo)
 
 
@@ -237,6 +238,7 @@ def run_demo(args: argparse.Namespace) -> int:
             episodes=args.episodes,
             gif=not args.no_gif,
             progress_bar=not args.no_progress,
+            trainer=args.trainer,
         )
     except (MissingDependencyError, ValueError) as exc:
         print(f"bluesky-gym demo: error: {exc}", file=sys.stderr)

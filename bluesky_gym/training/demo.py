@@ -2,8 +2,8 @@
 
 :func:`run_demo` (``bluesky-gym demo``) runs, in ``out``:
 
-1. PPO on the natively batched environment with ``configs/demo.toml``'s settings (a normal,
-   resumable run in ``out/<ID>/PPO/seed_<S>``);
+1. PPO on the natively batched environment with ``configs/demo.toml``'s settings, on the fast
+   trainer unless told otherwise (a normal, resumable run in ``out/<ID>/PPO/seed_<S>``);
 2. a deterministic evaluation of the trained policy, ``random``, ``classical`` and, for the
    environments with traffic, ``mvp`` on the same held-out scenarios, printed as a KPI table
    with normalised scores
@@ -46,6 +46,7 @@ def run_demo(
     gif: bool = True,
     progress_bar: bool = True,
     verbose: int = 1,
+    trainer: str | None = None,
 ) -> dict[str, Any]:
     """Train, evaluate against the reference policies, plot and render; return ``demo.json``.
 
@@ -59,6 +60,7 @@ def run_demo(
         gif: Render a GIF of the trained policy if the renderer is available.
         progress_bar: Show the training progress bar.
         verbose: Print progress and results.
+        trainer: ``"fast"`` or ``"sb3"`` (default: ``DEMO``'s, the fast trainer).
 
     """
     from bluesky_gym.training.plotting import aggregate, load_run, plot_aggregate, plot_learning_curves
@@ -69,7 +71,7 @@ def run_demo(
 
     t = time.perf_counter()
     config = merge(PAPER, DEMO)
-    spec = make_run_spec(config, env_id, "PPO", seed, total_timesteps=steps, n_envs=n_envs, eval_episodes=episodes)
+    spec = make_run_spec(config, env_id, "PPO", seed, total_timesteps=steps, n_envs=n_envs, eval_episodes=episodes, trainer=trainer)
     run_dir = run_dir_for(out, env_id, "PPO", seed)
     result = run_training(spec, run_dir, progress_bar=progress_bar, verbose=verbose)
     timings["train_s"] = time.perf_counter() - t

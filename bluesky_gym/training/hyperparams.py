@@ -107,9 +107,9 @@ PAPER: dict[str, Any] = {
     "env_options": {},
 }
 
-#: Settings of the ``demo`` command: PPO on 16 batched environments, short rollouts.
+#: Settings of the ``demo`` command: PPO on 16 batched environments, short rollouts, the fast trainer.
 DEMO: dict[str, Any] = {
-    "run": {"n_envs": 16, "total_timesteps": 250_000, "checkpoint_freq": 50_000, "eval_episodes": 100},
+    "run": {"n_envs": 16, "total_timesteps": 250_000, "checkpoint_freq": 50_000, "eval_episodes": 100, "trainer": "fast"},
     "algos": {"PPO": {"n_steps": 128, "batch_size": 256, "n_epochs": 10}},
 }
 
