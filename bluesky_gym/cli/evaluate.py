@@ -13,7 +13,8 @@ config or the file; ``--algo``, if given, must agree), ``random`` (uniform actio
 ``classical`` (the hand-written reference controller of the environment) or ``mvp`` (BlueSky's
 MVP conflict resolution, for the environments with traffic; docs/baselines.md); repeat it to
 compare policies. A model trained on another environment (its run's ``config.json`` says which)
-or whose observation space differs from the environment's is refused.
+or whose observation space differs from the environment's is refused, and so is a model file that
+is cut off or damaged (it fails its zip checksums, or the size and SHA-256 its run recorded).
 
 Episode ``j`` is the scenario of ``reset(seed=2**31 + j)``: the evaluation seeds start at 2**31,
 while every training scenario seed is below 2**31, so evaluation scenarios are never trained on,
