@@ -164,3 +164,26 @@ def test_a_damaged_model_is_named_in_one_line(tmp_path: Path, capsys: pytest.Cap
         assert main(["render", "--env", ENV, "--policy", str(bare), *algo, "--out", str(tmp_path / "x.gif")]) == 2
         captured = capsys.readouterr()
         assert captured.err.count("\n") == 1 and str(bare) in captured.err and "cannot tell the algorithm" not in captured.err
+
+
+def test_eval_writes_its_default_output_where_git_ignores_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+    import subprocess
+
+    from bluesky_gym.cli import main
+
+    git = shutil.which("git")
+    if git is None:
+        pytest.skip("needs git")
+    checkout = tmp_path / "checkout"  # a checkout with the project's .gitignore
+    checkout.mkdir()
+    shutil.copy(Path(__file__).resolve().parents[2] / ".gitignore", checkout / ".gitignore")
+    subprocess.run([git, "init", "-q"], cwd=checkout, check=True)
+    monkeypatch.chdir(checkout)
+    assert main(["eval", "--env", ENV, "--model", "random", "--episodes", "1"]) == 0
+    written = [p for p in checkout.rglob("*.json") if ".git" not in p.parts]
+    assert len(written) == 1 and str(written[0].relative_to(checkout)) in capsys.readouterr().err
+    status = subprocess.run([git, "status", "--porcelain", "--untracked-files=all"], cwd=checkout, capture_output=True, text=True, check=True)
+    assert status.stdout.splitlines() == ["?? .gitignore"]
