@@ -954,6 +954,10 @@ def _train(
         trainer.start(train_env_seeds(stream, spec.n_envs))
     elif record is not None:
         model.set_random_seed(stream)
+    if not fast and tb_dir is None:  # SB3's own logger would make an empty SB3-<date> folder in the temporary directory
+        from stable_baselines3.common.logger import Logger
+
+        model.set_logger(Logger(folder=None, output_formats=[]))
     start = int(model.num_timesteps)
     process = _start_process(d, start, resumed_from, note)
 
