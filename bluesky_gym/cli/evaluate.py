@@ -13,7 +13,8 @@ config or the file; ``--algo``, if given, must agree), ``random`` (uniform actio
 ``classical`` (the hand-written reference controller of the environment) or ``mvp`` (BlueSky's
 MVP conflict resolution, for the environments with traffic; docs/baselines.md); repeat it to
 compare policies. A model trained on another environment (its run's ``config.json`` says which)
-or whose observation space differs from the environment's is refused.
+or whose observation space differs from the environment's is refused, and so is a model file that
+is cut off or damaged (it fails its zip checksums, or the size and SHA-256 its run recorded).
 
 Episode ``j`` is the scenario of ``reset(seed=2**31 + j)``: the evaluation seeds start at 2**31,
 while every training scenario seed is below 2**31, so evaluation scenarios are never trained on,
@@ -21,7 +22,8 @@ and every policy is scored on the same scenarios. The table gives the mean and a
 half-width of return, success rate, losses of separation per episode, minimum separation, mean
 absolute drift, time to goal (successful episodes) and episode length. When both ``random`` and
 ``classical`` are evaluated, a normalised score (0 = random, 1 = classical) is added. Results are
-saved as ``eval_<policy>.json`` and ``eval_<policy>_episodes.csv`` in ``--out``.
+saved as ``eval_<policy>.json`` and ``eval_<policy>_episodes.csv`` in ``--out`` (default:
+``runs/eval/<ID>``, next to the training runs).
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--seed-offset", type=non_negative_int, default=0, metavar="J", help="first evaluation scenario index (default: 0)")
     p.add_argument("--num-envs", type=positive_int, default=64, metavar="K", help="episodes simulated together (default: 64)")
     deprecated_alias(p, "--batch", "--num-envs", "num_envs", type=positive_int, metavar="K")
-    p.add_argument("--out", type=Path, metavar="DIR", help="directory for the result files (default: eval_results/<ID>)")
+    p.add_argument("--out", type=Path, metavar="DIR", help="directory for the result files (default: runs/eval/<ID>)")
     p.set_defaults(func=run)
 
 
@@ -69,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the ``eval`` subcommand."""
     from bluesky_gym.training.evaluation import evaluate, format_table, make_policy, save_result
 
-    out = args.out or Path("eval_results") / args.env
+    out = args.out or Path("runs") / "eval" / args.env  # below runs/, with the training runs (git-ignored)
     results = []
     try:
         for spec in args.model:

@@ -14,9 +14,12 @@ KPIs an environment does not have (no traffic, no goal) are left empty.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 import time
+import zipfile
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,9 +27,10 @@ from typing import Any
 
 import numpy as np
 
+from bluesky_gym.core.extras import require_sb3
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, eval_seeds
 from bluesky_gym.training import algorithm_class, make_vector_env
-from bluesky_gym.training.io import DamagedFileError, atomic_write_csv, atomic_write_json, latest_checkpoint, read_json
+from bluesky_gym.training.io import DamagedFileError, atomic_write_csv, atomic_write_json, file_damage, latest_checkpoint, read_json
 from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_names, reference_policy
 
 #: (column, episode-record key, label) of the KPI table.
@@ -268,24 +272,51 @@ def find_model(path: str | Path) -> tuple[Path, str | None]:
 
     ``path`` may be a model ``.zip``, or a run directory (its final ``model.zip``, else its last
     checkpoint).
+
+    Raises:
+        FileNotFoundError: There is no model at ``path``.
+        DamagedFileError: The model file is cut off or damaged: it does not match the size and
+            checksum its run recorded, or is not a readable model file (the message names it).
+
     """
     p = Path(path)
     run_dir: Path | None = None
+    record: dict[str, Any] | None = None  # the size and checksum the run recorded for the file
     if p.is_dir():
         run_dir = p
         if (p / "model.zip").exists():
             p = p / "model.zip"
+            with contextlib.suppress(DamagedFileError, AttributeError):  # result.json unreadable: the file is checked on its own
+                record = read_json(run_dir / "result.json").get("files", {}).get("model.zip") if (run_dir / "result.json").exists() else None
         else:
             ckpt = latest_checkpoint(p)
             if ckpt is None:
                 raise FileNotFoundError(f"{path} holds neither model.zip nor a checkpoint")
             p = ckpt[1] / "model.zip"
+            record = ckpt[0].get("files", {}).get("model.zip")
     elif not p.exists() and p.with_suffix(".zip").exists():
         p = p.with_suffix(".zip")
     if not p.exists():
         raise FileNotFoundError(f"no model at {path}")
+    damage = (file_damage(p, record) if record else None) or model_file_damage(p)
+    if damage:
+        raise DamagedFileError(f"{damage}; it cannot be evaluated")
     config = run_config_of(p, run_dir)
     return p, (str(config[1].get("algo", "")) or None) if config is not None else None
+
+
+def model_file_damage(path: str | Path) -> str | None:
+    """What is wrong with a model file (cut off, a member that fails its CRC, not an SB3 model), or None if it reads."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            bad = z.testzip()
+            if bad is not None:
+                return f"{path} is damaged (its member {bad!r} does not match its checksum)"
+            if "data" not in z.namelist():
+                return f"{path} is truncated, damaged or not a Stable-Baselines3 model file (no 'data' member found)"
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        return f"{path} is not a readable model file, truncated or damaged ({exc})"
+    return None
 
 
 def run_config_of(model_path: Path, run_dir: Path | None = None) -> tuple[Path, dict[str, Any]] | None:
@@ -373,9 +404,10 @@ def load_policy(path: str | Path, algo: str | None = None, device: str = "cpu", 
             ``config.json`` is found) and have the model's observation and action spaces.
 
     Raises:
-        ValueError: The model does not fit ``env_id`` or ``algo``.
+        ValueError: The model does not fit ``env_id`` or ``algo``, or its file is damaged.
 
     """
+    require_sb3()  # first: without it no model file can be used, damaged or not
     model_path, run_algo = find_model(path)
     config = run_config_of(model_path, Path(path) if Path(path).is_dir() else None)
     if env_id is not None and config is not None:
@@ -383,7 +415,11 @@ def load_policy(path: str | Path, algo: str | None = None, device: str = "cpu", 
         if trained_on and trained_on != env_id:
             raise ValueError(f"{path} was trained on {trained_on} (its {config[0]}), not {env_id}; evaluate it with --env {trained_on}")
     algo = model_algorithm(model_path, algo, run_algo)
-    model = algorithm_class(algo).load(model_path, device=device)
+    try:
+        model = algorithm_class(algo).load(model_path, device=device)
+    except Exception as exc:  # a file that reads as a zip but not as a model of this algorithm
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        raise ValueError(f"{model_path} cannot be loaded as a {algo} model ({type(exc).__name__}: {first})") from exc
     if env_id is not None:
         venv = make_vector_env(env_id, 1)
         try:

@@ -229,6 +229,66 @@ def check_config(data: dict[str, Any], source: str = "config", text: str = "") -
     for env_id, opts in data.get("env_options", {}).items():
         if not isinstance(opts, dict):
             raise ValueError(f'{source}: [env_options."{env_id}"] must be a table')
+    check_value_types(data, source, text)
+
+
+#: Keys of the ``run`` table that take a whole number (``2e6`` is one).
+RUN_INTEGERS = frozenset({"n_envs", "total_timesteps", "checkpoint_freq", "eval_episodes", "torch_threads"})
+#: Keys of the ``run`` table that take a string (``compile`` takes ``true``, ``false`` or ``"auto"``).
+RUN_STRINGS = frozenset({"device", "trainer"})
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _line_of(text: str, path: list[str], key: str) -> int | None:
+    """The line of ``key`` in a config text, found after the names of its enclosing tables (None: not found)."""
+    pos = 0
+    for name in [*path, key]:
+        found = re.compile(rf'(?<![\w-])"?{re.escape(name)}"?(?![\w-])').search(text, pos)
+        if found is None:
+            return None
+        pos = found.end()
+    return text.count("\n", 0, pos) + 1
+
+
+def check_value_types(data: dict[str, Any], source: str = "config", text: str = "") -> None:
+    """Raise ``ValueError`` naming the file, line and key of the first value of a wrong type.
+
+    The ``run`` counts are whole numbers, ``device`` and ``trainer`` strings, ``compile`` is
+    ``true``, ``false`` or ``"auto"``; a hyperparameter whose paper default is a number must be a
+    number (``train_freq`` may also be ``[N, "step" | "episode"]``).
+
+    Args:
+        data: The parsed config (its layout already checked by :func:`check_config`).
+        source: Its file name, for the message.
+        text: Its text, to give the line of the key.
+
+    """
+
+    def fail(path: list[str], key: str, what: str, value: Any) -> None:
+        line = _line_of(text, path, key) if text else None
+        table = ".".join(f'"{p}"' if "-" in p else p for p in path)
+        raise ValueError(f"{source}{f':{line}' if line else ''}: [{table}] {key} must be {what}, got {value!r}")
+
+    for key, value in data.get("run", {}).items():
+        if key in RUN_INTEGERS and not (_is_number(value) and float(value).is_integer()):
+            fail(["run"], key, "an integer", value)
+        if key in RUN_STRINGS and not isinstance(value, str):
+            fail(["run"], key, "a string", value)
+        if key == "compile" and not (isinstance(value, bool) or value == "auto"):
+            fail(["run"], key, 'true, false or "auto"', value)
+    for algo, table in data.get("algos", {}).items():
+        defaults = PAPER["algos"].get(algo, {})
+        tables = [(["algos", algo], table)] + [(["algos", algo, "envs", env_id], t) for env_id, t in table.get("envs", {}).items()]
+        for path, hp in tables:
+            for key, value in hp.items():
+                if key == "envs" or not _is_number(defaults.get(key)) or _is_number(value):
+                    continue
+                if key == "train_freq" and isinstance(value, list):
+                    continue
+                fail(path, key, "a number", value)
 
 
 def merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:

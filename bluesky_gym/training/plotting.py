@@ -14,7 +14,8 @@
 * ``aggregate.png`` / ``aggregate.json``: per algorithm, the interquartile mean (IQM) of
   normalised scores across all environments and seeds, ``(score - random) / (classical -
   random)``, with 95% stratified bootstrap confidence intervals (runs resampled within each
-  environment): (left, bars with their CI and value) of the final held-out return, (right) of the
+  environment; none for an algorithm with one run per environment, which has no spread to
+  resample): (left, bars with their CI and value) of the final held-out return, (right) of the
   smoothed training return over the fraction of training done.
 
 A run's curve at step ``x`` is the mean over episodes that ended in the window ``(x - w, x]``,
@@ -449,7 +450,8 @@ def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed
 
     Returns:
         ``{"final": {algo: {iqm, ci_low, ci_high, runs, envs}}, "curve": {algo: {x, iqm, ci_low,
-        ci_high}}, "normalised_runs": [...]}``.
+        ci_high}}, "normalised_runs": [...]}``. An algorithm with one run per environment has no
+        confidence interval (``ci_low`` and ``ci_high`` are NaN, ``null`` in JSON).
 
     """
     from bluesky_gym.training.evaluation import normalised_score
@@ -479,6 +481,8 @@ def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed
     out: dict[str, Any] = {"final": {}, "curve": {}, "normalised_runs": listing, "references": references}
     for algo, by_env in sorted(final.items()):
         point, lo, hi = stratified_bootstrap_iqm({k: np.asarray(v) for k, v in by_env.items()}, rng)
+        if max(map(len, by_env.values())) < 2:  # one run per environment: resampling cannot vary, there is no interval
+            lo = hi = np.float64(math.nan)
         out["final"][algo] = {
             "iqm": float(point),
             "ci_low": float(lo),
@@ -488,6 +492,8 @@ def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed
         }
     for algo, curves in sorted(curve.items()):
         point, lo, hi = stratified_bootstrap_iqm({k: np.asarray(v) for k, v in curves.items()}, rng, n_boot=500)
+        if max(map(len, curves.values())) < 2:
+            lo = hi = np.full_like(point, math.nan)
         out["curve"][algo] = {"x": grid.tolist(), "iqm": point.tolist(), "ci_low": lo.tolist(), "ci_high": hi.tolist()}
     return out
 
@@ -508,20 +514,27 @@ def aggregate_figure(agg: dict[str, Any]) -> Any:
     plt = pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
     algos = list(agg["final"])
+    intervals = 0
     for k, algo in enumerate(algos):
         s = agg["final"][algo]
         colour = ALGO_COLOURS.get(algo)
-        err = [[s["iqm"] - s["ci_low"]], [s["ci_high"] - s["iqm"]]]
-        ax1.barh([k], [s["iqm"]], xerr=err, color=colour, alpha=0.8, capsize=4, height=0.6)
+        if _finite(s["ci_low"]) and _finite(s["ci_high"]):
+            err = [[s["iqm"] - s["ci_low"]], [s["ci_high"] - s["iqm"]]]
+            ax1.barh([k], [s["iqm"]], xerr=err, color=colour, alpha=0.8, capsize=4, height=0.6)
+            text, end = f"{s['iqm']:.2f} [{s['ci_low']:.2f}, {s['ci_high']:.2f}]", max(s["ci_high"], s["iqm"])
+            intervals += 1
+        else:  # one run per environment: no interval to draw
+            ax1.barh([k], [s["iqm"]], color=colour, alpha=0.8, height=0.6)
+            text, end = f"{s['iqm']:.2f}", s["iqm"]
         ax1.annotate(
-            f"{s['iqm']:.2f} [{s['ci_low']:.2f}, {s['ci_high']:.2f}]",
-            (max(s["ci_high"], s["iqm"]), k),
+            text,
+            (end, k),
             xytext=(4, 0),
             textcoords="offset points",
             va="center",
             fontsize=8,
         )
-    ax1.set_yticks(range(len(algos)), [f"{a} ({agg['final'][a]['runs']} runs)" for a in algos])
+    ax1.set_yticks(range(len(algos)), [f"{a} ({n} run{'s' if n != 1 else ''})" for a in algos for n in [agg["final"][a]["runs"]]])
     ax1.set_ylim(-0.6, max(len(algos), 1) - 0.4)
     ax1.axvline(0.0, color="grey", lw=0.8, ls="--")
     ax1.axvline(1.0, color="black", lw=0.8, ls="--")
@@ -530,7 +543,9 @@ def aggregate_figure(agg: dict[str, Any]) -> Any:
     for algo, c in agg["curve"].items():
         colour = ALGO_COLOURS.get(algo)
         ax2.plot(c["x"], c["iqm"], label=algo, color=colour)
-        ax2.fill_between(c["x"], c["ci_low"], c["ci_high"], alpha=0.25, color=colour, linewidth=0)
+        if any(_finite(v) for v in c["ci_low"]):
+            lo, hi = (np.array([math.nan if v is None else v for v in c[k]], dtype=np.float64) for k in ("ci_low", "ci_high"))
+            ax2.fill_between(c["x"], lo, hi, alpha=0.25, color=colour, linewidth=0)
     ax2.axhline(0.0, color="grey", lw=0.8, ls="--")
     ax2.axhline(1.0, color="black", lw=0.8, ls="--")
     ax2.set_xlabel("fraction of training")
@@ -539,12 +554,18 @@ def aggregate_figure(agg: dict[str, Any]) -> Any:
     if agg["curve"]:
         ax2.legend(fontsize=8)
     envs = sorted({e for s in agg["final"].values() for e in s["envs"]})
+    cis = "95% bootstrap CIs over runs" if intervals or not algos else "one run each: no confidence interval"
     if len(envs) == 1:
-        fig.suptitle(f"{envs[0]}: normalised scores (95% bootstrap CIs over runs)")
+        fig.suptitle(f"{envs[0]}: normalised scores ({cis})")
     else:
-        fig.suptitle(f"Aggregate over {len(envs)} environments (95% stratified bootstrap CIs)")
+        fig.suptitle(f"Aggregate over {len(envs)} environments ({cis.replace('bootstrap', 'stratified bootstrap')})")
     fig.tight_layout()
     return fig
+
+
+def _finite(x: Any) -> bool:
+    """True for a finite number (a missing interval is NaN in memory and None in ``aggregate.json``)."""
+    return x is not None and bool(np.isfinite(x))
 
 
 def find_references(run_dirs: Sequence[Path], env_ids: Sequence[str]) -> dict[str, dict[str, float]]:

@@ -56,8 +56,11 @@ def make_actor(
         import stable_baselines3 as sb3
     except ImportError as exc:
         raise missing_extra("loading a model needs Stable-Baselines3", "train") from exc
-    from bluesky_gym.training.evaluation import check_model_spaces, model_algorithm, run_config_of
+    from bluesky_gym.training.evaluation import check_model_spaces, model_algorithm, model_file_damage, run_config_of
 
+    damage = model_file_damage(path)
+    if damage:
+        raise ValueError(f"{damage}; it cannot be rendered")
     config = run_config_of(path)
     trained_on = config[1].get("env_id") if config is not None else None
     if trained_on and trained_on != env_id:

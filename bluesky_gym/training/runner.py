@@ -30,10 +30,13 @@ streams derived from the run seed and the timesteps done (see :mod:`bluesky_gym.
 Everything that can be checked before training (environment id and options, hyperparameter
 names) is checked before the run directory is created, and a run that fails before it trained
 leaves no directory behind. A damaged run directory (a checkpoint file missing, truncated or
-changed, an episode log shorter than its checkpoint, a JSON file that does not parse) is never
-resumed silently: :func:`inspect_run` names the damage and :func:`run_training` refuses to go on
-unless told to resume from the last intact checkpoint (``on_damage="resume"``) or to start over
-(``on_damage="restart"``).
+changed, a step count in ``checkpoint.json`` that its model does not hold, an episode log shorter
+than its checkpoint, a JSON file that does not parse) is never resumed silently:
+:func:`inspect_run` names the damage and :func:`run_training` refuses to go on unless told to
+resume from the last intact checkpoint (``on_damage="resume"``) or to start over
+(``on_damage="restart"``). Where ``checkpoint.json`` itself is unreadable or missing, the
+checkpoints in ``checkpoints/step_*`` are checked by their own files and the episode log (see
+:func:`_checkpoints_on_disk`) and can still be resumed from.
 """
 
 from __future__ import annotations
@@ -42,12 +45,15 @@ import contextlib
 import hashlib
 import json
 import os
+import pickletools
 import platform
 import shutil
 import socket
 import subprocess
 import sys
 import time
+import zipfile
+import zlib
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -400,6 +406,12 @@ def _checkpoint_damage(run_dir: Path, record: dict[str, Any], log_rows: int | No
         return [f"checkpoint.json names {where}, which is missing"]
     names = list(record.get("files") or {}) or ["model.zip"] + (["replay_buffer.pkl"] if record.get("replay_buffer") else [])
     out = [f"checkpoint at {step} steps: {bad}" for n in names if (bad := file_damage(where / n, record.get("files", {}).get(n), deep))]
+    if not out:  # the record must agree with the model it names (an edited step count would be trusted on resume)
+        held = _model_data(where / "model.zip").get("num_timesteps")
+        if held is None:
+            out.append(f"checkpoint at {step} steps: {where / 'model.zip'} cannot be read as a model")
+        elif held != step:
+            out.append(f"checkpoint.json says {step} steps, but {where / 'model.zip'} holds {held} (edited or replaced)")
     n = int(record.get("episodes_logged", 0))
     log = run_dir / EPISODE_LOG
     if n > 0 and log_rows is None:
@@ -410,7 +422,10 @@ def _checkpoint_damage(run_dir: Path, record: dict[str, Any], log_rows: int | No
 
 
 def inspect_run(run_dir: str | Path, deep: bool = True) -> RunHealth:
-    """Check a run directory for damage: JSON files, checkpoint files against their checksums, the episode log.
+    """Check a run directory for damage: JSON files, checkpoint files against their checksums and step counts, the episode log.
+
+    Where ``checkpoint.json`` is unreadable or missing, the intact checkpoints are those of
+    ``checkpoints/step_*`` that pass the checks of :func:`_checkpoints_on_disk`.
 
     Args:
         run_dir: The run directory.
@@ -419,7 +434,7 @@ def inspect_run(run_dir: str | Path, deep: bool = True) -> RunHealth:
     """
     d = Path(run_dir)
     problems: list[str] = []
-    result = None
+    result = config = None
     for name in ("config.json", "run.json", "result.json"):
         if (d / name).exists():
             try:
@@ -429,18 +444,23 @@ def inspect_run(run_dir: str | Path, deep: bool = True) -> RunHealth:
                 continue
             if name == "result.json":
                 result = data
+            elif name == "config.json":
+                config = data
     log = d / EPISODE_LOG
     log_rows = len(read_csv_rows(log)[1]) if log.exists() else None
     records: list[dict[str, Any]] = []
+    unrecorded = False  # checkpoint.json is unreadable or missing: the checkpoints on disk are checked by their own files
     if (d / "checkpoint.json").exists():
         try:
             latest = read_json(d / "checkpoint.json")
             records = [latest] + ([latest["previous"]] if latest.get("previous") else [])
         except DamagedFileError as exc:
             problems.append(str(exc))
+            unrecorded = True
     elif any((d / "checkpoints").glob("step_*")):
         problems.append(f"{d / 'checkpoint.json'} is missing but {d / 'checkpoints'} holds checkpoints")
-    intact = []
+        unrecorded = True
+    intact = _checkpoints_on_disk(d, config, result, deep) if unrecorded else []
     for k, record in enumerate(records):
         damage = _checkpoint_damage(d, record, log_rows, deep)
         if not damage:
@@ -458,6 +478,124 @@ def inspect_run(run_dir: str | Path, deep: bool = True) -> RunHealth:
             elif log_rows is None and int(result.get("episodes", 0)) > 0:
                 problems.append(f"{log} is missing; result.json counts {result.get('episodes')} episodes")
     return RunHealth(problems, intact, log_rows)
+
+
+def _model_data(path: Path) -> dict[str, Any]:
+    """The attributes an SB3 model file stores as JSON (its ``data`` member), or ``{}`` if it cannot be read."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            data = json.loads(z.read("data"))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _zip_intact(path: Path) -> bool:
+    """True if every member of a zip file matches the CRC stored with it."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            return z.testzip() is None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error):
+        return False
+
+
+def _whole_pickle(path: Path) -> bool:
+    """True if a pickle file parses to its end (a truncated file does not); nothing in it is loaded."""
+    try:
+        with open(path, "rb") as f:
+            for _ in pickletools.genops(f):
+                pass
+    except (OSError, ValueError, EOFError):
+        return False
+    return True
+
+
+def _checkpoint_files(trainer: str, off_policy: bool) -> list[str] | None:
+    """The files :func:`checkpoint_writers` writes for a trainer (None: the fast trainer cannot be imported here)."""
+    if trainer != "fast":
+        return ["model.zip"] + (["replay_buffer.pkl"] if off_policy else [])
+    try:
+        from bluesky_gym.training.fast.base import FastTrainer
+        from bluesky_gym.training.fast.offpolicy import REPLAY_FILE
+    except ImportError:
+        return None
+    return ["model.zip", FastTrainer.STATE_FILE] + ([REPLAY_FILE] if off_policy else [])
+
+
+def _checkpoints_on_disk(run_dir: Path, config: dict[str, Any] | None, result: dict[str, Any] | None, deep: bool = True) -> list[dict[str, Any]]:
+    """The checkpoints in ``checkpoints/step_*`` that can be resumed without ``checkpoint.json``, newest first.
+
+    Without the sizes and checksums of ``checkpoint.json`` a checkpoint counts as intact when its
+    ``model.zip`` holds the step count of its directory's name, every other file its trainer
+    writes (the replay buffer of an off-policy algorithm; the fast trainer's state) is there, and,
+    with ``deep``, its zip files (``.zip``, ``.pt``) pass the CRCs of their members and a pickled
+    replay buffer parses to its end; and when the episode log shows that it reaches past the
+    checkpoint: a row logged after it, or, at the final checkpoint, as many rows as
+    ``result.json`` counts. Its record (episodes logged, wall time, file checksums) is rebuilt
+    from these files.
+
+    Args:
+        run_dir: The run directory.
+        config: The content of ``config.json`` (None: unreadable; the trainer is then told by the files).
+        result: The content of ``result.json`` (None: none, or unreadable).
+        deep: Read the files whole (else only their structure).
+
+    """
+    log = run_dir / EPISODE_LOG
+    header, rows = read_csv_rows(log) if log.exists() else ([], [])
+    if "timesteps" not in header:
+        rows = []
+    column = header.index("timesteps") if rows else 0
+    try:
+        steps = [int(r[column]) for r in rows]
+    except ValueError:  # an edited log: nothing can be matched to it
+        return []
+    walls = [r[header.index("wall_time_s")] if "wall_time_s" in header else "" for r in rows]
+    found = []
+    for where in sorted((run_dir / "checkpoints").glob("step_*"), reverse=True):
+        try:
+            step = int(where.name.removeprefix("step_"))
+        except ValueError:
+            continue
+        data = _model_data(where / "model.zip")
+        if data.get("num_timesteps") != step:
+            continue
+        if config is not None:
+            trainer = str(config.get("trainer", "sb3"))
+        else:  # told by the fast trainer's own state file
+            trainer = "fast" if any((where / n).exists() for n in (_checkpoint_files("fast", False) or [])[1:]) else "sb3"
+        names = _checkpoint_files(trainer, "replay_buffer_class" in data)  # an off-policy model: its replay buffer is part of it
+        if names is None or not all((where / n).is_file() for n in names):
+            continue
+        if deep and not all(_whole_pickle(where / n) if n.endswith(".pkl") else _zip_intact(where / n) for n in names):
+            continue
+        logged = next((k for k, t in enumerate(steps) if t > step), None)
+        wall = walls[logged - 1] if logged else ""
+        if logged is None:  # nothing logged after it: the log may have lost rows of the checkpoint, unless result.json counts them
+            if result is None or result.get("timesteps") != step or len(rows) != result.get("episodes"):
+                continue
+            logged, wall = len(rows), result.get("wall_time_s", "")
+        found.append(
+            {
+                "timesteps": step,
+                "dir": where.relative_to(run_dir).as_posix(),
+                "episodes_logged": logged,
+                "wall_time_s": _float(wall),  # of the last episode logged before it: the wall time it includes, nearly
+                "replay_buffer": any(n.startswith("replay_buffer") for n in names),
+                "files": {n: file_record(where / n) for n in names} if deep else {},
+                "saved_at": None,
+                "recovered": "without checkpoint.json, from the files of the checkpoint and the episode log",
+                "previous": None,
+            }
+        )
+    return found
+
+
+def _float(value: Any) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return 0.0
 
 
 def _damage_message(d: Path, health: RunHealth) -> str:
@@ -796,6 +934,8 @@ def _train(
     if record is not None:
         ckpt_dir = d / record["dir"]
         model = _load_checkpoint(spec, ckpt_dir, venv, None if fast else tb_dir)
+        if int(model.num_timesteps) != int(record["timesteps"]):  # inspect_run checks it; a resume must never count other steps
+            raise RunDamaged(f"{ckpt_dir / 'model.zip'} holds {model.num_timesteps} steps, checkpoint.json says {record['timesteps']}")
         stream = train_env_seeds(spec.seed, 1, stream=int(record["timesteps"]))[0]
         _truncate_log(log_path, int(record["episodes_logged"]))
         wall_offset = float(record["wall_time_s"])
@@ -814,6 +954,10 @@ def _train(
         trainer.start(train_env_seeds(stream, spec.n_envs))
     elif record is not None:
         model.set_random_seed(stream)
+    if not fast and tb_dir is None:  # SB3's own logger would make an empty SB3-<date> folder in the temporary directory
+        from stable_baselines3.common.logger import Logger
+
+        model.set_logger(Logger(folder=None, output_formats=[]))
     start = int(model.num_timesteps)
     process = _start_process(d, start, resumed_from, note)
 

@@ -10,6 +10,7 @@ fails the test.
 from __future__ import annotations
 
 import re
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -32,6 +33,10 @@ def test_readme_python_snippets_run_as_written(tmp_path: Path, monkeypatch: pyte
 
     threads = torch.get_num_threads()
     monkeypatch.chdir(tmp_path)
+    temp = tmp_path / "temp"  # the temporary directory the snippets see: they leave nothing there
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
     snippets = python_snippets((ROOT / "README.md").read_text(encoding="utf-8"))
     assert len(snippets) >= 6
     namespace: dict[str, object] = {"__name__": "readme"}
@@ -49,6 +54,7 @@ def test_readme_python_snippets_run_as_written(tmp_path: Path, monkeypatch: pyte
     assert trained >= 2
     assert namespace["model"].num_timesteps >= SMALL_BUDGET  # type: ignore[attr-defined]
     assert list((tmp_path / "videos").glob("*.mp4"))
+    assert not list(temp.glob("SB3-*")), "a README snippet leaves Stable-Baselines3's log folder in the temporary directory"
 
 
 def test_the_batched_ppo_snippet_updates_after_a_short_rollout() -> None:

@@ -86,36 +86,67 @@ def _edit_json(path: Path, **changes: object) -> None:
     path.write_text(json.dumps({**read_json(path), **changes}))
 
 
-#: name -> (how to damage, words the message must hold, whether an intact checkpoint is left).
-DAMAGE: dict[str, tuple[Callable[[Path], None], str, bool]] = {
+def _bump_timesteps(d: Path) -> None:
+    """Edit the latest checkpoint's step count in ``checkpoint.json`` (its files untouched)."""
+    _edit_json(d / "checkpoint.json", timesteps=read_json(d / "checkpoint.json")["timesteps"] + 1000)
+
+
+#: name -> (how to damage, words the message must hold, the checkpoint the run resumes from: "latest", "previous" or None).
+DAMAGE: dict[str, tuple[Callable[[Path], None], str, str | None]] = {
     "checkpoint.json names a missing directory": (
         lambda d: _edit_json(d / "checkpoint.json", dir="checkpoints/step_000000099999"),
         "which is missing",
-        True,
+        "previous",
     ),
-    "checkpoint model.zip deleted": (lambda d: (_latest(d) / "model.zip").unlink(), "model.zip is missing", True),
-    "checkpoint model.zip truncated": (lambda d: _truncate(_latest(d) / "model.zip"), "model.zip has", True),
-    "replay buffer truncated": (lambda d: _truncate(_latest(d) / "replay_buffer.pkl"), "replay_buffer.pkl has", True),
-    "episodes.csv deleted": (lambda d: (d / "episodes.csv").unlink(), "episodes.csv is missing", False),
-    "episodes.csv truncated": (lambda d: _truncate(d / "episodes.csv"), "episodes.csv has", True),
-    "checkpoint.json bad JSON": (lambda d: _truncate(d / "checkpoint.json"), "checkpoint.json is not valid JSON", False),
+    "checkpoint model.zip deleted": (lambda d: (_latest(d) / "model.zip").unlink(), "model.zip is missing", "previous"),
+    "checkpoint model.zip truncated": (lambda d: _truncate(_latest(d) / "model.zip"), "model.zip has", "previous"),
+    "replay buffer truncated": (lambda d: _truncate(_latest(d) / "replay_buffer.pkl"), "replay_buffer.pkl has", "previous"),
+    "episodes.csv deleted": (lambda d: (d / "episodes.csv").unlink(), "episodes.csv is missing", None),
+    "episodes.csv truncated": (lambda d: _truncate(d / "episodes.csv"), "episodes.csv has", "previous"),
+    "checkpoint.json timesteps edited": (_bump_timesteps, "model.zip holds", "previous"),
+    # Without checkpoint.json the checkpoints on disk are checked by their own files.
+    "checkpoint.json bad JSON": (lambda d: _truncate(d / "checkpoint.json"), "checkpoint.json is not valid JSON", "latest"),
+    "checkpoint.json deleted": (lambda d: (d / "checkpoint.json").unlink(), "checkpoint.json is missing", "latest"),
+    "checkpoint.json bad JSON, latest model.zip truncated": (
+        lambda d: (_truncate(_latest(d) / "model.zip"), _truncate(d / "checkpoint.json")),
+        "checkpoint.json is not valid JSON",
+        "previous",
+    ),
+    "checkpoint.json bad JSON, latest replay buffer truncated": (
+        lambda d: (_truncate(_latest(d) / "replay_buffer.pkl"), _truncate(d / "checkpoint.json")),
+        "checkpoint.json is not valid JSON",
+        "previous",
+    ),
+    "checkpoint.json bad JSON, episodes.csv truncated": (
+        lambda d: (_truncate(d / "checkpoint.json"), (d / "episodes.csv").write_text(_head(d / "episodes.csv", 1))),
+        "checkpoint.json is not valid JSON",
+        None,
+    ),
 }
+
+
+def _head(path: Path, rows: int) -> str:
+    """The header and the first ``rows`` rows of a CSV file."""
+    return "".join(path.read_text().splitlines(keepends=True)[: rows + 1])
 
 
 @pytest.mark.parametrize("damage", sorted(DAMAGE))
 def test_damage_is_named_and_the_run_resumes_from_the_last_intact_checkpoint_or_restarts(
     damage: str, killed_run: Path, tmp_path: Path, tiny_config: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    harm, words, resumable = DAMAGE[damage]
+    harm, words, resumes_from = DAMAGE[damage]
     original = _rows(killed_run / "episodes.csv")
-    previous = read_json(killed_run / "checkpoint.json")["previous"]
+    latest = read_json(killed_run / "checkpoint.json")
+    intact = {"latest": latest, "previous": latest["previous"], None: None}[resumes_from]
     run_dir = tmp_path / "out" / ENV / "SAC" / "seed_0"
     shutil.copytree(killed_run, run_dir)
     harm(run_dir)
     if damage == "episodes.csv truncated":
         # cut below the previous checkpoint's rows too: nothing is left to resume from
         _truncate(run_dir / "episodes.csv")
-        resumable = len(_rows(run_dir / "episodes.csv")) >= previous["episodes_logged"]
+        if len(_rows(run_dir / "episodes.csv")) < latest["previous"]["episodes_logged"]:
+            intact = None
+    resumable = intact is not None
     before = {p: p.stat().st_mtime_ns for p in run_dir.rglob("*") if p.is_file()}
 
     # Named, refused, nothing changed.
@@ -137,11 +168,12 @@ def test_damage_is_named_and_the_run_resumes_from_the_last_intact_checkpoint_or_
     assert [int(r[1]) for r in rows] == sorted(int(r[1]) for r in rows) and result["timesteps"] >= SPEC.total_timesteps
     repair = read_json(run_dir / "run.json")["processes"][-1]["repair"]
     assert any(words in p for p in repair["damage"])
-    if resumable:
-        assert result["resumed_from"] == previous["timesteps"]
-        kept = previous["episodes_logged"]
+    if intact is not None:
+        assert f"at {intact['timesteps']} steps" in err
+        assert result["resumed_from"] == intact["timesteps"]
+        kept = intact["episodes_logged"]
         assert rows[:kept] == original[:kept]  # the intact part of the log, untouched
-        assert all(int(r[1]) > previous["timesteps"] for r in rows[kept:])
+        assert all(int(r[1]) > intact["timesteps"] for r in rows[kept:])
     else:
         assert result["resumed_from"] is None and repair["action"] == "started over"
     assert not inspect_run(run_dir).problems
@@ -160,6 +192,11 @@ def test_damaged_final_files_are_detected(killed_run: Path, tmp_path: Path) -> N
     with pytest.raises(RunDamaged, match=r"result.json is not valid JSON \(.* line 2 column"):
         run_training(SPEC, d, verbose=0, tensorboard=False)
     result = run_training(SPEC, d, verbose=0, tensorboard=False, on_damage="resume")  # the final checkpoint is intact
+    assert result["timesteps"] == done and result["resumed_from"] == done and not inspect_run(d).problems
+    # Without checkpoint.json the final checkpoint is found on disk: result.json counts the episodes it includes.
+    _truncate(d / "checkpoint.json")
+    assert [c["timesteps"] for c in inspect_run(d).intact] == [done]
+    result = run_training(SPEC, d, verbose=0, tensorboard=False, on_damage="resume")
     assert result["timesteps"] == done and result["resumed_from"] == done and not inspect_run(d).problems
 
 
@@ -187,3 +224,35 @@ def test_a_sweep_names_a_damaged_run_and_takes_the_same_choice(
     assert main([*sweep, "--resume-from-last-intact"]) == 0
     capsys.readouterr()
     assert read_json(run_dir / "result.json")["resumed_from"] == read_json(killed_run / "checkpoint.json")["previous"]["timesteps"]
+
+
+def test_without_checkpoint_json_a_fast_run_resumes_from_its_checkpoints_on_disk(tmp_path: Path) -> None:
+    from bluesky_gym.training.fast.offpolicy import REPLAY_FILE
+
+    spec = make_run_spec(merge(PAPER, {**CONFIG, "run": {**CONFIG["run"], "trainer": "fast"}}), ENV, "SAC", 0)
+    d = tmp_path / "run"
+
+    class Crash:
+        """Fast-trainer hooks that stand for a crash at 250 steps."""
+
+        def on_rollout_start(self, trainer: object) -> None:
+            pass
+
+        def on_episodes(self, trainer: object, records: list[dict[str, object]]) -> None:
+            if trainer.num_timesteps >= 250:  # type: ignore[attr-defined]
+                raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_training(spec, d, verbose=0, tensorboard=False, callbacks=[Crash()])
+    latest = read_json(d / "checkpoint.json")
+    previous = latest["previous"]
+    assert set(latest["files"]) == {"model.zip", "trainer.pt", REPLAY_FILE}
+    _truncate(d / "checkpoint.json")
+    found = inspect_run(d).intact
+    assert [c["timesteps"] for c in found][:1] == [latest["timesteps"]] and found[0]["episodes_logged"] == latest["episodes_logged"]
+    assert found[0]["files"] == latest["files"]  # the very files checkpoint.json recorded
+    (d / latest["dir"] / "trainer.pt").unlink()  # the latest is incomplete: the one before is resumed
+    assert [c["timesteps"] for c in inspect_run(d).intact] == [previous["timesteps"]]
+    result = run_training(spec, d, verbose=0, tensorboard=False, on_damage="resume")
+    assert result["resumed_from"] == previous["timesteps"] and result["timesteps"] >= spec.total_timesteps
+    assert not inspect_run(d).problems

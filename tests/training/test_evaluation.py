@@ -124,3 +124,66 @@ def test_trained_model_is_found_in_a_run_directory(tmp_path: Path) -> None:
     assert np.isfinite(res.mean_return)
     with pytest.raises(FileNotFoundError):
         find_model(tmp_path / "nothing")
+
+
+@needs_sb3
+def test_a_damaged_model_is_named_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from stable_baselines3 import PPO
+
+    from bluesky_gym.cli import main
+    from bluesky_gym.training.io import atomic_write_json, file_record
+    from bluesky_gym.training.runner import save_checkpoint
+    from bluesky_gym.training.sb3_vec_env import SB3VecEnv
+    from bluesky_gym.training.status import describe_run
+
+    model = PPO("MultiInputPolicy", SB3VecEnv(ENV, 1), n_steps=16, batch_size=16, device="cpu")
+    config = {"env_id": ENV, "algo": "PPO", "seed": 0, "total_timesteps": 16}
+    # a finished run whose final model is cut off, and a run whose only checkpoint is
+    finished, checkpointed = tmp_path / "finished", tmp_path / "checkpointed"
+    for d in (finished, checkpointed):
+        atomic_write_json(d / "config.json", config)
+    model.save(finished / "model.zip")
+    record = {"model.zip": file_record(finished / "model.zip")}
+    atomic_write_json(finished / "result.json", {"status": "finished", "timesteps": 0, "episodes": 0, "files": record})
+    save_checkpoint(model, checkpointed, 0, 0.0)
+    bare = tmp_path / "bare.zip"
+    model.save(bare)
+    cut = {finished: finished / "model.zip", checkpointed: next(checkpointed.glob("checkpoints/step_*/model.zip")), bare: bare}
+    for path in cut.values():
+        path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    assert describe_run(finished)["status"] == describe_run(checkpointed)["status"] == "damaged"
+
+    for target, path in cut.items():
+        for algo in ([], ["--algo", "PPO"]):
+            assert main(["eval", "--env", ENV, "--model", str(target), *algo, "--episodes", "1", "--out", str(tmp_path / "ev")]) == 2
+            captured = capsys.readouterr()
+            assert captured.err.count("\n") == 1 and str(path) in captured.err, captured.err
+            assert "cannot tell the algorithm" not in captured.err and "Traceback" not in captured.err
+    assert not (tmp_path / "ev").exists()
+    for algo in ([], ["--algo", "ppo"]):
+        assert main(["render", "--env", ENV, "--policy", str(bare), *algo, "--out", str(tmp_path / "x.gif")]) == 2
+        captured = capsys.readouterr()
+        assert captured.err.count("\n") == 1 and str(bare) in captured.err and "cannot tell the algorithm" not in captured.err
+
+
+def test_eval_writes_its_default_output_where_git_ignores_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+    import subprocess
+
+    from bluesky_gym.cli import main
+
+    git = shutil.which("git")
+    if git is None:
+        pytest.skip("needs git")
+    checkout = tmp_path / "checkout"  # a checkout with the project's .gitignore
+    checkout.mkdir()
+    shutil.copy(Path(__file__).resolve().parents[2] / ".gitignore", checkout / ".gitignore")
+    subprocess.run([git, "init", "-q"], cwd=checkout, check=True)
+    monkeypatch.chdir(checkout)
+    assert main(["eval", "--env", ENV, "--model", "random", "--episodes", "1"]) == 0
+    written = [p for p in checkout.rglob("*.json") if ".git" not in p.parts]
+    assert len(written) == 1 and str(written[0].relative_to(checkout)) in capsys.readouterr().err
+    status = subprocess.run([git, "status", "--porcelain", "--untracked-files=all"], cwd=checkout, capture_output=True, text=True, check=True)
+    assert status.stdout.splitlines() == ["?? .gitignore"]

@@ -159,3 +159,29 @@ def test_reference_lines_kpis_per_environment_and_seeds_per_configuration(tmp_pa
     assert len(bars) == 1 and bars[0].get_width() == pytest.approx(agg["final"]["PPO"]["iqm"])
     assert f"{agg['final']['PPO']['iqm']:.2f}" in " ".join(t.get_text() for t in fig.axes[0].texts)
     assert "DescentEnv-v0" in fig.get_suptitle()
+
+
+def test_the_aggregate_of_one_run_says_1_run_and_draws_no_interval(tmp_path: Path) -> None:
+    from matplotlib.container import ErrorbarContainer
+
+    from bluesky_gym.training.plotting import aggregate_figure
+
+    runs = [load_run(_fake_run(tmp_path, "DescentEnv-v0", "PPO", 0, level=1.0, final=0.92))]
+    runs += [load_run(_fake_run(tmp_path, "DescentEnv-v0", "SAC", seed, level=0.5, final=0.4 + 0.1 * seed)) for seed in range(2)]
+    agg = aggregate(runs, {"DescentEnv-v0": {"random": 0.0, "classical": 1.0}})
+    ppo, sac = agg["final"]["PPO"], agg["final"]["SAC"]
+    assert ppo["runs"] == 1 and ppo["iqm"] == pytest.approx(0.92)
+    assert np.isnan(ppo["ci_low"]) and np.isnan(ppo["ci_high"])  # no interval from one run
+    assert sac["runs"] == 2 and sac["ci_low"] < sac["iqm"] < sac["ci_high"]
+    assert np.isnan(agg["curve"]["PPO"]["ci_low"]).all() and np.isfinite(agg["curve"]["SAC"]["ci_low"]).all()
+    files = plot_aggregate(agg, tmp_path / "plots")
+    assert json.loads(files[1].read_text())["final"]["PPO"]["ci_low"] is None
+
+    fig = aggregate_figure(agg)
+    bars, curves = fig.axes[:2]
+    assert [t.get_text() for t in bars.get_yticklabels()] == ["PPO (1 run)", "SAC (2 runs)"]
+    assert [t.get_text() for t in bars.texts] == ["0.92", f"{sac['iqm']:.2f} [{sac['ci_low']:.2f}, {sac['ci_high']:.2f}]"]
+    assert sum(isinstance(c, ErrorbarContainer) for c in bars.containers) == 1  # SAC's error bar only
+    assert len(curves.collections) == 1  # SAC's band; PPO's curve has none
+    # The figure also reads aggregate.json, where a missing interval is null.
+    assert [t.get_text() for t in aggregate_figure(json.loads(files[1].read_text())).axes[0].texts][0] == "0.92"

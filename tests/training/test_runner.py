@@ -104,6 +104,25 @@ def test_run_records_everything(tmp_path: Path) -> None:
         run_training(other, d, verbose=0)
 
 
+def test_a_run_without_tensorboard_leaves_nothing_in_the_temporary_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import tempfile
+
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
+    for algo in ("PPO", "SAC"):
+        spec = make_run_spec(TINY, ENV, algo, 0, n_envs=2, total_timesteps=128, checkpoint_freq=64, eval_episodes=0)
+        d = tmp_path / algo
+        with pytest.raises(Interrupt):  # interrupted and resumed: both processes log through SB3's logger
+            run_training(spec, d, verbose=0, tensorboard=False, callbacks=[CrashAfterCheckpoints(d, 64, 2)])
+        assert run_training(spec, d, verbose=0, tensorboard=False)["resumed_from"] is not None
+        assert not (d / "tensorboard").exists()
+    fast = make_run_spec(merge(TINY, {"run": {"trainer": "fast"}}), ENV, "PPO", 0, n_envs=2, total_timesteps=128, checkpoint_freq=64, eval_episodes=0)
+    run_training(fast, tmp_path / "fast", verbose=0, tensorboard=False)
+    assert not list(temp.glob("SB3-*"))  # SB3 makes an empty SB3-<date> folder there unless given a logger
+
+
 @pytest.mark.parametrize("algo", ["PPO", "SAC", "TD3"])
 def test_interrupted_run_resumes_without_loss_or_repeat(tmp_path: Path, algo: str) -> None:
     total = 512 if algo == "PPO" else 300

@@ -89,3 +89,35 @@ def test_config_file_overrides_and_errors(tmp_path: Path) -> None:
             load_config_file(p)
     with pytest.raises(ValueError, match=".toml or .json"):
         load_config_file(tmp_path / "c.yaml")
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "words"),
+    [
+        ("c.json", '{"run": {"n_envs": "four"}}', r"c\.json:1: \[run\] n_envs must be an integer, got 'four'"),
+        ("c.json", '{\n  "run": {\n    "eval_episodes": 2.5\n  }\n}', r"c\.json:3: \[run\] eval_episodes must be an integer, got 2\.5"),
+        ("c.toml", "[run]\ndevice = 0\ntorch_threads = true\n", r"c\.toml:2: \[run\] device must be a string, got 0"),
+        ("c.toml", "[run]\ntorch_threads = true\n", r"c\.toml:2: \[run\] torch_threads must be an integer, got True"),
+        ("c.toml", '[run]\ntrainer = "sb3"\ncompile = "yes"\n', r"c\.toml:3: \[run\] compile must be true, false or \"auto\", got 'yes'"),
+        ("c.toml", '[algos.PPO]\nn_steps = 64\nlearning_rate = "fast"\n', r"c\.toml:3: \[algos\.PPO\] learning_rate must be a number, got 'fast'"),
+        ("c.json", '{"algos": {"SAC": {"envs": {"MergeEnv-v0": {"gamma": "0.9"}}}}}', r'\[algos\.SAC\.envs\."MergeEnv-v0"\] gamma must be a number'),
+    ],
+    ids=["run-string", "run-fraction", "run-device", "run-bool", "run-compile", "hyperparameter", "per-env-hyperparameter"],
+)
+def test_a_config_value_of_the_wrong_type_names_the_file_line_and_key(tmp_path: Path, name: str, text: str, words: str) -> None:
+    p = tmp_path / name
+    p.write_text(text)
+    with pytest.raises(ValueError, match=words) as info:
+        load_config_file(p)
+    assert str(p) in str(info.value) and "\n" not in str(info.value)
+
+
+def test_config_values_of_the_right_type_pass(tmp_path: Path) -> None:
+    p = tmp_path / "c.toml"
+    p.write_text(
+        '[run]\ntotal_timesteps = 2e6\ndevice = "cpu"\ntrainer = "fast"\ncompile = true\n[algos.SAC]\nent_coef = 0.1\ntrain_freq = [1, "episode"]\n'
+    )
+    p.write_text(p.read_text() + "[algos.PPO]\nclip_range = 0.1\n")
+    cfg = merge(PAPER, load_config_file(p))
+    spec_run, hp, _ = resolve(cfg, "DescentEnv-v0", "SAC")
+    assert spec_run["total_timesteps"] == 2e6 and hp["ent_coef"] == 0.1 and hp["train_freq"] == [1, "episode"]
