@@ -256,6 +256,13 @@ class FastTrainer:
         self.episodes.reset()
         self._t0, self._t0_steps = time.perf_counter(), self.num_timesteps
 
+    @property
+    def current_obs(self) -> torch.Tensor:
+        """The flat observations of the environments now (after :meth:`start`)."""
+        if self._obs is None:
+            raise RuntimeError("the trainer's environments are not started; call start() first")
+        return self._obs
+
     def step_env(self, actions: torch.Tensor, hooks: Hooks) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every environment with ``actions`` (already in the action space); log ended episodes through ``hooks``."""
         obs, reward, terminated, truncated, info = self.venv.step(actions.cpu().numpy())

@@ -115,7 +115,7 @@ class FastOffPolicy(FastTrainer):
         """Collect ``train_freq`` steps (or episodes); return the number of transitions collected."""
         steps = episodes = 0
         while (episodes if self.train_per_episode else steps) < self.train_every:
-            obs = self._obs
+            obs = self.current_obs
             if self.num_timesteps < self.learning_starts:
                 scaled = torch.rand((self.n_envs, self.action_dim), generator=self.generator, device=self.device) * 2 - 1
             else:
@@ -227,7 +227,7 @@ class FastSAC(FastOffPolicy):
         self.target_entropy = float(model.target_entropy)
         self.log_ent_coef = model.log_ent_coef
         self.ent_coef_optimizer = model.ent_coef_optimizer
-        self.fixed_ent_coef = None if self.ent_coef_optimizer is not None else model.ent_coef_tensor
+        self.fixed_ent_coef: torch.Tensor = model.ent_coef_tensor if self.ent_coef_optimizer is None else torch.ones((), device=self.device)
 
     def sample_actions(self, obs: Any) -> tuple[Any, Any]:
         """Squashed Gaussian actions in [-1, 1] and their log-probabilities (SB3's ``action_log_prob``)."""

@@ -155,7 +155,7 @@ class FastPPO(FastTrainer):
         """Fill the rollout tensors with ``n_steps`` steps of every environment; return the last values and dones."""
         log_std = self.policy.log_std
         for t in range(self.n_steps):
-            obs = self._obs
+            obs = self.current_obs
             with torch.no_grad():
                 mean, values = self.net(obs)
                 noise = torch.randn(mean.shape, generator=self.generator, device=self.device)
@@ -178,7 +178,7 @@ class FastPPO(FastTrainer):
             self._starts = torch.as_tensor(terminated | truncated, dtype=torch.float32, device=self.device)
             self._obs = self.batch_obs(next_obs)
         with torch.no_grad():
-            last_values = self.net.values(self._obs)
+            last_values = self.net.values(self.current_obs)
         return last_values, self._starts
 
     # --- the update -------------------------------------------------------------------------------------
