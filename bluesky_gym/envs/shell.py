@@ -76,7 +76,7 @@ def check_reset_options(options: Any, make: str) -> None:
 
 
 def _is_seed(value: Any) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and value >= 0
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and bool(value >= 0)
 
 
 def episode_seeds(seed: Any, num_envs: int) -> list[int | None]:

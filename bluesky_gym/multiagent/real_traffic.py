@@ -125,14 +125,14 @@ class RealTrafficParallelEnv(ParallelEnv):
         """Apply the agents' actions, fly 10 s, and report every agent that acted or appeared."""
         if not self.agents:
             raise RuntimeError("step() called before reset() or after the episode ended; call reset() first")
-        actions = agent_actions(actions)
+        given = agent_actions(actions)
         shape = self._act_space.shape
         acting = dict(self._slot)
         slots = np.fromiter(acting.values(), dtype=np.int64)
         a = np.zeros((len(slots), *shape))
         for i, name in enumerate(acting):
-            if name in actions:
-                a[i] = np.clip(agent_action(name, actions[name], shape), self._act_space.low, self._act_space.high)
+            if name in given:
+                a[i] = np.clip(agent_action(name, given[name], shape), self._act_space.low, self._act_space.high)
         rt.steer(self.task, np.zeros(len(slots), np.int64), slots, a)
         self.task.advance()
         self._steps += 1
