@@ -106,3 +106,30 @@ def test_citation_patterns() -> None:
     for fine in ("[docs/dynamics.md §2.3]", "self.observation_spec", "build_action_spec()", "a spec of the run"):
         assert not STALE_CITATION.search(fine), fine
     assert _sections(ROOT / "docs" / "dynamics.md") >= {"1", "1.6", "2.2", "9"}
+
+
+def test_install_documents_state_the_python_version_and_every_extra() -> None:
+    """docs/installation.md and README.md give the Python version pyproject.toml requires and name every extra it declares."""
+    project = _pyproject()["project"]
+    minimum = re.fullmatch(r">=(\d+\.\d+)", project["requires-python"])
+    assert minimum, project["requires-python"]
+    installation = (ROOT / "docs" / "installation.md").read_text(encoding="utf-8")
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    stated = set(re.findall(r"Python (\d+\.\d+) or newer", installation + readme))
+    assert stated == {minimum.group(1)}, f"the documents say Python {sorted(stated)} or newer; pyproject.toml requires {minimum.group(0)}"
+    extras = set(project["optional-dependencies"])
+    table = set(re.findall(r"^\| `(\w+)` \|", installation, flags=re.MULTILINE))
+    assert table == extras, f"docs/installation.md's extras table: missing {sorted(extras - table)}, unknown {sorted(table - extras)}"
+    install_line = re.search(r"Install from the clone: .*?\(extras: (.*?)\)", readme, flags=re.DOTALL)
+    assert install_line, "README.md lists the extras where it says how to install from the clone"
+    listed = set(re.findall(r"`(\w+)`", install_line.group(1)))
+    assert listed == extras - {"fast"}, f"README.md's extras: missing {sorted(extras - {'fast'} - listed)}"
+
+
+def test_the_readme_gives_the_setup_and_test_durations() -> None:
+    """The first commands of the README say how long they take and how much the environment weighs (measured, with their conditions)."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    first_block = readme.split("```bash\n", 1)[1].split("```", 1)[0]
+    setup, tests = first_block.split("bash scripts/test.sh")[0].split("\n\n")
+    assert re.search(r"\d+ (?:to \d+ )?minutes", setup) and re.search(r"\d(?:\.\d)? GB", setup), setup
+    assert re.search(r"\d+ minutes", tests), tests

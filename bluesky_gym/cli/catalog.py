@@ -196,7 +196,8 @@ def run_info(args: argparse.Namespace) -> int:
         f"  timing: {d['max_episode_steps']} steps max, {d['substeps_per_action']} x {d['dt_s']:g} s = {d['seconds_per_step']:g} s simulated per step"
     )
     print(f"  reference info keys: {', '.join(d['reference_info_keys'])}")
-    print("  observation (Dict of float64 Box):")
+    dtypes = sorted({v["dtype"] for v in d["observation"].values()})
+    print(f"  observation (Dict of {'/'.join(dtypes)} Box):")
     w = max(len(k) for k in d["observation"])
     for k, v in d["observation"].items():
         print(f"    {k.ljust(w)}  shape {tuple(v['shape'])}  bounds [{_fmt_bound(v['low'])}, {_fmt_bound(v['high'])}]")

@@ -73,7 +73,8 @@ class Simulator:
         max_aircraft: Aircraft slots per airspace.
         dt: Simulation time step [s].
         max_waypoints: Route capacity per aircraft.
-        perf: Performance data of the default aircraft type (None: BlueSky's OpenAP A320). An
+        perf: Performance data of the default aircraft type (None: BlueSky's OpenAP A320, read
+            when first needed, so that building a simulator does not import OpenAP). An
             aircraft created without ``actype`` is of this type.
         geo: ``"compiled"`` (BlueSky's compiled geo functions, as a plain BlueSky run uses them)
             or ``"python"`` (BlueSky's Python geo module, which the reference gym environments end up
@@ -93,8 +94,6 @@ class Simulator:
             raise ValueError(f"geo must be 'compiled' or 'python', got {geo!r}")
         self.geo = geo
         self._qdrdist = _geo.qdrdist if geo == "compiled" else _geo.qdrdist_python
-        if perf is None:
-            perf = aircraft_performance(DEFAULT_TYPE)
         if n_envs < 1 or max_aircraft < 1:
             raise ValueError(f"n_envs and max_aircraft must be >= 1, got {n_envs} and {max_aircraft}")
         if not dt > 0:
@@ -103,13 +102,15 @@ class Simulator:
         self.max_aircraft = int(max_aircraft)
         self.max_waypoints = int(max_waypoints)
         self.dt = float(dt)
-        self.perf = perf
         # Aircraft types: name -> row of the performance table the kernels read per aircraft.
         # Row 0 is the default type; rows are added as new types are created, never removed.
-        self._type_names: list[str] = [perf.name.upper()]
-        self._type_rows: dict[str, int] = {perf.name.upper(): 0}
-        self._type_perf: list[pf.AircraftPerformance] = [perf]
-        self._table = np.array([pf.table_row(perf)], dtype=np.float64)
+        # The default type's data (OpenAP, about a second to import) is read at first use.
+        default = DEFAULT_TYPE if perf is None else perf.name
+        self._type_names: list[str] = [default.upper()]
+        self._type_rows: dict[str, int] = {default.upper(): 0}
+        self._performance: tuple[list[pf.AircraftPerformance], Array] | None = None
+        if perf is not None:
+            self._performance = ([perf], np.array([pf.table_row(perf)], dtype=np.float64))
         self.simt = 0.0
         self._since_perf = PERFORMANCE_INTERVAL  # the first step always runs the performance update
         shape = (self.n_envs, self.max_aircraft)
@@ -145,6 +146,31 @@ class Simulator:
         self._asas: dict[int, AsasConfig] = {}
         self._reso_pairs = np.zeros((self.n_envs, self.max_aircraft, self.max_aircraft), dtype=np.bool_)
         self._reso_held = np.full((4, self.n_envs, self.max_aircraft), np.nan)
+
+    def _types_loaded(self) -> tuple[list[pf.AircraftPerformance], Array]:
+        if self._performance is None:
+            perf = aircraft_performance(self._type_names[0])
+            self._performance = ([perf], np.array([pf.table_row(perf)], dtype=np.float64))
+        return self._performance
+
+    @property
+    def perf(self) -> pf.AircraftPerformance:
+        """Performance data of the default aircraft type (row 0 of the type table)."""
+        return self._types_loaded()[0][0]
+
+    @property
+    def _type_perf(self) -> list[pf.AircraftPerformance]:
+        """Performance data of each type in use, by row."""
+        return self._types_loaded()[0]
+
+    @property
+    def _table(self) -> Array:
+        """The performance table the kernels read: one row of coefficients per type in use."""
+        return self._types_loaded()[1]
+
+    @_table.setter
+    def _table(self, table: Array) -> None:
+        self._performance = (self._types_loaded()[0], table)
 
     # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
     active: NDArray[np.bool_]

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.envs.seeds import is_eval_seed
-from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
+from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv, episode_seeds
 from bluesky_gym.tasks.real_traffic import RealTrafficTask
 
 
@@ -116,12 +116,7 @@ class RealTrafficCRVectorEnv(BlueSkyVectorEnv):
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Reset every episode; episodes seeded in the evaluation range are drawn from the test split (``split="auto"``)."""
-        if seed is None:
-            seeds: list[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-        if len(seeds) == self.num_envs:
-            self.task.set_test_split(self.task.all_envs, _test_flags(seeds))
+        with self._errors:
+            seeds = episode_seeds(seed, self.num_envs)
+        self.task.set_test_split(self.task.all_envs, _test_flags(seeds))
         return super().reset(seed=seed, options=options)

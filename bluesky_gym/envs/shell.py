@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+import tracemalloc
+from collections.abc import Mapping
 from types import FrameType, TracebackType
 from typing import Any, ClassVar
 
@@ -53,6 +55,95 @@ def _split_kwargs(task_class: type[Task], kwargs: dict[str, Any]) -> Any:
 def _check_render_mode(render_mode: str | None) -> None:
     if render_mode is not None and render_mode not in RENDER_MODES:
         raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
+
+
+def check_reset_options(options: Any, make: str) -> None:
+    """Refuse ``reset`` options: the environments take none (scenario options go to ``make``).
+
+    Args:
+        options: ``reset``'s ``options`` argument.
+        make: The call that takes scenario options, for the message (``"gym.make"``).
+
+    Raises:
+        ValueError: ``options`` is neither None nor a dict, or a non-empty dict.
+    """
+    if options is None:
+        return
+    if not isinstance(options, Mapping):
+        raise ValueError(f"reset options must be a dict or None, got {type(options).__name__} {options!r}")
+    if options:
+        raise ValueError(f"reset options are not supported; got {sorted(map(str, options))} (pass scenario options to {make})")
+
+
+def _is_seed(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and bool(value >= 0)
+
+
+def episode_seeds(seed: Any, num_envs: int) -> list[int | None]:
+    """The seed of each episode of a batched ``reset(seed=...)``.
+
+    Args:
+        seed: None (no seeds), a non-negative integer ``s`` (episode ``i`` gets ``s + i``) or a
+            sequence of ``num_envs`` non-negative integers or None.
+        num_envs: Number of episodes.
+
+    Raises:
+        ValueError: naming what is not a seed, or the number of seeds given.
+    """
+    if seed is None:
+        return [None] * num_envs
+    if _is_seed(seed):
+        return [int(seed) + i for i in range(num_envs)]
+    if not isinstance(seed, (list, tuple, np.ndarray)) or (isinstance(seed, np.ndarray) and seed.ndim != 1):
+        raise ValueError(f"seed must be None, a non-negative integer or a list of {num_envs} seeds (integers or None), got {seed!r}")
+    seeds = list(seed)
+    if len(seeds) != num_envs:
+        raise ValueError(f"got {len(seeds)} seeds for {num_envs} environments")
+    for i, s in enumerate(seeds):
+        if s is not None and not _is_seed(s):
+            raise ValueError(f"seed[{i}] must be a non-negative integer or None, got {s!r}")
+    return [None if s is None else int(s) for s in seeds]
+
+
+def _bytes_per_episode(task_class: type[Task], config: Any) -> float:
+    """Memory [bytes] one more episode of ``task_class`` takes at construction, from two small batches traced by :mod:`tracemalloc`."""
+    task_class(1, config)  # load what every batch shares (compiled code, tables) before measuring
+    sizes = []
+    for n in (1, 17):
+        started = not tracemalloc.is_tracing()
+        if started:
+            tracemalloc.start()
+        before = tracemalloc.get_traced_memory()[0]
+        task = task_class(n, config)
+        sizes.append(tracemalloc.get_traced_memory()[0] - before)
+        del task
+        if started:
+            tracemalloc.stop()
+    return max(sizes[1] - sizes[0], 0) / 16
+
+
+def _size(n_bytes: float) -> str:
+    for unit, factor in (("PiB", 2**50), ("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if n_bytes >= factor:
+            return f"{n_bytes / factor:.3g} {unit}"
+    return f"{n_bytes:.0f} B"
+
+
+def batch_memory_error(env_id: str, task_class: type[Task], config: Any, num_envs: int, exc: MemoryError) -> MemoryError:
+    """The ``MemoryError`` of a batch that does not fit in memory, saying how much it would take.
+
+    Args:
+        env_id: The id, named first in the message.
+        task_class: The environment's task.
+        config: Its configuration.
+        num_envs: The batch size asked for.
+        exc: The error of the allocation that failed (numpy's names one array).
+    """
+    per_episode = _bytes_per_episode(task_class, config)
+    return MemoryError(
+        f"{env_id}: num_envs={num_envs} needs about {_size(per_episode * num_envs)} of memory ({_size(per_episode)} per episode) "
+        f"to be built, more than this machine could allocate ({exc}); use fewer episodes per batch"
+    )
 
 
 def requested_time_limit(max_episode_steps: int | None) -> int | None:
@@ -112,7 +203,7 @@ def _renderer_of(task: Any, render_mode: str, fps: float) -> Any:
 
 
 class ErrorsNameTheId:
-    """Context in which a ``ValueError``, ``TypeError`` or ``RuntimeError`` names the id the environment was made with.
+    """Context in which a ``ValueError``, ``TypeError``, ``RuntimeError`` or Gymnasium error names the id the environment was made with.
 
     A ``-v1`` id (or any id registered with another configuration of a task) shares its task and
     configuration classes with the task's own id, whose messages would otherwise be all the user
@@ -134,7 +225,8 @@ class ErrorsNameTheId:
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
         """Name the id in the message of an error leaving the context (the error itself propagates)."""
-        if isinstance(exc, (ValueError, TypeError, RuntimeError)) and self.env_id != self.own_id and exc.args and isinstance(exc.args[0], str):
+        named = (ValueError, TypeError, RuntimeError, gym.error.Error)
+        if isinstance(exc, named) and self.env_id != self.own_id and exc.args and isinstance(exc.args[0], str):
             if self.env_id not in exc.args[0]:
                 exc.args = (f"{self.env_id}: {exc.args[0]}", *exc.args[1:])
 
@@ -222,8 +314,7 @@ class BlueSkyEnv(MadeIdMixin, gym.Env):
         """Start a new episode; ``seed`` seeds the episode generator (``self.np_random``)."""
         with self._errors:
             super().reset(seed=seed)
-            if options:
-                raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make)")
+            check_reset_options(options, "gym.make")
             self.task.seed(np.array([0]), [self.np_random])
             self.task.reset()
             self._needs_reset = False
@@ -336,7 +427,11 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             self.render_env = int(render_env)
             self.render_grid = int(render_grid)
             limit = requested_time_limit(max_episode_steps)
-            self.task = self.task_class(self.num_envs, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
+            config = _split_kwargs(self.task_class, options)
+            try:
+                self.task = self.task_class(self.num_envs, config, backend=backend, max_episode_steps=limit)
+            except MemoryError as exc:
+                raise batch_memory_error(env_id, self.task_class, config, self.num_envs, exc) from exc
             if not 0 <= self.render_env < self.num_envs:
                 raise ValueError(f"render_env must be in [0, {self.num_envs}), got {render_env}")
             single = observation_space(self.task)
@@ -381,16 +476,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Reset every episode. ``seed`` int s seeds episode i with s + i; a list seeds each."""
         with self._errors:
-            if options:
-                raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make_vec)")
-            if seed is None:
-                seeds: list[int | None] = [None] * self.num_envs
-            elif isinstance(seed, (int, np.integer)):
-                seeds = [int(seed) + i for i in range(self.num_envs)]
-            else:
-                seeds = list(seed)
-                if len(seeds) != self.num_envs:
-                    raise ValueError(f"got {len(seeds)} seeds for {self.num_envs} environments")
+            check_reset_options(options, "gym.make_vec")
+            seeds = episode_seeds(seed, self.num_envs)
             gens = [seeding.np_random(s)[0] for s in seeds]
             self.task.seed(self.task.all_envs, gens)
             self.task.reset()

@@ -30,7 +30,6 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
-from bluesky_gym.core.extras import missing_extra
 from bluesky_gym.envs.registry import multiagent_entries, multiagent_entry
 from bluesky_gym.multiagent.registration import centralised_ids, register_envs
 
@@ -69,6 +68,8 @@ def require_pettingzoo() -> ModuleType:
     try:
         import pettingzoo
     except ImportError as exc:
+        from bluesky_gym.core.extras import missing_extra  # imported here: importing the package (registration) stays light
+
         raise missing_extra("the multi-agent PettingZoo environments need PettingZoo", "multiagent") from exc
     return pettingzoo
 

@@ -140,6 +140,31 @@ class MultiAgentStepResult:
     agent_info: dict[str, Array]
 
 
+def agent_actions(actions: Any) -> Mapping[Any, Any]:
+    """The ``actions`` of a PettingZoo ``step``: a mapping agent -> action, or a ``TypeError`` saying what was given instead."""
+    if not isinstance(actions, Mapping):
+        raise TypeError(f"actions must be a dict agent -> action, got {type(actions).__name__} (one entry per agent name)")
+    return actions
+
+
+def agent_action(agent: str, action: Any, shape: tuple[int, ...]) -> Array:
+    """One agent's action as a float64 array of ``shape`` (a flat array of the same size is reshaped).
+
+    Raises:
+        ValueError: naming the agent, for what is not real numbers (:func:`~bluesky_gym.tasks.base.numeric_action`),
+            another shape, NaN or infinite values.
+    """
+    what = f"action of {agent}"
+    a = numeric_action(action, shape, what)
+    if a.shape != shape:
+        if a.ndim > 1 or a.size != int(np.prod(shape)):
+            raise ValueError(f"{what} has shape {a.shape}, expected {shape}")
+        a = a.reshape(shape)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{what} contains NaN or infinite values: {a.tolist()}")
+    return a
+
+
 def padding_mask(n_others: IntArray, k: int) -> BoolArray:
     """(rows, k) True for the observed other aircraft that exist (the first ``n_others`` of ``k``)."""
     return np.arange(k) < n_others[:, None]

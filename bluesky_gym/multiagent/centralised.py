@@ -28,7 +28,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bluesky_gym.envs.shell import TaskSpecMixin, requested_time_limit
+from bluesky_gym.envs.shell import TaskSpecMixin, check_reset_options, requested_time_limit
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, flatten_observation
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
@@ -85,8 +85,7 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start a new episode; ``seed`` seeds the scenario generator (``self.np_random``)."""
         super().reset(seed=seed)
-        if options:
-            raise ValueError(f"reset options are not supported; got {sorted(options)} (pass scenario options to gym.make)")
+        check_reset_options(options, "gym.make")
         self.task.seed(np.array([0]), [self.np_random])
         self.task.reset()
         self._needs_reset = False

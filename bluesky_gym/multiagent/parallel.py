@@ -8,7 +8,10 @@ shell only converts between the task's arrays and PettingZoo's per-agent dicts.
   episodes use only some of them); ``agents`` are the aircraft of the current episode still flying.
 * ``step(actions)`` takes a dict agent -> action. An agent of ``agents`` missing from the dict
   keeps its heading and speed (action 0); actions of agents that are not in ``agents`` are
-  ignored; an unknown name raises ``KeyError``.
+  ignored; an unknown name raises ``KeyError``. An action that is not an array of real numbers
+  of the agent's action shape (a string, a complex number, ``None``, another shape), or has NaN
+  or infinite values, raises ``ValueError`` naming the agent; ``actions`` other than a dict
+  raise ``TypeError``.
 * An agent leaves ``agents`` in the step where it is terminated (goal reached) or truncated
   (SectorCR: it left the sector; every task: the time limit); the returned dicts hold exactly the
   agents that acted in that step.
@@ -33,7 +36,7 @@ from gymnasium.utils import seeding
 
 from bluesky_gym.envs.registry import multiagent_entry, resolve
 from bluesky_gym.multiagent import require_pettingzoo
-from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask
+from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, agent_action, agent_actions
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.render import agent_name
@@ -130,12 +133,9 @@ class BlueSkyParallelEnv(ParallelEnv):
             raise RuntimeError("step() called without agents: call reset() first (the episode has ended or never started)")
         task = self.task
         joint = np.zeros((1, task.n_agents, *task.action_spec.shape))
-        for agent, action in actions.items():
+        for agent, action in agent_actions(actions).items():
             k = self.agent_name_mapping[agent]  # KeyError for an unknown agent
-            a = np.asarray(action, dtype=np.float64)
-            if a.size != joint[0, k].size:
-                raise ValueError(f"action of {agent} has shape {a.shape}, expected {task.action_spec.shape}")
-            joint[0, k] = a.reshape(task.action_spec.shape)
+            joint[0, k] = agent_action(agent, action, task.action_spec.shape)
         res = task.step(joint)
         acting = np.flatnonzero(res.acting[0])
         names = [self.possible_agents[k] for k in acting]

@@ -8,12 +8,23 @@ own point of view (:func:`bluesky_gym.tasks.real_traffic.measure`, :func:`~blues
 applied to its own slot): heading, speed (and optionally altitude) relative to its own recorded
 path, so that all-zero actions replay the recording.
 
+* ``possible_agents`` are the flight ids of every aircraft of the windows an episode can play
+  (both splits with ``split="auto"``), known from construction; ``agents`` are those flying now.
 * ``agents`` grow when recorded aircraft appear and shrink when their recordings end (those agents
-  are truncated in that step); at the end of the window every agent is truncated.
+  are truncated in that step, with an all-zero final observation: their aircraft is gone); at the
+  end of the window every agent is truncated.
+* The dicts ``step`` returns hold the agents that acted in it and the agents that appeared in it:
+  an appearing agent gets its first observation (reward 0, neither terminated nor truncated, an
+  empty info), so that its first action is based on what it saw. An aircraft that appears in the
+  last step of the window is not an agent.
 * ``step(actions)``: an agent missing from the dict flies its recording (action 0); names that
-  are not current agents are ignored.
+  are not current agents are ignored. An action that is not an array of real numbers of the
+  action shape, or has NaN or infinite values, raises ``ValueError`` naming the agent; ``actions``
+  other than a dict raise ``TypeError``.
 * ``reset(seed=s)``: seeds of the evaluation range (``2**31`` and above) draw from the test split
   with ``split="auto"``.
+* ``state()``: per aircraft slot (active, lat, lon, altitude, heading, ground speed), its Box is
+  ``state_space``.
 
 Example::
 
@@ -35,11 +46,14 @@ from gymnasium.utils import seeding
 
 from bluesky_gym.envs.seeds import is_eval_seed
 from bluesky_gym.multiagent import require_pettingzoo
+from bluesky_gym.multiagent.base import agent_action, agent_actions
 from bluesky_gym.tasks import real_traffic as rt
-from bluesky_gym.tasks.base import numeric_action
 
 require_pettingzoo()  # a clear error naming the extra when PettingZoo is missing
 from pettingzoo import ParallelEnv  # noqa: E402
+
+#: Columns of one aircraft slot in :meth:`RealTrafficParallelEnv.state`.
+STATE_COLUMNS = ("active", "lat", "lon", "altitude", "heading", "ground_speed")
 
 
 class RealTrafficParallelEnv(ParallelEnv):
@@ -58,11 +72,19 @@ class RealTrafficParallelEnv(ParallelEnv):
         self._obs_space = spaces.Dict({k: spaces.Box(v.low, v.high, v.shape, np.float64) for k, v in spec.items()})
         a = self.task.action_spec
         self._act_space = spaces.Box(a.low, a.high, a.shape, np.float64)
+        self.state_space = spaces.Box(-np.inf, np.inf, (self.task.sim.max_aircraft * len(STATE_COLUMNS),), np.float64)
+        self.possible_agents: list[str] = self._possible_agents()
         self.agents: list[str] = []
-        self.possible_agents: list[str] = []
         self._slot: dict[str, int] = {}
         self._np_random, _ = seeding.np_random(None)
         self._steps = 0
+
+    def _possible_agents(self) -> list[str]:
+        """Flight ids of every aircraft of the windows this environment's split can draw."""
+        data, split = self.task.data, self.task.config.split
+        pools = (data.train,) if split == "train" else (data.test,) if split == "test" else (data.train, data.test)
+        flights = sorted({f for pool in pools for w in pool for f in w.flights})
+        return [str(self.task.flights.flight_id[f]) for f in flights]
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
         """Every agent's observation space (RealTrafficCREnv-v0's)."""
@@ -96,47 +118,47 @@ class RealTrafficParallelEnv(ParallelEnv):
         self._steps = 0
         self._slot = self._names()
         self.agents = list(self._slot)
-        window = self.task.window(0)
-        self.possible_agents = [str(self.task.flights.flight_id[f]) for f in window.flights]
         obs, _, _ = self._observe(self._slot)
         return obs, {a: {} for a in self.agents}
 
     def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float], dict[str, bool], dict[str, bool], dict[str, Any]]:
-        """Apply the agents' actions, fly 10 s, and report every agent that acted."""
+        """Apply the agents' actions, fly 10 s, and report every agent that acted or appeared."""
         if not self.agents:
             raise RuntimeError("step() called before reset() or after the episode ended; call reset() first")
+        given = agent_actions(actions)
+        shape = self._act_space.shape
         acting = dict(self._slot)
         slots = np.fromiter(acting.values(), dtype=np.int64)
-        a = np.zeros((len(slots), *self._act_space.shape))
+        a = np.zeros((len(slots), *shape))
         for i, name in enumerate(acting):
-            if name in actions:
-                act = numeric_action(actions[name], self._act_space.shape).reshape(self._act_space.shape)
-                if not np.isfinite(act).all():
-                    raise ValueError(f"action of {name} contains NaN or infinite values: {act.tolist()}")
-                a[i] = np.clip(act, self._act_space.low, self._act_space.high)
+            if name in given:
+                a[i] = np.clip(agent_action(name, given[name], shape), self._act_space.low, self._act_space.high)
         rt.steer(self.task, np.zeros(len(slots), np.int64), slots, a)
         self.task.advance()
         self._steps += 1
-        now = self._names()
-        stayed = {n: s for n, s in acting.items() if n in now}
-        obs, reward, g = self._observe(stayed)
         end = self._steps >= self.task.time_limit
-        rewards = {n: 0.0 for n in acting}
-        infos: dict[str, Any] = {n: {} for n in acting}
-        for i, n in enumerate(stayed):
-            rewards[n] = float(reward[i])
-            if g is not None:
-                infos[n] = {"route_deviation_nm": float(g.route_nm[i]), "intrusions": int(g.los[i].sum())}
-        terminations = {n: False for n in acting}
-        truncations = {n: end or n not in now for n in acting}
+        now = self._names()
+        # flying after the step: those that acted and are still recorded, then (unless the window ends) those that appeared
+        flying = {n: s for n, s in now.items() if n in acting or not end}
+        obs, reward, g = self._observe(flying)
+        blank = {k: np.zeros(spec.shape) for k, spec in self.task.observation_spec.items()}
         for n in acting:
-            if n not in obs:
-                obs[n] = {k: np.zeros(spec.shape) for k, spec in self.task.observation_spec.items()}
-        self._slot = {} if end else now
+            if n not in flying:
+                obs[n] = {k: v.copy() for k, v in blank.items()}
+        rewards = dict.fromkeys(obs, 0.0)
+        infos: dict[str, Any] = {n: {} for n in obs}
+        if g is not None:
+            for i, n in enumerate(flying):
+                if n in acting:
+                    rewards[n] = float(reward[i])
+                    infos[n] = {"route_deviation_nm": float(g.route_nm[i]), "intrusions": int(g.los[i].sum())}
+        terminations = dict.fromkeys(obs, False)
+        truncations = {n: n in acting and (end or n not in now) for n in obs}
+        self._slot = {} if end else flying
         self.agents = list(self._slot)
         return obs, rewards, terminations, truncations, infos
 
     def state(self) -> np.ndarray:
-        """Global state: per aircraft slot (active, lat, lon, altitude [m], heading [deg], ground speed [m/s])."""
+        """Global state: per aircraft slot (active, lat, lon, altitude [m], heading [deg], ground speed [m/s]); see ``state_space``."""
         sim = self.task.sim
         return np.stack([sim.active[0].astype(float), sim.lat[0], sim.lon[0], sim.alt[0], sim.hdg[0], sim.gs[0]], axis=1).ravel()

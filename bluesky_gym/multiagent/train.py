@@ -37,9 +37,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bluesky_gym.multiagent.evaluation import evaluate, kpi_table
-from bluesky_gym.multiagent.policies import GeometricCRPolicy, MVPPolicy, RandomPolicy, SharedSB3Policy
-
+# The command line reads DEFAULTS to build its parser: the evaluation and the policies are
+# imported where they are used, so that building the parser stays cheap.
 DEFAULTS: dict[str, Any] = {
     "timesteps": 1_000_000,
     "episodes": 16,
@@ -136,6 +135,9 @@ def train_and_compare(
 
     """
     import torch
+
+    from bluesky_gym.multiagent.evaluation import evaluate, kpi_table
+    from bluesky_gym.multiagent.policies import GeometricCRPolicy, MVPPolicy, RandomPolicy, SharedSB3Policy
 
     torch.set_num_threads(threads)
     t0 = time.time()

@@ -115,7 +115,7 @@ class TaskConfig:
         """Raise ``ValueError`` naming the first invalid field."""
 
 
-def numeric_action(action: Any, expected: tuple[int, ...]) -> Array:
+def numeric_action(action: Any, expected: tuple[int, ...], what: str = "action") -> Array:
     """``action`` as a float64 array, refusing what is not real numbers.
 
     Strings, bytes, complex numbers, objects and ragged nestings are refused with a ``ValueError``
@@ -125,13 +125,14 @@ def numeric_action(action: Any, expected: tuple[int, ...]) -> Array:
     Args:
         action: The action as given.
         expected: The shape it should have (for the message).
+        what: How the message calls the action (e.g. ``"action of aircraft_3"``).
     """
     try:
         raw = action if isinstance(action, np.ndarray) else np.asarray(action)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise ValueError(f"action must be an array of real numbers with shape {expected}, got {action!r}") from exc
+        raise ValueError(f"{what} must be an array of real numbers with shape {expected}, got {action!r}") from exc
     if raw.dtype.kind not in "biuf":
-        raise ValueError(f"action must be an array of real numbers with shape {expected}, got {action!r} (dtype {raw.dtype})")
+        raise ValueError(f"{what} must be an array of real numbers with shape {expected}, got {action!r} (dtype {raw.dtype})")
     return np.asarray(raw, dtype=np.float64)
 
 

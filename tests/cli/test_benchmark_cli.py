@@ -44,6 +44,15 @@ def test_list_and_info(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["info", "NoSuchEnv-v0"]) == 2
 
 
+@pytest.mark.parametrize(("env_id", "dtype"), [("MergeEnv-v1", "float32"), ("MergeEnv-v0", "float64"), ("MergeCentralised-v0", "float64")])
+def test_info_prints_the_dtype_of_the_spaces(env_id: str, dtype: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """A -v1 id has float32 spaces: ``info`` says so for the observation and the action."""
+    assert main(["info", "--env", env_id]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert f"  observation (Dict of {dtype} Box):" in lines
+    assert next(line for line in lines if line.startswith("  action:")).endswith(f" {dtype}")
+
+
 @needs_sb3
 def test_train_eval_plot(tmp_path: Path, tiny_config: Path, capsys: pytest.CaptureFixture[str]) -> None:
     args = [

@@ -232,3 +232,41 @@ def test_render_before_reset_is_an_error_not_a_picture_of_nothing() -> None:
         venv.render()
     venv.reset(seed=0)
     assert venv.render().ndim == 3
+
+
+@pytest.mark.parametrize("options", [5, "abc", [("a", 1)], 0.5])
+def test_reset_options_that_are_not_a_dict_are_named(options: object) -> None:
+    env = gym.make(IDS[0]).unwrapped
+    with pytest.raises(ValueError, match=r"^reset options must be a dict or None, got "):
+        env.reset(options=options)
+    venv = gym.make_vec(IDS[0], num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match=r"^reset options must be a dict or None, got "):
+        venv.reset(options=options)
+
+
+@pytest.mark.parametrize(
+    ("seed", "message"),
+    [
+        (1.5, r"^seed must be None, a non-negative integer or a list of 2 seeds \(integers or None\), got 1\.5$"),
+        ("7", r"^seed must be None, a non-negative integer or a list of 2 seeds \(integers or None\), got '7'$"),
+        (True, r"^seed must be None, a non-negative integer or a list of 2 seeds"),
+        (-1, r"^seed must be None, a non-negative integer or a list of 2 seeds \(integers or None\), got -1$"),
+        ([1, 2.5], r"^seed\[1\] must be a non-negative integer or None, got 2\.5$"),
+        ([None, -3], r"^seed\[1\] must be a non-negative integer or None, got -3$"),
+        ([1, 2, 3], r"^got 3 seeds for 2 environments$"),
+    ],
+)
+def test_batched_reset_seeds_that_are_not_seeds_are_named(seed: object, message: str) -> None:
+    venv = gym.make_vec(IDS[0], num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match=message):
+        venv.reset(seed=seed)
+    obs, _ = venv.reset(seed=np.array([3, 4]))  # an array of integers is a list of seeds
+    single = gym.make(IDS[0])
+    first, _ = single.reset(seed=4)
+    assert all(np.array_equal(obs[k][1], first[k]) for k in first)
+
+
+def test_a_batch_too_large_for_memory_says_how_much_it_needs() -> None:
+    """Far more episodes than any machine holds: a MemoryError that gives the size, not numpy's message about one array."""
+    with pytest.raises(MemoryError, match=r"^MergeEnv-v0: num_envs=10000000000000 needs about [0-9.]+ PiB of memory \([0-9.]+ KiB per episode\)"):
+        gym.make_vec("MergeEnv-v0", num_envs=10**13, vectorization_mode="vector_entry_point")

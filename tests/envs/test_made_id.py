@@ -124,3 +124,28 @@ def test_the_example_of_the_v1_page() -> None:
     with pytest.raises(ValueError) as info:
         gym.make("SectorCREnv-v1", exit_ends_episode="no")
     assert str(info.value) == "SectorCREnv-v1: exit_ends_episode must be True or False, got 'no'"
+
+
+@pytest.mark.parametrize("env_id", V1)
+def test_gymnasium_errors_inside_the_environment_name_the_v1_id(env_id: str) -> None:
+    """Gymnasium's own errors raised while the environment runs (a seed that is not a seed) name the -v1 id too."""
+    for make in (lambda i: gym.make(i), lambda i: gym.make(i).unwrapped):
+        with pytest.raises(gym.error.Error, match=rf"^{env_id}: Seed must be a python integer"):
+            make(env_id).reset(seed=1.5)
+        with pytest.raises(gym.error.Error, match=r"^Seed must be a python integer"):
+            make(env_id.replace("-v1", "-v0")).reset(seed=1.5)
+
+
+@pytest.mark.parametrize("env_id", V1)
+def test_a_step_before_reset_as_the_v1_page_says(env_id: str) -> None:
+    """docs/environments-v1.md: gym.make's order wrapper answers with Gymnasium's message; the environment itself names the id."""
+    env = gym.make(env_id)
+    shape = env.action_space.shape
+    with pytest.raises(gym.error.ResetNeeded) as info:
+        env.step(np.zeros(shape))
+    assert env_id not in str(info.value)
+    with pytest.raises(RuntimeError, match=rf"^{env_id}: step\(\) called before reset\(\)"):
+        env.unwrapped.step(np.zeros(shape))
+    venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(RuntimeError, match=rf"^{env_id}: step\(\) called before reset\(\)"):
+        venv.step(np.zeros((2, *shape)))

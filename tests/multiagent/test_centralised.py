@@ -113,3 +113,13 @@ def test_joint_actions_that_are_not_real_numbers_are_refused(bad: object) -> Non
     task = ma.task_class("sector_cr_v0")(1)
     with pytest.raises(ValueError, match="real numbers"):
         task.step(np.full((1, task.n_agents, *task.action_spec.shape), 0.5 + 1j))
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [(5, r"^reset options must be a dict or None, got int 5$"), ({"seed": 1}, r"^reset options are not")],
+)
+def test_reset_options_are_refused_with_their_reason(options: object, message: str) -> None:
+    env = gym.make("HorizontalCRCentralised-v0").unwrapped
+    with pytest.raises(ValueError, match=message):
+        env.reset(options=options)

@@ -195,3 +195,40 @@ def test_missing_pettingzoo_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> 
     monkeypatch.setitem(sys.modules, "pettingzoo", None)
     with pytest.raises(ImportError, match=re.escape(install_hint("multiagent"))):
         require_pettingzoo()
+
+
+#: Actions that are not arrays of real numbers: each is refused with a message naming the agent.
+NOT_NUMBERS = [
+    pytest.param(["0.5", "0.5"], id="numeric-strings"),
+    pytest.param("0.5", id="numeric-string"),
+    pytest.param(b"1", id="bytes"),
+    pytest.param(np.array([0.5 + 1j, 0.0]), id="complex"),
+    pytest.param(np.array([0.5 + 1j]), id="complex-one"),
+    pytest.param([[0.1, 0.2], [0.3]], id="ragged"),
+    pytest.param(10**400, id="huge-int"),
+    pytest.param(None, id="none"),
+]
+
+
+@pytest.mark.parametrize("bad", NOT_NUMBERS)
+@pytest.mark.parametrize("name", NAMES)
+def test_actions_that_are_not_real_numbers_are_refused(name: str, bad: object) -> None:
+    env = parallel_env(name)
+    env.reset(seed=0)
+    agent = env.agents[0]
+    with pytest.raises(ValueError, match=rf"^action of {agent} must be an array of real numbers with shape"):
+        env.step({agent: bad})
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_bad_action_shapes_and_values_name_the_agent(name: str) -> None:
+    env = parallel_env(name)
+    env.reset(seed=0)
+    agent = env.agents[0]
+    shape = env.action_space(agent).shape
+    with pytest.raises(ValueError, match=rf"^action of {agent} has shape \(7,\), expected \({shape[0]},\)$"):
+        env.step({agent: np.zeros(7)})
+    with pytest.raises(ValueError, match=rf"^action of {agent} contains NaN or infinite values"):
+        env.step({agent: np.full(shape, np.nan)})
+    with pytest.raises(TypeError, match=r"^actions must be a dict agent -> action, got list"):
+        env.step([np.zeros(shape)])

@@ -81,6 +81,20 @@ def traffic_collection(n_flights: int = 16, spacing_s: float = 600.0, seed: int 
     return collection(out)
 
 
+def joining_collection(n_traffic: int = 45, spacing_s: float = 150.0) -> RecordedFlights:
+    """A flight shuttling 10 NM east and west of 47N 8E for two hours, and short flights crossing that point, one starting every ``spacing_s``.
+
+    Each crossing flight is recorded for about 6 minutes, so every 10-minute window of the
+    shuttling flight has aircraft appearing and leaving mid-window.
+    """
+    out = [(0.0, fly(47.0, 8.0 - 5.0 / 60.0 / np.cos(np.radians(47.0)), [(90.0, 10.0), (270.0, 10.0)] * 20, gs=100.0, alt=10000.0))]
+    for i in range(n_traffic):
+        course = (i * 47.0) % 360.0
+        lat0, lon0 = kwikpos(47.0, 8.0, (course + 180.0) % 360.0, 15.0)
+        out.append((60.0 + i * spacing_s, fly(float(lat0), float(lon0), [(course, 30.0)], gs=150.0, alt=10000.0 + 600.0 * (i % 3))))
+    return collection(out)
+
+
 def save(flights: RecordedFlights, directory: Path, name: str = "synthetic.npz") -> str:
     """Save to ``directory/name`` and return the path as a string (a collection option value)."""
     return str(flights.save(directory / name))
