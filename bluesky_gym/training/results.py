@@ -22,6 +22,7 @@ probability that one algorithm improves on another, computed with ``rliable``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import shlex
 from collections.abc import Sequence
@@ -35,7 +36,7 @@ from bluesky_gym.core.extras import require_rliable
 from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.training.evaluation import KPI_COLUMNS, format_number, normalised_score
 from bluesky_gym.training.io import atomic_path, read_csv_rows, read_json
-from bluesky_gym.training.plotting import Run, find_runs, load_run, plot_learning_curves
+from bluesky_gym.training.plotting import Run, find_runs, load_run, plot_learning_curves, smoothed
 
 #: Bootstrap resamples of every confidence interval on the page.
 BOOTSTRAP = 2000
@@ -174,10 +175,12 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
     if not run_dirs:
         raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, dirs))}")
     rng = np.random.default_rng(seed)
+    loaded = [load_run(d) for d in run_dirs]
+    labels = page_labels(loaded)
     by_env: dict[str, list[tuple[Run, dict[str, np.ndarray] | None]]] = {}
-    for d in run_dirs:
-        run = load_run(d)
-        by_env.setdefault(run.env_id, []).append((run, episode_table(d)))
+    for run in loaded:
+        run = dataclasses.replace(run, algo=labels[run.path])
+        by_env.setdefault(run.env_id, []).append((run, episode_table(run.path)))
     out = []
     for env_id in sorted(by_env):
         rows = []
@@ -207,6 +210,49 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
             rows.append(row)
         out.append(EnvResults(env_id, rows, [r for r, _ in by_env[env_id]], ref_returns))
     return out
+
+
+def _steps(n: int) -> str:
+    """A step budget in short form: ``2e6``, ``2.5e5``, ``20000`` below 1e5."""
+    if n < 100_000:
+        return f"{n:,}"
+    exponent = int(math.floor(math.log10(n)))
+    mantissa = n / 10**exponent
+    return f"{mantissa:g}e{exponent}"
+
+
+def page_labels(runs: Sequence[Run]) -> dict[Path, str]:
+    """The name of each run's algorithm on the page: the algorithm, plus its budget where one algorithm ran with several.
+
+    Runs of one algorithm that differ in trainer, step budget or number of batched environments
+    are different rows, named by what differs, e.g. ``PPO (2e7 steps, 1024 envs)``; other
+    differences (a per-environment learning rate) do not split a row.
+    """
+
+    def budget(r: Run) -> tuple[str, int, int]:
+        identity = r.config.get("identity", {})
+        return (str(identity.get("trainer", "sb3")), int(r.total_timesteps), int(identity.get("n_envs", r.config.get("n_envs", 1))))
+
+    out = {}
+    for algo in {r.algo for r in runs}:
+        mine = [r for r in runs if r.algo == algo]
+        kinds = {budget(r) for r in mine}
+        for r in mine:
+            trainer, steps, n_envs = budget(r)
+            parts = []
+            if len({k[0] for k in kinds}) > 1:
+                parts.append(f"{trainer} trainer")
+            if len({k[1] for k in kinds}) > 1:
+                parts.append(f"{_steps(steps)} steps")
+            if len({k[2] for k in kinds}) > 1:
+                parts.append(f"{n_envs} envs")
+            out[r.path] = f"{algo} ({', '.join(parts)})" if parts else algo
+    return out
+
+
+def algorithm_of(label: str) -> str:
+    """The algorithm of a page label (``PPO`` of ``PPO (2e7 steps)``)."""
+    return label.split(" ", 1)[0]
 
 
 def env_version(env_id: str) -> str:
@@ -341,7 +387,7 @@ def _budget(runs: Sequence[Run], run_configs: dict[Path, dict[str, Any]]) -> lis
 
 def _not_run(runs: Sequence[Run]) -> list[str]:
     """A line naming the algorithms of the package that no run of the page used (none when all were)."""
-    missing = [a for a in ALGORITHMS if a not in {r.algo for r in runs}]
+    missing = [a for a in ALGORITHMS if a not in {algorithm_of(r.algo) for r in runs}]
     return [f"Not run for this page: {', '.join(missing)}.", ""] if missing else []
 
 
@@ -355,7 +401,7 @@ def _plot_aggregate(agg: dict[str, Any], version: str, path: Path) -> None:
     for ax, name in zip(axes[0], names, strict=True):
         for k, algo in enumerate(algos):
             p, lo, hi = agg["algos"][algo][name]
-            ax.barh([k], [hi - lo], left=[lo], height=0.6, color=ALGO_COLOURS.get(algo, "tab:grey"), alpha=0.6)
+            ax.barh([k], [hi - lo], left=[lo], height=0.6, color=ALGO_COLOURS.get(algorithm_of(algo), "tab:grey"), alpha=0.6)
             ax.plot([p, p], [k - 0.3, k + 0.3], color="black", lw=1.5)
         ax.set_yticks(range(len(algos)), algos if name == "IQM" else [""] * len(algos))
         ax.set_title(name)
@@ -365,6 +411,111 @@ def _plot_aggregate(agg: dict[str, Any], version: str, path: Path) -> None:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
+
+
+def _training_return(runs: Sequence[Run], at: float, window: float) -> float:
+    """Mean over runs of the training return of the episodes that ended in ``(at - window, at]``."""
+    values = [float(smoothed(r.timesteps, r.metric("return"), np.array([at]), window)[0]) for r in runs if r.timesteps.size]
+    values = [v for v in values if np.isfinite(v)]
+    return float(np.mean(values)) if values else float("nan")
+
+
+def budgets_section(results: Sequence[EnvResults]) -> list[str]:
+    """Markdown lines comparing the budgets of an algorithm run with several (e.g. PPO at 2e6 and 2e7 steps); none otherwise."""
+    labels = sorted({r.algo for er in results for r in er.runs})
+    multi = sorted({algorithm_of(a) for a in labels if sum(algorithm_of(b) == algorithm_of(a) for b in labels) > 1})
+    if not multi:
+        return []
+    lines = ["## Scale: the same algorithm at other budgets", ""]
+    for algo in multi:
+        mine = [a for a in labels if algorithm_of(a) == algo]
+        lines += [
+            f"Normalised held-out score of {algo} per budget (mean over seeds; 0 = random, 1 = classical), and the held-out return of"
+            " the reference policies:",
+            "",
+            "| environment | " + " | ".join(mine) + " | random | classical | mvp |",
+            "|---|" + "---:|" * (len(mine) + 3),
+        ]
+        for er in results:
+            if "random" not in er.references or "classical" not in er.references:
+                continue
+            cells = []
+            for label in mine:
+                scores = [
+                    normalised_score(r.final_return, er.references["random"], er.references["classical"])
+                    for r in er.runs
+                    if r.algo == label and r.final_return is not None
+                ]
+                cells.append(f"{np.mean(scores):.2f} ({len(scores)} seed{'s' if len(scores) != 1 else ''})" if scores else "–")
+            refs = [format_number(er.references[n]) if n in er.references else "–" for n in REFERENCE_ORDER]
+            lines.append(f"| {er.env_id} | " + " | ".join(cells) + " | " + " | ".join(refs) + " |")
+        lines.append("")
+    return lines
+
+
+def observations_section(results: Sequence[EnvResults]) -> list[str]:
+    """Markdown lines checking the paper's qualitative observations against these runs (what they allow).
+
+    * *PPO needs more samples than the off-policy algorithms*: at each off-policy algorithm's budget,
+      PPO's training return (episodes ending in the last tenth of that budget) against the
+      off-policy algorithm's over the same span.
+    * *TD3 and DDPG are unstable on Merge*: per algorithm, the drop of the training return from its
+      best to its end (smoothed over a tenth of the budget), normalised by classical - random.
+    """
+    lines = ["## The paper's observations, checked", ""]
+    off = sorted({r.algo for er in results for r in er.runs if algorithm_of(r.algo) in ("SAC", "TD3", "DDPG")})
+    ppo = sorted({r.algo for er in results for r in er.runs if algorithm_of(r.algo) == "PPO"})
+    if not off or not ppo:
+        return [*lines, "These need PPO and at least one off-policy algorithm on the same environments; this page has not both.", ""]
+    main_ppo = ppo[0]
+    lines += [
+        f"**PPO needs more samples.** Training return at each off-policy algorithm's budget, {main_ppo} over the same span of steps"
+        " (episodes ending in the last tenth of the budget, mean over seeds):",
+        "",
+        "| environment | algorithm | budget | its return | " + main_ppo + " at that budget | PPO behind |",
+        "|---|---|---:|---:|---:|---|",
+    ]
+    behind = total = 0
+    for er in results:
+        ppo_runs = [r for r in er.runs if r.algo == main_ppo]
+        for label in off:
+            runs = [r for r in er.runs if r.algo == label]
+            if not runs or not ppo_runs:
+                continue
+            budget = min(r.total_timesteps for r in runs)
+            theirs = _training_return(runs, budget, budget / 10)
+            ours = _training_return(ppo_runs, budget, budget / 10)
+            if not (np.isfinite(theirs) and np.isfinite(ours)):
+                continue
+            total += 1
+            behind += ours < theirs
+            lines.append(
+                f"| {er.env_id} | {label} | {_steps(budget)} | {format_number(theirs)} | {format_number(ours)} | {'yes' if ours < theirs else 'no'} |"
+            )
+    lines += ["", f"PPO is behind in {behind} of {total} comparisons at the off-policy budgets." if total else "No comparison possible.", ""]
+    lines += [
+        "**TD3 and DDPG are unstable on Merge.** Drop of the smoothed training return from its best to its end, in units of"
+        " classical - random (0: no drop):",
+        "",
+        "| environment | " + " | ".join(sorted({r.algo for er in results for r in er.runs})) + " |",
+        "|---|" + "---:|" * len({r.algo for er in results for r in er.runs}),
+    ]
+    for er in results:
+        if "random" not in er.references or "classical" not in er.references or not er.env_id.startswith("Merge"):
+            continue
+        scale = er.references["classical"] - er.references["random"]
+        cells = []
+        for label in sorted({r.algo for e in results for r in e.runs}):
+            drops = []
+            for r in (r for r in er.runs if r.algo == label and r.timesteps.size):
+                grid = np.linspace(r.total_timesteps / 10, r.total_timesteps, 50)
+                curve = smoothed(r.timesteps, r.metric("return"), grid, r.total_timesteps / 10)
+                if np.isfinite(curve).any():
+                    drops.append((np.nanmax(curve) - curve[np.isfinite(curve)][-1]) / abs(scale) if scale else float("nan"))
+            cells.append(f"{np.mean(drops):.2f}" if drops else "–")
+        lines.append(f"| {er.env_id} | " + " | ".join(cells) + " |")
+    lines.append("")
+    return lines
 
 
 def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Sequence[str], seed: int = 0, reps: int = BOOTSTRAP) -> Path:
@@ -445,6 +596,8 @@ def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Se
                 lines.append("")
             else:
                 lines += ["Probability of improvement needs two trained algorithms on the same environments; this page has one.", ""]
+    lines += budgets_section(results)
+    lines += observations_section(results)
     lines += ["## Per environment", ""]
     for er in results:
         env_dir = fig_dir / er.env_id
