@@ -6,6 +6,7 @@ Budgets are shrunk with the variable the tutorials document, ``BLUESKY_GYM_TUTOR
 from __future__ import annotations
 
 import re
+import shlex
 import sys
 import types
 from pathlib import Path
@@ -46,6 +47,18 @@ def test_train_ppo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     assert page.trained.policy == "PPO" and "PPO" in page.format_table([page.trained, page.random])
 
 
+@pytest.mark.slow
+def test_training_fast(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("stable_baselines3", reason="the page needs the 'train' extra")
+    (tmp_path / "configs").symlink_to(DOCS.parent / "configs")  # the page runs from the repository's root
+    page = run_page("training-fast.md", tmp_path, monkeypatch)
+    assert page.result["trainer"] == "fast" and page.spec.n_envs == 16 and page.spec.hyperparams["n_steps"] == 128
+    assert (tmp_path / "runs" / "descent-fast" / "model.zip").is_file()
+    out = capsys.readouterr().out.split()
+    assert out[0] == "fast" and int(out[1]) == page.result["timesteps"]
+    assert int(out[-1]) == page.trainer.num_timesteps >= 2048
+
+
 def test_own_environment(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     try:
         page = run_page("own-environment.md", tmp_path, monkeypatch)
@@ -82,3 +95,16 @@ def test_the_snippets_of_a_page_run(name: str, tmp_path: Path, monkeypatch: pyte
         assert page.reward.shape == (page.venv.num_envs,)
     else:
         assert page.sim.active[:, 0].all()
+
+
+def test_the_commands_of_the_training_page_parse() -> None:
+    from bluesky_gym.cli import build_parser
+
+    page = (DOCS / "training-fast.md").read_text(encoding="utf-8")
+    commands = [
+        line for block in re.findall(r"```bash\n(.*?)```", page, flags=re.DOTALL) for line in block.splitlines() if line.startswith("bluesky-gym ")
+    ]
+    assert len(commands) >= 4
+    for line in commands:
+        args = build_parser().parse_args(shlex.split(line)[1:])
+        assert args.func is not None
