@@ -6,7 +6,6 @@ import csv
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -15,7 +14,6 @@ pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 't
 import torch  # noqa: E402
 
 from bluesky_gym.training.evaluation import evaluate, load_policy  # noqa: E402
-from bluesky_gym.training.fast.offpolicy import REPLAY_FILE  # noqa: E402
 from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
 from bluesky_gym.training.io import latest_checkpoint, read_json  # noqa: E402
 from bluesky_gym.training.runner import make_run_spec, resolve_compile, run_status, run_training  # noqa: E402
@@ -33,31 +31,6 @@ TINY = merge(
         },
     },
 )
-
-
-class Interrupt(Exception):
-    """Stands for a crash."""
-
-
-class CrashAfterCheckpoint:
-    """Fast-trainer hooks that raise once a checkpoint at ``n`` steps or more is committed and ``extra`` more steps were taken."""
-
-    def __init__(self, run_dir: Path, n: int, extra: int) -> None:
-        self.run_dir, self.n, self.extra = run_dir, n, extra
-        self.seen: int | None = None
-
-    def on_rollout_start(self, trainer: Any) -> None:
-        self._check(trainer)
-
-    def on_episodes(self, trainer: Any, records: list[dict[str, Any]]) -> None:
-        self._check(trainer)
-
-    def _check(self, trainer: Any) -> None:
-        ckpt = latest_checkpoint(self.run_dir)
-        if ckpt is not None and self.seen is None and ckpt[0]["timesteps"] >= self.n:
-            self.seen = trainer.num_timesteps
-        if self.seen is not None and trainer.num_timesteps >= self.seen + self.extra:
-            raise Interrupt
 
 
 def _rows(path: Path) -> list[list[str]]:
@@ -95,37 +68,6 @@ def test_fast_run_writes_the_run_directory_of_an_sb3_run(tmp_path: Path) -> None
     policy = load_policy(d, env_id=ENV)
     assert policy.name.startswith("PPO")
     assert evaluate(ENV, policy, 4).mean_return == pytest.approx(read_json(d / "eval.json")["summary"]["return"]["mean"])
-
-
-@pytest.mark.parametrize("algo", ["PPO", "SAC", "TD3", "DDPG"])
-def test_interrupted_fast_run_resumes_without_loss_or_repeat(tmp_path: Path, algo: str) -> None:
-    total = 512 if algo == "PPO" else 300
-    spec = make_run_spec(TINY, ENV, algo, 1, n_envs=2, total_timesteps=total, checkpoint_freq=100, eval_episodes=0)
-    d = tmp_path / algo
-    with pytest.raises(Interrupt):
-        run_training(spec, d, verbose=0, callbacks=[CrashAfterCheckpoint(d, 100, 60)])
-    ckpt, ckpt_dir = latest_checkpoint(d)
-    assert run_status(d) == "checkpointed" and 100 <= ckpt["timesteps"] < total
-    before = _rows(d / "episodes.csv")
-    assert len(before) - 1 > ckpt["episodes_logged"]  # rows were logged after the checkpoint
-    assert not (d / ".lock").exists()
-
-    result = run_training(spec, d, verbose=0)
-    assert result["resumed_from"] == ckpt["timesteps"] and result["timesteps"] == total
-    after = _rows(d / "episodes.csv")
-    kept = ckpt["episodes_logged"] + 1
-    assert after[:kept] == before[:kept]  # rows up to the checkpoint are untouched
-    assert [int(r[0]) for r in after[1:]] == list(range(len(after) - 1))  # no row lost or repeated
-    steps = [int(r[1]) for r in after[1:]]
-    assert steps == sorted(steps) and all(s > ckpt["timesteps"] for s in steps[kept - 1 :])
-    assert [p["start_timesteps"] for p in read_json(d / "run.json")["processes"]] == [0, ckpt["timesteps"]]
-    final, final_dir = latest_checkpoint(d)
-    assert final["timesteps"] == total
-    state = torch.load(final_dir / "trainer.pt", weights_only=True)
-    assert state["num_timesteps"] == total
-    if algo != "PPO":
-        buffer = torch.load(final_dir / REPLAY_FILE, weights_only=True)
-        assert buffer["size"] == total  # every transition once: none lost, none twice
 
 
 def test_same_seed_same_run_other_seed_another(tmp_path: Path) -> None:

@@ -123,13 +123,48 @@ def test_a_run_without_tensorboard_leaves_nothing_in_the_temporary_directory(tmp
     assert not list(temp.glob("SB3-*"))  # SB3 makes an empty SB3-<date> folder there unless given a logger
 
 
-@pytest.mark.parametrize("algo", ["PPO", "SAC", "TD3"])
-def test_interrupted_run_resumes_without_loss_or_repeat(tmp_path: Path, algo: str) -> None:
+class CrashAfterCheckpointHooks:
+    """The fast trainer's form of :class:`CrashAfterCheckpoints`: hooks that raise at the same point."""
+
+    def __init__(self, run_dir: Path, n: int, extra: int) -> None:
+        self.run_dir, self.n, self.extra = run_dir, n, extra
+        self.seen: int | None = None
+
+    def on_rollout_start(self, trainer: object) -> None:
+        self._check(trainer)
+
+    def on_episodes(self, trainer: object, records: list) -> None:
+        self._check(trainer)
+
+    def _check(self, trainer: object) -> None:
+        steps = trainer.num_timesteps  # type: ignore[attr-defined]
+        ckpt = latest_checkpoint(self.run_dir)
+        if ckpt is not None and self.seen is None and ckpt[0]["timesteps"] >= self.n:
+            self.seen = steps
+        if self.seen is not None and steps >= self.seen + self.extra:
+            raise Interrupt
+
+
+def _replay_size(ckpt_dir: Path) -> int:
+    """Transitions in a checkpoint's replay buffer (SB3's pickle or the fast trainer's tensors)."""
+    if (ckpt_dir / "replay_buffer.pkl").exists():
+        with open(ckpt_dir / "replay_buffer.pkl", "rb") as f:
+            return int(pickle.load(f).size()) * 2  # per environment
+    import torch
+
+    return int(torch.load(ckpt_dir / "replay_buffer.pt", weights_only=True)["size"])
+
+
+@pytest.mark.parametrize(
+    ("trainer", "algo"), [("sb3", "PPO"), ("sb3", "SAC"), ("sb3", "TD3"), ("fast", "PPO"), ("fast", "SAC"), ("fast", "TD3"), ("fast", "DDPG")]
+)
+def test_interrupted_run_resumes_without_loss_or_repeat(tmp_path: Path, trainer: str, algo: str) -> None:
     total = 512 if algo == "PPO" else 300
-    spec = make_run_spec(TINY, ENV, algo, 1, n_envs=2, total_timesteps=total, checkpoint_freq=100, eval_episodes=0)
+    spec = make_run_spec(TINY, ENV, algo, 1, n_envs=2, total_timesteps=total, checkpoint_freq=100, eval_episodes=0, trainer=trainer)
     d = tmp_path / algo
+    crash = CrashAfterCheckpoints(d, 100, 60) if trainer == "sb3" else CrashAfterCheckpointHooks(d, 100, 60)
     with pytest.raises(Interrupt):
-        run_training(spec, d, verbose=0, callbacks=[CrashAfterCheckpoints(d, 100, 60)])
+        run_training(spec, d, verbose=0, callbacks=[crash])
     ckpt, ckpt_dir = latest_checkpoint(d)
     assert run_status(d) == "checkpointed" and 100 <= ckpt["timesteps"] < total
     before = _rows(d / "episodes.csv")
@@ -138,8 +173,7 @@ def test_interrupted_run_resumes_without_loss_or_repeat(tmp_path: Path, algo: st
 
     result = run_training(spec, d, verbose=0)
     assert result["resumed_from"] == ckpt["timesteps"]
-    expected = total if algo != "PPO" else 512
-    assert result["timesteps"] == expected
+    assert result["timesteps"] == total
     after = _rows(d / "episodes.csv")
     kept = ckpt["episodes_logged"] + 1
     assert after[:kept] == before[:kept]  # rows up to the checkpoint are untouched
@@ -149,11 +183,9 @@ def test_interrupted_run_resumes_without_loss_or_repeat(tmp_path: Path, algo: st
     procs = read_json(d / "run.json")["processes"]
     assert [s["start_timesteps"] for s in procs] == [0, ckpt["timesteps"]]
     final, final_dir = latest_checkpoint(d)
-    assert final["timesteps"] == expected
+    assert final["timesteps"] == total
     if algo != "PPO":
-        with open(final_dir / "replay_buffer.pkl", "rb") as f:
-            buffer = pickle.load(f)
-        assert buffer.size() * 2 == expected  # every transition once: none lost, none twice
+        assert _replay_size(final_dir) == total  # every transition once: none lost, none twice
 
 
 def test_lock_refuses_a_live_owner_and_takes_over_a_dead_one(tmp_path: Path) -> None:

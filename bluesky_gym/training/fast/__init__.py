@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from typing import Any
 
+_OFF_POLICY = frozenset({"learning_rate", "buffer_size", "learning_starts", "batch_size", "tau", "gamma", "train_freq", "gradient_steps"})
 #: Hyperparameters (SB3 constructor arguments) the fast trainer implements, per algorithm.
 HYPERPARAMETERS: dict[str, frozenset[str]] = {
     "PPO": frozenset(
@@ -52,37 +53,9 @@ HYPERPARAMETERS: dict[str, frozenset[str]] = {
             "target_kl",
         }
     ),
-    "SAC": frozenset(
-        {
-            "learning_rate",
-            "buffer_size",
-            "learning_starts",
-            "batch_size",
-            "tau",
-            "gamma",
-            "train_freq",
-            "gradient_steps",
-            "ent_coef",
-            "target_update_interval",
-            "target_entropy",
-        }
-    ),
-    "TD3": frozenset(
-        {
-            "learning_rate",
-            "buffer_size",
-            "learning_starts",
-            "batch_size",
-            "tau",
-            "gamma",
-            "train_freq",
-            "gradient_steps",
-            "policy_delay",
-            "target_policy_noise",
-            "target_noise_clip",
-        }
-    ),
-    "DDPG": frozenset({"learning_rate", "buffer_size", "learning_starts", "batch_size", "tau", "gamma", "train_freq", "gradient_steps"}),
+    "SAC": _OFF_POLICY | {"ent_coef", "target_update_interval", "target_entropy"},
+    "TD3": _OFF_POLICY | {"policy_delay", "target_policy_noise", "target_noise_clip"},
+    "DDPG": _OFF_POLICY,
 }
 
 
