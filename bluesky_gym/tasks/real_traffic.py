@@ -18,6 +18,7 @@ import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
@@ -118,6 +119,10 @@ class RealTrafficConfig(TaskConfig):
         """Raise ``ValueError`` naming the first invalid option."""
         if not self.collections or not all(isinstance(c, str) and c for c in self.collections):
             raise ValueError(f"collections must be a non-empty tuple of names or .npz paths, got {self.collections!r}")
+        if self.cache_dir is not None and not isinstance(self.cache_dir, str):
+            raise ValueError(f"cache_dir must be a path string or None, got {self.cache_dir!r}")
+        _check_no_repeat("collections", self.collections, self.cache_dir)
+        _check_no_repeat("test_collections", self.test_collections, self.cache_dir)
         if self.split not in SPLITS:
             raise ValueError(f"split must be one of {SPLITS}, got {self.split!r}")
         if self.split_by not in SPLIT_BY:
@@ -141,8 +146,19 @@ class RealTrafficConfig(TaskConfig):
             raise ValueError(f"altitude_action must be True or False, got {self.altitude_action!r}")
         if self.labels not in LABELS:
             raise ValueError(f"labels must be one of {LABELS}, got {self.labels!r}")
-        if self.cache_dir is not None and not isinstance(self.cache_dir, str):
-            raise ValueError(f"cache_dir must be a path string or None, got {self.cache_dir!r}")
+
+
+def _check_no_repeat(option: str, names: tuple[str, ...], directory: str | None) -> None:
+    """Refuse a collection named twice (by the same name, or two paths of one file): its windows would be played twice."""
+    seen: dict[Path, str] = {}
+    for name in names:
+        if not isinstance(name, str) or not name:
+            continue  # reported by the type check
+        key = collection_path(name, directory).expanduser().resolve()
+        if key in seen:
+            same = repr(name) if seen[key] == name else f"{seen[key]!r} and {name!r}"
+            raise ValueError(f"{option} name {same} more than once (one file, {key}); give every collection once")
+        seen[key] = name
 
 
 @dataclass(frozen=True)

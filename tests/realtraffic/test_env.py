@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -130,6 +132,21 @@ def test_collection_split(tmp_path) -> None:
 def test_bad_options(options, change, message) -> None:
     with pytest.raises(ValueError, match=message):
         gym.make(ENV, **{**options, **change})
+
+
+def test_a_collection_named_twice_is_refused(options, tmp_path) -> None:
+    """Twice the same collection would play every window twice (and hold it out twice)."""
+    path = options["collections"][0]
+    with pytest.raises(ValueError, match=r"collections name .*synthetic.npz.* more than once"):
+        gym.make(ENV, **{**options, "collections": (path, path)})
+    with pytest.raises(ValueError, match="collections name 'switzerland' more than once"):
+        RealTrafficConfig(collections=("switzerland", "quickstart", "switzerland")).validate()
+    # the same file by two spellings is the same collection
+    spelled = str(Path(path).parent / "." / Path(path).name)
+    with pytest.raises(ValueError, match="more than once"):
+        gym.make(ENV, **{**options, "collections": (path, spelled)})
+    with pytest.raises(ValueError, match="test_collections name 'quickstart' more than once"):
+        RealTrafficConfig(split_by="collection", test_collections=("quickstart", "quickstart")).validate()
 
 
 def test_missing_collection_file(tmp_path) -> None:
