@@ -50,17 +50,35 @@ def collection_path(name: str, directory: str | os.PathLike[str] | None = None) 
 
 
 def load_collection(name: str, directory: str | os.PathLike[str] | None = None, verbose: bool = True) -> RecordedFlights:
-    """Collection ``name``: read from its file, or (a sample not cached yet) cleaned from the ``traffic`` samples and cached."""
+    """Collection ``name``: read from its file, or (a sample not cached yet) cleaned from the ``traffic`` samples and cached.
+
+    A sample's cache file that cannot be read (damaged) is cleaned again into the same place, and
+    said so; a ``.npz`` file of the user's is never rewritten: its error names it.
+    """
     path = collection_path(name, directory)
+    damaged: ValueError | None = None
     if path.exists():
-        return _load(str(path.resolve()), path.stat().st_mtime_ns)
-    if is_file_name(name):
+        try:
+            return _load(str(path.resolve()), path.stat().st_mtime_ns)
+        except ValueError as exc:
+            if is_file_name(name):
+                raise
+            damaged = exc
+    elif is_file_name(name):
         raise ValueError(f"{path}: no such recorded-flights file (write one with `bluesky-gym realtraffic prepare`)")
+    from bluesky_gym.core.extras import MissingDependencyError
     from bluesky_gym.realtraffic.sources import load_sample
 
-    if verbose:
+    if damaged is not None:
+        print(f"bluesky-gym: {damaged}; cleaning the traffic sample collection {name!r} again into it", flush=True)
+    elif verbose:
         print(f"bluesky-gym: cleaning the traffic sample collection {name!r} once into {path} (several minutes)", flush=True)
-    flights = load_sample(name)
+    try:
+        flights = load_sample(name)
+    except MissingDependencyError as exc:
+        if damaged is None:
+            raise
+        raise MissingDependencyError(f"{damaged}; delete it, or clean {name!r} again with the 'traffic' library: {exc}") from exc
     flights.save(path)
     return flights
 
