@@ -224,10 +224,10 @@ class RecordedFlights:
         except KeyError as exc:
             raise ValueError(f"{path}: not a recorded-flights file (no array {exc})") from exc
         except (EOFError, zipfile.BadZipFile, zlib.error) as exc:
-            raise DamagedFile(f"{path}: damaged recorded-flights file ({_damage(exc)})") from exc
+            raise DamagedFile(f"{path}: not a recorded-flights file (damaged: {_damage(exc)})") from exc
         except ValueError as exc:
             if "pickle" in str(exc):  # numpy's word for bytes that are neither .npy nor .npz
-                raise DamagedFile(f"{path}: damaged recorded-flights file (not an .npz archive)") from exc
+                raise DamagedFile(f"{path}: not a recorded-flights file (damaged: not an .npz archive)") from exc
             raise ValueError(f"{path}: not a recorded-flights file ({exc})") from exc
         except OSError as exc:
             raise ValueError(f"{path}: cannot read the recorded-flights file ({exc.strerror or exc})") from exc
