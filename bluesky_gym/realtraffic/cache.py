@@ -64,8 +64,8 @@ def load_collection(name: str, directory: str | os.PathLike[str] | None = None, 
             if is_file_name(name):
                 raise
             damaged = exc
-    elif is_file_name(name):
-        raise ValueError(f"{path}: no such recorded-flights file (write one with `bluesky-gym realtraffic prepare`)")
+    else:
+        unprepared([name], directory)  # a missing .npz file is refused there
     from bluesky_gym.core.extras import MissingDependencyError
     from bluesky_gym.realtraffic.sources import load_sample
 
@@ -83,11 +83,42 @@ def load_collection(name: str, directory: str | os.PathLike[str] | None = None, 
     return flights
 
 
+def unprepared(names: tuple[str, ...] | list[str], directory: str | os.PathLike[str] | None = None) -> list[str]:
+    """The sample collections of ``names`` not cleaned into the cache directory yet.
+
+    Raises:
+        ValueError: A ``.npz`` collection that does not exist (it cannot be prepared here).
+    """
+    out = []
+    for name in names:
+        path = collection_path(name, directory)
+        if path.exists():
+            continue
+        if is_file_name(name):
+            raise ValueError(f"{path}: no such recorded-flights file (write one with `bluesky-gym realtraffic prepare`)")
+        out.append(name)
+    return out
+
+
 def default_data_ready() -> bool:
     """Whether the collections of the real-traffic environment's default configuration are in the cache directory."""
     from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
 
-    return all(collection_path(name).exists() for name in SAMPLE_COLLECTIONS)
+    return not unprepared(SAMPLE_COLLECTIONS)
+
+
+def default_data_note() -> str | None:
+    """What to know about the data of the real-traffic environment's default configuration: None when they are prepared."""
+    from bluesky_gym.realtraffic.sources import EXTRA, SAMPLE_COLLECTIONS
+
+    missing = unprepared(SAMPLE_COLLECTIONS)
+    if not missing:
+        return None
+    commands = "; ".join(f"bluesky-gym realtraffic prepare --sample {name}" for name in missing)
+    return (
+        f"not prepared in {cache_dir()}: the first reset cleans the traffic sample collection(s) {', '.join(missing)} "
+        f"(the '{EXTRA}' extra; minutes, with progress), or prepare them beforehand: {commands}"
+    )
 
 
 @lru_cache(maxsize=8)
