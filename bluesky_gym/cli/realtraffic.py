@@ -181,17 +181,17 @@ def _write_json(path: Path, doc: dict[str, Any]) -> None:
 def run_prepare(args: argparse.Namespace) -> int:
     """Run ``realtraffic prepare``."""
     from bluesky_gym.realtraffic.cache import collection_path
-    from bluesky_gym.realtraffic.sources import load_sample, load_table
+    from bluesky_gym.realtraffic.sources import Progress, load_sample, load_table
 
     try:
         if args.sample:
-            flights = load_sample(args.sample, consistency=not args.no_consistency)
             out = args.out or collection_path(args.sample, args.cache_dir)
+            flights = load_sample(args.sample, consistency=not args.no_consistency, progress=Progress(args.sample))
         else:
             if args.out is None:
                 raise ValueError("--table needs --out FILE.npz")
-            flights = load_table(args.table, consistency=not args.no_consistency)
             out = args.out
+            flights = load_table(args.table, consistency=not args.no_consistency, progress=Progress(str(args.table)))
         flights.save(out)
     except (MissingDependencyError, ValueError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)

@@ -1,7 +1,7 @@
 """Where the cleaned collections live, and how a collection is found, built once, and combined.
 
 A collection is named either by a ``traffic`` sample (``"switzerland"``, ``"quickstart"``), which
-is cleaned on first use (several minutes, needs the ``realtraffic`` extra) and saved in the cache
+is cleaned on first use (tens of seconds, with progress; needs the ``realtraffic`` extra) and saved in the cache
 directory, or by the path of a ``.npz`` file written by ``bluesky-gym realtraffic prepare``
 (:meth:`~bluesky_gym.realtraffic.flights.RecordedFlights.save`), which needs numpy only.
 
@@ -67,14 +67,14 @@ def load_collection(name: str, directory: str | os.PathLike[str] | None = None, 
     else:
         unprepared([name], directory)  # a missing .npz file is refused there
     from bluesky_gym.core.extras import MissingDependencyError
-    from bluesky_gym.realtraffic.sources import load_sample
+    from bluesky_gym.realtraffic.sources import Progress, Quiet, load_sample
 
     if damaged is not None:
         print(f"bluesky-gym: {damaged}; cleaning the traffic sample collection {name!r} again into it", flush=True)
     elif verbose:
-        print(f"bluesky-gym: cleaning the traffic sample collection {name!r} once into {path} (several minutes)", flush=True)
+        print(f"bluesky-gym: cleaning the traffic sample collection {name!r} once into {path}", flush=True)
     try:
-        flights = load_sample(name)
+        flights = load_sample(name, progress=Progress(name) if verbose or damaged is not None else Quiet(name))
     except MissingDependencyError as exc:
         if damaged is None:
             raise
@@ -117,7 +117,7 @@ def default_data_note() -> str | None:
     commands = "; ".join(f"bluesky-gym realtraffic prepare --sample {name}" for name in missing)
     return (
         f"not prepared in {cache_dir()}: the first reset cleans the traffic sample collection(s) {', '.join(missing)} "
-        f"(the '{EXTRA}' extra; minutes, with progress), or prepare them beforehand: {commands}"
+        f"(the '{EXTRA}' extra; tens of seconds, with progress), or prepare them beforehand: {commands}"
     )
 
 
