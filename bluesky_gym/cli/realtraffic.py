@@ -9,7 +9,8 @@ Examples::
     bluesky-gym realtraffic report results/realtraffic               # the tables of README.md and docs/realtraffic.md
     bluesky-gym realtraffic scn --seed 0 --out episode.scn           # an episode's window, flown with nobody acting, as a BlueSky scenario
 
-``prepare`` cleans with the ``traffic`` library (the ``realtraffic`` extra) and writes a ``.npz``
+``prepare`` cleans with the ``traffic`` library (the ``realtraffic`` extra), saying what it does
+(the steps, the expected time, then the flights cleaned, the rate and the time left), and writes a ``.npz``
 file that the environments read with numpy alone (``gym.make("RealTrafficCREnv-v0",
 collections=("my.npz",), ...)``). ``fidelity`` replays 20-minute windows with nobody acting and
 prints, per collection, the median and 95th percentile of the lateral and vertical deviation from

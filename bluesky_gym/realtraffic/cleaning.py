@@ -119,8 +119,9 @@ def flight_rows(columns: Columns) -> list[IntArray]:
     rows = np.flatnonzero(keep)
     key = rank[codes[keep]]
     sort = np.argsort(key, kind="stable")
+    ordered = rows[sort]
     bounds = np.flatnonzero(np.diff(key[sort])) + 1
-    return [rows[sort][a:b] for a, b in zip(np.concatenate([[0], bounds]), np.concatenate([bounds, [len(sort)]]))] if len(sort) else []
+    return np.split(ordered, bounds) if len(ordered) else []
 
 
 # --- the default filter ---------------------------------------------------------------------------

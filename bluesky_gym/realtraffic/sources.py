@@ -68,11 +68,11 @@ SIMPLIFY_TOLERANCE_M = 1000.0  # m: Douglas-Peucker tolerance of the route point
 SIMPLIFY_Z_FACTOR = 3.048  # traffic's default weight of altitude [ft] against distance [m]
 MAX_GROUNDSPEED_KT = 700.0  # kt: a segment faster than this is a decoding error
 MAX_PLAUSIBLE_VS_FPM = 8000.0  # ft/min: a flight whose filtered altitude changes faster has a glitch left
-#: Expected cleaning time: seconds per flight and per airborne position, fitted to the CPU time of
-#: both sample collections (switzerland 9 s, quickstart 14 s). Flights the consistency filter takes
-#: cost more (long, turning, glitchy recordings several times more); the progress lines report the
-#: rate actually reached.
-SECONDS_PER_FLIGHT = 0.0025
+#: Expected time of the flight loop: seconds per flight and per airborne position, from both sample
+#: collections on a 2-core machine (switzerland 3-8 s, quickstart 12 s, depending on the load).
+#: Long flights the consistency filter takes cost more (a month of calibration flights, all of them
+#: circling, about 8 times more); the progress lines report the rate actually reached.
+SECONDS_PER_FLIGHT = 0.001
 SECONDS_PER_POSITION = 0.00005
 
 

@@ -116,6 +116,7 @@ class RealTrafficConfig(TaskConfig):
     labels: str = "near"
 
     def __post_init__(self) -> None:
+        super().__post_init__()  # the switches (float32_spaces, altitude_action) must be True or False
         for name in ("collections", "test_collections"):
             value = getattr(self, name)
             if isinstance(value, str):
