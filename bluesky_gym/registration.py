@@ -7,16 +7,16 @@ import warnings
 import gymnasium as gym
 
 from bluesky_gym.envs.registry import ENVIRONMENTS, env_ids
-from bluesky_gym.envs.registry import entry as env_entry
 
 
 def available_envs() -> list[str]:
-    """Ids of the single-agent environments whose implementation modules are present and whose default data is ready.
+    """Ids of the single-agent environments whose implementation modules are present.
 
-    An environment built from data that is prepared at first use (``RealTrafficCREnv-v0``) is
-    registered regardless, and listed here once its data is in place.
+    An environment built from data that are prepared at first use (``RealTrafficCREnv-v0``) is
+    listed whether its data are in place or not: making it needs none, its first reset prepares
+    them (``EnvEntry.data_status`` says what is missing).
     """
-    return [i for i in env_ids() if env_entry(i).data_ready()]
+    return env_ids()
 
 
 def register_envs() -> None:

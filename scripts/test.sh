@@ -17,6 +17,12 @@ if [ ! -x .venv-bluesky/bin/python ]; then "$PY" -m venv .venv-bluesky; fi
 # Lint, format check and type check (scripts/lint.sh).
 PYTHON=.venv/bin/python bash scripts/lint.sh
 
+# An empty recorded-traffic cache, as on a fresh machine: the site and the tests must not depend on
+# data prepared earlier (the tests play small stand-ins of the sample collections, tests/conftest.py).
+BLUESKY_GYM_CACHE="$(mktemp -d)"
+export BLUESKY_GYM_CACHE
+trap 'rm -rf "$BLUESKY_GYM_CACHE"' EXIT
+
 # The documentation site (mkdocs.yml), warnings as errors, into the ignored site/ folder;
 # tests/docs/test_site.py then opens every page of this build in a headless browser.
 export BLUESKY_GYM_SITE_DIR="$PWD/site"

@@ -7,11 +7,21 @@ its settings and cache in ``~/.config/traffic`` and ``~/.cache/traffic`` (the XD
 recorded-traffic episode data goes to ``$BLUESKY_GYM_CACHE``. The tests point all of them to one scratch
 directory in the system's temporary directory (kept between runs, so BlueSky's navigation cache is
 built once). Subprocesses started by the tests inherit the settings.
+
+The recorded-traffic cache is the exception: every test process starts with an empty cache
+directory of its own (whatever ``BLUESKY_GYM_CACHE`` says outside, and removed at the end), as on a
+fresh machine, so no test depends on data prepared by an earlier run, and none reads or writes a
+user's cache. Cleaning the ``traffic`` library's sample collections takes minutes; the tests that
+make ``RealTrafficCREnv`` with its default collections (the contract, render and CLI tests) play
+small synthetic stand-ins that :func:`recorded_traffic_stand_ins` saves under the sample names
+there, once per test process. The cleaning itself is tested on tables and excerpts of a few flights.
 """
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -29,7 +39,10 @@ os.environ.setdefault("RAY_AUTH_MODE", "disabled")
 os.environ.setdefault("MPLCONFIGDIR", str(SCRATCH / "matplotlib"))
 os.environ.setdefault("XDG_CONFIG_HOME", str(SCRATCH / "config"))
 os.environ.setdefault("XDG_CACHE_HOME", str(SCRATCH / "cache"))
-os.environ.setdefault("BLUESKY_GYM_CACHE", str(SCRATCH / "bluesky-gym-cache"))
+SCRATCH.mkdir(parents=True, exist_ok=True)
+RECORDED_TRAFFIC_CACHE = Path(tempfile.mkdtemp(prefix="bluesky-gym-cache-", dir=SCRATCH))
+os.environ["BLUESKY_GYM_CACHE"] = str(RECORDED_TRAFFIC_CACHE)
+atexit.register(shutil.rmtree, RECORDED_TRAFFIC_CACHE, ignore_errors=True)
 # One intra-op thread for PyTorch (read when torch is imported): the tests' networks are small, and
 # on a loaded 2-core machine threads that wait for each other made one training test 10x slower.
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -54,3 +67,22 @@ def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool 
     if expression == "bluesky" and "mark.bluesky" not in text:
         return True
     return None
+
+
+@pytest.fixture(scope="session", autouse=True)
+def recorded_traffic_stand_ins() -> None:
+    """Small synthetic collections under the names of the sample collections, in this process's empty cache directory.
+
+    ``RealTrafficCREnv`` made with its defaults then plays them instead of cleaning the samples
+    (minutes); what the environments do with a collection does not depend on where it came from.
+    """
+    from bluesky_gym.realtraffic.cache import collection_path
+    from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
+
+    from .realtraffic.synthetic import traffic_collection
+
+    for k, name in enumerate(SAMPLE_COLLECTIONS):
+        path = collection_path(name)
+        assert path.is_relative_to(RECORDED_TRAFFIC_CACHE), f"{path}: the tests' recorded-traffic cache moved"
+        if not path.exists():
+            traffic_collection(n_flights=40 - 16 * k, spacing_s=90.0 + 60.0 * k, seed=1 + k).save(path)

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.cli.arguments import add_env_option
-from bluesky_gym.envs.registry import multiagent_entries
+from bluesky_gym.envs.registry import ENVIRONMENTS, multiagent_entries
 
 
 def add_parser(subparsers: Any) -> None:
@@ -122,6 +122,7 @@ def describe(env_id: str) -> dict[str, Any]:
                 "description": docs.get(f.name, ""),
             }
         )
+    row = next((e for e in ENVIRONMENTS if e.id == env_id), None)
     summary = (inspect.getdoc(cls) or "").split("\n", 1)[0]
     summary = summary.removeprefix(f"{env_id}: ")
     return {
@@ -138,6 +139,7 @@ def describe(env_id: str) -> dict[str, Any]:
         "observation": {k: _box(v) for k, v in obs_space.items()} if isinstance(obs_space, gym.spaces.Dict) else {},
         "action": _box(act_space),
         "options": options,
+        "data": None if row is None else row.data_status(),
     }
 
 
@@ -159,6 +161,12 @@ def run_list(args: argparse.Namespace) -> int:
         print(json.dumps(single + centralised, indent=2, default=str))
         return 0
     _print_table(single)
+    notes: dict[str, list[str]] = {}
+    for d in single:
+        if d["data"]:
+            notes.setdefault(d["data"], []).append(d["id"])
+    for note, ids in notes.items():
+        print(f"\n{', '.join(ids)}: data {note}")
     print(f"\n{len(single)} environments; `bluesky-gym info --env ID` shows one in detail.")
     print("\nCentralised multi-agent environments (one agent steers every aircraft; `train` and `eval`")
     print("take them too; `bluesky-gym train-ma` trains a policy shared by the aircraft instead):\n")
@@ -196,6 +204,8 @@ def run_info(args: argparse.Namespace) -> int:
         f"  timing: {d['max_episode_steps']} steps max, {d['substeps_per_action']} x {d['dt_s']:g} s = {d['seconds_per_step']:g} s simulated per step"
     )
     print(f"  reference info keys: {', '.join(d['reference_info_keys'])}")
+    if d["data"]:
+        print(f"  data: {d['data']}")
     dtypes = sorted({v["dtype"] for v in d["observation"].values()})
     print(f"  observation (Dict of {'/'.join(dtypes)} Box):")
     w = max(len(k) for k in d["observation"])

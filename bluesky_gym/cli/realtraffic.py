@@ -9,7 +9,8 @@ Examples::
     bluesky-gym realtraffic report results/realtraffic               # the tables of README.md and docs/realtraffic.md
     bluesky-gym realtraffic scn --seed 0 --out episode.scn           # an episode's window, flown with nobody acting, as a BlueSky scenario
 
-``prepare`` cleans with the ``traffic`` library (the ``realtraffic`` extra) and writes a ``.npz``
+``prepare`` cleans with the ``traffic`` library (the ``realtraffic`` extra), saying what it does
+(the steps, the expected time, then the flights cleaned, the rate and the time left), and writes a ``.npz``
 file that the environments read with numpy alone (``gym.make("RealTrafficCREnv-v0",
 collections=("my.npz",), ...)``). ``fidelity`` replays 20-minute windows with nobody acting and
 prints, per collection, the median and 95th percentile of the lateral and vertical deviation from
@@ -181,17 +182,17 @@ def _write_json(path: Path, doc: dict[str, Any]) -> None:
 def run_prepare(args: argparse.Namespace) -> int:
     """Run ``realtraffic prepare``."""
     from bluesky_gym.realtraffic.cache import collection_path
-    from bluesky_gym.realtraffic.sources import load_sample, load_table
+    from bluesky_gym.realtraffic.sources import Progress, load_sample, load_table
 
     try:
         if args.sample:
-            flights = load_sample(args.sample, consistency=not args.no_consistency)
             out = args.out or collection_path(args.sample, args.cache_dir)
+            flights = load_sample(args.sample, consistency=not args.no_consistency, progress=Progress(args.sample))
         else:
             if args.out is None:
                 raise ValueError("--table needs --out FILE.npz")
-            flights = load_table(args.table, consistency=not args.no_consistency)
             out = args.out
+            flights = load_table(args.table, consistency=not args.no_consistency, progress=Progress(str(args.table)))
         flights.save(out)
     except (MissingDependencyError, ValueError) as exc:
         print(f"bluesky-gym realtraffic: error: {exc}", file=sys.stderr)

@@ -1,4 +1,4 @@
-"""RealTrafficCREnv-v0: conflict resolution in recorded air traffic."""
+"""RealTrafficCREnv-v0 and -v1: conflict resolution in recorded air traffic."""
 
 from __future__ import annotations
 
@@ -21,8 +21,8 @@ class RealTrafficCREnv(BlueSkyEnv):
     ## Description
     Every episode is a window (10 minutes by default) of real ADS-B traffic from the sample
     collections of the `traffic` library (Switzerland, 2018-08-01, and the Paris region,
-    2021-10-07), cleaned once into a cache directory (`cache_dir` option; see
-    `docs/realtraffic.md`). One flight recorded over the whole window is the ownship (aircraft 0);
+    2021-10-07), cleaned once, at the first reset, into a cache directory (`cache_dir` option;
+    see `docs/realtraffic.md`). One flight recorded over the whole window is the ownship (aircraft 0);
     up to 24 recorded aircraft that come within 30 NM of it during the window fly their recorded
     routes (route points from a Douglas-Peucker simplification of the track, flown with LNAV) and
     their recorded altitude and speed profiles; they appear and disappear when their recordings do.
@@ -32,15 +32,15 @@ class RealTrafficCREnv(BlueSkyEnv):
     own recording too, so an episode with zero actions replays the recorded traffic.
 
     ## Observation Space
-    A `Dict` of float64 `Box`es:
+    A `Dict` of float64 `Box`es (float32 with finite bounds in `-v1`, see the version history):
 
     * `ownship` (6,): signed distance from the recorded route / 5 NM (clipped to ±10, positive:
       right of it); cos and sin of the heading minus the bearing to the recorded position 60 s
       ahead; (CAS − recorded CAS) / 20 m/s; (altitude − recorded altitude) / 3000 m; vertical
       speed / 10 m/s.
-    * `intruders` (5, 7), the 5 closest aircraft: east and north offset / 20 NM, relative ground
-      velocity east and north / 250 m/s, relative altitude / 3000 m, distance / 20 NM, present
-      (1; an empty row is all zeros).
+    * `intruders` (5, 7) (`-v1`: (35,), the same rows one after the other), the 5 closest
+      aircraft: east and north offset / 20 NM, relative ground velocity east and north / 250 m/s,
+      relative altitude / 3000 m, distance / 20 NM, present (1; an empty row is all zeros).
 
     ## Action Space
     `Box(-1, 1, (2,))` (or `(3,)` with `altitude_action=True`), every 10 s:
@@ -94,7 +94,14 @@ class RealTrafficCREnv(BlueSkyEnv):
     A collection is a `traffic` sample name or a `.npz` file from `bluesky-gym realtraffic prepare`.
 
     ## Version History
-    * v0: initial version.
+    * v0: initial version. Collections named twice are refused (they played every window twice).
+      The id is listed and described (`bluesky-gym list`, `info`) before its data are prepared;
+      `gym.make` needs none, the first reset cleans the sample collections not in the cache yet.
+    * v1 (`RealTrafficCREnv-v1`; the same task with `float32_spaces=True`, selected by the
+      registry): float32 observation and action spaces with finite bounds that the observations
+      keep (`check_env` warned about the infinite bounds of v0); `intruders` is one vector of 35
+      values, the 5 rows of 7 one after the other (SB3's checker warns about a 2-D entry). The
+      bounds are in docs/environments-v1.md.
     """
 
     task_class = RealTrafficTask

@@ -78,7 +78,10 @@ class EnvEntry:
             (registered as the id's keyword arguments): a ``-v1`` id is its task with the
             configuration fields that fix the ``-v0`` defects set.
         data: Import path of a no-argument callable telling whether the data the default
-            configuration needs is on this machine (None: the environment needs no data).
+            configuration needs is on this machine (None: the environment needs no data). The id
+            is registered, listed and described either way; its first reset prepares the data.
+        data_note: Import path of a no-argument callable saying, when the data are not prepared,
+            where they would go and how to prepare them (None when they are).
     """
 
     id: str
@@ -89,6 +92,7 @@ class EnvEntry:
     multiagent: MultiAgentEntry | None = None
     options: tuple[tuple[str, Any], ...] = ()
     data: str | None = None
+    data_note: str | None = None
 
     def task_class(self) -> type[Any]:
         """The batched task class."""
@@ -123,6 +127,12 @@ class EnvEntry:
     def data_ready(self) -> bool:
         """Whether the data of the default configuration is present (always, for an environment without data)."""
         return self.data is None or bool(resolve(self.data)())
+
+    def data_status(self) -> str | None:
+        """None when the data of the default configuration are present (or none are needed), else what to do about them."""
+        if self.data_ready():
+            return None
+        return str(resolve(self.data_note)()) if self.data_note else "not prepared"
 
 
 #: Every environment, in the order of the paper.
@@ -207,6 +217,7 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
         vector_env="bluesky_gym.envs.real_traffic_env:RealTrafficCRVectorEnv",
         scene="bluesky_gym.render.scenes.real_traffic:real_traffic_scene",
         data="bluesky_gym.realtraffic.cache:default_data_ready",
+        data_note="bluesky_gym.realtraffic.cache:default_data_note",
     ),
 )
 
@@ -221,6 +232,7 @@ V1_OPTIONS: dict[str, tuple[tuple[str, Any], ...]] = {
     "SectorCREnv-v0": (("flight_level_altitude", True), ("speed_step_in_knots", True), ("exit_ends_episode", True)),
     "StaticObstacleEnv-v0": (("flight_level_altitude", True), ("speed_step_in_knots", True), ("step_reward", True), ("clear_start", True)),
     "MergeEnv-v0": (("faf_same_step", True), ("faf_distance_in_nm", True), ("margins_in_km", True), ("normalise_airspeed", True)),
+    "RealTrafficCREnv-v0": (),
 }
 
 
@@ -233,11 +245,13 @@ def _v1(row: EnvEntry) -> EnvEntry:
         vector_env=row.vector_env,
         scene=row.scene,
         options=(("float32_spaces", True), *V1_OPTIONS[row.id]),
+        data=row.data,
+        data_note=row.data_note,
     )
 
 
-#: Every environment: the paper's seven (``-v0``) and the recorded-traffic one, then the ``-v1``
-#: versions of the paper's seven.
+#: Every environment: the paper's seven (``-v0``) and the recorded-traffic one, then their ``-v1``
+#: versions.
 ENVIRONMENTS = (*ENVIRONMENTS, *(_v1(row) for row in ENVIRONMENTS if row.id in V1_OPTIONS))
 
 

@@ -34,7 +34,9 @@ RENDER_FPS = 30
 
 
 def _box(spec: BoxSpec, dtype: type[np.floating[Any]] = np.float64) -> spaces.Box:
-    return spaces.Box(low=spec.low, high=spec.high, shape=spec.shape, dtype=dtype)
+    # bounds per entry in the space's dtype (Gymnasium warns when float64 bounds are cast to float32)
+    low, high = (np.asarray(b, dtype=dtype) if isinstance(b, np.ndarray) else b for b in (spec.low, spec.high))
+    return spaces.Box(low=low, high=high, shape=spec.shape, dtype=dtype)
 
 
 def observation_space(task: Task) -> spaces.Dict:

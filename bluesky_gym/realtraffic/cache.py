@@ -1,7 +1,7 @@
 """Where the cleaned collections live, and how a collection is found, built once, and combined.
 
 A collection is named either by a ``traffic`` sample (``"switzerland"``, ``"quickstart"``), which
-is cleaned on first use (several minutes, needs the ``realtraffic`` extra) and saved in the cache
+is cleaned on first use (tens of seconds, with progress; needs the ``realtraffic`` extra) and saved in the cache
 directory, or by the path of a ``.npz`` file written by ``bluesky-gym realtraffic prepare``
 (:meth:`~bluesky_gym.realtraffic.flights.RecordedFlights.save`), which needs numpy only.
 
@@ -50,26 +50,75 @@ def collection_path(name: str, directory: str | os.PathLike[str] | None = None) 
 
 
 def load_collection(name: str, directory: str | os.PathLike[str] | None = None, verbose: bool = True) -> RecordedFlights:
-    """Collection ``name``: read from its file, or (a sample not cached yet) cleaned from the ``traffic`` samples and cached."""
-    path = collection_path(name, directory)
-    if path.exists():
-        return _load(str(path.resolve()), path.stat().st_mtime_ns)
-    if is_file_name(name):
-        raise ValueError(f"{path}: no such recorded-flights file (write one with `bluesky-gym realtraffic prepare`)")
-    from bluesky_gym.realtraffic.sources import load_sample
+    """Collection ``name``: read from its file, or (a sample not cached yet) cleaned from the ``traffic`` samples and cached.
 
-    if verbose:
-        print(f"bluesky-gym: cleaning the traffic sample collection {name!r} once into {path} (several minutes)", flush=True)
-    flights = load_sample(name)
+    A sample's cache file that cannot be read (damaged) is cleaned again into the same place, and
+    said so; a ``.npz`` file of the user's is never rewritten: its error names it.
+    """
+    path = collection_path(name, directory)
+    damaged: ValueError | None = None
+    if path.exists():
+        try:
+            return _load(str(path.resolve()), path.stat().st_mtime_ns)
+        except ValueError as exc:
+            if is_file_name(name):
+                raise
+            damaged = exc
+    else:
+        unprepared([name], directory)  # a missing .npz file is refused there
+    from bluesky_gym.core.extras import MissingDependencyError
+    from bluesky_gym.realtraffic.sources import Progress, Quiet, load_sample
+
+    if damaged is not None:
+        print(f"bluesky-gym: {damaged}; cleaning the traffic sample collection {name!r} again into it", flush=True)
+    elif verbose:
+        print(f"bluesky-gym: cleaning the traffic sample collection {name!r} once into {path}", flush=True)
+    try:
+        flights = load_sample(name, progress=Progress(name) if verbose or damaged is not None else Quiet(name))
+    except MissingDependencyError as exc:
+        if damaged is None:
+            raise
+        raise MissingDependencyError(f"{damaged}; delete it, or clean {name!r} again with the 'traffic' library: {exc}") from exc
     flights.save(path)
     return flights
+
+
+def unprepared(names: tuple[str, ...] | list[str], directory: str | os.PathLike[str] | None = None) -> list[str]:
+    """The sample collections of ``names`` not cleaned into the cache directory yet.
+
+    Raises:
+        ValueError: A ``.npz`` collection that does not exist (it cannot be prepared here).
+    """
+    out = []
+    for name in names:
+        path = collection_path(name, directory)
+        if path.exists():
+            continue
+        if is_file_name(name):
+            raise ValueError(f"{path}: no such recorded-flights file (write one with `bluesky-gym realtraffic prepare`)")
+        out.append(name)
+    return out
 
 
 def default_data_ready() -> bool:
     """Whether the collections of the real-traffic environment's default configuration are in the cache directory."""
     from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
 
-    return all(collection_path(name).exists() for name in SAMPLE_COLLECTIONS)
+    return not unprepared(SAMPLE_COLLECTIONS)
+
+
+def default_data_note() -> str | None:
+    """What to know about the data of the real-traffic environment's default configuration: None when they are prepared."""
+    from bluesky_gym.realtraffic.sources import EXTRA, SAMPLE_COLLECTIONS
+
+    missing = unprepared(SAMPLE_COLLECTIONS)
+    if not missing:
+        return None
+    commands = "; ".join(f"bluesky-gym realtraffic prepare --sample {name}" for name in missing)
+    return (
+        f"not prepared in {cache_dir()}: the first reset cleans the traffic sample collection(s) {', '.join(missing)} "
+        f"(the '{EXTRA}' extra; tens of seconds, with progress), or prepare them beforehand: {commands}"
+    )
 
 
 @lru_cache(maxsize=8)

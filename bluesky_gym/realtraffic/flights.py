@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 import tempfile
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -199,7 +201,12 @@ class RecordedFlights:
 
     @classmethod
     def load(cls, path: str | Path) -> RecordedFlights:
-        """Read a collection written by :meth:`save` (``ValueError`` naming the file if it is not one)."""
+        """Read a collection written by :meth:`save`.
+
+        Raises:
+            ValueError: naming the file, if it is not one: :class:`DamagedFile` if it cannot be
+                read (cut short, emptied, overwritten, an array that does not decompress).
+        """
         path = Path(path)
         try:
             with np.load(path, allow_pickle=False) as data:
@@ -214,8 +221,29 @@ class RecordedFlights:
                 )
         except _WrongVersion:
             raise
-        except (OSError, KeyError, ValueError) as exc:
+        except KeyError as exc:
+            raise ValueError(f"{path}: not a recorded-flights file (no array {exc})") from exc
+        except (EOFError, zipfile.BadZipFile, zlib.error) as exc:
+            raise DamagedFile(f"{path}: not a recorded-flights file (damaged: {_damage(exc)})") from exc
+        except ValueError as exc:
+            if "pickle" in str(exc):  # numpy's word for bytes that are neither .npy nor .npz
+                raise DamagedFile(f"{path}: not a recorded-flights file (damaged: not an .npz archive)") from exc
             raise ValueError(f"{path}: not a recorded-flights file ({exc})") from exc
+        except OSError as exc:
+            raise ValueError(f"{path}: cannot read the recorded-flights file ({exc.strerror or exc})") from exc
+
+
+class DamagedFile(ValueError):
+    """A file of recorded flights that cannot be read: cut short, emptied, overwritten or changed."""
+
+
+def _damage(exc: BaseException) -> str:
+    """What is wrong with a file that numpy could not read, in words."""
+    if isinstance(exc, EOFError):
+        return "empty"
+    if isinstance(exc, zipfile.BadZipFile):
+        return f"cut short or not an .npz archive: {exc}"
+    return f"an array does not decompress: {exc}"
 
 
 class _WrongVersion(ValueError):

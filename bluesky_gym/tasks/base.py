@@ -69,11 +69,14 @@ _EMPTY = np.empty(0)
 
 @dataclass(frozen=True)
 class BoxSpec:
-    """A numpy description of a Box space (converted to ``gymnasium.spaces.Box`` by the shells)."""
+    """A numpy description of a Box space (converted to ``gymnasium.spaces.Box`` by the shells).
+
+    ``low`` and ``high`` are one bound for every entry, or arrays of ``shape`` (a bound per entry).
+    """
 
     shape: tuple[int, ...]
-    low: float = -np.inf
-    high: float = np.inf
+    low: float | Array = -np.inf
+    high: float | Array = np.inf
 
 
 @dataclass(frozen=True)

@@ -18,14 +18,15 @@ import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.units import FT, NM
-from bluesky_gym.realtraffic.cache import collection_path, combine, load_collection
+from bluesky_gym.core.units import FT, KTS, NM
+from bluesky_gym.realtraffic.cache import collection_path, combine, load_collection, unprepared
 from bluesky_gym.realtraffic.flights import RecordedFlights
 from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window, split_windows, windows
 from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
@@ -60,6 +61,7 @@ ROUTE_PENALTY = -0.1  # per NM of distance from the recorded route, per step
 ROUTE_PENALTY_CAP = 20.0  # NM: larger distances count as this
 INTRUSION_PENALTY = -1.0  # per aircraft within 5 NM and 1000 ft, per step
 NUM_INTRUDERS = 5  # closest aircraft in the observation
+INTRUDER_FEATURES = 7  # values per intruder: east, north offset, relative velocity east, north, relative altitude, distance, present
 ROUTE_SPAN_S = 120.0  # s: the route near the ownship is the recording from now - span to now + span
 POSITION_SCALE = 20.0  # NM
 VELOCITY_SCALE = 250.0  # m/s
@@ -68,6 +70,13 @@ SPEED_SCALE = 20.0  # m/s
 ROUTE_SCALE = 5.0  # NM
 VS_SCALE = 10.0  # m/s
 EARTH_RADIUS_NM = 6371000.0 / NM
+# -v1 declared bounds (float32_spaces), chosen to hold for every reachable state:
+MAX_SPEED = 700.0 * KTS  # m/s: recorded ground speeds stay below 700 kt (the cleaning drops faster samples); so do the simulated TAS
+ROUTE_BOUND = 10.0  # the route deviation is clipped to +-10 (50 NM) in every version
+SPEED_ERROR_BOUND = 20.0  # CAS minus recorded CAS (both below MAX_SPEED), / SPEED_SCALE: +-400 m/s
+ALTITUDE_BOUND = 5.0  # altitude differences: +-15 km (the simulated aircraft stay below their ceiling, 12.6 km at most)
+VS_BOUND = 4.0  # vertical speed: +-40 m/s (the types' largest vsmax is about 19 m/s)
+VELOCITY_BOUND = 4.0  # relative ground velocity: +-1000 m/s (twice MAX_SPEED and more)
 
 
 @dataclass(frozen=True)
@@ -107,6 +116,7 @@ class RealTrafficConfig(TaskConfig):
     labels: str = "near"
 
     def __post_init__(self) -> None:
+        super().__post_init__()  # the switches (float32_spaces, altitude_action) must be True or False
         for name in ("collections", "test_collections"):
             value = getattr(self, name)
             if isinstance(value, str):
@@ -118,6 +128,10 @@ class RealTrafficConfig(TaskConfig):
         """Raise ``ValueError`` naming the first invalid option."""
         if not self.collections or not all(isinstance(c, str) and c for c in self.collections):
             raise ValueError(f"collections must be a non-empty tuple of names or .npz paths, got {self.collections!r}")
+        if self.cache_dir is not None and not isinstance(self.cache_dir, str):
+            raise ValueError(f"cache_dir must be a path string or None, got {self.cache_dir!r}")
+        _check_no_repeat("collections", self.collections, self.cache_dir)
+        _check_no_repeat("test_collections", self.test_collections, self.cache_dir)
         if self.split not in SPLITS:
             raise ValueError(f"split must be one of {SPLITS}, got {self.split!r}")
         if self.split_by not in SPLIT_BY:
@@ -141,8 +155,19 @@ class RealTrafficConfig(TaskConfig):
             raise ValueError(f"altitude_action must be True or False, got {self.altitude_action!r}")
         if self.labels not in LABELS:
             raise ValueError(f"labels must be one of {LABELS}, got {self.labels!r}")
-        if self.cache_dir is not None and not isinstance(self.cache_dir, str):
-            raise ValueError(f"cache_dir must be a path string or None, got {self.cache_dir!r}")
+
+
+def _check_no_repeat(option: str, names: tuple[str, ...], directory: str | None) -> None:
+    """Refuse a collection named twice (by the same name, or two paths of one file): its windows would be played twice."""
+    seen: dict[Path, str] = {}
+    for name in names:
+        if not isinstance(name, str) or not name:
+            continue  # reported by the type check
+        key = collection_path(name, directory).expanduser().resolve()
+        if key in seen:
+            same = repr(name) if seen[key] == name else f"{seen[key]!r} and {name!r}"
+            raise ValueError(f"{option} name {same} more than once (one file, {key}); give every collection once")
+        seen[key] = name
 
 
 @dataclass(frozen=True)
@@ -278,7 +303,7 @@ def observation(task: RealTrafficTask, g: RealTrafficGeometry) -> dict[str, Arra
     rad = np.radians(g.drift_deg if g.drift_deg is not None else np.zeros(len(g.envs)))
     ownship = np.stack(
         [
-            np.clip(g.route_nm / ROUTE_SCALE, -10.0, 10.0),
+            np.clip(g.route_nm / ROUTE_SCALE, -ROUTE_BOUND, ROUTE_BOUND),
             np.cos(rad),
             np.sin(rad),
             g.cas_error / SPEED_SCALE,
@@ -287,7 +312,10 @@ def observation(task: RealTrafficTask, g: RealTrafficGeometry) -> dict[str, Arra
         ],
         axis=1,
     )
-    return {"ownship": ownship, "intruders": g.intruders.copy()}
+    intruders = g.intruders.copy()
+    if task.config.float32_spaces:  # -v1: one vector of the rows, intruder by intruder
+        intruders = intruders.reshape(len(g.envs), NUM_INTRUDERS * INTRUDER_FEATURES)
+    return {"ownship": ownship, "intruders": intruders}
 
 
 def reward(g: RealTrafficGeometry) -> tuple[Array, dict[str, Array]]:
@@ -307,6 +335,28 @@ def steer(task: RealTrafficTask, envs: NDArray[np.int64], own: NDArray[np.int64]
     sim.cmd_heading(envs, own, (bearing + D_HEADING * action[:, 0]) % 360.0)
     alt_offset = D_ALTITUDE * action[:, 2] if action.shape[1] > 2 else 0.0
     player.guide(envs, own, now, alt_offset=alt_offset, cas_offset=D_SPEED * action[:, 1])
+
+
+def position_bound(config: RealTrafficConfig) -> float:
+    """The ``-v1`` bound of an intruder's offsets and distance (in units of POSITION_SCALE).
+
+    A recorded aircraft of a window comes within ``radius_nm`` of the ownship at some time of the
+    window; at any other time of the window the recordings are at most 2 ``MAX_SPEED`` x
+    ``window_s`` further apart, and each simulated aircraft is at most 2 ``MAX_SPEED`` x
+    ``window_s`` from where it was created on its recording.
+    """
+    reach_nm = config.radius_nm + 4.0 * MAX_SPEED * config.window_s / NM
+    return float(np.ceil(reach_nm / POSITION_SCALE))
+
+
+def bounds_v1(config: RealTrafficConfig) -> dict[str, BoxSpec]:
+    """The ``-v1`` observation spec: finite bounds per entry, the intruder rows as one vector (docs/environments-v1.md)."""
+    p = position_bound(config)
+    own = np.array([ROUTE_BOUND, 1.0, 1.0, SPEED_ERROR_BOUND, ALTITUDE_BOUND, VS_BOUND])
+    low = np.array([-p, -p, -VELOCITY_BOUND, -VELOCITY_BOUND, -ALTITUDE_BOUND, 0.0, 0.0])
+    high = np.array([p, p, VELOCITY_BOUND, VELOCITY_BOUND, ALTITUDE_BOUND, p, 1.0])
+    n = NUM_INTRUDERS * INTRUDER_FEATURES
+    return {"ownship": BoxSpec((6,), -own, own), "intruders": BoxSpec((n,), np.tile(low, NUM_INTRUDERS), np.tile(high, NUM_INTRUDERS))}
 
 
 class RealTrafficTask(Task):
@@ -342,20 +392,45 @@ class RealTrafficTask(Task):
         return MAX_ROUTE_POINTS
 
     def allocate(self) -> None:
-        """Load the episode data and the per-episode arrays."""
-        data = episode_data(self.config)
-        self.data = data
-        self.flights = data.flights
-        self.player = ScenarioPlayer(self.sim, self.flights, guided_ownship=False, guided_traffic=self.guided_traffic)
+        """The per-episode arrays, and the episode data if they are prepared.
+
+        A sample collection not cleaned into the cache yet is cleaned at the first reset (or first
+        use of :attr:`data`), not here: making the environment, listing it and reading its spaces
+        need no data. A ``.npz`` collection that does not exist is refused here.
+        """
+        self._data: EpisodeData | None = None
+        self._player: ScenarioPlayer | None = None
+        if not unprepared(self.config.collections, self.config.cache_dir):
+            self._data = episode_data(self.config)
         self.test_split = np.full(self.n_envs, self.config.split == "test")
         self.window_index = np.full(self.n_envs, -1, np.int64)
         self.route_sum = np.zeros(self.n_envs)
         self.intrusions = np.zeros(self.n_envs)
 
+    @property
+    def data(self) -> EpisodeData:
+        """The recorded flights and the windows of both splits (sample collections not cleaned yet are cleaned now, once)."""
+        if self._data is None:
+            self._data = episode_data(self.config)
+        return self._data
+
+    @property
+    def flights(self) -> RecordedFlights:
+        """The recorded flights the windows refer to."""
+        return self.data.flights
+
+    @property
+    def player(self) -> ScenarioPlayer:
+        """The player of the recorded traffic on the task's physics."""
+        if self._player is None:
+            self._player = ScenarioPlayer(self.sim, self.flights, guided_ownship=False, guided_traffic=self.guided_traffic)
+        return self._player
+
     def wrap_physics(self, wrapper: Callable[[Physics], Physics]) -> Physics:
         """Put a wrapper around the physics (see :meth:`Task.wrap_physics`); the recorded traffic's player commands through it too."""
         wrapped = super().wrap_physics(wrapper)
-        self.player.sim = wrapped
+        if self._player is not None:
+            self._player.sim = wrapped
         return wrapped
 
     def set_test_split(self, envs: NDArray[np.int64], test: BoolArray) -> None:
@@ -364,8 +439,10 @@ class RealTrafficTask(Task):
             self.test_split[np.asarray(envs, dtype=np.int64)] = np.asarray(test, dtype=bool)
 
     def build_observation_spec(self) -> dict[str, BoxSpec]:
-        """``ownship`` (6,) and ``intruders`` (NUM_INTRUDERS, 7)."""
-        return {"ownship": BoxSpec((6,)), "intruders": BoxSpec((NUM_INTRUDERS, 7))}
+        """``ownship`` (6,) and ``intruders`` (NUM_INTRUDERS, 7); ``-v1``: finite bounds per entry, ``intruders`` (35,) (:func:`bounds_v1`)."""
+        if self.config.float32_spaces:
+            return bounds_v1(self.config)
+        return {"ownship": BoxSpec((6,)), "intruders": BoxSpec((NUM_INTRUDERS, INTRUDER_FEATURES))}
 
     def build_action_spec(self) -> BoxSpec:
         """Heading and speed offsets (and altitude with ``altitude_action``), each in [-1, 1]."""

@@ -616,7 +616,9 @@ class RealTrafficController(Policy):
 
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions (heading and speed; zero: the recorded path and speed)."""
-        intr = obs["intruders"]
+        intr = np.asarray(obs["intruders"])
+        if intr.shape[-1] != rt.INTRUDER_FEATURES:  # -v1: the rows as one vector
+            intr = intr.reshape(*intr.shape[:-1], rt.NUM_INTRUDERS, rt.INTRUDER_FEATURES)
         near = (intr[..., 6] > 0.5) & (np.abs(intr[..., 4] * rt.ALTITUDE_SCALE) < REAL_TRAFFIC_VERTICAL_ALERT_M)
         pos = rt.POSITION_SCALE * NM
         alert, turn = _cpa_turn(

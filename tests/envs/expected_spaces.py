@@ -138,13 +138,19 @@ ACTION_SHAPE.update({k.replace("-v0", "-v1"): v for k, v in list(ACTION_SHAPE.it
 MAX_EPISODE_STEPS.update({k.replace("-v0", "-v1"): v for k, v in list(MAX_EPISODE_STEPS.items())})
 MAX_EPISODE_STEPS["MergeEnv-v1"] = 100  # the FAF at 200 NM needs up to ~66 steps
 REFERENCE_INFO_KEYS.update({k.replace("-v0", "-v1"): v for k, v in list(REFERENCE_INFO_KEYS.items())})
-# RealTrafficCREnv-v0 is in the table always; the contract tests run on it where its recorded data
-# is prepared (registration.available_envs), so its rows are added where they can be checked.
-MAX_EPISODE_STEPS["RealTrafficCREnv-v0"] = 60
-_REAL_TRAFFIC_READY = __import__("bluesky_gym.envs.registry", fromlist=["entry"]).entry("RealTrafficCREnv-v0").data_ready()
-if _REAL_TRAFFIC_READY:
-    OBSERVATION["RealTrafficCREnv-v0"] = {**_k((6,), "ownship"), **_k((5, 7), "intruders")}
-    ACTION_SHAPE["RealTrafficCREnv-v0"] = (2,)
-    REFERENCE_INFO_KEYS["RealTrafficCREnv-v0"] = {"total_reward", "total_intrusions", "average_route_deviation_nm"}
+# RealTrafficCREnv: listed and checked whether its recorded data are prepared or not (the tests play
+# synthetic stand-ins of the sample collections, tests/conftest.py).
+OBSERVATION["RealTrafficCREnv-v0"] = {**_k((6,), "ownship"), **_k((5, 7), "intruders")}
+# -v1: a bound per entry. ownship: route deviation +-10, cos and sin, CAS error +-20, altitude error
+# +-5, vertical speed +-4; intruders, the 5 rows of 7 as one vector: offsets +-25 (30 NM + 4 x
+# 700 kt x 600 s, / 20 NM), relative velocity +-4, relative altitude +-5, distance [0, 25], present [0, 1].
+_OWN = np.array([10.0, 1.0, 1.0, 20.0, 5.0, 4.0])
+_INTRUDER_LOW = np.tile([-25.0, -25.0, -4.0, -4.0, -5.0, 0.0, 0.0], 5)
+_INTRUDER_HIGH = np.tile([25.0, 25.0, 4.0, 4.0, 5.0, 25.0, 1.0], 5)
+OBSERVATION["RealTrafficCREnv-v1"] = {**_k((6,), "ownship", bounds=(-_OWN, _OWN)), **_k((35,), "intruders", bounds=(_INTRUDER_LOW, _INTRUDER_HIGH))}
+for _id in ("RealTrafficCREnv-v0", "RealTrafficCREnv-v1"):
+    MAX_EPISODE_STEPS[_id] = 60
+    ACTION_SHAPE[_id] = (2,)
+    REFERENCE_INFO_KEYS[_id] = {"total_reward", "total_intrusions", "average_route_deviation_nm"}
 #: dtype of the observation and action spaces.
 DTYPE = {k: (np.float32 if k.endswith("-v1") else np.float64) for k in OBSERVATION}

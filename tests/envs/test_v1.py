@@ -31,10 +31,10 @@ def _task(env_id: str, n: int, seed: int = 0, **options: object):
     return task
 
 
-def test_seven_v1_ids_and_v0_unchanged() -> None:
-    paper = [e.id for e in ENVIRONMENTS if e.id.endswith("-v0") and e.id != "RealTrafficCREnv-v0"]
-    assert V1 == [i.replace("-v0", "-v1") for i in paper]
-    assert len(V1) == 7
+def test_a_v1_id_for_every_v0_id_and_v0_unchanged() -> None:
+    v0 = [e.id for e in ENVIRONMENTS if e.id.endswith("-v0")]
+    assert V1 == [i.replace("-v0", "-v1") for i in v0]
+    assert len(V1) == 8  # the paper's seven and RealTrafficCREnv
     for env_id in V1:
         assert gym.spec(env_id).kwargs["float32_spaces"] is True
         assert gym.spec(env_id.replace("-v1", "-v0")).kwargs == {}  # -v0: the defaults, the paper's MDP
@@ -238,3 +238,46 @@ def test_v1_renders_and_has_kpis() -> None:
         frame = env.render()
         assert frame.ndim == 3 and frame.std() > 0
         env.close()
+
+
+def test_real_traffic_v1_has_the_float32_finite_spaces_that_v0_lacks() -> None:
+    """RealTrafficCREnv-v0: float64 spaces with infinite bounds (check_env warns twice); -v1: float32, finite.
+
+    That -v1 passes the checkers without a warning is test_checkers_accept_v1_without_warnings.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        check_env(gym.make("RealTrafficCREnv-v0").unwrapped, skip_render_check=True)
+    said = [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
+    assert any("minimum value is -infinity" in m for m in said) and any("maximum value is infinity" in m for m in said)
+    v0, v1 = gym.make("RealTrafficCREnv-v0"), gym.make("RealTrafficCREnv-v1")
+    assert not np.isfinite(v0.observation_space["ownship"].low).any()
+    for key in ("ownship", "intruders"):
+        box = v1.observation_space[key]
+        assert box.dtype == np.float32 and np.isfinite(box.low).all() and np.isfinite(box.high).all() and len(box.shape) == 1
+    # the same values: -v1's intruders are -v0's rows, intruder by intruder
+    o0, _ = v0.reset(seed=4)
+    o1, _ = v1.reset(seed=4)
+    np.testing.assert_array_equal(o1["intruders"], o0["intruders"].reshape(-1).astype(np.float32))
+    np.testing.assert_array_equal(o1["ownship"], o0["ownship"].astype(np.float32))
+    assert gym.spec("RealTrafficCREnv-v1").kwargs == {"float32_spaces": True}
+
+
+def test_real_traffic_v1_position_bound_follows_the_scenario_options() -> None:
+    """A larger radius or a longer window reaches further: the declared bound of the intruder offsets grows with them."""
+    small = gym.make("RealTrafficCREnv-v1").observation_space["intruders"].high[0]
+    wide = gym.make("RealTrafficCREnv-v1", radius_nm=200.0, window_s=1200.0).observation_space["intruders"].high[0]
+    assert wide > small >= 25.0
+
+
+def test_real_traffic_v1_bounds_hold_with_an_agent_steering_hard() -> None:
+    """Full deflections held for whole episodes (the ownship leaves its route as fast as it can): the task's values stay within the bounds."""
+    n = 16
+    task = _task("RealTrafficCREnv-v1", n, seed=3)
+    spec = task.observation_spec
+    rng = np.random.default_rng(1)
+    sides = rng.choice([-1.0, 1.0], size=(n, 2))
+    for _ in range(task.time_limit):
+        for key, value in task.observe().items():
+            assert np.isfinite(value).all() and (value >= spec[key].low).all() and (value <= spec[key].high).all(), key
+        task.step(sides)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -132,6 +134,21 @@ def test_bad_options(options, change, message) -> None:
         gym.make(ENV, **{**options, **change})
 
 
+def test_a_collection_named_twice_is_refused(options, tmp_path) -> None:
+    """Twice the same collection would play every window twice (and hold it out twice)."""
+    path = options["collections"][0]
+    with pytest.raises(ValueError, match=r"collections name .*synthetic.npz.* more than once"):
+        gym.make(ENV, **{**options, "collections": (path, path)})
+    with pytest.raises(ValueError, match="collections name 'switzerland' more than once"):
+        RealTrafficConfig(collections=("switzerland", "quickstart", "switzerland")).validate()
+    # the same file by two spellings is the same collection
+    spelled = str(Path(path).parent / "." / Path(path).name)
+    with pytest.raises(ValueError, match="more than once"):
+        gym.make(ENV, **{**options, "collections": (path, spelled)})
+    with pytest.raises(ValueError, match="test_collections name 'quickstart' more than once"):
+        RealTrafficConfig(split_by="collection", test_collections=("quickstart", "quickstart")).validate()
+
+
 def test_missing_collection_file(tmp_path) -> None:
     with pytest.raises(ValueError, match="nothing.npz: no such recorded-flights file"):
         gym.make(ENV, collections=(str(tmp_path / "nothing.npz"),))
@@ -184,13 +201,65 @@ def test_cache_directory_order_and_availability(tmp_path, monkeypatch) -> None:
     monkeypatch.delenv("BLUESKY_GYM_CACHE")
     assert cache_dir() == tmp_path / "xdg" / "bluesky-gym"
     assert collection_path("switzerland") == tmp_path / "xdg" / "bluesky-gym" / "realtraffic" / "switzerland-v1.npz"
-    # no prepared data: registered, but not listed for the contract tests
-    assert not entry(ENV).data_ready() and ENV not in available_envs() and ENV in gym.registry
+    # no prepared data: registered and listed all the same (the first reset prepares them)
+    assert not entry(ENV).data_ready() and ENV in available_envs() and ENV in gym.registry
     for name in ("switzerland", "quickstart"):
         path = collection_path(name)
         path.parent.mkdir(parents=True, exist_ok=True)
         traffic_collection(n_flights=2).save(path)
     assert entry(ENV).data_ready() and ENV in available_envs()
+
+
+@pytest.fixture
+def empty_cache(tmp_path, monkeypatch):
+    """An empty cache directory, and a cleaning that fails: nothing may clean a sample collection unasked."""
+    from bluesky_gym.realtraffic import sources
+
+    def refuse(name: str, **_: object) -> None:
+        raise RuntimeError(f"cleaned {name}")
+
+    monkeypatch.setenv("BLUESKY_GYM_CACHE", str(tmp_path / "empty-cache"))
+    monkeypatch.setattr(sources, "load_sample", refuse)
+    return tmp_path / "empty-cache"
+
+
+@pytest.mark.parametrize("env_id", ["RealTrafficCREnv-v0", "RealTrafficCREnv-v1"])
+def test_the_id_is_known_before_its_data_are_prepared(empty_cache, capsys, env_id) -> None:
+    """``list``, ``info`` and the documentation know the id with an empty cache; ``make`` cleans nothing, the first reset prepares the data."""
+    import importlib.util
+    import sys
+
+    from bluesky_gym.cli import main
+    from bluesky_gym.cli.catalog import describe
+    from bluesky_gym.registration import available_envs
+
+    assert env_id in available_envs()
+    facts = describe(env_id)
+    assert facts["id"] == env_id and set(facts["observation"]) == {"ownship", "intruders"}
+    assert main(["info", "--env", env_id]) == 0
+    said = capsys.readouterr().out
+    assert said.startswith(f"{env_id}: ") and "not prepared" in said and "realtraffic prepare --sample switzerland" in said
+    hooks_path = Path(__file__).resolve().parents[2] / "docs" / "hooks.py"
+    spec = importlib.util.spec_from_file_location("docs_hooks_rt", hooks_path)
+    hooks = importlib.util.module_from_spec(spec)
+    sys.modules["docs_hooks_rt"] = hooks
+    try:
+        spec.loader.exec_module(hooks)
+        assert hooks.env_page(env_id).startswith(f"# {env_id}")
+    finally:
+        del sys.modules["docs_hooks_rt"]
+    env = gym.make(env_id)
+    with pytest.raises(RuntimeError, match="cleaned switzerland"):
+        env.reset(seed=0)
+    assert not empty_cache.exists() or not any(empty_cache.rglob("*.npz"))
+
+
+def test_list_shows_the_id_before_its_data_are_prepared(empty_cache, capsys) -> None:
+    from bluesky_gym.cli import main
+
+    assert main(["list"]) == 0
+    rows = [line.split()[0] for line in capsys.readouterr().out.splitlines() if line.strip()]
+    assert ENV in rows
 
 
 def test_an_episode_written_as_scn_replays_exactly(options) -> None:
