@@ -210,8 +210,12 @@ class FastPPO(FastTrainer):
             clip_fraction = ((ratio - 1).abs() > self.clip_range).float().mean()
         return loss, torch.stack([policy_loss.detach(), value_loss.detach(), entropy_loss.detach(), approx_kl.detach(), clip_fraction])
 
-    def update_minibatch(self, *batch: torch.Tensor) -> torch.Tensor:
-        """One gradient step on a minibatch (loss, gradients, clipping, Adam); return its statistics."""
+    def update_minibatch(self, rows: torch.Tensor, *columns: torch.Tensor) -> torch.Tensor:
+        """One gradient step on the minibatch ``rows`` of the rollout ``columns`` (loss, gradients, clipping, Adam); return its statistics.
+
+        The minibatch is gathered here, so that a compiled update reads the rows in place.
+        """
+        batch = tuple(x[rows] for x in columns)
         if self.compile:  # gradients as a function, so that torch.compile sees the whole step
             grads, stats = torch.func.grad(self.loss, has_aux=True)(self.params, batch)
         else:
@@ -237,14 +241,13 @@ class FastPPO(FastTrainer):
             order = torch.randperm(size, generator=self.generator, device=self.device)
             for start in range(0, size, self.batch_size):
                 rows = order[start : start + self.batch_size]
-                batch = tuple(x[rows] for x in columns)
                 if self.target_kl is not None:  # SB3 stops before the step of the minibatch that is too far
                     with torch.no_grad():
-                        approx_kl = float(self.loss(self.params, batch)[1][3])
+                        approx_kl = float(self.loss(self.params, tuple(x[rows] for x in columns))[1][3])
                     if approx_kl > 1.5 * self.target_kl:
                         stop = True
                         break
-                totals += self._update(*batch)
+                totals += self._update(rows, *columns)
                 count += 1
             self.n_updates += 1
             if stop:
