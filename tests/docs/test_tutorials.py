@@ -108,3 +108,14 @@ def test_the_commands_of_the_training_page_parse() -> None:
     for line in commands:
         args = build_parser().parse_args(shlex.split(line)[1:])
         assert args.func is not None
+
+
+def test_the_throughput_table_is_the_committed_measurement() -> None:
+    import json
+
+    from bluesky_gym.benchmarks.train_bench import format_table
+
+    measured = json.loads((DOCS.parent / "results" / "bench" / "train-cpu.json").read_text(encoding="utf-8"))
+    page = (DOCS / "training-fast.md").read_text(encoding="utf-8")
+    assert "bluesky-gym bench train --repeat 3 --json results/bench/train-cpu.json" in page
+    assert format_table(measured["train"]) in page
