@@ -245,7 +245,7 @@ def page_labels(runs: Sequence[Run]) -> dict[Path, str]:
             if len({k[1] for k in kinds}) > 1:
                 parts.append(f"{_steps(steps)} steps")
             if len({k[2] for k in kinds}) > 1:
-                parts.append(f"{n_envs} envs")
+                parts.append(f"{n_envs} env{'s' if n_envs != 1 else ''}")
             out[r.path] = f"{algo} ({', '.join(parts)})" if parts else algo
     return out
 
@@ -453,6 +453,38 @@ def budgets_section(results: Sequence[EnvResults]) -> list[str]:
     return lines
 
 
+def trainers_section(results: Sequence[EnvResults]) -> list[str]:
+    """Markdown lines comparing the trainers of an algorithm run with both (SB3 and the fast trainer); none otherwise.
+
+    Per environment: each trainer's held-out return with its 95% interval (seeds and episodes),
+    and whether the fast trainer's mean lies within SB3's interval.
+    """
+    lines: list[str] = []
+    for er in results:
+        rows = {r.policy: r for r in er.rows}
+        for label, row in rows.items():
+            if "sb3 trainer" not in label or "return" not in row.kpis:
+                continue
+            fast = rows.get(label.replace("sb3 trainer", "fast trainer"))
+            if fast is None or "return" not in fast.kpis:
+                continue
+            if not lines:
+                lines = [
+                    "## Trainers compared",
+                    "",
+                    "Held-out return of the same algorithm and settings trained by Stable-Baselines3 and by the fast trainer"
+                    " (mean, 95% interval over seeds and episodes):",
+                    "",
+                    "| environment | algorithm | SB3 | fast | fast within SB3's interval |",
+                    "|---|---|---:|---:|---|",
+                ]
+            (m, lo, hi), theirs = fast.kpis["return"], row.kpis["return"]
+            inside = "yes" if theirs[1] <= m <= theirs[2] else "no"
+            setting = label.replace("sb3 trainer", "").replace("(, ", "(").replace("()", "").strip()
+            lines.append(f"| {er.env_id} | {setting} | {_cell(theirs)} | {_cell((m, lo, hi))} | {inside} |")
+    return [*lines, ""] if lines else []
+
+
 def observations_section(results: Sequence[EnvResults]) -> list[str]:
     """Markdown lines checking the paper's qualitative observations against these runs (what they allow).
 
@@ -596,6 +628,7 @@ def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Se
                 lines.append("")
             else:
                 lines += ["Probability of improvement needs two trained algorithms on the same environments; this page has one.", ""]
+    lines += trainers_section(results)
     lines += budgets_section(results)
     lines += observations_section(results)
     lines += ["## Per environment", ""]

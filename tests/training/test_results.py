@@ -148,3 +148,54 @@ def test_missing_reference_episodes_are_evaluated_once_and_kept(tmp_path):
     assert complete_references([sweep], episodes=2) == []
     rows = collect([sweep], reps=50)[0].rows
     assert [r.policy for r in rows] == ["random", "classical", "PPO"] and rows[0].episodes == 2
+
+
+def _configured_run(
+    root: Path, env_id: str, algo: str, seed: int, eval_returns, steps: int, trainer: str = "sb3", n_envs: int = 1, curve=None
+) -> Path:
+    d = _run(root, env_id, algo, seed, eval_returns, steps)
+    identity = {"env_id": env_id, "algo": algo, "seed": seed, "total_timesteps": steps, "n_envs": n_envs, "hyperparams": {}}
+    if trainer != "sb3":
+        identity["trainer"] = trainer
+    cfg = {"env_id": env_id, "algo": algo, "seed": seed, "total_timesteps": steps, "n_envs": n_envs, "eval_episodes": 4, "identity": identity}
+    atomic_write_json(d / "config.json", cfg)
+    if curve is not None:
+        ts = np.linspace(steps / len(curve), steps, len(curve))
+        atomic_write_csv(d / "episodes.csv", ["timesteps", "return", "length"], [[int(t), float(r), 10] for t, r in zip(ts, curve, strict=True)])
+    return d
+
+
+def test_runs_of_one_algorithm_at_other_budgets_and_trainers_are_rows_of_their_own(tmp_path: Path) -> None:
+    root = _sweep(tmp_path / "sweep", {})
+    for name, value in (("random", 0), ("classical", 10)):
+        save_result(EvalResult("MergeEnv-v0", name, _episodes([value] * 4), 0.1), reference_episode_dir(root), stem=f"MergeEnv-v0_{name}")
+    for s in range(2):
+        _configured_run(root, "MergeEnv-v0", "PPO", s, [5.0, 5.0, 6.0, 6.0], 1000, trainer="fast", curve=np.linspace(0, 6, 20))
+        _configured_run(root, "MergeEnv-v0", "PPO", s + 10, [5.5, 5.5, 5.5, 5.5], 1000, curve=np.linspace(0, 6, 20))  # SB3
+        _configured_run(root, "MergeEnv-v0", "PPO", s + 20, [9.0] * 4, 8000, trainer="fast", n_envs=64)
+    # TD3 learns fast and then falls back; SAC does not: the observations' figures say so.
+    _configured_run(root, "MergeEnv-v0", "TD3", 0, [1.0] * 4, 400, curve=[2, 6, 8, 8, 3, 1, 1, 1])
+    _configured_run(root, "MergeEnv-v0", "SAC", 0, [4.0] * 4, 400, curve=[2, 4, 6, 7, 7, 7, 7, 7])
+    out = tmp_path / "page.md"
+    build_results([root], out, ["bluesky-gym", "results", str(root), "--out", str(out)], reps=200)
+    text = out.read_text()
+    labels = {r.policy for r in collect([root], reps=50)[0].rows}
+    assert {
+        "PPO (fast trainer, 1,000 steps, 1 env)",
+        "PPO (sb3 trainer, 1,000 steps, 1 env)",
+        "PPO (fast trainer, 8,000 steps, 64 envs)",
+        "SAC",
+        "TD3",
+    } <= labels
+    trainers = text.split("## Trainers compared")[1].split("##")[0]
+    assert (
+        "| MergeEnv-v0 | PPO (1,000 steps, 1 env) |" in trainers and trainers.count("| yes |") == 1
+    )  # 5.5 lies within the fast runs' spread and back
+    scale = text.split("## Scale: the same algorithm at other budgets")[1].split("## ")[0]
+    assert "0.90 (2 seeds)" in scale  # the 8e3-step runs: (9 - 0) / (10 - 0)
+    observed = text.split("## The paper's observations, checked")[1].split("## Per environment")[0]
+    assert "| MergeEnv-v0 | TD3 | 400 |" in observed
+    drops = [line for line in observed.splitlines() if line.startswith("| MergeEnv-v0 |") and line.count("|") > 6]
+    header = [line for line in observed.splitlines() if line.startswith("| environment | PPO")][0]
+    cells = dict(zip((c.strip() for c in header.strip("|").split("|")), (c.strip() for c in drops[-1].strip("|").split("|")), strict=True))
+    assert float(cells["TD3"]) > 0.5 and float(cells["SAC"]) == 0.0
