@@ -425,6 +425,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             check_int("render_env", render_env, 0)
             check_int("render_grid", render_grid, 1)
             self.num_envs = int(num_envs)
+            self.autoreset_mode = AutoresetMode.SAME_STEP  # as Gymnasium's own vector envs say it (and in metadata)
             self.render_mode = render_mode
             self.render_env = int(render_env)
             self.render_grid = int(render_grid)

@@ -104,7 +104,7 @@ def test_vector_episode_equals_single_env(env_id: str) -> None:
     """Episode i of the native batched env equals a single env seeded seed + i, across resets."""
     n, steps, seed = 3, 60, 5
     venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
-    assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
+    assert venv.metadata["autoreset_mode"] == venv.autoreset_mode == gym.vector.AutoresetMode.SAME_STEP  # attribute as in Gymnasium's
     rng = np.random.default_rng(1)
     actions = rng.uniform(-1, 1, (steps, n, *venv.single_action_space.shape))
     obs, _ = venv.reset(seed=seed)
