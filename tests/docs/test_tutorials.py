@@ -119,3 +119,29 @@ def test_the_throughput_table_is_the_committed_measurement() -> None:
     page = (DOCS / "training-fast.md").read_text(encoding="utf-8")
     assert "bluesky-gym bench train --repeat 3 --json results/bench/train-cpu.json" in page
     assert format_table(measured["train"]) in page
+
+
+def test_the_library_table_is_the_committed_measurement() -> None:
+    import json
+
+    rows = json.loads((DOCS.parent / "benchmarks" / "libraries" / "measured" / "results.json").read_text())["rows"]
+    measured = {(r["candidate"], r["setting"]): r for r in rows}
+    page = (DOCS / "training-fast.md").read_text(encoding="utf-8")
+    names = {
+        "sb3": "SB3 2.9.2",
+        "torchrl": "TorchRL",
+        "skrl": "skrl",
+        "rl_games": "rl_games",
+        "pufferlib": "PufferLib",
+        "sbx": "SBX",
+        "bluesky-gym fast": "**the fast trainer**",
+    }
+    for candidate, label in names.items():
+        row = next(line for line in page.splitlines() if line.startswith(f"| {label}"))
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        for k, setting in enumerate("ABC", start=1):
+            r = measured.get((candidate, setting))
+            expected = f"{r['sps']:,.0f}" if r and r.get("sps") else "–"
+            assert cells[k] == expected, (candidate, setting, cells[k], expected)
+        ratios = [measured.get((candidate, s), {}).get("cpu_ratio_to_sb3") for s in "ABC"]
+        assert cells[4] == " / ".join("1" if candidate == "sb3" else "–" if x is None else f"{x:.2f}" for x in ratios), (candidate, cells[4])
