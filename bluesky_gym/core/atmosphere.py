@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.core.jit import flat_float_args, jit, shaped
+from bluesky_gym.core.jit import flat_float_args, grid_range, jit, shaped
 from bluesky_gym.core.units import (
     CASMACH_THRESHOLD,
     G0,
@@ -124,20 +124,20 @@ def casormach(spd: float, h: float) -> tuple[float, float, float]:
 # --- Array functions (loops over the kernels) ----------------------------------------------------
 @jit
 def _vcasormach_loop(spd, h, tas, cas, mach):  # type: ignore[no-untyped-def]
-    for i in range(spd.shape[0]):
+    for i in grid_range(spd.shape[0]):
         tas[i], cas[i], mach[i] = casormach(spd[i], h[i])
 
 
 @jit
 def _vcas2tas_loop(cas, h, out):  # type: ignore[no-untyped-def]
-    for i in range(cas.shape[0]):
+    for i in grid_range(cas.shape[0]):
         p, rho, _ = isa(h[i])
         out[i] = cas2tas_at(cas[i], p, rho)
 
 
 @jit
 def _layered_loop(spd, h, out, to_cas):  # type: ignore[no-untyped-def]
-    for i in range(spd.shape[0]):
+    for i in grid_range(spd.shape[0]):
         p, rho, t = isa_layered(h[i])
         if to_cas:
             out[i] = tas2cas_at(spd[i], p, rho)

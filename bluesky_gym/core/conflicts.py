@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from bluesky_gym.core import geo
 from bluesky_gym.core.atmosphere import casormach2tas, isa_layered, tas2cas_at
 from bluesky_gym.core.geo import kwikpos_s
-from bluesky_gym.core.jit import jit
+from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.scalar import DEG, RAD, maximum, sign
 from bluesky_gym.core.state import aircraft_index
 from bluesky_gym.core.units import DEG2RAD, FT, M2NM, NM, R_EARTH, RAD2DEG
@@ -101,7 +101,7 @@ def conflict_geometry(
 
 @jit
 def _geometry_loop(latref, lonref, altref, trkref, gsref, vsref, dpsi, dcpa, tlosh, dh, tlosv, tas, wn, we, rpz, hpz, out):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
-    for i in range(latref.shape[0]):
+    for i in grid_range(latref.shape[0]):
         r = conflict_geometry(latref[i], lonref[i], altref[i], trkref[i], gsref[i], vsref[i],
                               dpsi[i], dcpa[i], tlosh[i], dh[i], tlosv[i], tas[i], wn[i], we[i], rpz, hpz)  # fmt: skip
         for k in range(6):
@@ -110,7 +110,7 @@ def _geometry_loop(latref, lonref, altref, trkref, gsref, vsref, dpsi, dcpa, tlo
 
 @jit
 def _speed_loop(gsn, gse, wn, we, acalt, cas, hdg):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
-    for i in range(gsn.shape[0]):
+    for i in grid_range(gsn.shape[0]):
         tasn, tase = gsn[i] - wn[i], gse[i] - we[i]
         p, rho, _ = isa_layered(acalt[i])
         cas[i] = tas2cas_at(math.sqrt(tasn * tasn + tase * tase), p, rho)

@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bluesky_gym.core.jit import flat_float_args, jit, shaped
+from bluesky_gym.core.jit import flat_float_args, fmod, grid_range, jit, shaped
 from bluesky_gym.core.scalar import RAD
 from bluesky_gym.core.scalar import maximum as _maximum
 from bluesky_gym.core.scalar import mod as _mod
@@ -135,7 +135,7 @@ def kwikqdrdist_s(latd1: float, lond1: float, latd2: float, lond2: float) -> tup
     dlon = lon2 - lon1
     cavelat = math.cos(0.5 * (lat1 + lat2))
     dist = M2NM * (R_EARTH * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat))
-    qdr = RAD2DEG * np.fmod(math.atan2(dlon * cavelat, dlat), 360.0)
+    qdr = RAD2DEG * fmod(math.atan2(dlon * cavelat, dlat), 360.0)
     return qdr, dist
 
 
@@ -174,7 +174,7 @@ def degto180(angle: float) -> float:
 # --- Array functions (loops over the kernels) ----------------------------------------------------
 @jit
 def _pair_loop(which, a, b, c, d, out1, out2):  # type: ignore[no-untyped-def]
-    for i in range(a.shape[0]):
+    for i in grid_range(a.shape[0]):
         if which == 0:
             out1[i], out2[i] = qdrdist_compiled(a[i], b[i], c[i], d[i])
         elif which == 1:

@@ -4,12 +4,23 @@ Every piece of physics and geometry in the package is written once, as scalar Py
 that numba compiles (``nopython``, no fast-math, so floating-point results are those of the
 plain source). Where numba is not installed the same functions run as ordinary Python: correct,
 but orders of magnitude slower, and a :class:`RuntimeWarning` says so once.
+
+One source, two targets: every function given to :func:`jit` or :func:`jit_inline` is recorded
+in :data:`KERNELS`, from which :mod:`bluesky_gym.core.cuda_target` builds the CUDA form of the
+same function (numba-cuda). What differs between the targets is named once here, as a
+*primitive* with one implementation per target (:data:`PRIMITIVES`): the float remainder
+(:func:`fmod`), rounding to the nearest even integer (:func:`rint`), a scratch array
+(:func:`scratch`) and the range of indices a kernel's outer loop visits (:func:`grid_range`).
+A kernel calls the primitive by its name; on the CPU the call is numba's implementation
+(``overload`` for the CPU target, inlined), in plain Python the function itself, and on CUDA the
+form the CUDA target gives for that name. No kernel is written twice.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -75,20 +86,101 @@ def _warn_uncompiled() -> None:
         )
 
 
+@dataclass(frozen=True)
+class Kernel:
+    """A function of the package compiled by :func:`jit` or :func:`jit_inline`.
+
+    Attributes:
+        name: ``module.function``.
+        py_func: The plain-Python source, which every target compiles.
+        compiled: What the decorator returned (numba's CPU dispatcher, or ``py_func`` without numba).
+        inline: Inlined into its callers (:func:`jit_inline`).
+    """
+
+    name: str
+    py_func: Callable[..., Any]
+    compiled: Callable[..., Any]
+    inline: bool
+
+
+#: Every kernel of the package, by ``module.function``, in definition order.
+KERNELS: dict[str, Kernel] = {}
+
+
+def _register(fn: Callable[..., Any], compiled: Callable[..., Any], inline: bool) -> None:
+    name = f"{fn.__module__}.{fn.__qualname__}"
+    KERNELS[name] = Kernel(name, fn, compiled, inline)
+
+
 def jit(fn: F) -> F:
     """Compile ``fn`` with numba (cached, no fast-math); without numba, return it unchanged."""
     if numba is None:  # pragma: no cover
         _warn_uncompiled()
+        _register(fn, fn, False)
         return fn
-    return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)  # type: ignore[return-value]
+    compiled = numba.njit(cache=True, nogil=True, error_model="numpy")(fn)
+    _register(fn, compiled, False)
+    return compiled  # type: ignore[return-value]
 
 
 def jit_inline(fn: F) -> F:
     """:func:`jit`, inlined into its callers by numba (for small helpers of hot loops)."""
     if numba is None:  # pragma: no cover
         _warn_uncompiled()
+        _register(fn, fn, True)
         return fn
-    return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)  # type: ignore[return-value]
+    compiled = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)
+    _register(fn, compiled, True)
+    return compiled  # type: ignore[return-value]
+
+
+# --- Primitives: one name, one implementation per target ---------------------------------------
+#: The primitives by name: their plain-Python form (which is also the CPU target's source).
+PRIMITIVES: dict[str, Callable[..., Any]] = {}
+
+
+def _primitive(fn: F) -> F:
+    """Record ``fn`` as a primitive and give it numba's CPU implementation: ``fn`` itself, inlined."""
+    PRIMITIVES[fn.__name__] = fn
+    if numba is not None:
+        from numba.core.extending import overload
+
+        def typer(*args: Any) -> Callable[..., Any]:
+            return fn  # numba compiles the primitive's own source for the CPU
+
+        overload(fn, target="cpu", inline="always", strict=False)(typer)
+    return fn
+
+
+@_primitive
+def fmod(a: float, b: float) -> float:
+    """C's ``fmod``: the remainder of ``a / b`` with the sign of ``a`` (exact); NaN for ``b == 0``, as ``np.fmod``."""
+    return np.fmod(a, b)  # type: ignore[no-any-return]
+
+
+@_primitive
+def rint(x: float) -> float:
+    """``x`` rounded to the nearest integer, halves to even (``np.rint``), as a float."""
+    return np.rint(x)  # type: ignore[no-any-return]
+
+
+@_primitive
+def scratch(n: int, dtype: Any) -> np.ndarray:
+    """A scratch array of ``n`` elements of ``dtype`` for a kernel's working values (contents undefined).
+
+    On CUDA it is thread-local memory of a fixed capacity (``cuda_target.SCRATCH_CAPACITY``).
+    """
+    return np.empty(n, dtype)
+
+
+@_primitive
+def grid_range(n: int) -> range:
+    """The indices ``0 .. n-1`` of a kernel's outer loop that this thread visits.
+
+    On the CPU (and in plain Python) all of them, in order; on CUDA the grid-stride share of the
+    calling thread, so that one launch covers any ``n``.
+    """
+    return range(n)
 
 
 def python_form(fn: F) -> F:

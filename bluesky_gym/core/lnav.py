@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.geo import degto180, qdrdist_s
-from bluesky_gym.core.jit import flat_float_args, jit, jit_inline, shaped
+from bluesky_gym.core.jit import flat_float_args, grid_range, jit, jit_inline, shaped
 from bluesky_gym.core.scalar import RAD
 from bluesky_gym.core.scalar import maximum as _maximum
 from bluesky_gym.core.scalar import mod as _mod
@@ -112,13 +112,13 @@ def lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, rou
 @jit
 def lnav_kernel(F, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
     """LNAV of every aircraft (flattened arrays; ``route_*`` shaped (aircraft, waypoints))."""
-    for i in range(F.shape[1]):
+    for i in grid_range(F.shape[1]):
         lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo)
 
 
 @jit
 def _turn_distance_loop(tas, qdr, next_qdr, out):  # type: ignore[no-untyped-def]
-    for i in range(tas.shape[0]):
+    for i in grid_range(tas.shape[0]):
         out[i] = turn_distance(tas[i], qdr[i], next_qdr[i])
 
 

@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect_with
-from bluesky_gym.core.jit import jit
+from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
 
@@ -270,7 +270,7 @@ def _mvp_loop(  # type: ignore[no-untyped-def]  # noqa: ANN202
     out_tsolv,  # noqa: ANN001
 ):
     n_envs, m = active.shape
-    for e in range(n_envs):
+    for e in grid_range(n_envs):
         for i in range(m):
             if not active[e, i]:
                 continue
@@ -487,7 +487,7 @@ def mvp(
 @jit
 def _resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist, keep, asas):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
     n_envs, m = active.shape
-    for e in range(n_envs):
+    for e in grid_range(n_envs):
         for i in range(m):
             asas[e, i] = False
             for j in range(m):

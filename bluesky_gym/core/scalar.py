@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from bluesky_gym.core.jit import jit
+from bluesky_gym.core.jit import fmod, jit
 
 RAD = np.pi / 180.0  # numpy's deg2rad factor
 DEG = 180.0 / np.pi  # numpy's rad2deg factor
@@ -28,7 +28,7 @@ def mod(a: float, b: float) -> float:
             return a
         if -b < a < 0.0:
             return a + b
-    m = float(np.fmod(a, b))
+    m = float(fmod(a, b))
     if m != 0.0:
         if (b < 0.0) != (m < 0.0):
             m += b

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from bluesky_gym.core.atmosphere import GAMMA_R, cas2tas_at, is_mach, isa, tas2cas_at
-from bluesky_gym.core.jit import jit, jit_inline
+from bluesky_gym.core.jit import grid_range, jit, jit_inline, rint, scratch
 from bluesky_gym.core.lnav import lnav_one
 from bluesky_gym.core.performance import C_HMAX, C_MMO, C_V_ROTATE, C_VSMAX, PHASE_GD, performance
 from bluesky_gym.core.scalar import DEG, RAD
@@ -254,7 +254,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
     F[I_TRK, i] = tr
     # Position [step 10].
     if swaltsel:
-        F[I_ALT, i] = np.rint((h + vs_new * dt) * ALT_DECIMALS) / ALT_DECIMALS
+        F[I_ALT, i] = rint((h + vs_new * dt) * ALT_DECIMALS) / ALT_DECIMALS
     else:
         F[I_ALT, i] = alt_t
     la = F[I_LAT, i] + (dt * gn / R_EARTH) * DEG
@@ -286,7 +286,7 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype,
     """
     one_type = actype.shape[0] == 0
     perf, limits = perf_row(table, 0)  # every aircraft's, with one type
-    for i in range(F.shape[1]):
+    for i in grid_range(F.shape[1]):
         if active[i]:
             if not one_type:
                 perf, limits = perf_row(table, actype[i])
@@ -298,9 +298,9 @@ def pre_kernel(F, phase, do_perf, table, actype, memo, active):  # type: ignore[
     """The first part of a step with conflict resolution (performance update and autopilot), every aircraft; arguments as :func:`step_kernel`."""
     one_type = actype.shape[0] == 0
     perf, limits = perf_row(table, 0)
-    no_wind = np.empty(0)  # this part reads no wind and no time step
-    no_airspace_wind = np.zeros(0, dtype=np.bool_)
-    for i in range(F.shape[1]):
+    no_wind = scratch(0, np.float64)  # this part reads no wind and no time step
+    no_airspace_wind = scratch(0, np.bool_)
+    for i in grid_range(F.shape[1]):
         if active[i]:
             if not one_type:
                 perf, limits = perf_row(table, actype[i])
@@ -316,7 +316,7 @@ def post_kernel(F, phase, wn, we, haswind, any_wind, dt, table, actype, memo, ac
     """
     one_type = actype.shape[0] == 0
     perf, limits = perf_row(table, 0)
-    for i in range(F.shape[1]):
+    for i in grid_range(F.shape[1]):
         if active[i]:
             if not one_type:
                 perf, limits = perf_row(table, actype[i])
@@ -340,7 +340,7 @@ def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, table, actype,
     """
     one_type = actype.shape[0] == 0
     perf, limits = perf_row(table, 0)  # every aircraft's, with one type
-    for i in range(F.shape[1]):
+    for i in grid_range(F.shape[1]):
         if not active[i]:
             continue
         if not one_type:

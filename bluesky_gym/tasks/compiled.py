@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.jit import AVAILABLE, jit, jit_inline
+from bluesky_gym.core.jit import AVAILABLE, grid_range, jit, jit_inline, scratch
 from bluesky_gym.core.scalar import mod as _mod
 from bluesky_gym.core.units import NM, NM2KM, R_EARTH
 
@@ -136,7 +136,7 @@ def kwik_separation(envs, own, lat, lon, alt, active, intrusion_nm, vertical_m, 
     Row ``r`` of ``dist_out``/``los_out`` (p, m): inf / False for the ownship and empty slots.
     ``vertical_m`` NaN means a purely horizontal intrusion test.
     """
-    for r in range(envs.shape[0]):
+    for r in grid_range(envs.shape[0]):
         e = envs[r]
         o = own[r]
         lat0, lon0, alt0 = lat[e, o], lon[e, o], alt[e, o]
@@ -159,7 +159,7 @@ def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):  # type:
 
     ``poly_*`` are (n, K, V), ``n_vertices`` (n, K), ``out`` (n, K).
     """
-    for e in range(poly_lat.shape[0]):
+    for e in grid_range(poly_lat.shape[0]):
         for k in range(poly_lat.shape[1]):
             out[e, k] = _polygon_contains(lat[e, 0], lon[e, 0], poly_lat[e, k], poly_lon[e, k], n_vertices[e, k])
 
@@ -170,7 +170,7 @@ def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out
 
     ``poly_*`` are (n, V) and ``n_vertices`` (n,); ``out`` is (P,).
     """
-    for p in range(lat.shape[0]):
+    for p in grid_range(lat.shape[0]):
         e = owner[p]
         out[p] = _polygon_contains(lat[p], lon[p], poly_lat[e], poly_lon[e], n_vertices[e])
 
@@ -182,7 +182,7 @@ def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):  # type:
     ``track`` is :meth:`bluesky_gym.core.Simulator.run`'s (steps, 2, n, m) positions, ``poly_*``
     (n, K, V), ``n_vertices`` (n, K) and ``out`` (steps, n).
     """
-    for e in range(poly_lat.shape[0]):
+    for e in grid_range(poly_lat.shape[0]):
         for k in range(track.shape[0]):
             out[k, e] = 0
         for j in range(poly_lat.shape[1]):
@@ -234,12 +234,12 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
     """
     m = lat.shape[1]
     k = out.shape[2]
-    slots = np.empty(m - 1, np.int64)
-    act = np.empty(m - 1, np.bool_)
-    key = np.empty(m - 1)
-    order = np.empty(k, np.int64)
-    best = np.empty(k)
-    for r in range(envs.shape[0]):
+    slots = scratch(m - 1, np.int64)
+    act = scratch(m - 1, np.bool_)
+    key = scratch(m - 1, np.float64)
+    order = scratch(k, np.int64)
+    best = scratch(k, np.float64)
+    for r in grid_range(envs.shape[0]):
         e = envs[r]
         o = own[r]
         lat0, lon0, hdg0, gs0 = lat[e, o], lon[e, o], hdg[e, o], gs[e, o]
@@ -271,7 +271,7 @@ def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_
 
     Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``, goal (``goal_lat[r]``, ``goal_lon[r]``).
     """
-    for r in range(envs.shape[0]):
+    for r in grid_range(envs.shape[0]):
         e = envs[r]
         o = own[r]
         qdr, dist = _kwikqdrdist(lat[e, o], lon[e, o], goal_lat[r], goal_lon[r])
@@ -313,14 +313,14 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
     clat, clon, ccos = center
     m = lat.shape[1]
     k = intruder_out.shape[2]
-    slots = np.empty(m - 1, np.int64)
-    act = np.empty(m - 1, np.bool_)
-    key = np.empty(m - 1)
-    order = np.empty(k, np.int64)
-    best = np.empty(k)
-    rx = np.empty(m - 1)
-    ry = np.empty(m - 1)
-    for r in range(envs.shape[0]):
+    slots = scratch(m - 1, np.int64)
+    act = scratch(m - 1, np.bool_)
+    key = scratch(m - 1, np.float64)
+    order = scratch(k, np.int64)
+    best = scratch(k, np.float64)
+    rx = scratch(m - 1, np.float64)
+    ry = scratch(m - 1, np.float64)
+    for r in grid_range(envs.shape[0]):
         e = envs[r]
         o = own[r]
         qdr, _ = _kwikqdrdist(lat[e, o], lon[e, o], wpt_lat[r], wpt_lon[r])
@@ -365,7 +365,7 @@ def slots_in_polygons(envs, own, lat, lon, poly_lat, poly_lon, n_vertices, out):
 
     ``poly_*`` are (n, V), ``n_vertices`` (n,), ``out`` (p,).
     """
-    for r in range(envs.shape[0]):
+    for r in grid_range(envs.shape[0]):
         e = envs[r]
         out[r] = _polygon_contains(lat[e, own[r]], lon[e, own[r]], poly_lat[e], poly_lon[e], n_vertices[e])
 
@@ -395,15 +395,15 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
     pos_scale, spd_scale, d_scale = scales
     m = lat.shape[1]
     k = intruder_out.shape[2]
-    slots = np.empty(m - 1, np.int64)
-    act = np.empty(m - 1, np.bool_)
-    key = np.empty(m - 1)
-    order = np.empty(k, np.int64)
-    best = np.empty(k)
-    dlats = np.empty(m - 1)
-    dlons = np.empty(m - 1)
-    cavs = np.empty(m - 1)
-    for r in range(envs.shape[0]):
+    slots = scratch(m - 1, np.int64)
+    act = scratch(m - 1, np.bool_)
+    key = scratch(m - 1, np.float64)
+    order = scratch(k, np.int64)
+    best = scratch(k, np.float64)
+    dlats = scratch(m - 1, np.float64)
+    dlons = scratch(m - 1, np.float64)
+    cavs = scratch(m - 1, np.float64)
+    for r in grid_range(envs.shape[0]):
         e = envs[r]
         o = own[r]
         lat0, lon0 = lat[e, o], lon[e, o]
@@ -469,7 +469,7 @@ def _at(a: Array, i: int, j: int) -> float:
 @jit
 def point_at_distance(lat: Array, lon: Array, d_km: Array, bearing: Array, radius_km: float, lat_out: Array, lon_out: Array) -> None:
     """:func:`bluesky_gym.tasks.geometry.point_at_distance` of 2-D inputs broadcast to the outputs' shape."""
-    for i in range(lat_out.shape[0]):
+    for i in grid_range(lat_out.shape[0]):
         for j in range(lat_out.shape[1]):
             lat_out[i, j], lon_out[i, j] = _point_at_distance(_at(lat, i, j), _at(lon, i, j), _at(d_km, i, j), _at(bearing, i, j), radius_km)
 
@@ -477,7 +477,7 @@ def point_at_distance(lat: Array, lon: Array, d_km: Array, bearing: Array, radiu
 @jit
 def kwikdist(lata: Array, lona: Array, latb: Array, lonb: Array, dist_out: Array) -> None:
     """:func:`bluesky_gym.tasks.geometry.ref_kwikdist` of 2-D inputs broadcast to the output's shape."""
-    for i in range(dist_out.shape[0]):
+    for i in grid_range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
             dist_out[i, j] = _kwikdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
 
@@ -485,7 +485,7 @@ def kwikdist(lata: Array, lona: Array, latb: Array, lonb: Array, dist_out: Array
 @jit
 def kwikqdrdist(lata: Array, lona: Array, latb: Array, lonb: Array, qdr_out: Array, dist_out: Array) -> None:
     """:func:`bluesky_gym.tasks.geometry.ref_kwikqdrdist` of 2-D inputs broadcast to the outputs' shape."""
-    for i in range(dist_out.shape[0]):
+    for i in grid_range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
             qdr_out[i, j], dist_out[i, j] = _kwikqdrdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
 
@@ -493,7 +493,7 @@ def kwikqdrdist(lata: Array, lona: Array, latb: Array, lonb: Array, qdr_out: Arr
 @jit
 def add_samples(total: Array, count: IntArray, value: Array, times: IntArray) -> None:
     """Add ``value[e]`` to ``total[e]`` ``times[e]`` times, one addition after the other, and ``times[e]`` to ``count[e]``."""
-    for e in range(total.shape[0]):
+    for e in grid_range(total.shape[0]):
         for _ in range(times[e]):
             total[e] += value[e]
         count[e] += times[e]
@@ -528,7 +528,7 @@ def record_step(  # type: ignore[no-untyped-def]
     in LoS, |drift| (when ``drift`` has a value per row) and the time to the goal of rows that
     reach it for the first time.
     """
-    for r in range(envs.shape[0]):
+    for r in grid_range(envs.shape[0]):
         e = envs[r]
         dmin = np.inf
         new = 0
