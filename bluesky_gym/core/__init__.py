@@ -11,12 +11,12 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from bluesky_gym.core.physics import Physics
-    from bluesky_gym.core.simulator import Simulator
+    from bluesky_gym.core.simulator import DeviceSimulator, Simulator
     from bluesky_gym.core.wind import WindField
 
-__all__ = ["Physics", "Simulator", "WindField"]
+__all__ = ["DeviceSimulator", "Physics", "Simulator", "WindField"]
 
-_MODULES = {"Physics": "physics", "Simulator": "simulator", "WindField": "wind"}
+_MODULES = {"DeviceSimulator": "simulator", "Physics": "physics", "Simulator": "simulator", "WindField": "wind"}
 
 
 def __getattr__(name: str) -> Any:

@@ -637,6 +637,10 @@ class Simulator:
         if any(c.resolving for c in self._asas.values()):
             self._step_resolving(do_perf)
             return
+        self._advance(do_perf)
+
+    def _advance(self, do_perf: bool) -> None:
+        """One step of every aircraft without conflict resolution: LNAV, then the step kernel."""
         if self.swlnav.any():
             lnav_kernel(self._float_flat, *self._lnav_args())
         wn, we, haswind, any_wind = self._wind_args()
@@ -778,6 +782,11 @@ class Simulator:
         else:
             perf_due = np.array([self._performance_due() for _ in range(n_steps)])
         self.simt += n_steps * self.dt
+        self._advance_many(perf_due, track)
+        return track
+
+    def _advance_many(self, perf_due: NDArray[np.bool_], track: Array | None) -> None:
+        """``len(perf_due)`` steps of independent aircraft, each aircraft through all of them (see :meth:`run`); positions into ``track``."""
         wn, we, haswind, any_wind = self._wind_args()  # uniform: the same wind wherever the aircraft goes
         run_kernel(
             self._float_flat,
@@ -793,9 +802,8 @@ class Simulator:
             self._memo,
             self._active_flat,
             self._lnav_args() if self.swlnav.any() else None,
-            None if track is None else track.reshape(n_steps, 2, -1),
+            None if track is None else track.reshape(perf_due.shape[0], 2, -1),
         )
-        return track
 
     def _type_args(self) -> IntArray:
         """Each aircraft's row of the performance table as the kernels take it (empty: all row 0)."""
@@ -892,3 +900,151 @@ class _AirspaceView:
 for _name, _i in FIELD_INDEX.items():
     setattr(Simulator, _name, _Field("_float_block", _i))
 del _name, _i
+
+
+#: The attributes holding the aircraft and route state that the kernels read and write.
+_KERNEL_STATE = frozenset({*(name for name, _, _ in STATE_FIELDS), "route_lat", "route_lon", "type_index"}) | {
+    "_float_raw",
+    "_float_flat",
+    "_float_block",
+    "_phase_flat",
+    "_active_flat",
+    "_type_flat",
+    "_memo",
+}
+
+
+class DeviceSimulator(Simulator):
+    """A :class:`Simulator` whose aircraft state lives on a CUDA GPU while it is stepped.
+
+    The state moves to the device at the first step after a change on the host, and stays there
+    while the simulator steps: each :meth:`step` is one launch of the LNAV kernel (when any
+    aircraft flies LNAV) and one of the step kernel over every aircraft of every airspace, and
+    :meth:`run` one launch of the run kernel (every aircraft through all its steps), whatever the
+    number of airspaces. These are the CPU core's own kernels (:mod:`bluesky_gym.core.step`,
+    :mod:`bluesky_gym.core.lnav`), compiled for CUDA by :mod:`bluesky_gym.core.cuda_target`.
+    Reading or writing any state array (or any command, which does) first copies the state back
+    to the host; the next step copies it to the device again. Everything else is the
+    :class:`Simulator`'s, so this class implements :class:`~bluesky_gym.core.physics.Physics`.
+
+    On the device: no wind, or a wind that is uniform within each airspace (one point or none).
+    Conflict resolution (ASAS with MVP) and wind fields of several points raise
+    :class:`NotImplementedError` at the step (use :class:`Simulator`). Airspaces hold at most
+    :data:`bluesky_gym.core.cuda_target.SCRATCH_CAPACITY` + 1 aircraft.
+
+    Results agree with :class:`Simulator` to within the rounding of the GPU's arithmetic (fused
+    multiply-adds, libdevice's functions; docs/backends.md), and are bit-identical under
+    numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``), which runs the same kernels as Python.
+
+    Args: as :class:`Simulator`. Needs the ``gpu`` extra and a CUDA GPU (or the simulator).
+    """
+
+    def __init__(
+        self,
+        n_envs: int,
+        max_aircraft: int,
+        dt: float = 1.0,
+        max_waypoints: int = 4,
+        perf: pf.AircraftPerformance | None = None,
+        geo: str = "compiled",
+    ) -> None:
+        from bluesky_gym.core import cuda_target
+
+        cuda_target.require()
+        if max_aircraft - 1 > cuda_target.SCRATCH_CAPACITY:
+            raise ValueError(f"DeviceSimulator: at most {cuda_target.SCRATCH_CAPACITY + 1} aircraft per airspace, got {max_aircraft}")
+        object.__setattr__(self, "_device", None)
+        super().__init__(n_envs, max_aircraft, dt=dt, max_waypoints=max_waypoints, perf=perf, geo=geo)
+        self._cuda = cuda_target
+        self._wind_key: tuple[bytes, ...] | None = None
+        self._wind_device: tuple[Any, Any, Any, bool] | None = None
+
+    def __getattribute__(self, name: str) -> Any:
+        if name in _KERNEL_STATE and object.__getattribute__(self, "_device") is not None:
+            object.__getattribute__(self, "_to_host")()
+        return object.__getattribute__(self, name)
+
+    @property
+    def on_device(self) -> bool:
+        """Whether the current state is on the device (the host arrays are stale until the next access)."""
+        return object.__getattribute__(self, "_device") is not None
+
+    def _to_host(self) -> None:
+        """Copy the state back from the device (the host arrays become current)."""
+        d = object.__getattribute__(self, "_device")
+        object.__setattr__(self, "_device", None)
+        np.copyto(self._float_flat, d["F"].copy_to_host())
+        self._phase_flat[...] = d["phase"].copy_to_host()
+        self._memo[...] = d["memo"].copy_to_host()
+        for name in ("swlnav", "swvnav", "swvnavspd", "swlastwp", "iactwp"):
+            getattr(self, name).reshape(-1)[...] = d[name].copy_to_host()
+
+    def _to_device(self) -> dict[str, Any]:
+        """The device copy of the state, made from the host arrays where the host holds the state."""
+        d = object.__getattribute__(self, "_device")
+        if d is not None:
+            return d  # type: ignore[no-any-return]
+        up = self._cuda.to_device
+        m = self.n_envs * self.max_aircraft
+        d = {
+            "F": up(self._float_flat),
+            "phase": up(self._phase_flat),
+            "memo": up(self._memo),
+            "active": up(self._active_flat),
+            "types": up(self._type_args()),
+            "table": up(self._table),
+            **{name: up(getattr(self, name).reshape(-1)) for name in ("swlnav", "swvnav", "swvnavspd", "swlastwp", "iactwp", "nwp")},
+            "route_lat": up(self.route_lat.reshape(m, -1)),
+            "route_lon": up(self.route_lon.reshape(m, -1)),
+            # LNAV only ever switches itself off on the device: no aircraft flies it later if none does now.
+            "any_lnav": bool(self.swlnav.any()),
+        }
+        object.__setattr__(self, "_device", d)
+        return d
+
+    def _device_wind(self) -> tuple[Any, Any, Any, bool]:
+        """The wind at every aircraft as the kernels take it, on the device (uniform within each airspace)."""
+        w = self.wind
+        if not w.any:
+            key: tuple[bytes, ...] = ()
+        else:
+            if (w.count > 1).any():
+                raise NotImplementedError("DeviceSimulator: wind fields of several points per airspace run on the CPU Simulator only")
+            key = (w.count.tobytes(), w.vnorth[:, :1].tobytes(), w.veast[:, :1].tobytes())
+        if self._wind_device is None or key != self._wind_key:
+            up = self._cuda.to_device
+            if not w.any:
+                self._wind_device = (up(np.zeros(0)), up(np.zeros(0)), up(np.zeros(0, dtype=np.bool_)), False)
+            else:
+                zeros = np.zeros((self.n_envs, self.max_aircraft))  # uniform: the wind does not depend on the position
+                wn, we = (np.ascontiguousarray(x).reshape(-1) for x in w.at_all(zeros, zeros))
+                self._wind_device = (up(wn), up(we), up(np.repeat(w.has_wind, self.max_aircraft)), True)
+            self._wind_key = key
+        return self._wind_device
+
+    def _lnav_device_args(self, d: dict[str, Any]) -> tuple[Any, ...]:
+        keys = ("swlnav", "swvnav", "swvnavspd", "swlastwp", "active", "iactwp", "nwp", "route_lat", "route_lon")
+        return (*(d[k] for k in keys), self.geo == "python")
+
+    def _advance(self, do_perf: bool) -> None:
+        wn, we, haswind, any_wind = self._device_wind()
+        d = self._to_device()
+        n = self.n_envs * self.max_aircraft
+        if d["any_lnav"]:
+            self._cuda.launch(lnav_kernel, n, d["F"], *self._lnav_device_args(d))
+        args = (d["phase"], wn, we, haswind, any_wind, do_perf, self.dt, d["table"], d["types"], d["memo"], d["active"])
+        self._cuda.launch(step_kernel, n, d["F"], *args)
+
+    def _advance_many(self, perf_due: NDArray[np.bool_], track: Array | None) -> None:
+        wn, we, haswind, any_wind = self._device_wind()
+        d = self._to_device()
+        n = self.n_envs * self.max_aircraft
+        lnav = self._lnav_device_args(d) if d["any_lnav"] else None
+        trace = None if track is None else self._cuda.to_device(np.empty((perf_due.shape[0], 2, n)))
+        args = (d["phase"], wn, we, haswind, any_wind, self._cuda.to_device(perf_due), self.dt, d["table"], d["types"], d["memo"], d["active"])
+        self._cuda.launch(run_kernel, n, d["F"], *args, lnav, trace)
+        if track is not None and trace is not None:
+            track[...] = trace.copy_to_host().reshape(track.shape)
+
+    def _step_resolving(self, do_perf: bool) -> None:
+        raise NotImplementedError("DeviceSimulator: conflict resolution (ASAS with MVP) runs on the CPU Simulator only")
