@@ -8,6 +8,8 @@ Examples::
     bluesky-gym bench all --bluesky-python P --reference-python P --json results.json
     bluesky-gym bench profile                       # where the core's step time goes
     bluesky-gym bench train --repeat 3              # training throughput: SB3 and the fast trainer
+    bluesky-gym bench gpu --compile-only            # every CUDA kernel to PTX, no GPU needed (the gpu extra)
+    bluesky-gym bench gpu                           # the device check, on a machine with a CUDA GPU
 
 The interpreters can also be given by the environment variables ``BLUESKY_PYTHON`` and
 ``BLUESKY_GYM_REFERENCE_PYTHON``.
@@ -136,6 +138,19 @@ def add_parser(subparsers: Any) -> None:
     _add_common(train)
     train.set_defaults(func=run_train_command)
 
+    gpu = sub.add_parser(
+        "gpu",
+        help="the CUDA target: every kernel compiled to PTX (--compile-only, no GPU), or the device check on a GPU",
+        description="--compile-only: compile every kernel of bluesky_gym.core and bluesky_gym.tasks to PTX with numba-cuda, without a GPU,\n"
+        "for every signature the package calls it with on the CPU; exit 1 naming each kernel that fails.\n"
+        "Without it: the device check (a CUDA GPU needed): device simulator against the CPU core, fidelity and throughput.",
+    )
+    gpu.add_argument("--compile-only", action="store_true", help="compile to PTX only (needs no GPU, only the gpu extra)")
+    gpu.add_argument("--cc", type=_compute_capability, default=None, metavar="M.N", help="compute capability to compile for (default: 9.0, Hopper)")
+    gpu.add_argument("--kernel", action="append", metavar="NAME", help="with --compile-only: only this kernel (repeatable; default: all)")
+    _add_common(gpu)
+    gpu.set_defaults(func=run_gpu_command)
+
     prof = sub.add_parser("profile", help="cProfile of the core step: where the time goes")
     prof.add_argument("--num-envs", type=positive_int, default=4096, metavar="N", help="airspaces (batch size)")
     deprecated_alias(prof, "--envs", "--num-envs", "num_envs", type=positive_int, metavar="N")
@@ -152,6 +167,13 @@ def add_parser(subparsers: Any) -> None:
     )
     _add_common(prof)
     prof.set_defaults(func=run_profile_command)
+
+
+def _compute_capability(text: str) -> tuple[int, int]:
+    major, sep, minor = text.partition(".")
+    if not (sep and major.isdigit() and minor.isdigit()):
+        raise argparse.ArgumentTypeError(f"expected a compute capability MAJOR.MINOR such as 9.0, got {text!r}")
+    return int(major), int(minor)
 
 
 def _progress(args: argparse.Namespace) -> Any:
@@ -306,3 +328,35 @@ def _run_env_profiles(args: argparse.Namespace) -> int:
         profiles.append(prof)
         print(format_env_profile(prof), end="\n\n", flush=True)
     return _finish(args, {"env_profile": profiles}, False)
+
+
+def run_gpu_command(args: argparse.Namespace) -> int:
+    """``bench gpu``: the compile-only check, or the device check."""
+    from bluesky_gym.benchmarks import gpu_bench
+    from bluesky_gym.core import cuda_target
+
+    if not cuda_target.AVAILABLE:
+        raise SystemExit(f"bluesky-gym bench gpu: {gpu_bench.device_refusal()}")
+    say = _progress(args)
+    if args.compile_only:
+        if cuda_target.SIMULATOR:
+            raise SystemExit("bluesky-gym bench gpu: --compile-only compiles with NVVM; unset NUMBA_ENABLE_CUDASIM (the simulator compiles nothing)")
+        cc = args.cc or cuda_target.DEFAULT_CC
+        if args.kernel:
+            known = {k.name for k in gpu_bench.kernels_in_scope()} | {k.name.rsplit(".", 1)[1] for k in gpu_bench.kernels_in_scope()}
+            unknown = [k for k in args.kernel if k not in known]
+            if unknown:
+                raise SystemExit(f"bluesky-gym bench gpu: unknown kernel(s) {', '.join(unknown)}")
+        problems = gpu_bench.exercise_kernels(say)
+        results = gpu_bench.compile_all(cc, say, args.kernel)
+        print(gpu_bench.format_compile(results, cc, problems))
+        failed = any(r.error for r in results)
+        return _finish(args, {"gpu_compile": {"cc": list(cc), "problems": problems, "results": gpu_bench.compile_summary(results)}}, failed)
+    if args.kernel or args.cc:
+        raise SystemExit("bluesky-gym bench gpu: --kernel and --cc go with --compile-only")
+    refusal = gpu_bench.device_refusal()
+    if refusal is not None:
+        raise SystemExit(f"bluesky-gym bench gpu: {refusal}")
+    result = gpu_bench.device_check(say=say)
+    print(gpu_bench.format_device_check(result))
+    return _finish(args, {"gpu": result}, not result["fidelity"]["within_tolerances"])

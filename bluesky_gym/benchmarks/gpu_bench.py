@@ -1,0 +1,475 @@
+"""The CUDA target measured and checked: ``bluesky-gym bench gpu``.
+
+Two parts:
+
+* :func:`compile_all` (``--compile-only``): every kernel of ``bluesky_gym.core`` and
+  ``bluesky_gym.tasks`` compiled to PTX by numba-cuda, without a GPU (NVVM from the CUDA
+  toolkit's wheels), for every argument-type signature the package calls it with on the CPU.
+  Those signatures are numba's own record of the CPU calls: :func:`exercise_kernels` first runs
+  the simulator and every environment briefly on the CPU. A kernel that fails to compile, or
+  that the exercise never reached, is a failure.
+* :func:`device_check` (the default): on a machine with a CUDA GPU, the device simulator
+  (:class:`bluesky_gym.core.DeviceSimulator`) against the CPU core of the same machine, in at
+  most :data:`DEVICE_CHECK_BUDGET` seconds: agreement of the two over a sample of airspaces
+  (against the project's tolerances) and aircraft-sub-steps per second side by side.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from bluesky_gym.benchmarks.core_bench import core_scenario, make_simulator, populate
+
+#: Packages whose kernels the compile-only check covers.
+KERNEL_PACKAGES = ("bluesky_gym.core.", "bluesky_gym.tasks.")
+#: Wall-clock budget of the device check [s] (the issue's limit: 8 minutes).
+DEVICE_CHECK_BUDGET = 480.0
+#: Aircraft per airspace of the physics measurement (the benchmark traffic of ``bench core``).
+PHYSICS_AIRCRAFT = 20
+#: Airspaces of the physics measurement on the device: 2^10 .. 2^16 (20 aircraft each: 20k .. 1.3M aircraft).
+DEVICE_BATCHES = tuple(2**k for k in (10, 12, 14, 16))
+#: Airspaces of the CPU reference line (one core).
+CPU_BATCH = 4096
+#: Sub-steps per timed launch of the independent-aircraft run kernel.
+SUBSTEPS = 30
+#: Fidelity sample: airspaces, aircraft each, steps.
+FIDELITY_SAMPLE = (1024, PHYSICS_AIRCRAFT, 300)
+#: The project's fidelity tolerances: position [m], speeds [m/s], angles [deg].
+TOLERANCE_M = 1e-6
+TOLERANCE_MS = 1e-9
+TOLERANCE_DEG = 1e-9
+#: Metres per degree of latitude used to express latitude differences in metres.
+M_PER_DEG_LAT = 111319.49
+#: Targets of the issue on one H100 [aircraft-sub-steps/s].
+TARGET_PHYSICS_RATE = 5e9
+
+Say = Callable[[str], None] | None
+
+
+# --- compile-only ----------------------------------------------------------------------------
+def exercise_kernels(say: Say = None) -> list[str]:
+    """Run the simulator and every environment briefly on the CPU, so that numba records the argument types of every kernel.
+
+    Returns:
+        What could not be run (``"id: reason"``); the kernels only they reach then stay without signatures.
+    """
+    problems: list[str] = []
+    if say is not None:
+        say("exercise: simulator")
+    _exercise_core()
+    import gymnasium as gym
+
+    from bluesky_gym.envs.registry import entry
+    from bluesky_gym.registration import available_envs, register_envs
+
+    register_envs()
+    for env_id in available_envs():
+        status = entry(env_id).data_status()
+        if status is not None:  # preparing recorded data is no part of a compile check
+            problems.append(f"{env_id}: its data are not prepared ({status})")
+            continue
+        if say is not None:
+            say(f"exercise: {env_id}")
+        try:
+            _exercise_env(gym, env_id)
+        except Exception as exc:  # noqa: BLE001 - reported, and the kernels it alone reaches show as unexercised
+            problems.append(f"{env_id}: {type(exc).__name__}: {exc}")
+    try:
+        from bluesky_gym.envs.registry import multiagent_entries
+        from bluesky_gym.multiagent import parallel_env
+    except ImportError as exc:
+        problems.append(f"multi-agent environments: {exc}")
+    else:
+        for ma in multiagent_entries():
+            if say is not None:
+                say(f"exercise: {ma.name} (multi-agent)")
+            try:
+                env = parallel_env(ma.name)
+                env.reset(seed=0)
+                for _ in range(3):
+                    env.step({agent: env.action_space(agent).sample() for agent in env.agents})
+                env.close()
+            except Exception as exc:  # noqa: BLE001
+                problems.append(f"{ma.name}: {type(exc).__name__}: {exc}")
+    return problems
+
+
+def _exercise_env(gym: Any, env_id: str) -> None:
+    env = gym.make(env_id)
+    env.action_space.seed(0)
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(env.action_space.sample())
+    env.close()
+    venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    venv.action_space.seed(0)
+    venv.reset(seed=0)
+    for _ in range(3):
+        venv.step(venv.action_space.sample())
+    venv.close()
+
+
+def _exercise_core() -> None:
+    """The simulator's own paths: creation (mixed types), routes and LNAV, wind, runs with traces and stops, creconfs, ASAS with MVP, geometry."""
+    from bluesky_gym.core import Simulator, atmosphere, geo, lnav
+    from bluesky_gym.core.resolution import AsasConfig
+
+    sim = Simulator(3, 4, dt=1.0)
+    sim.create([0, 1, 2], 0, [52.0, 52.1, 51.9], [4.0, 4.1, 3.9], [0.0, 90.0, 180.0], 3000.0, [140.0, 0.6, 150.0], actype=["A320", "B738", "A320"])
+    sim.add_waypoint([0, 1], 0, [52.3, 52.2], [4.2, 4.3])
+    sim.set_destination([0, 1], 0, [52.5, 52.4], [4.5, 4.6])
+    sim.creconfs([0, 1], 0, 1, 20.0, 1.0, 200.0)
+    sim.creconfs([2], 0, 1, 30.0, 0.5, 150.0, dh=300.0, spd=150.0)
+    sim.wind.add_points(0, [52.0], [4.0], [5.0], [3.0])
+    sim.step()
+    sim.run(3)
+    sim.run(3, trace=True)
+    sim.run(4, stop=lambda track: np.full(sim.n_envs, 2))
+    sim.wind.add_points(1, [52.0, 53.0], [4.0, 5.0], [5.0, -3.0], [3.0, 1.0])
+    sim.run(2)
+    sim.set_conflict_resolution([0, 1, 2], AsasConfig(detector="CSTATEBASED", resolution=True))
+    sim.run(3)
+    ones = np.ones(3)
+    geo.qdrdist(52.0 * ones, 4.0, 52.1, 4.1)
+    geo.qdrdist_python(52.0 * ones, 4.0, 52.1, 4.1)
+    geo.kwikqdrdist(52.0 * ones, 4.0, 52.1, 4.1)
+    geo.kwikdist(52.0 * ones, 4.0, 52.1, 4.1)
+    geo.kwikpos(52.0 * ones, 4.0, 45.0, 10.0)
+    atmosphere.vcas2tas(150.0 * ones, 3000.0)
+    atmosphere.tas2cas(150.0 * ones, 3000.0)
+    atmosphere.casormach2tas(150.0 * ones, 3000.0)
+    lnav.turn_distances(150.0 * ones, 10.0, 80.0)
+
+
+@dataclass(frozen=True)
+class CompileResult:
+    """One kernel compiled for one signature (or a kernel that could not be).
+
+    Attributes:
+        kernel: ``module.function``.
+        signature: The argument types, as numba writes them ("" where there is none).
+        kind: ``"kernel"`` (launchable), ``"device"`` (a device function compiled on its own), or
+            ``"in callers"`` (a device function compiled inside the kernels that call it only:
+            it has no CPU signature of its own).
+        ptx_chars: Length of the PTX (0 where nothing was compiled).
+        seconds: Compilation time [s].
+        error: None, or why it failed.
+    """
+
+    kernel: str
+    signature: str
+    kind: str
+    ptx_chars: int
+    seconds: float
+    error: str | None
+
+
+def kernels_in_scope() -> list[Any]:
+    """The kernels of ``bluesky_gym.core`` and ``bluesky_gym.tasks`` (:class:`bluesky_gym.core.jit.Kernel`), in definition order."""
+    import importlib
+
+    from bluesky_gym.core.jit import KERNELS
+
+    for module in ("bluesky_gym.core.simulator", "bluesky_gym.tasks.compiled"):
+        importlib.import_module(module)
+    return [k for k in KERNELS.values() if k.name.startswith(KERNEL_PACKAGES)]
+
+
+def launchable(kernel: Any) -> bool:
+    """Whether a kernel is launched over a grid (its outer loop is a ``grid_range``); the others are device functions."""
+    return "grid_range" in kernel.py_func.__code__.co_names
+
+
+def callees(kernel: Any) -> list[Any]:
+    """The kernels that ``kernel`` calls by name (its module globals that are kernels)."""
+    from bluesky_gym.core.jit import KERNELS
+
+    by_identity = {id(k.compiled): k for k in KERNELS.values()}
+    g = kernel.py_func.__globals__
+    return [by_identity[id(g[n])] for n in kernel.py_func.__code__.co_names if n in g and id(g[n]) in by_identity]
+
+
+def compile_all(cc: tuple[int, int], say: Say = None, only: list[str] | None = None) -> list[CompileResult]:
+    """Compile every kernel in scope to PTX for compute capability ``cc``, for every signature numba recorded on the CPU.
+
+    Launchable kernels (:func:`launchable`) are called from Python, so numba records their
+    argument types; each is compiled as a CUDA kernel for each of them, and a launchable kernel
+    without any is a failure ("not exercised"). A device function is compiled for its own
+    recorded signatures, if any, and in any case inside every kernel that calls it: one that no
+    compiled kernel reaches and that has no signature of its own is a failure. Call
+    :func:`exercise_kernels` first. Compilation needs no GPU (see
+    :func:`bluesky_gym.core.cuda_target.offline_compilation`).
+
+    Args:
+        cc: Compute capability, e.g. (9, 0).
+        say: Progress messages.
+        only: Names (``module.function`` or ``function``) to compile; None: all.
+    """
+    from bluesky_gym.core import cuda_target
+
+    results: list[CompileResult] = []
+    compiled_ok: set[str] = set()
+    scope = [k for k in kernels_in_scope() if only is None or k.name in only or k.name.rsplit(".", 1)[1] in only]
+    with cuda_target.offline_compilation(cc):
+        for k in scope:
+            signatures = list(getattr(k.compiled, "signatures", []))
+            for sig in signatures:
+                restype = k.compiled.overloads[sig].signature.return_type
+                device = str(restype) != "none"
+                if say is not None:
+                    say(f"compile: {k.name}{_sig_text(sig)}")
+                t0 = time.perf_counter()
+                try:
+                    ptx = cuda_target.compile_ptx(k.compiled, sig, device=device, cc=cc)
+                    error = None
+                    compiled_ok.add(k.name)
+                except Exception as exc:  # noqa: BLE001 - every failure is reported by kernel
+                    ptx, error = "", _first_line(exc)
+                results.append(CompileResult(k.name, _sig_text(sig), "device" if device else "kernel", len(ptx), time.perf_counter() - t0, error))
+    reached: set[str] = set()
+    todo = [k for k in scope if k.name in compiled_ok]
+    while todo:
+        for c in callees(todo.pop()):
+            if c.name not in reached:
+                reached.add(c.name)
+                todo.append(c)
+    for k in scope:
+        if getattr(k.compiled, "signatures", []):
+            continue
+        if launchable(k):
+            why = "not exercised: never called on the CPU, so no argument types to compile with"
+            results.append(CompileResult(k.name, "", "kernel", 0, 0.0, why))
+        elif k.name in reached:
+            results.append(CompileResult(k.name, "", "in callers", 0, 0.0, None))
+        else:
+            results.append(CompileResult(k.name, "", "device", 0, 0.0, "reached by no compiled kernel and never called on the CPU: not compiled"))
+    return results
+
+
+def _sig_text(sig: tuple[Any, ...]) -> str:
+    return "(" + ", ".join(str(t) for t in sig) + ")"
+
+
+def _first_line(exc: BaseException) -> str:
+    import re
+
+    text = re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).strip()
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    detail = next((line for line in lines if not line.startswith("Failed in")), lines[0] if lines else "")
+    return f"{type(exc).__name__}: {detail}"[:300]
+
+
+def format_compile(results: list[CompileResult], cc: tuple[int, int], problems: list[str]) -> str:
+    """The compile-only table: one line per kernel (signatures, PTX size, time), then the failures."""
+    by_kernel: dict[str, list[CompileResult]] = {}
+    for r in results:
+        by_kernel.setdefault(r.kernel, []).append(r)
+    lines = [f"CUDA kernels compiled to PTX for compute capability {cc[0]}.{cc[1]} (numba-cuda, NVVM; no GPU used)", ""]
+    lines.append(f"{'kernel':<50}  {'kind':<10}  {'signatures':>10}  {'PTX chars':>10}  {'seconds':>7}  status")
+    lines.append("-" * 100)
+    for name, rs in by_kernel.items():
+        failed = [r for r in rs if r.error]
+        ptx = sum(r.ptx_chars for r in rs)
+        secs = sum(r.seconds for r in rs)
+        status = "FAILED" if failed else ("ok (inside its callers)" if rs[0].kind == "in callers" else "ok")
+        n = sum(1 for r in rs if r.signature)
+        lines.append(f"{name:<50}  {rs[0].kind:<10}  {n:>10}  {ptx:>10}  {secs:>7.1f}  {status}")
+    failures = [r for r in results if r.error]
+    compiled = sum(1 for r in results if r.ptx_chars)
+    lines.append("")
+    lines.append(f"{len(by_kernel)} kernels, {compiled} compilations, {len(failures)} failed")
+    for p in problems:
+        lines.append(f"not exercised: {p}")
+    for r in failures:
+        lines.append(f"FAILED {r.kernel}{r.signature}: {r.error}")
+    return "\n".join(lines)
+
+
+def compile_summary(results: list[CompileResult]) -> list[dict[str, Any]]:
+    """The results as JSON-ready dicts."""
+    return [asdict(r) for r in results]
+
+
+# --- the device check -------------------------------------------------------------------------
+def device_check(budget: float = DEVICE_CHECK_BUDGET, say: Say = None) -> dict[str, Any]:
+    """Fidelity and throughput of the device simulator against the CPU core of this machine.
+
+    Raises:
+        RuntimeError: No CUDA device (or numba-cuda's simulator instead of one).
+    """
+    from bluesky_gym.core import cuda_target
+
+    refusal = device_refusal()
+    if refusal is not None:
+        raise RuntimeError(refusal)
+    start = time.perf_counter()
+    device = _device_name()
+    if say is not None:
+        say(f"device check on {device}")
+    fidelity = fidelity_sample(*FIDELITY_SAMPLE, say=say)
+    physics: list[dict[str, Any]] = []
+    cpu = _physics_rate_cpu(CPU_BATCH, PHYSICS_AIRCRAFT, say)
+    physics.append(cpu)
+    for n_envs in DEVICE_BATCHES:
+        if time.perf_counter() - start > 0.8 * budget:
+            physics.append({"target": "cuda", "airspaces": n_envs, "aircraft": n_envs * PHYSICS_AIRCRAFT, "skipped": "time budget"})
+            continue
+        physics.append(_physics_rate_device(n_envs, PHYSICS_AIRCRAFT, say))
+    cuda_target.synchronize()
+    return {"device": device, "seconds": time.perf_counter() - start, "fidelity": fidelity, "physics": physics}
+
+
+def device_refusal() -> str | None:
+    """Why the device check cannot run here (one line), or None."""
+    from bluesky_gym.core import cuda_target
+    from bluesky_gym.core.extras import install_hint
+
+    if not cuda_target.AVAILABLE:
+        return f"numba-cuda is not installed (the 'gpu' extra): {install_hint('gpu')}"
+    if cuda_target.SIMULATOR:
+        return "numba-cuda's simulator is on (NUMBA_ENABLE_CUDASIM=1): it measures nothing; unset it on a machine with a GPU"
+    if not cuda_target.device_present():
+        return "no CUDA device found (numba-cuda sees no GPU or no driver); run it on a machine with an NVIDIA GPU, or use --compile-only"
+    return None
+
+
+def _device_name() -> str:
+    from numba import cuda
+
+    dev = cuda.get_current_device()
+    name = dev.name.decode() if isinstance(dev.name, bytes) else str(dev.name)
+    return f"{name} (compute capability {dev.compute_capability[0]}.{dev.compute_capability[1]})"
+
+
+def _scenario_sim(cls: Any, n_envs: int, n_aircraft: int, routes: bool) -> Any:
+    """The ``bench core`` traffic in a simulator of class ``cls``; with ``routes``, two waypoints each and a uniform wind in every third airspace."""
+    sc = core_scenario(n_envs, n_aircraft)
+    sim = cls(n_envs, n_aircraft, dt=1.0) if cls is not None else make_simulator(n_envs, n_aircraft)
+    populate(sim, sc)
+    if routes:
+        env, slot = np.nonzero(sim.active)
+        sim.add_waypoint(env, slot, sim.lat[env, slot] + 0.3, sim.lon[env, slot] + 0.2)
+        sim.add_waypoint(env, slot, sim.lat[env, slot] + 0.5, sim.lon[env, slot] - 0.1)
+        for e in range(0, n_envs, 3):
+            sim.wind.add_points(e, [52.0], [4.0], [6.0], [-4.0])
+    return sim
+
+
+def fidelity_sample(n_envs: int, n_aircraft: int, steps: int, say: Say = None) -> dict[str, Any]:
+    """The same traffic (routes, LNAV, uniform wind) stepped on the CPU and on the device; largest differences against the tolerances."""
+    from bluesky_gym.core import DeviceSimulator, Simulator
+
+    if say is not None:
+        say(f"fidelity: {n_envs} airspaces x {n_aircraft} aircraft, {steps} steps, CPU and device")
+    cpu = _scenario_sim(Simulator, n_envs, n_aircraft, True)
+    dev = _scenario_sim(DeviceSimulator, n_envs, n_aircraft, True)
+    for _ in range(steps):
+        cpu.step()
+        dev.step()
+    return compare_states(cpu, dev)
+
+
+def compare_states(a: Any, b: Any) -> dict[str, Any]:
+    """Largest differences of two simulators' states (active slots), in the tolerances' units, and the fraction of bit-identical values."""
+    act = np.asarray(a.active)
+    out: dict[str, Any] = {}
+    fields = {"lat": ("m", M_PER_DEG_LAT), "lon": ("m", M_PER_DEG_LAT), "alt": ("m", 1.0), "tas": ("m/s", 1.0), "gs": ("m/s", 1.0),
+              "vs": ("m/s", 1.0), "hdg": ("deg", 1.0), "trk": ("deg", 1.0)}  # fmt: skip
+    tolerance = {"m": TOLERANCE_M, "m/s": TOLERANCE_MS, "deg": TOLERANCE_DEG}
+    within = True
+    for name, (unit, scale) in fields.items():
+        x, y = np.asarray(getattr(a, name))[act], np.asarray(getattr(b, name))[act]
+        diff = np.abs(x - y)
+        if name in ("hdg", "trk"):
+            diff = np.minimum(diff, 360.0 - diff)
+        worst = float(np.max(diff) * scale) if diff.size else 0.0
+        ok = worst <= tolerance[unit]
+        within &= ok
+        out[name] = {"max_diff": worst, "unit": unit, "bit_identical": float(np.mean(x == y)) if x.size else 1.0, "within": ok}
+    out["iactwp_equal"] = float(np.mean(np.asarray(a.iactwp)[act] == np.asarray(b.iactwp)[act])) if act.any() else 1.0
+    out["within_tolerances"] = bool(within)
+    return out
+
+
+def _physics_rate_cpu(n_envs: int, n_aircraft: int, say: Say) -> dict[str, Any]:
+    from bluesky_gym.core import Simulator
+
+    if say is not None:
+        say(f"physics: CPU, {n_envs} x {n_aircraft}")
+    sim = _scenario_sim(Simulator, n_envs, n_aircraft, False)
+    sim.run(2)
+    n = int(sim.active.sum())
+    t0 = time.perf_counter()
+    sim.run(SUBSTEPS)
+    run_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for _ in range(5):
+        sim.step()
+    step_s = (time.perf_counter() - t0) / 5
+    return {"target": "cpu (1 core)", "airspaces": n_envs, "aircraft": n, "run_rate": SUBSTEPS * n / run_s, "step_rate": n / step_s}
+
+
+def _physics_rate_device(n_envs: int, n_aircraft: int, say: Say) -> dict[str, Any]:
+    from bluesky_gym.core import DeviceSimulator, cuda_target
+
+    if say is not None:
+        say(f"physics: device, {n_envs} x {n_aircraft}")
+    sim = _scenario_sim(DeviceSimulator, n_envs, n_aircraft, False)
+    n = int(sim.active.sum())
+    sim.run(2)  # compiles and uploads
+    sim.step()
+    cuda_target.synchronize()
+    reps = 3
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        sim.run(SUBSTEPS)
+    cuda_target.synchronize()
+    run_s = (time.perf_counter() - t0) / reps
+    steps = 50
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        sim.step()
+    cuda_target.synchronize()
+    step_s = (time.perf_counter() - t0) / steps
+    return {"target": "cuda", "airspaces": n_envs, "aircraft": n, "run_rate": SUBSTEPS * n / run_s, "step_rate": n / step_s}
+
+
+def format_device_check(result: dict[str, Any]) -> str:
+    """The device check's table: fidelity, then physics throughput side by side with the CPU."""
+    lines = [f"Device check on {result['device']} ({result['seconds']:.0f} s)", ""]
+    fid = result["fidelity"]
+    n, m, steps = FIDELITY_SAMPLE
+    lines.append(f"Fidelity: {n} airspaces x {m} aircraft, LNAV routes, uniform wind in 1 of 3 airspaces, {steps} steps, device against CPU")
+    lines.append(f"{'field':<6}  {'max |diff|':>12}  {'unit':<4}  {'bit-identical':>13}  within tolerance")
+    for name, d in fid.items():
+        if isinstance(d, dict):
+            lines.append(f"{name:<6}  {d['max_diff']:>12.3g}  {d['unit']:<4}  {d['bit_identical']:>12.2%}  {'yes' if d['within'] else 'NO'}")
+    lines.append(f"same active waypoint: {fid['iactwp_equal']:.2%}")
+    lines.append("")
+    lines.append("Physics: aircraft-sub-steps per second (bench core traffic, 20 aircraft per airspace)")
+    lines.append(f"{'target':<14}  {'airspaces':>9}  {'aircraft':>9}  {'run (30 sub-steps/launch)':>26}  {'step (1 launch/step)':>21}")
+    for p in result["physics"]:
+        if "skipped" in p:
+            lines.append(f"{p['target']:<14}  {p['airspaces']:>9}  {p['aircraft']:>9}  {'skipped: ' + p['skipped']:>26}")
+            continue
+        lines.append(f"{p['target']:<14}  {p['airspaces']:>9}  {p['aircraft']:>9}  {_rate(p['run_rate']):>26}  {_rate(p['step_rate']):>21}")
+    best = max((p["run_rate"] for p in result["physics"] if p["target"] == "cuda" and "run_rate" in p), default=0.0)
+    verdict = "met" if best >= TARGET_PHYSICS_RATE else "NOT MET"
+    lines.append(f"target: physics >= {_rate(TARGET_PHYSICS_RATE)} aircraft-sub-steps/s on one H100: {verdict} (best {_rate(best)})")
+    lines.append("Not measured here: environment steps on the device and PPO end to end (no device environments yet).")
+    return "\n".join(lines)
+
+
+def _rate(x: float) -> str:
+    if not math.isfinite(x):
+        return "-"
+    for div, suffix in ((1e9, " G"), (1e6, " M"), (1e3, " k")):
+        if x >= div:
+            return f"{x / div:.3g}{suffix}"
+    return f"{x:.3g}"
