@@ -45,7 +45,7 @@ except ImportError:  # pragma: no cover - exercised only without numba-cuda
     AVAILABLE = False
 
 #: Whether numba-cuda runs its simulator (``NUMBA_ENABLE_CUDASIM=1``) instead of compiling.
-SIMULATOR = bool(AVAILABLE and importlib.import_module("numba.cuda.config").ENABLE_CUDASIM)
+SIMULATOR = bool(AVAILABLE and importlib.import_module("numba.cuda.core.config").ENABLE_CUDASIM)
 if AVAILABLE and not SIMULATOR:
     libdevice = importlib.import_module("numba.cuda.libdevice")
 #: Elements of one :func:`~bluesky_gym.core.jit.scratch` array on CUDA (thread-local memory; aircraft per airspace - 1 at most).

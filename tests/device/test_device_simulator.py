@@ -1,0 +1,107 @@
+"""DeviceSimulator against Simulator: the same traffic stepped on the device and on the CPU."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bluesky_gym.core import DeviceSimulator, Simulator
+from bluesky_gym.core.resolution import AsasConfig
+
+from .conftest import TOLERANCE, assert_agree
+
+FIELDS = {
+    "lat": TOLERANCE["deg"],
+    "lon": TOLERANCE["deg"],
+    "alt": TOLERANCE["m"],
+    "hdg": TOLERANCE["deg"],
+    "trk": TOLERANCE["deg"],
+    "tas": TOLERANCE["m/s"],
+    "cas": TOLERANCE["m/s"],
+    "gs": TOLERANCE["m/s"],
+    "vs": TOLERANCE["m/s"],
+    "distflown": TOLERANCE["m"],
+    "ap_trk": TOLERANCE["deg"],
+}
+
+
+def _traffic(cls: type[Simulator], seed: int = 3, n_envs: int = 3, m: int = 4) -> Simulator:
+    """Mixed types, climbs and descents, turns, LNAV routes on half the aircraft, uniform wind in one airspace."""
+    rng = np.random.default_rng(seed)
+    sim = cls(n_envs, m, dt=1.0)
+    env, slot = np.repeat(np.arange(n_envs), m - 1), np.tile(np.arange(m - 1), n_envs)
+    k = env.size
+    sim.create(env, slot, 52 + rng.uniform(-0.3, 0.3, k), 4 + rng.uniform(-0.3, 0.3, k), rng.uniform(0, 360, k),
+               rng.uniform(1000, 9000, k), rng.choice([130.0, 150.0, 0.7], k), actype=list(rng.choice(["A320", "B738", "E190"], k)))  # fmt: skip
+    sim.cmd_altitude(env[::2], slot[::2], rng.uniform(1000, 9000, k)[::2])
+    sim.cmd_heading(env[1::3], slot[1::3], rng.uniform(0, 360, k)[1::3])
+    routed = np.arange(k) % 2 == 0
+    sim.add_waypoint(env[routed], slot[routed], sim.lat[env[routed], slot[routed]] + 0.05, sim.lon[env[routed], slot[routed]] + 0.05)
+    sim.add_waypoint(env[routed], slot[routed], sim.lat[env[routed], slot[routed]] + 0.2, sim.lon[env[routed], slot[routed]] - 0.1)
+    sim.wind.add_points(1, [52.0], [4.0], [8.0], [-5.0])
+    return sim
+
+
+def _assert_same_state(dev: Simulator, cpu: Simulator) -> None:
+    np.testing.assert_array_equal(dev.active, cpu.active)
+    act = cpu.active
+    for name, atol in FIELDS.items():
+        assert_agree(getattr(dev, name)[act], getattr(cpu, name)[act], atol)
+    for name in ("iactwp", "swlnav", "phase"):
+        np.testing.assert_array_equal(getattr(dev, name)[act], getattr(cpu, name)[act])
+
+
+def test_steps_on_the_device_give_the_cpu_core_results() -> None:
+    cpu, dev = _traffic(Simulator), _traffic(DeviceSimulator)
+    assert isinstance(dev, DeviceSimulator)
+    for _ in range(12):
+        cpu.step()
+        dev.step()
+        assert dev.on_device  # stepping alone leaves the state on the device
+    assert dev.simt == cpu.simt
+    _assert_same_state(dev, cpu)
+    assert not dev.on_device  # reading brought it back
+
+
+def test_commands_between_device_steps_reach_the_device() -> None:
+    cpu, dev = _traffic(Simulator, seed=5), _traffic(DeviceSimulator, seed=5)
+    for sim in (cpu, dev):
+        for _ in range(3):
+            sim.step()
+        sim.cmd_heading(0, 0, 250.0)
+        sim.cmd_speed([1, 2], 1, 160.0)
+        sim.set_state(2, 2, alt=4000.0)
+        sim.delete(1, 0)
+        sim.create(1, 3, 52.1, 4.1, 45.0, 3000.0, 140.0)
+        for _ in range(4):
+            sim.step()
+    _assert_same_state(dev, cpu)
+
+
+def test_run_with_trace_and_stop_on_the_device() -> None:
+    cpu, dev = _traffic(Simulator, seed=7), _traffic(DeviceSimulator, seed=7)
+    track_cpu, track_dev = cpu.run(6, trace=True), dev.run(6, trace=True)
+    assert track_cpu is not None and track_dev is not None
+    act = cpu.active
+    assert_agree(track_dev[:, :, act], track_cpu[:, :, act], TOLERANCE["deg"])
+    _assert_same_state(dev, cpu)
+
+    def stop(track: np.ndarray) -> np.ndarray:
+        return np.array([2, 0, 4])
+
+    cpu.run(5, stop=stop)
+    dev.run(5, stop=stop)
+    _assert_same_state(dev, cpu)
+
+
+def test_what_the_device_does_not_model_is_refused() -> None:
+    dev = _traffic(DeviceSimulator)
+    dev.wind.add_points(2, [52.0, 53.0], [4.0, 5.0], [5.0, -3.0], [3.0, 1.0])
+    with pytest.raises(NotImplementedError, match="several points"):
+        dev.step()
+    dev = _traffic(DeviceSimulator)
+    dev.set_conflict_resolution(0, AsasConfig(detector="CSTATEBASED", resolution=True))
+    with pytest.raises(NotImplementedError, match="conflict resolution"):
+        dev.step()
+    with pytest.raises(ValueError, match="aircraft per airspace"):
+        DeviceSimulator(1, 200)

@@ -1,0 +1,96 @@
+"""The tasks' observation and statistics kernels launched on the device, against their CPU calls."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bluesky_gym.core import cuda_target
+from bluesky_gym.tasks import compiled
+
+from .conftest import assert_agree
+
+N, M, K = 5, 6, 3  # episodes, aircraft slots, intruders observed
+
+
+def _airspaces(seed: int = 11) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    active = rng.uniform(size=(N, M)) < 0.8
+    active[:, 0] = True
+    return {
+        "lat": 52 + rng.uniform(-0.5, 0.5, (N, M)),
+        "lon": 4 + rng.uniform(-0.5, 0.5, (N, M)),
+        "alt": rng.uniform(2000, 4000, (N, M)),
+        "hdg": rng.uniform(0, 360, (N, M)),
+        "tas": rng.uniform(100, 200, (N, M)),
+        "active": active,
+    }
+
+
+def _launch(kernel, rows: int, args: list, outputs: tuple[int, ...]) -> list[np.ndarray]:  # type: ignore[no-untyped-def]
+    """Launch the CUDA form of ``kernel`` with device copies of every array argument; return the outputs' host copies."""
+    dev = [cuda_target.to_device(a) if isinstance(a, np.ndarray) else a for a in args]
+    cuda_target.launch(kernel, rows, *dev)
+    return [dev[i].copy_to_host() for i in outputs]
+
+
+def _fresh(args: list) -> list:  # type: ignore[type-arg]
+    return [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+
+
+def test_sector_and_merge_observations() -> None:
+    s = _airspaces()
+    envs, own = np.arange(N), np.zeros(N, dtype=np.int64)
+    wpt_lat, wpt_lon = s["lat"][:, 0] + 0.2, s["lon"][:, 0] - 0.1
+    center = (52.0, 4.0, float(np.cos(np.radians(52.0))))
+    scales = (150.0, 20.0, 5000.0, 50.0, 50.0, 10000.0, 5000.0)
+    outs = [np.empty(N), np.empty((N, 3)), np.empty((N, 7, K)), np.empty(N, dtype=np.int64)]
+    args = [envs, own, s["lat"], s["lon"], s["hdg"], s["tas"], s["active"], wpt_lat, wpt_lon, center, scales, *outs]
+    cpu = _fresh(args)
+    compiled.sector_observe(*cpu)
+    outputs = (11, 12, 13, 14)
+    for i, got in zip(outputs, _launch(compiled.sector_observe, N, _fresh(args), outputs)):
+        assert_agree(got, cpu[i], 1e-9)
+    args = [envs, own, s["lat"], s["lon"], s["hdg"], s["tas"], s["active"], wpt_lat, wpt_lon, (5000.0, 50.0, 10.0),
+            np.empty((N, 4)), np.empty((N, 7, K)), np.empty(N, dtype=np.int64)]  # fmt: skip
+    cpu = _fresh(args)
+    compiled.merge_observe(*cpu)
+    outputs = (10, 11, 12)
+    for i, got in zip(outputs, _launch(compiled.merge_observe, N, _fresh(args), outputs)):
+        assert_agree(got, cpu[i], 1e-9)
+
+
+def test_intruders_separation_and_goal_for_every_ownship_row() -> None:
+    s = _airspaces(12)
+    env, own = np.nonzero(s["active"])  # the multi-agent rows: every active slot is an ownship
+    rows = env.size
+    for nearest in (False, True):
+        args = [env, own, s["lat"], s["lon"], s["hdg"], s["tas"], s["active"], nearest, np.empty((5, rows, K)), np.empty(rows, dtype=np.int64)]
+        cpu = _fresh(args)
+        compiled.intruder_relative_state(*cpu)
+        for i, got in zip((8, 9), _launch(compiled.intruder_relative_state, rows, _fresh(args), (8, 9))):
+            assert_agree(got, cpu[i], 1e-9)
+    args = [env, own, s["lat"], s["lon"], s["alt"], s["active"], 5.0, 300.0, np.empty((rows, M)), np.empty((rows, M), dtype=np.bool_)]
+    cpu = _fresh(args)
+    compiled.kwik_separation(*cpu)
+    for i, got in zip((8, 9), _launch(compiled.kwik_separation, rows, _fresh(args), (8, 9))):
+        assert_agree(got, cpu[i], 1e-9)
+    args = [env, own, s["lat"], s["lon"], s["hdg"], s["lat"][env, own] + 0.1, s["lon"][env, own], np.empty(rows), np.empty(rows)]
+    cpu = _fresh(args)
+    compiled.goal_geometry(*cpu)
+    for i, got in zip((7, 8), _launch(compiled.goal_geometry, rows, _fresh(args), (7, 8))):
+        assert_agree(got, cpu[i], 1e-9)
+
+
+def test_episode_statistics() -> None:
+    rng = np.random.default_rng(13)
+    envs = np.arange(N)
+    sep = rng.uniform(0, 10, (N, M))
+    los = sep < 3.0
+    stats = [np.zeros((N, M), dtype=np.bool_), np.full(N, np.inf), np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64),
+             np.zeros(N, dtype=np.int64), np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.int64), np.full(N, np.nan)]  # fmt: skip
+    args = [envs, sep, los, True, rng.uniform(-1, 0, N), rng.uniform(-30, 30, N), rng.uniform(size=N) < 0.5, 5.0, 12, *stats]
+    cpu = _fresh(args)
+    compiled.record_step(*cpu)
+    outputs = tuple(range(9, 18))
+    for i, got in zip(outputs, _launch(compiled.record_step, N, _fresh(args), outputs)):
+        assert_agree(got, cpu[i], 1e-12)
