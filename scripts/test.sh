@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Set up the test environments (idempotent), run the static checks and the whole test suite.
-#   .venv          everything but the BlueSky backend (numpy >= 2.4 allowed)
+#   .venv          everything but the BlueSky backend (numpy >= 2.4 allowed), with the gpu extra
 #   .venv-bluesky  the real BlueSky 1.1.1 backend (needs numpy < 2.4) for the parity tests
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -8,7 +8,7 @@ PY=${PYTHON:-python3}
 
 if [ ! -x .venv/bin/python ]; then "$PY" -m venv .venv; fi
 .venv/bin/python -m pip install -q --upgrade pip
-.venv/bin/python -m pip install -q -e ".[all]"
+.venv/bin/python -m pip install -q -e ".[all,gpu]"
 
 if [ ! -x .venv-bluesky/bin/python ]; then "$PY" -m venv .venv-bluesky; fi
 .venv-bluesky/bin/python -m pip install -q --upgrade pip
@@ -38,5 +38,9 @@ export NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL AVX512_SPR AVX512F AVX512CD A
 
 # Native suite (slow tests included), on both cores.
 .venv/bin/python -m pytest -n 2 -p no:cacheprovider -m "not bluesky" "$@"
+# The CUDA target without a GPU: every kernel of core/ and tasks/ compiled to PTX (NVVM from the
+# gpu extra's toolkit wheels), then the device logic under numba-cuda's simulator at small sizes.
+.venv/bin/python -m bluesky_gym bench gpu --compile-only --quiet
+NUMBA_ENABLE_CUDASIM=1 .venv/bin/python -m pytest -p no:cacheprovider tests/device
 # BlueSky backend: parity with the native core, episode by episode.
 .venv-bluesky/bin/python -m pytest -n 2 -p no:cacheprovider -m bluesky "$@"

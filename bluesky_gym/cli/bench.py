@@ -140,14 +140,14 @@ def add_parser(subparsers: Any) -> None:
 
     gpu = sub.add_parser(
         "gpu",
-        help="the CUDA target: every kernel compiled to PTX (--compile-only, no GPU), or the device check on a GPU",
-        description="--compile-only: compile every kernel of bluesky_gym.core and bluesky_gym.tasks to PTX with numba-cuda, without a GPU,\n"
-        "for every signature the package calls it with on the CPU; exit 1 naming each kernel that fails.\n"
-        "Without it: the device check (a CUDA GPU needed): device simulator against the CPU core, fidelity and throughput.",
+        help="CUDA: every kernel to PTX (--compile-only, no GPU) or the device check",
+        description="--compile-only: every kernel of bluesky_gym.core and bluesky_gym.tasks compiled to PTX (numba-cuda),\n"
+        "without a GPU, for every signature the package calls it with on the CPU; exit 1 naming each failure.\n"
+        "Without it, on a CUDA GPU: the device simulator against the CPU core (fidelity, throughput).",
     )
-    gpu.add_argument("--compile-only", action="store_true", help="compile to PTX only (needs no GPU, only the gpu extra)")
-    gpu.add_argument("--cc", type=_compute_capability, default=None, metavar="M.N", help="compute capability to compile for (default: 9.0, Hopper)")
-    gpu.add_argument("--kernel", action="append", metavar="NAME", help="with --compile-only: only this kernel (repeatable; default: all)")
+    gpu.add_argument("--compile-only", action="store_true", help="compile to PTX only (no GPU needed; the gpu extra)")
+    gpu.add_argument("--cc", type=_compute_capability, default=None, metavar="M.N", help="compute capability (default: 9.0, Hopper)")
+    gpu.add_argument("--kernel", action="append", metavar="NAME", help="with --compile-only: only this kernel (repeatable)")
     _add_common(gpu)
     gpu.set_defaults(func=run_gpu_command)
 

@@ -161,13 +161,30 @@ def device_function(fn: Any) -> Any:
     return d
 
 
+class NoneArgument:
+    """Passes ``None`` to a kernel, as a null pointer (a numba-cuda kernel-argument extension).
+
+    Kernels take ``None`` for an absent optional argument (``run_kernel``'s ``lnav`` and
+    ``trace``), which numba compiles as a specialisation; numba-cuda lays a ``None`` argument out
+    as one pointer-sized parameter but has no conversion for its value. This extension, given
+    to every launchable kernel, converts it to a 64-bit zero.
+    """
+
+    def prepare_args(self, ty: Any, val: Any, stream: Any = 0, retr: Any = None) -> tuple[Any, Any]:
+        """numba-cuda's extension interface: ``(type, value)`` of an argument, converted where it is ``None``."""
+        if isinstance(ty, cuda.types.NoneType):
+            return cuda.types.uint64, 0
+        return ty, val
+
+
 def kernel(fn: Any) -> Any:
     """The launchable CUDA kernel of a kernel of the package (one whose outer loop is a ``grid_range``)."""
     require()
     k = _kernel_of(fn)
     c = _kernels.get(k.name)
     if c is None:
-        c = cuda.jit(_rebuilt(k))
+        # (The simulator runs Python and passes None as it is.)
+        c = cuda.jit(_rebuilt(k)) if SIMULATOR else cuda.jit(extensions=[NoneArgument()])(_rebuilt(k))
         _kernels[k.name] = c
     return c
 

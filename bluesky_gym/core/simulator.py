@@ -936,7 +936,7 @@ class DeviceSimulator(Simulator):
     multiply-adds, libdevice's functions; docs/backends.md), and are bit-identical under
     numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``), which runs the same kernels as Python.
 
-    Args: as :class:`Simulator`. Needs the ``gpu`` extra and a CUDA GPU (or the simulator).
+    The arguments are :class:`Simulator`'s. Needs the ``gpu`` extra and a CUDA GPU (or the simulator).
     """
 
     def __init__(

@@ -178,3 +178,28 @@ def test_bench_gpu_without_a_device_refuses_in_one_line() -> None:
     assert done.returncode != 0
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("bluesky-gym bench gpu: no CUDA device found"), done.stderr
+
+
+def test_none_arguments_are_passed_as_a_null_pointer() -> None:
+    """numba-cuda lays out a None argument as one 64-bit parameter but does not convert it: the kernels' extension does."""
+    cuda_target = _cuda_target()
+    from numba import types
+
+    from bluesky_gym.core import step
+
+    array = types.float64[::1]
+    ext = cuda_target.NoneArgument()
+    assert ext.prepare_args(types.none, None) == (types.uint64, 0)
+    assert ext.prepare_args(array, "unchanged") == (array, "unchanged")
+    assert any(isinstance(e, cuda_target.NoneArgument) for e in cuda_target.kernel(step.run_kernel).targetoptions["extensions"])
+    with cuda_target.offline_compilation((9, 0)):
+        ptx = cuda_target.compile_ptx(_never_called_kernel, (array, array), cc=(9, 0))
+        with_none = cuda_target.compile_ptx(_optional_kernel, (array, types.none, array), cc=(9, 0))
+    params = ptx.count(".param .u64")
+    assert with_none.count(".param .u64") == params + 1  # the None: one 64-bit parameter
+
+
+@jit
+def _optional_kernel(x, extra, out):  # type: ignore[no-untyped-def]
+    for i in grid_range(x.shape[0]):
+        out[i] = x[i] if extra is None else x[i] + extra[i]
