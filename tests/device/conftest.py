@@ -13,10 +13,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-cuda_target = pytest.importorskip("bluesky_gym.core.cuda_target")
+from bluesky_gym.core import cuda_target
 
-if not cuda_target.AVAILABLE or not (cuda_target.SIMULATOR or cuda_target.device_present()):
-    pytest.skip("no CUDA device and numba-cuda's simulator is off (NUMBA_ENABLE_CUDASIM=1 runs these tests)", allow_module_level=True)
+#: Every test module here carries it: skip where kernels cannot be launched.
+needs_device = pytest.mark.skipif(
+    not (cuda_target.AVAILABLE and (cuda_target.SIMULATOR or cuda_target.device_present())),
+    reason="no CUDA device and numba-cuda's simulator is off (NUMBA_ENABLE_CUDASIM=1 runs these tests)",
+)
 
 #: Largest differences allowed on a GPU (the project's fidelity tolerances, per unit).
 TOLERANCE = {"deg": 1e-9, "m": 1e-6, "m/s": 1e-9}

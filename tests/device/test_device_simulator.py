@@ -8,7 +8,9 @@ import pytest
 from bluesky_gym.core import DeviceSimulator, Simulator
 from bluesky_gym.core.resolution import AsasConfig
 
-from .conftest import TOLERANCE, assert_agree
+from .conftest import TOLERANCE, assert_agree, needs_device
+
+pytestmark = needs_device
 
 FIELDS = {
     "lat": TOLERANCE["deg"],

@@ -7,7 +7,9 @@ import numpy as np
 from bluesky_gym.core import cuda_target
 from bluesky_gym.tasks import compiled
 
-from .conftest import assert_agree
+from .conftest import assert_agree, needs_device
+
+pytestmark = needs_device
 
 N, M, K = 5, 6, 3  # episodes, aircraft slots, intruders observed
 
