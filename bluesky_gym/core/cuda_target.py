@@ -110,14 +110,22 @@ _devices: dict[str, Any] = {}
 _kernels: dict[str, Any] = {}
 
 
+_by_identity: dict[int, Kernel] = {}
+
+
 def _kernel_of(fn: Any) -> Kernel:
     """The :class:`~bluesky_gym.core.jit.Kernel` of a kernel given as its compiled form, its source, or its name."""
     if isinstance(fn, str):
         return KERNELS[fn]
-    for k in KERNELS.values():
-        if fn is k.compiled or fn is k.py_func:
-            return k
-    raise KeyError(f"{getattr(fn, '__name__', fn)!r} is not a kernel of the package (bluesky_gym.core.jit.jit / jit_inline)")
+    k = _by_identity.get(id(fn))
+    if k is None or (fn is not k.compiled and fn is not k.py_func):
+        _by_identity.clear()
+        for known in KERNELS.values():
+            _by_identity[id(known.compiled)] = _by_identity[id(known.py_func)] = known
+        k = _by_identity.get(id(fn))
+        if k is None or (fn is not k.compiled and fn is not k.py_func):
+            raise KeyError(f"{getattr(fn, '__name__', fn)!r} is not a kernel of the package (bluesky_gym.core.jit.jit / jit_inline)")
+    return k
 
 
 def _cuda_globals(module: str) -> dict[str, Any]:
