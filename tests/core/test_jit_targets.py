@@ -203,3 +203,16 @@ def test_none_arguments_are_passed_as_a_null_pointer() -> None:
 def _optional_kernel(x, extra, out):  # type: ignore[no-untyped-def]
     for i in grid_range(x.shape[0]):
         out[i] = x[i] if extra is None else x[i] + extra[i]
+
+
+def test_without_numba_cuda_the_device_parts_name_the_gpu_extra(monkeypatch: pytest.MonkeyPatch) -> None:
+    from bluesky_gym.cli import main
+    from bluesky_gym.core import DeviceSimulator, cuda_target
+    from bluesky_gym.core.extras import MissingDependencyError
+
+    monkeypatch.setattr(cuda_target, "AVAILABLE", False)
+    with pytest.raises(MissingDependencyError, match=r"numba-cuda.*the 'gpu' extra"):
+        DeviceSimulator(1, 2)
+    for argv in (["bench", "gpu"], ["bench", "gpu", "--compile-only"]):
+        with pytest.raises(SystemExit, match=r"^bluesky-gym bench gpu: numba-cuda is not installed \(the 'gpu' extra\)"):
+            main(argv)
