@@ -33,7 +33,7 @@ KERNEL_MODULES = [
 
 
 def _cuda_target():  # type: ignore[no-untyped-def]
-    pytest.importorskip("numba.cuda")
+    pytest.importorskip("numba_cuda")
     from bluesky_gym.core import cuda_target
 
     if cuda_target.SIMULATOR:
