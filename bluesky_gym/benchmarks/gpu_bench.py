@@ -48,6 +48,11 @@ TOLERANCE_DEG = 1e-9
 M_PER_DEG_LAT = 111319.49
 #: Targets of the issue on one H100 [aircraft-sub-steps/s].
 TARGET_PHYSICS_RATE = 5e9
+#: Rows (episodes) of the task-kernel measurement on the device: 2^10 .. 2^20, and on the CPU.
+TASK_ROWS = tuple(2**k for k in (10, 14, 17, 20))
+TASK_ROWS_CPU = 2**14
+#: Intruders observed per row (SectorCR's and Merge's observation size).
+TASK_INTRUDERS = 5
 
 Say = Callable[[str], None] | None
 
@@ -321,8 +326,76 @@ def device_check(budget: float = DEVICE_CHECK_BUDGET, say: Say = None) -> dict[s
             physics.append({"target": "cuda", "airspaces": n_envs, "aircraft": n_envs * PHYSICS_AIRCRAFT, "skipped": "time budget"})
             continue
         physics.append(_physics_rate_device(n_envs, PHYSICS_AIRCRAFT, say))
+    tasks: list[dict[str, Any]] = []
+    for target, rows in (("cpu (1 core)", TASK_ROWS_CPU), *(("cuda", n) for n in TASK_ROWS)):
+        if time.perf_counter() - start > 0.9 * budget:
+            tasks.append({"target": target, "rows": rows, "skipped": "time budget"})
+            continue
+        tasks.append(_task_kernel_rates(target, rows, say))
     cuda_target.synchronize()
-    return {"device": device, "seconds": time.perf_counter() - start, "fidelity": fidelity, "physics": physics}
+    return {"device": device, "seconds": time.perf_counter() - start, "fidelity": fidelity, "physics": physics, "tasks": tasks}
+
+
+def _task_arrays(rows: int, m: int) -> dict[str, Any]:
+    """Random airspaces of ``m`` aircraft around 52N 4E, one ownship row per airspace, and the outputs of the observation and statistics kernels."""
+    rng = np.random.default_rng(0)
+    k = TASK_INTRUDERS
+    return {
+        "envs": np.arange(rows),
+        "own": np.zeros(rows, dtype=np.int64),
+        "lat": 52 + rng.uniform(-0.5, 0.5, (rows, m)),
+        "lon": 4 + rng.uniform(-0.5, 0.5, (rows, m)),
+        "hdg": rng.uniform(0, 360, (rows, m)),
+        "tas": rng.uniform(100, 200, (rows, m)),
+        "active": rng.uniform(size=(rows, m)) < 0.9,
+        "wpt_lat": 52 + rng.uniform(-0.5, 0.5, rows),
+        "wpt_lon": 4 + rng.uniform(-0.5, 0.5, rows),
+        "drift": np.empty(rows),
+        "own_out": np.empty((rows, 3)),
+        "merge_own": np.empty((rows, 4)),
+        "intruders": np.empty((rows, 7, k)),
+        "count": np.empty(rows, dtype=np.int64),
+    }
+
+
+def _task_kernel_rates(target: str, rows: int, say: Say) -> dict[str, Any]:
+    """Rows per second of SectorCR's and Merge's observation kernels, on the CPU (one core) or launched on the device."""
+    from bluesky_gym.core import cuda_target
+    from bluesky_gym.tasks import compiled
+
+    if PHYSICS_AIRCRAFT - 1 < TASK_INTRUDERS:  # the kernels read that many other slots (the tasks ensure it)
+        raise ValueError(f"{TASK_INTRUDERS} intruders observed need at least {TASK_INTRUDERS + 1} aircraft per airspace, got {PHYSICS_AIRCRAFT}")
+    if say is not None:
+        say(f"task kernels: {target}, {rows} rows")
+    a = _task_arrays(rows, PHYSICS_AIRCRAFT)
+    if target == "cuda":
+        a = {name: cuda_target.to_device(v) for name, v in a.items()}
+    center = (52.0, 4.0, float(np.cos(np.radians(52.0))))
+    scales = (150.0, 20.0, 5000.0, 50.0, 50.0, 10000.0, 5000.0)
+    sector = (a["envs"], a["own"], a["lat"], a["lon"], a["hdg"], a["tas"], a["active"], a["wpt_lat"], a["wpt_lon"], center, scales,
+              a["drift"], a["own_out"], a["intruders"], a["count"])  # fmt: skip
+    merge = (a["envs"], a["own"], a["lat"], a["lon"], a["hdg"], a["tas"], a["active"], a["wpt_lat"], a["wpt_lon"], (5000.0, 50.0, 10.0),
+             a["merge_own"], a["intruders"], a["count"])  # fmt: skip
+    out: dict[str, Any] = {"target": target, "rows": rows}
+    for name, kernel, args in (("sector_observe", compiled.sector_observe, sector), ("merge_observe", compiled.merge_observe, merge)):
+
+        def call(kernel: Any = kernel, args: tuple[Any, ...] = args) -> None:
+            if target == "cuda":
+                cuda_target.launch(kernel, rows, *args)
+            else:
+                kernel(*args)
+
+        call()  # compiles
+        if target == "cuda":
+            cuda_target.synchronize()
+        reps = 10
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            call()
+        if target == "cuda":
+            cuda_target.synchronize()
+        out[name] = rows * reps / (time.perf_counter() - t0)
+    return out
 
 
 def device_refusal() -> str | None:
@@ -462,6 +535,14 @@ def format_device_check(result: dict[str, Any]) -> str:
     best = max((p["run_rate"] for p in result["physics"] if p["target"] == "cuda" and "run_rate" in p), default=0.0)
     verdict = "met" if best >= TARGET_PHYSICS_RATE else "NOT MET"
     lines.append(f"target: physics >= {_rate(TARGET_PHYSICS_RATE)} aircraft-sub-steps/s on one H100: {verdict} (best {_rate(best)})")
+    lines.append("")
+    lines.append(f"Task kernels: observation rows per second ({PHYSICS_AIRCRAFT} aircraft per airspace, {TASK_INTRUDERS} intruders observed)")
+    lines.append(f"{'target':<14}  {'rows':>9}  {'sector_observe':>15}  {'merge_observe':>15}")
+    for t in result.get("tasks", []):
+        if "skipped" in t:
+            lines.append(f"{t['target']:<14}  {t['rows']:>9}  {'skipped: ' + t['skipped']:>15}")
+            continue
+        lines.append(f"{t['target']:<14}  {t['rows']:>9}  {_rate(t['sector_observe']):>15}  {_rate(t['merge_observe']):>15}")
     lines.append("Not measured here: environment steps on the device and PPO end to end (no device environments yet).")
     return "\n".join(lines)
 

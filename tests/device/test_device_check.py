@@ -1,0 +1,38 @@
+"""``bluesky-gym bench gpu``'s device check, end to end at tiny sizes (under the simulator, it measures nothing but runs every part)."""
+
+from __future__ import annotations
+
+import pytest
+
+from bluesky_gym.benchmarks import gpu_bench
+
+from .conftest import needs_device
+
+pytestmark = needs_device
+
+
+def test_the_device_check_runs_every_part_and_prints_its_table(monkeypatch: pytest.MonkeyPatch) -> None:
+    for name, value in {"FIDELITY_SAMPLE": (2, 3, 4), "PHYSICS_AIRCRAFT": 3, "CPU_BATCH": 2, "DEVICE_BATCHES": (2,), "SUBSTEPS": 2,
+                        "TASK_ROWS": (3,), "TASK_ROWS_CPU": 3, "TASK_INTRUDERS": 2}.items():  # fmt: skip
+        monkeypatch.setattr(gpu_bench, name, value)
+    monkeypatch.setattr(gpu_bench, "device_refusal", lambda: None)  # the simulator is no device, but runs the same code
+    monkeypatch.setattr(gpu_bench, "_device_name", lambda: "numba-cuda simulator")
+    result = gpu_bench.device_check(budget=600.0)
+    assert result["fidelity"]["within_tolerances"]
+    assert [p["target"] for p in result["physics"]] == ["cpu (1 core)", "cuda"]
+    assert all(p["run_rate"] > 0 and p["step_rate"] > 0 for p in result["physics"])
+    assert [t["target"] for t in result["tasks"]] == ["cpu (1 core)", "cuda"]
+    assert all(t["sector_observe"] > 0 and t["merge_observe"] > 0 for t in result["tasks"])
+    text = gpu_bench.format_device_check(result)
+    assert "Device check on numba-cuda simulator" in text and "sector_observe" in text and "lat" in text
+
+
+def test_a_device_check_out_of_budget_skips_the_rest(monkeypatch: pytest.MonkeyPatch) -> None:
+    for name, value in {"FIDELITY_SAMPLE": (2, 3, 2), "PHYSICS_AIRCRAFT": 3, "CPU_BATCH": 2, "DEVICE_BATCHES": (2, 4), "TASK_ROWS": (3,),
+                        "TASK_ROWS_CPU": 3, "TASK_INTRUDERS": 2}.items():  # fmt: skip
+        monkeypatch.setattr(gpu_bench, name, value)
+    monkeypatch.setattr(gpu_bench, "device_refusal", lambda: None)
+    monkeypatch.setattr(gpu_bench, "_device_name", lambda: "numba-cuda simulator")
+    result = gpu_bench.device_check(budget=0.0)
+    assert [p.get("skipped") for p in result["physics"][1:]] == ["time budget", "time budget"]
+    assert "skipped: time budget" in gpu_bench.format_device_check(result)
