@@ -18,7 +18,7 @@ from bluesky_gym.core.units import FT, KTS, NM
 from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioError, ScenarioPlayer, parse_scenario, read_scenario
 from bluesky_gym.scenarios.export import ScenarioRecorder, scn_time, speed_text, unique_callsigns
 from bluesky_gym.scenarios.geometries import shipped_scenario, shipped_scenarios, sphere_conflict, super_conflict, wall_conflict, write_shipped
-from bluesky_gym.scenarios.player import common_dt, slots_needed, waypoints_needed
+from bluesky_gym.scenarios.player import UnknownAircraftTypeWarning, common_dt, slots_needed, unknown_types, waypoints_needed
 from tests.core.reference_scenarios import DATA
 
 TIMED = """00:00:00.00>CRE AC1 A320 52 4 0 FL100 250
@@ -56,7 +56,8 @@ def test_advance_equals_stepping() -> None:
 def test_player_errors() -> None:
     sc = parse_scenario("00:00:00.00>CRE AC1 B744 52 4\n00:00:00.00>CRE AC2 zzzz 52 5\n", "types.scn")
     sim = Simulator(1, 2)
-    ScenarioPlayer([sc], sim)
+    with pytest.warns(UnknownAircraftTypeWarning, match="types.scn:2: aircraft type 'ZZZZ' is unknown to BlueSky"):
+        ScenarioPlayer([sc], sim)
     assert sim.aircraft_type([0, 0], [0, 1]) == ["B744", "ZZZZ"]
     assert sim.aircraft_performance(0, 1).name == "B744"  # BlueSky's fallback for an unknown type
     rotor = parse_scenario("00:00:00.00>CRE AC1 EC35 52 4\n", "rotor.scn")
@@ -332,3 +333,43 @@ def test_recorder_writes_given_callsigns_valid_and_unique() -> None:
     assert sc.callsigns == ["SWR1", "AC002_2", "AC002"]
     rec.reset_envs([0])
     assert rec.acid(0, 0) == "AC000"  # a reset restores the slot names
+
+
+@pytest.mark.parametrize(
+    ("line", "match"),
+    [
+        ("CRE AC2 A320 52 4 90 1e30 250", r"AC2: the new aircraft's tas, .* would not be finite"),  # finite, but beyond the atmosphere
+        ("CRECONFS I1 A320 AC1 90 1 60 1e30 60", r"I1: the conflict geometry has no finite solution for the state of AC1 \(the intruder's .*"),
+    ],
+)
+def test_a_creation_without_a_finite_state_is_refused(line: str, match: str) -> None:
+    sc = parse_scenario(f"00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:00.00>{line}\n", "huge.scn")
+    with pytest.raises(ScenarioError, match=match) as err:
+        ScenarioPlayer([sc], Simulator(1, 2))
+    assert str(err.value).startswith("huge.scn:2: ")
+
+
+def test_check_finite_names_the_aircraft() -> None:
+    sc = parse_scenario("00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:00.00>CRE AC2 A320 52 5 90 FL200 250\n", "two.scn")
+    sim = Simulator(2, 2)
+    player = ScenarioPlayer([sc, sc], sim)
+    player.advance(3)
+    player.check_finite(3.0)
+    sim.alt[1, 1] = np.nan
+    with pytest.raises(ScenarioError, match=r"two.scn: at t = 3 s the state of AC2 is not finite \(alt\)"):
+        player.check_finite(3.0)
+
+
+def test_unknown_aircraft_types_warn_once_per_type() -> None:
+    text = "00:00:00.00>CRE AC1 ZZZZ 52 4\n00:00:00.00>CRE AC2 A320 52 5\n00:00:10.00>CRE AC3 zzzz 52 6\n00:00:20.00>CRECONFS AC4 QQ AC1 90 1 60\n"
+    sc = parse_scenario(text, "types.scn")
+    assert {t: str(s) for t, s in unknown_types([sc, sc]).items()} == {"ZZZZ": "types.scn:1", "QQ": "types.scn:4"}
+    with pytest.warns(UnknownAircraftTypeWarning) as caught:
+        player = ScenarioPlayer([sc, sc], Simulator(2, 4))
+    messages = sorted(str(w.message) for w in caught)
+    assert len(messages) == 2
+    assert messages[0].startswith("types.scn:1: aircraft type 'ZZZZ' is unknown to BlueSky; it flies as the B744")
+    assert messages[1].startswith("types.scn:4: aircraft type 'QQ' is unknown to BlueSky")
+    player.advance(30)
+    assert player.physics.aircraft_performance(0, 2).name == "B744"  # type: ignore[attr-defined]  # BlueSky's fallback is kept
+    assert unknown_types([parse_scenario("00:00:00.00>CRE AC1 B738 52 4\n00:00:00.00>CRE AC2 A320 52 4\n00:00:00.00>CRE AC3 EC35 52 4\n")]) == {}
