@@ -126,8 +126,9 @@ def add_parser(subparsers: Any) -> None:
     train = sub.add_parser(
         "train",
         help="training throughput: SB3 and the fast trainer side by side, against the environment alone",
-        description="End-to-end training throughput (env-steps/s of collection and updates) of each trainer, for each setting,\n"
-        "with ratios against the environment alone and SB3 measured in the same run (docs/training-fast.md).",
+        description="End-to-end training throughput (env-steps/s of collection and updates) of each trainer,\n"
+        "for each setting, with ratios against the environment alone and SB3 measured in the same run\n"
+        "(docs/training-fast.md).",
     )
     train.add_argument("--env", default="SectorCREnv-v0", metavar="ID", help="environment id (default: SectorCREnv-v0)")
     train.add_argument("--setting", action="extend", nargs="+", metavar="NAME", help="settings to measure (default: all; see docs/training-fast.md)")

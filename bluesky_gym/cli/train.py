@@ -24,11 +24,10 @@ episode log shorter than its checkpoint, a JSON file that does not parse) is nam
 until rerun with ``--resume-from-last-intact`` (continue from the last intact checkpoint) or
 ``--restart``. The multi-agent environments are trained with ``bluesky-gym train-ma``.
 
-``demo`` trains PPO on 16 batched environments (``configs/demo.toml``, the fast trainer), evaluates the policy
-against the ``random`` and ``classical`` reference policies (and ``mvp`` for the environments with
-traffic) on held-out scenarios, and writes the
-learning curves, the aggregate plot and (when rendering is available) a GIF of the trained
-policy.
+``demo`` trains PPO on 16 batched environments (``configs/demo.toml``, the fast trainer), evaluates
+the policy against the ``random`` and ``classical`` reference policies (and ``mvp`` for the
+environments with traffic) on held-out scenarios, and writes the learning curves, the aggregate
+plot and (when rendering is available) a GIF of the trained policy.
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ accepted forms are those of BlueSky 1.1.1's stack:
 
 * altitude: ``FL350`` (flight level, hundreds of feet) or a number of feet (``5000``);
 * speed: a number of knots CAS (``250``), or a Mach number written ``M.78``, ``M78``, ``M0.78`` or
-  ``0.78`` (a plain number between 0.1 and 1 is a Mach number);
+  ``0.78`` (a plain number between 0.1 and 1 is a Mach number); negative speeds are refused
+  (BlueSky creates an aircraft flying backwards);
 * vertical speed: feet per minute (``-1500``);
 * heading: degrees true, optionally ``T``-suffixed (``090``, ``90T``); magnetic headings (``M``)
   need BlueSky's magnetic-variation model and are refused;
@@ -14,14 +15,46 @@ accepted forms are those of BlueSky 1.1.1's stack:
   or the degree sign separate the parts);
 * longitude: ``4.5``, ``E4.5``, ``W004.5``, ``E004'30'00"``;
 * time: ``SS.hh``, ``MM:SS.hh`` or ``HH:MM:SS.hh``.
+
+Python's ``float`` also reads ``nan``, ``inf`` and ``1e999`` (infinite); every function here
+refuses a value that is not a finite number (BlueSky accepts them and flies NaN).
 """
 
 from __future__ import annotations
+
+import math
 
 from bluesky_gym.core.units import FPM, FT, KTS
 
 #: Characters separating degrees, minutes and seconds in a latitude or longitude.
 DMS_SEPARATORS = ("'", '"', "\N{DEGREE SIGN}")
+
+
+def finite(value: float, text: str, what: str) -> float:
+    """``value`` when it is a finite number, else a :class:`ValueError` naming ``text`` as ``what``.
+
+    Args:
+        value: The number read from ``text``.
+        text: The argument as written.
+        what: What the argument is ("an altitude", "a speed", ...).
+    """
+    if not math.isfinite(value):
+        raise ValueError(f"{what} must be a finite number, got {text!r}")
+    return value
+
+
+def parse_number(text: str, what: str = "a number") -> float:
+    """A finite number (``float``'s forms; ``nan`` and infinities refused).
+
+    Args:
+        text: The argument as written.
+        what: What the argument is, for the error message.
+    """
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"cannot read {text!r} as {what}") from None
+    return finite(value, text, what)
 
 
 def split_arguments(text: str) -> list[str]:
@@ -65,31 +98,37 @@ def parse_altitude(text: str) -> float:
     try:
         if t.startswith("FL") and len(t) >= 4:
             return 100.0 * int(t[2:]) * FT
-        return float(t) * FT
+        value = float(t) * FT
     except ValueError:
         raise ValueError(f"cannot read {text!r} as an altitude (FL350 or feet)") from None
+    return finite(value, text, "an altitude")
 
 
 def parse_speed(text: str) -> float:
     """CAS [m/s] from knots, or a Mach number from ``M.78``/``M78``/``0.78``."""
     t = text.strip().upper()
+    mach = t.startswith("M")
     try:
-        if t.startswith("M"):
+        if mach:
             digits = t[1:]
             value = float(digits if digits.startswith(".") or "." in digits else "." + digits)
-            return value
-        value = float(t)
+        else:
+            value = float(t)
     except ValueError:
         raise ValueError(f"cannot read {text!r} as a speed (knots CAS or a Mach number like M.78)") from None
-    return value if 0.1 < value < 1.0 else value * KTS
+    finite(value, text, "a speed")
+    if value < 0.0:
+        raise ValueError(f"a speed must not be negative, got {text!r}")
+    return value if mach or 0.1 < value < 1.0 else value * KTS
 
 
 def parse_vertical_speed(text: str) -> float:
     """Vertical speed [m/s] from feet per minute."""
     try:
-        return float(text) * FPM
+        value = float(text) * FPM
     except ValueError:
         raise ValueError(f"cannot read {text!r} as a vertical speed (feet per minute)") from None
+    return finite(value, text, "a vertical speed")
 
 
 def parse_heading(text: str) -> float:
@@ -98,9 +137,10 @@ def parse_heading(text: str) -> float:
     if "M" in t:
         raise ValueError(f"magnetic heading {text!r} is not supported (it needs BlueSky's magnetic-variation model); give a true heading")
     try:
-        return float(t.replace("T", ""))
+        value = float(t.replace("T", ""))
     except ValueError:
         raise ValueError(f"cannot read {text!r} as a heading in degrees") from None
+    return finite(value, text, "a heading")
 
 
 def is_latitude(text: str) -> bool:
@@ -133,6 +173,7 @@ def parse_latitude(text: str) -> float:
         value = _degrees(t.lstrip("NS+-"), negative)
     except ValueError:
         raise ValueError(f"cannot read {text!r} as a latitude") from None
+    finite(value, text, "a latitude")
     if not -90.0 <= value <= 90.0:
         raise ValueError(f"latitude {text!r} is outside [-90, 90] degrees")
     return value
@@ -149,6 +190,7 @@ def parse_longitude(text: str) -> float:
             value = _degrees(t.lstrip("EW+-"), negative)
     except ValueError:
         raise ValueError(f"cannot read {text!r} as a longitude") from None
+    finite(value, text, "a longitude")
     if not -360.0 <= value <= 360.0:
         raise ValueError(f"longitude {text!r} is outside [-360, 360] degrees")
     return value
@@ -167,7 +209,7 @@ def parse_time(text: str) -> float:
             seconds += 3600.0 * int(parts[-3])
     except ValueError:
         raise ValueError(f"cannot read {text!r} as a time (SS.hh, MM:SS.hh or HH:MM:SS.hh)") from None
-    return seconds
+    return finite(seconds, text, "a time")
 
 
 def parse_switch(text: str) -> bool:

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS
 from bluesky_gym.core.resolution import RESO_FACTOR, RMETHH_VALUES, RMETHV_VALUES, AsasConfig, ResolutionSettings
 from bluesky_gym.core.units import FT, NM
-from bluesky_gym.scenarios.arguments import parse_time
+from bluesky_gym.scenarios.arguments import parse_number, parse_time
 
 #: BlueSky command names and their aliases -> the name used here.
 ASAS_COMMANDS = {
@@ -170,12 +170,10 @@ class AsasState:
     def _zone(self, name: str, value: str) -> None:
         if not value:
             return
-        try:
-            number = float(value) if name in ("ZONER", "ZONEDH") else parse_time(value)
-        except ValueError:
-            raise ValueError(
-                f"cannot read {value!r} as a {'distance in NM' if name == 'ZONER' else 'height in ft' if name == 'ZONEDH' else 'time'}"
-            ) from None
+        if name in ("ZONER", "ZONEDH"):
+            number = parse_number(value, "a distance in NM" if name == "ZONER" else "a height in ft")
+        else:
+            number = parse_time(value)
         if number < 0.0:  # BlueSky: a negative value only shows the current one
             return
         cd, cr = self.cd, self.cr
@@ -196,10 +194,7 @@ class AsasState:
     def _factor(self, name: str, value: str) -> None:
         if not value:
             return
-        try:
-            number = float(value)
-        except ValueError:
-            raise ValueError(f"cannot read {value!r} as a number") from None
+        number = parse_number(value, {"RSZONER": "a distance in NM", "RSZONEDH": "a height in ft"}.get(name, "a factor"))
         if not number > 0.0:
             raise ValueError(f"{name} must be > 0, got {value}")
         cr = self.cr

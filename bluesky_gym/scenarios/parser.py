@@ -15,18 +15,22 @@ Every problem is a :class:`ScenarioError` naming the file, the line and the comm
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from bluesky_gym.core.conflicts import PZ_HEIGHT
 from bluesky_gym.core.resolution import AsasConfig
+from bluesky_gym.core.units import FT
 from bluesky_gym.scenarios.arguments import (
     is_latitude,
     parse_altitude,
     parse_heading,
     parse_latitude,
     parse_longitude,
+    parse_number,
     parse_speed,
     parse_switch,
     parse_time,
@@ -86,7 +90,10 @@ class Create(Command):
 
 @dataclass(frozen=True)
 class CreateConflict(Command):
-    """``CRECONFS acid type target dpsi dcpa tlosh [dh tlosv spd]``: deg, NM, s, m, s, m/s or Mach."""
+    """``CRECONFS acid type target dpsi dcpa tlosh [dh tlosv spd]``: deg, NM, s, m, s, m/s or Mach.
+
+    ``spd`` None (omitted, or 0 as BlueSky reads it): the target's ground speed.
+    """
 
     acid: str
     actype: str
@@ -448,12 +455,17 @@ def _parse_command(t: float, src: Source, ctx: _Context) -> Command:
         actype = str(a.take("type")).upper()
         target = _acid(a, ctx)
         dpsi = a.take("dpsi", parse_heading)
-        dcpa = a.take("cpa", float)
+        dcpa = a.take("cpa", lambda text: parse_number(text, "a distance in NM"))
         tlosh = a.take("tlos_hor", parse_time)
         dh = a.take("dH", parse_altitude, optional=True)
         tlosv = a.take("tlos_ver", parse_time, optional=True)
         spd = a.take("spd", parse_speed, optional=True)
         a.done()
+        if spd == 0.0:  # BlueSky's "if spd:": a speed of 0 gives the target's ground speed, as an omitted one
+            spd = None
+        if dh is not None:
+            which = "tlos_hor (tlos_ver omitted)" if tlosv is None else "tlos_ver"
+            _check_vertical_conflict(a, float(dh), float(tlosh if tlosv is None else tlosv), which)  # type: ignore[arg-type]
         out = CreateConflict(t, src, acid, actype, target, dpsi, dcpa, tlosh, dh, tlosv, spd)  # type: ignore[arg-type]
         ctx.alive.add(acid)
         ctx.routes[acid] = []
@@ -523,7 +535,7 @@ def _parse_command(t: float, src: Source, ctx: _Context) -> Command:
             raise a.fail("VNAV ON is not supported: the core flies routes laterally only (see docs/dynamics.md)")
         out = Vnav(t, src, acid)
     elif cmd == "DT":
-        dt = a.take("dt", float)
+        dt = a.take("dt", lambda text: parse_number(text, "a time step"))
         a.done()
         if not (isinstance(dt, float) and dt > 0):
             raise a.fail(f"dt must be > 0 s, got {dt}")
@@ -537,6 +549,20 @@ def _parse_command(t: float, src: Source, ctx: _Context) -> Command:
             raise a.fail(f"{cmd} {on}: turbulence noise is not supported by the core")
         out = Ignored(t, src, cmd)
     return out
+
+
+def _check_vertical_conflict(a: _Args, dh: float, tlosv: float, which: str) -> None:
+    """Refuse a ``CRECONFS`` whose intruder would get no finite vertical speed.
+
+    BlueSky gives the intruder ``vs = vs_target - sign(dH) (|dH| - hpz) / tlos_ver`` (hpz: the
+    protected zone's half height, 1000 ft); with ``tlos_ver`` 0 that is NaN or infinite, and the
+    aircraft's state turns NaN.
+    """
+    if tlosv == 0.0 or not math.isfinite((abs(dh) - PZ_HEIGHT) / tlosv):
+        raise a.fail(
+            f"no finite conflict geometry: the intruder's vertical speed (|dH| - {PZ_HEIGHT / FT:g} ft) / tlos_ver with dH {dh / FT:g} ft "
+            f"and {which} {tlosv:g} s is not a finite number; give a time to vertical loss of separation other than 0"
+        )
 
 
 def parse_scenarios(paths: Sequence[str | Path]) -> list[ScenarioFile]:

@@ -8,12 +8,15 @@ checked at the start of every step), so a command at a multiple of ``dt`` acts i
 ends at ``t + dt``. Identical scenarios (copies) are commanded together, in one call per command.
 Conflict detection and resolution commands (``ASAS``, ``RESO MVP``, ...) reach a physics that
 implements :class:`~bluesky_gym.core.physics.ConflictResolutionCommands`; on another physics a
-scenario that switches resolution on is an error.
+scenario that switches resolution on is an error. An aircraft type BlueSky does not know flies as
+BlueSky flies it, as the B744, with an :class:`UnknownAircraftTypeWarning` per type naming the
+first line that creates one (:func:`unknown_types`).
 """
 
 from __future__ import annotations
 
 import inspect
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -21,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.core.aircraft import FALLBACK_TYPE, resolve_type
 from bluesky_gym.core.physics import ConflictResolutionCommands, Physics, RouteCommands
 from bluesky_gym.scenarios.parser import (
     DEFAULT_ACTYPE,
@@ -39,6 +43,7 @@ from bluesky_gym.scenarios.parser import (
     Position,
     ScenarioError,
     ScenarioFile,
+    Source,
     Speed,
     TimeStep,
     VerticalSpeed,
@@ -86,6 +91,42 @@ TRAJECTORY_COLUMNS = (
 COLUMN_FIELDS = {c: {"vmin_cas": "vmin", "vmax_cas": "vmax"}.get(c, c) for c in TRAJECTORY_COLUMNS[2:]}
 #: Columns written as integers.
 INTEGER_COLUMNS = frozenset({"phase", "swlnav", "swvnav", "iactwp"})
+
+
+class UnknownAircraftTypeWarning(UserWarning):
+    """A scenario creates an aircraft of a type BlueSky does not know; it flies as the B744 (BlueSky's fallback)."""
+
+
+def unknown_types(scenarios: Sequence[ScenarioFile]) -> dict[str, Source]:
+    """The aircraft types of ``scenarios`` that BlueSky does not know, each with the first line creating one.
+
+    BlueSky 1.1.1 flies such an aircraft with the B744's performance data, without a word; the
+    player and ``bluesky-gym replay`` keep that fallback and warn once per type. Rotorcraft are
+    left out (creating one is an error).
+
+    Args:
+        scenarios: Parsed scenarios, searched in order.
+
+    Returns:
+        Type name (upper case) -> the source line of its first ``CRE`` or ``CRECONFS``.
+    """
+    found: dict[str, Source] = {}
+    checked: set[str] = {DEFAULT_ACTYPE, FALLBACK_TYPE}  # the default type needs no look-up (it would load the type data)
+    for s in scenarios:
+        for c in s.commands:
+            if isinstance(c, (Create, CreateConflict)) and c.actype not in checked:
+                checked.add(c.actype)
+                try:
+                    if resolve_type(c.actype) == FALLBACK_TYPE:
+                        found[c.actype] = c.source
+                except ValueError:  # a rotorcraft: refused when it is created
+                    pass
+    return found
+
+
+def unknown_type_message(actype: str, source: Source) -> str:
+    """The warning about an unknown aircraft type (see :func:`unknown_types`)."""
+    return f"{source}: aircraft type {actype!r} is unknown to BlueSky; it flies as the {FALLBACK_TYPE} (BlueSky's fallback; line: {source.text!r})"
 
 
 def slots_needed(scenario: ScenarioFile) -> int:
@@ -144,6 +185,9 @@ class ScenarioPlayer:
 
     Raises:
         ScenarioError: The physics is too small, or a command cannot run on it.
+
+    Warns:
+        UnknownAircraftTypeWarning: Once per aircraft type BlueSky does not know (it flies as the B744).
     """
 
     def __init__(self, scenarios: Sequence[ScenarioFile], physics: Physics, supports_actype: bool | None = None) -> None:
@@ -154,6 +198,9 @@ class ScenarioPlayer:
         if supports_actype is None:
             supports_actype = all("actype" in inspect.signature(f).parameters for f in (physics.create, physics.creconfs))
         self.supports_actype = supports_actype
+        if supports_actype:
+            for actype, source in unknown_types(list({id(s): s for s in self.scenarios}.values())).items():
+                warnings.warn(unknown_type_message(actype, source), UnknownAircraftTypeWarning, stacklevel=2)
         groups: dict[int, list[int]] = {}
         for k, s in enumerate(self.scenarios):
             groups.setdefault(id(s), []).append(k)
@@ -267,11 +314,13 @@ class ScenarioPlayer:
                 slot = g.slot_of[index]
                 lat, lon = self._position(g, cmd, cmd.position)
                 p.create(envs, slot, lat, lon, cmd.hdg, cmd.alt, cmd.spd, **self._check_type(cmd, cmd.actype))
+                self._check_created(g, cmd, slot)
                 self._born(g, cmd.acid, slot)
             elif isinstance(cmd, CreateConflict):
                 slot = g.slot_of[index]
                 extra = self._check_type(cmd, cmd.actype)
                 p.creconfs(envs, self._slot(g, cmd, cmd.target), slot, cmd.dpsi, cmd.dcpa, cmd.tlosh, cmd.dh, cmd.tlosv, cmd.spd, **extra)
+                self._check_created(g, cmd, slot)
                 self._born(g, cmd.acid, slot)
             elif isinstance(cmd, Delete):
                 for acid in cmd.acids:
@@ -314,6 +363,39 @@ class ScenarioPlayer:
             raise
         except (ValueError, RuntimeError, IndexError) as exc:
             raise ScenarioError(f"{cmd.source}: {cmd.source.text!r} failed: {exc}") from exc
+
+    def _nonfinite(self, envs: NDArray[np.int64], slots: NDArray[np.int64]) -> list[str]:
+        """The trajectory columns in which any of the aircraft (``envs[k]``, ``slots[k]``) is not finite."""
+        p = self.physics
+        return [c for c, f in COLUMN_FIELDS.items() if not np.all(np.isfinite(np.asarray(getattr(p, f)[envs, slots], dtype=np.float64)))]
+
+    def _check_created(self, g: _Group, cmd: Create | CreateConflict, slot: int) -> None:
+        """Refuse a creation that gives the new aircraft a state that is not finite (the reader refuses NaN and infinities; huge values remain)."""
+        bad = ", ".join(self._nonfinite(g.envs, np.full(g.envs.size, slot, dtype=np.int64)))
+        if not bad:
+            return
+        if isinstance(cmd, CreateConflict):
+            why = f"the conflict geometry has no finite solution for the state of {cmd.target} (the intruder's {bad} would not be finite)"
+        else:
+            why = f"the new aircraft's {bad} would not be finite"
+        raise ScenarioError(f"{cmd.source}: {cmd.acid}: {why}; line: {cmd.source.text!r}")
+
+    def check_finite(self, t: float) -> None:
+        """Raise when an alive aircraft's state is not finite (a value no command or step should give).
+
+        Args:
+            t: The current time [s], for the message.
+
+        Raises:
+            ScenarioError: Naming the scenario, the aircraft and the columns.
+        """
+        envs, slots, acids = self._alive_index()
+        if not envs.size or not self._nonfinite(envs, slots):
+            return
+        for env, slot, acid in zip(envs.tolist(), slots.tolist(), acids):
+            bad = self._nonfinite(np.array([env]), np.array([slot]))
+            if bad:
+                raise ScenarioError(f"{self.scenarios[env].name}: at t = {t:g} s the state of {acid} is not finite ({', '.join(bad)})")
 
     def _born(self, g: _Group, acid: str, slot: int) -> None:
         self._index_cache = None

@@ -6,7 +6,8 @@ log, an episode log with a row per training episode (thousands at 2e6 steps) and
 configuration, the process record, the held-out evaluation (``eval.json``,
 ``eval_episodes.csv``), ``result.json``, and the learning curve as ``curve.csv``: the episode
 log in ``bins`` equal spans of timesteps, each row the number of episodes that ended in the span
-and the mean of every numeric column over them (non-finite values left out). It removes the
+and the mean of every numeric column over them (non-finite values left out; six significant
+digits). It removes the
 rest, and records what it removed in ``result.json`` (``"summarised"``), so that
 :func:`~bluesky_gym.training.runner.inspect_run` does not take their absence for damage.
 """
@@ -26,6 +27,8 @@ from bluesky_gym.training.runner import EPISODE_LOG, TENSORBOARD_DIR, inspect_ru
 CURVE = "curve.csv"
 #: Spans of timesteps of the curve.
 DEFAULT_BINS = 200
+#: Significant digits of the curve's means (a plot's resolution, a quarter of the file of full precision).
+CURVE_DIGITS = 6
 #: Episode-log columns the curve does not average (the span's end and its episode count replace them).
 _NOT_AVERAGED = ("episode", "timesteps", "wall_time_s", "env_index")
 
@@ -58,7 +61,7 @@ def curve_rows(header: list[str], rows: list[list[str]], total_timesteps: int, b
         for c in averaged:
             values = data[mask, header.index(c)]
             finite = values[np.isfinite(values)]
-            row.append(float(finite.mean()) if finite.size else float("nan"))
+            row.append(float(f"{finite.mean():.{CURVE_DIGITS}g}") if finite.size else float("nan"))
         out.append(row)
     return ["timesteps", "episodes", "wall_time_s", *averaged], out
 

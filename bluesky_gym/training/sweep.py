@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.core.extras import require_ray
+from bluesky_gym.envs.seeds import train_env_seeds
 from bluesky_gym.training.io import atomic_write_json
 from bluesky_gym.training.runner import RunSpec, make_run_spec, run_dir_for, run_status, run_training
 
@@ -223,12 +224,20 @@ def estimate(
         model = new_model(spec, venv)
         if algo == "PPO":
             rollout = spec.hyperparams.get("n_steps", 2048) * spec.n_envs
-            warm, steps = 0, rollout * max(1, -(-probe_steps // rollout))
+            warm, steps = rollout if spec.compile else 0, rollout * max(1, -(-probe_steps // rollout))  # compiling is not timed
         else:
             warm, steps = int(spec.hyperparams.get("learning_starts", 100)) + spec.n_envs, probe_steps
-        if warm:
-            model.learn(warm)
-        wall, cpu = _timed(lambda: model.learn(steps, reset_num_timesteps=False))
+        if spec.trainer == "fast":
+            from bluesky_gym.training.fast import trainer_class
+
+            trainer = trainer_class(algo)(model, venv.venv, seed=0, compile=spec.compile)
+            trainer.start(train_env_seeds(0, spec.n_envs))
+            trainer.learn(warm)
+            wall, cpu = _timed(lambda: trainer.learn(trainer.num_timesteps + steps))
+        else:
+            if warm:
+                model.learn(warm)
+            wall, cpu = _timed(lambda: model.learn(steps, reset_num_timesteps=False))
         venv.close()
         done = steps
         w_env, c_env = env_cost[probe_env]

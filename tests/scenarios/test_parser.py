@@ -12,6 +12,7 @@ from bluesky_gym.scenarios.arguments import (
     parse_heading,
     parse_latitude,
     parse_longitude,
+    parse_number,
     parse_speed,
     parse_switch,
     parse_time,
@@ -250,3 +251,103 @@ def test_deleted_callsign_can_be_created_again() -> None:
     assert sc.callsigns == ["AC1", "AC1"]
     with pytest.raises(ScenarioError, match="no aircraft 'AC1'"):
         parse_scenario("00:00:00.00>CRE AC1 A320 52 4\n00:00:10.00>DEL AC1\n00:00:30.00>HDG AC1 90\n")
+
+
+@pytest.mark.parametrize(
+    ("fun", "text"),
+    [
+        (parse_altitude, "nan"),
+        (parse_altitude, "inf"),
+        (parse_altitude, "1e999"),
+        (parse_speed, "nan"),
+        (parse_speed, "M.nan"),
+        (parse_speed, "inf"),
+        (parse_vertical_speed, "-inf"),
+        (parse_heading, "nan"),
+        (parse_heading, "infT"),
+        (parse_latitude, "nan"),
+        (parse_longitude, "nan"),
+        (parse_longitude, "-inf"),
+        (parse_time, "nan"),
+        (parse_time, "01:inf"),
+        (parse_number, "NaN"),
+    ],
+)
+def test_non_finite_arguments_are_refused(fun, text: str) -> None:  # type: ignore[no-untyped-def]
+    """Python's float reads nan, inf and 1e999; a scenario argument must be a finite number."""
+    with pytest.raises(ValueError, match=f"must be a finite number, got '{text}'|cannot read '{text}'"):
+        fun(text)
+
+
+@pytest.mark.parametrize(
+    "line",
+    [
+        "ALT AC1 nan",
+        "ALT AC1 inf",
+        "ALT AC1 1e999",
+        "ALT AC1 FL100 nan",
+        "HDG AC1 nan",
+        "SPD AC1 nan",
+        "VS AC1 -inf",
+        "CRE AC2 A320 52 4 nan nan nan",
+        "CRE AC2 A320 52 4 90 FL100 inf",
+        "CRE AC2 A320 52 inf",
+        "CRECONFS I1 A320 AC1 nan 1 60",
+        "CRECONFS I1 A320 AC1 90 nan 60",
+        "CRECONFS I1 A320 AC1 90 1 inf",
+        "CRECONFS I1 A320 AC1 90 1 60 FL10 nan",
+        "DT inf",
+        "DT nan",
+        "ZONER nan",
+        "ZONEDH inf",
+        "DTLOOK nan",
+        "RFACH inf",
+        "RSZONER nan",
+        "ADDWPT AC1 52 nan",
+    ],
+)
+def test_non_finite_numbers_are_refused_with_file_and_line(line: str) -> None:
+    text = f"00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n# comment\n00:00:00.00>{line}\n"
+    with pytest.raises(ScenarioError, match="must be a finite number") as err:
+        parse_scenario(text, "bad.scn")
+    assert str(err.value).startswith("bad.scn:3: ") and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("args", "which"),
+    [
+        ("0 0", "dH 0 ft and tlos_ver 0 s"),  # BlueSky: 0 * (0 - 1000 ft) / 0, NaN
+        ("FL10 0", "dH 1000 ft and tlos_ver 0 s"),
+        ("-2000 00:00", "dH -2000 ft and tlos_ver 0 s"),  # infinite
+        ("500", "tlos_hor (tlos_ver omitted) 0 s"),  # tlos_ver defaults to tlos_hor
+    ],
+)
+def test_creconfs_without_a_finite_vertical_speed_is_refused(args: str, which: str) -> None:
+    tlosh = "0" if "tlos_hor" in which else "60"
+    text = f"00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:00.00>CRECONFS I1 A320 AC1 90 1 {tlosh} {args}\n"
+    with pytest.raises(ScenarioError, match="no finite conflict geometry") as err:
+        parse_scenario(text, "conf.scn")
+    assert str(err.value).startswith("conf.scn:2: CRECONFS: ") and which in str(err.value)
+    fine = parse_scenario(text.replace(f"{tlosh} {args}", f"{tlosh} {args.split()[0]} 30"), "conf.scn")
+    assert isinstance(fine.commands[-1], CreateConflict) and fine.commands[-1].tlosv == 30.0
+
+
+@pytest.mark.parametrize(
+    "line", ["CRE AC2 A320 52 4 90 -5000 -250", "CRE AC2 A320 52 4 90 FL100 -0.5", "SPD AC1 -250", "CRECONFS I1 A320 AC1 90 1 60 0 60 -250"]
+)
+def test_negative_speeds_are_refused(line: str) -> None:
+    """BlueSky creates an aircraft with a negative speed flying backwards; the reader refuses it."""
+    with pytest.raises(ScenarioError, match="a speed must not be negative, got '-0?[.0-9]*'"):
+        parse_scenario(f"00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:00.00>{line}\n", "neg.scn")
+
+
+def test_negative_altitudes_are_read_as_bluesky_reads_them() -> None:
+    """Below sea level is an altitude (docs/scenarios.md §3): read, not refused."""
+    sc = parse_scenario("00:00:00.00>CRE AC1 A320 52 4 90 -5000 250\n00:00:01.00>ALT AC1 -200\n")
+    assert sc.commands[0].alt == -5000 * FT and sc.commands[1].alt == -200 * FT  # type: ignore[attr-defined]
+
+
+def test_creconfs_speed_zero_is_the_targets_speed() -> None:
+    """BlueSky's creconfs tests "if spd:", so a speed of 0 is an omitted one (the target's ground speed)."""
+    sc = parse_scenario("00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:00.00>CRECONFS I1 A320 AC1 90 1 60 0 60 0\n")
+    assert sc.commands[1].spd is None  # type: ignore[attr-defined]

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import csv
 import math
+import os
+import re
+import time
 from pathlib import Path
 
 import gymnasium as gym
@@ -18,7 +21,7 @@ from bluesky_gym.core.units import FT, KTS, NM
 from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioError, ScenarioPlayer, parse_scenario, read_scenario
 from bluesky_gym.scenarios.export import ScenarioRecorder, scn_time, speed_text, unique_callsigns
 from bluesky_gym.scenarios.geometries import shipped_scenario, shipped_scenarios, sphere_conflict, super_conflict, wall_conflict, write_shipped
-from bluesky_gym.scenarios.player import common_dt, slots_needed, waypoints_needed
+from bluesky_gym.scenarios.player import UnknownAircraftTypeWarning, common_dt, slots_needed, unknown_types, waypoints_needed
 from tests.core.reference_scenarios import DATA
 
 TIMED = """00:00:00.00>CRE AC1 A320 52 4 0 FL100 250
@@ -56,7 +59,8 @@ def test_advance_equals_stepping() -> None:
 def test_player_errors() -> None:
     sc = parse_scenario("00:00:00.00>CRE AC1 B744 52 4\n00:00:00.00>CRE AC2 zzzz 52 5\n", "types.scn")
     sim = Simulator(1, 2)
-    ScenarioPlayer([sc], sim)
+    with pytest.warns(UnknownAircraftTypeWarning, match="types.scn:2: aircraft type 'ZZZZ' is unknown to BlueSky"):
+        ScenarioPlayer([sc], sim)
     assert sim.aircraft_type([0, 0], [0, 1]) == ["B744", "ZZZZ"]
     assert sim.aircraft_performance(0, 1).name == "B744"  # BlueSky's fallback for an unknown type
     rotor = parse_scenario("00:00:00.00>CRE AC1 EC35 52 4\n", "rotor.scn")
@@ -332,3 +336,132 @@ def test_recorder_writes_given_callsigns_valid_and_unique() -> None:
     assert sc.callsigns == ["SWR1", "AC002_2", "AC002"]
     rec.reset_envs([0])
     assert rec.acid(0, 0) == "AC000"  # a reset restores the slot names
+
+
+@pytest.mark.parametrize(
+    ("line", "match"),
+    [
+        ("CRE AC2 A320 52 4 90 1e30 250", r"AC2: the new aircraft's tas, .* would not be finite"),  # finite, but beyond the atmosphere
+        ("CRECONFS I1 A320 AC1 90 1 60 1e30 60", r"I1: the conflict geometry has no finite solution for the state of AC1 \(the intruder's .*"),
+    ],
+)
+def test_a_creation_without_a_finite_state_is_refused(line: str, match: str) -> None:
+    sc = parse_scenario(f"00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:00.00>{line}\n", "huge.scn")
+    with pytest.raises(ScenarioError, match=match) as err:
+        ScenarioPlayer([sc], Simulator(1, 2))
+    assert str(err.value).startswith("huge.scn:2: ")
+
+
+def test_check_finite_names_the_aircraft() -> None:
+    sc = parse_scenario("00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:00.00>CRE AC2 A320 52 5 90 FL200 250\n", "two.scn")
+    sim = Simulator(2, 2)
+    player = ScenarioPlayer([sc, sc], sim)
+    player.advance(3)
+    player.check_finite(3.0)
+    sim.alt[1, 1] = np.nan
+    with pytest.raises(ScenarioError, match=r"two.scn: at t = 3 s the state of AC2 is not finite \(alt\)"):
+        player.check_finite(3.0)
+
+
+def test_unknown_aircraft_types_warn_once_per_type() -> None:
+    text = "00:00:00.00>CRE AC1 ZZZZ 52 4\n00:00:00.00>CRE AC2 A320 52 5\n00:00:10.00>CRE AC3 zzzz 52 6\n00:00:20.00>CRECONFS AC4 QQ AC1 90 1 60\n"
+    sc = parse_scenario(text, "types.scn")
+    assert {t: str(s) for t, s in unknown_types([sc, sc]).items()} == {"ZZZZ": "types.scn:1", "QQ": "types.scn:4"}
+    with pytest.warns(UnknownAircraftTypeWarning) as caught:
+        player = ScenarioPlayer([sc, sc], Simulator(2, 4))
+    messages = sorted(str(w.message) for w in caught)
+    assert len(messages) == 2
+    assert messages[0].startswith("types.scn:1: aircraft type 'ZZZZ' is unknown to BlueSky; it flies as the B744")
+    assert messages[1].startswith("types.scn:4: aircraft type 'QQ' is unknown to BlueSky")
+    player.advance(30)
+    assert player.physics.aircraft_performance(0, 2).name == "B744"  # type: ignore[attr-defined]  # BlueSky's fallback is kept
+    assert unknown_types([parse_scenario("00:00:00.00>CRE AC1 B738 52 4\n00:00:00.00>CRE AC2 A320 52 4\n00:00:00.00>CRE AC3 EC35 52 4\n")]) == {}
+
+
+def _replay_err(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str]:
+    rc = main(["replay", *argv])
+    return rc, capsys.readouterr().err
+
+
+def test_replay_refuses_non_finite_numbers(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scn, out = tmp_path / "x.scn", tmp_path / "x.csv"
+    for line, match in (
+        ("ALT AC1 nan", "x.scn:2: ALT: an altitude must be a finite number, got 'nan'"),
+        ("DT inf", "x.scn:2: DT: a time step must be a finite number, got 'inf'"),
+        ("CRECONFS I1 A320 AC1 90 1 60 0 0", "x.scn:2: CRECONFS: no finite conflict geometry"),
+    ):
+        scn.write_text(f"00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:{'00' if 'DT' in line else '10'}.00>{line}\n")
+        rc, err = _replay_err(capsys, str(scn), "--out", str(out))
+        assert rc == 2 and match in err and len(err.splitlines()) == 1, err
+        assert not out.exists()
+
+
+def test_replay_bounds_the_number_of_steps(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scn = tmp_path / "dt.scn"
+    scn.write_text("00:00:00.00>DT 1e-9\n00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n")
+    rc, err = _replay_err(capsys, str(scn))
+    assert rc == 2
+    assert f"the default duration (0 s, the last command's time, + 60 s) in steps of 1e-09 s (DT in {scn}:1) is 60,000,000,000 steps" in err
+    assert "more than --max-steps 1,000,000" in err
+    rc, err = _replay_err(capsys, "super8", "--duration", "20", "--max-steps", "19", "--quiet")
+    assert rc == 2 and "--duration 20 s in steps of 1 s (the default time step) is 20 steps, more than --max-steps 19" in err
+    assert main(["replay", "super8", "--duration", "20", "--max-steps", "20", "--quiet"]) == 0
+
+
+def test_replay_rounds_the_default_duration_up_to_a_whole_step(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scn, out = tmp_path / "f.scn", tmp_path / "f.csv"
+    scn.write_text("00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n00:00:10.50>HDG AC1 180\n")
+    rc, err = _replay_err(capsys, str(scn), "--out", str(out), "--quiet")
+    assert rc == 0, err
+    rows = _rows(out)
+    assert [r["t"] for r in rows] == [str(k) for k in range(72)]  # 70.5 s rounded up to 71 steps
+    rc, err = _replay_err(capsys, str(scn), "--dt", "0.25", "--quiet")
+    assert rc == 0 and "" == err
+    rc, err = _replay_err(capsys, str(scn), "--duration", "2.5", "--dt", "1")
+    assert rc == 2 and "--duration 2.5 s is not a whole number of steps of 1 s (--dt 1)" in err
+    scn.write_text("00:00:00.00>DT 2\n00:00:00.00>CRE AC1 A320 52 4 90 FL200 250\n")
+    rc, err = _replay_err(capsys, str(scn), "--duration", "3")
+    assert rc == 2 and f"--duration 3 s is not a whole number of steps of 2 s (DT in {scn}:1)" in err
+
+
+def test_replay_refuses_files_without_commands(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for name, text in (("empty.scn", ""), ("comments.scn", "# a title\n\n   # nothing else\n")):
+        (tmp_path / name).write_text(text)
+        rc, err = _replay_err(capsys, str(tmp_path / name))
+        assert rc == 2 and f"{tmp_path / name}: no commands (the file is empty or holds only comments and blank lines)" in err
+    (tmp_path / "pan.scn").write_text("00:00:00.00>PAN 52 4\n")
+    rc, err = _replay_err(capsys, str(tmp_path / "pan.scn"), "--quiet")
+    assert rc == 0 and f"warning: {tmp_path / 'pan.scn'}: creates no aircraft" in err
+
+
+def test_replay_warns_once_per_unknown_type(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    a, b = tmp_path / "a.scn", tmp_path / "b.scn"
+    a.write_text("".join(f"00:00:00.00>CRE AC{k} {t} 52 {4 + k} 90 FL200 250\n" for k, t in enumerate(["A320", "ZZZZ", "ZZZZ"], start=1)))
+    b.write_text("".join(f"00:00:00.00>CRE AC{k} {t} 52 {4 + k} 90 FL200 250\n" for k, t in enumerate(["ZZZZ", "B738"], start=1)))
+    rc, err = _replay_err(capsys, str(a), str(b), "--copies", "2", "--duration", "5", "--quiet")
+    assert rc == 0
+    assert err.count("unknown to BlueSky") == 1
+    assert f"bluesky-gym replay: warning: {a}:2: aircraft type 'ZZZZ' is unknown to BlueSky; it flies as the B744" in err
+
+
+def test_replay_counts_compilation_apart_from_simulation(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """numba compiling (or loading) a kernel during the steps is reported apart, not as simulation time."""
+    from numba.core.compiler_lock import global_compiler_lock
+
+    step = ScenarioPlayer.step
+    compiled = []
+
+    def step_compiling_first(self: ScenarioPlayer) -> None:
+        if not compiled:  # what a kernel's first call does: numba compiles it under its compiler lock
+            with global_compiler_lock:
+                time.sleep(0.5)
+            compiled.append(True)
+        step(self)
+
+    monkeypatch.setattr(ScenarioPlayer, "step", step_compiling_first)
+    assert main(["replay", "super8", "--duration", "5", "--out", os.devnull]) == 0
+    err = capsys.readouterr().err
+    m = re.search(r"in ([0-9.]+) s wall \(([0-9.]+) s compiling or loading the numba kernels, ([0-9.]+) s simulating\)", err)
+    assert m is not None, err
+    wall, compiling, simulating = map(float, m.groups())
+    assert compiled and compiling >= 0.5 and simulating < 0.5 and compiling + simulating <= wall

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from bluesky_gym.core import Simulator
-from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioPlayer, read_scenario
+from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioPlayer, parse_scenario, read_scenario
 from bluesky_gym.scenarios.player import slots_needed, waypoints_needed
 from tests.core.reference_scenarios import DATA
 from tests.core.test_reference import TOL
@@ -149,3 +149,45 @@ def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
             if col in ANGLES:
                 err = min(err, 360.0 - err)
             assert err <= tol, f"{name} {want['acid']} {col}: t={want['t']} got {values[col]!r} want {want[col]!r}"
+
+
+#: Values BlueSky reads and flies in its own way: an aircraft created below sea level (the ground
+#: phase: its CAS slows to 89 m/s at most), and CRECONFS with a speed of 0 (BlueSky's "if spd:",
+#: the target's ground speed); docs/scenarios.md §3.
+EDGE_SCN = """00:00:00.00>CRE AC1 A320 52 4 90 -5000 250
+00:00:00.00>CRE AC2 A320 52 4.5 90 FL100 250
+00:00:00.00>CRECONFS I1 A320 AC2 90 1 60 0 60 0
+00:00:00.00>CRECONFS I2 B738 AC2 45 2 90 -1500 120 M.6
+00:00:10.00>ALT AC2 -200
+"""
+
+
+@pytest.mark.bluesky
+def test_bluesky_backend_flies_the_edge_values_as_the_core() -> None:
+    from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
+
+    scenario = parse_scenario(EDGE_SCN, "edge.scn")
+    runs = []
+    for physics in (Simulator(1, slots_needed(scenario)), BlueSkyPhysics(slots_needed(scenario))):
+        try:
+            player = ScenarioPlayer([scenario], physics)
+            rows = player.snapshot(0)
+            for k in range(1, 61):
+                player.step()
+                rows += player.snapshot(k)
+            runs.append(rows)
+        finally:
+            if isinstance(physics, BlueSkyPhysics):
+                physics.close()
+    core, bluesky = runs
+    assert len(core) == len(bluesky) == 61 * 4
+    cas = {r[1]: r[TRAJECTORY_COLUMNS.index("cas")] for r in core[-4:]}
+    assert cas["AC1"] == pytest.approx(89.0, abs=0.5)  # the ground phase's envelope, below sea level
+    for got, want in zip(core, bluesky):
+        values, ref = dict(zip(TRAJECTORY_COLUMNS, got)), dict(zip(TRAJECTORY_COLUMNS, want))
+        assert values["acid"] == ref["acid"]
+        for col, tol in TOL.items():
+            err = abs(float(values[col]) - float(ref[col]))  # type: ignore[arg-type]
+            if col in ANGLES:
+                err = min(err, 360.0 - err)
+            assert err <= tol, f"{ref['acid']} {col}: t={ref['t']} core {values[col]!r}, BlueSky {ref[col]!r}"

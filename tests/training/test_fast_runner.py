@@ -128,3 +128,15 @@ def test_train_command_with_the_fast_trainer(tmp_path: Path) -> None:
     lines = refused.stderr.strip().splitlines()
     assert len(lines) == 1 and "'sde_sample_freq' is not supported by the fast trainer" in lines[0], refused.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_the_grid_estimate_times_the_fast_trainer(monkeypatch: pytest.MonkeyPatch) -> None:
+    import bluesky_gym.training.fast as fast
+    from bluesky_gym.training.sweep import estimate
+
+    made: list[str] = []
+    real = fast.trainer_class
+    monkeypatch.setattr(fast, "trainer_class", lambda algo: made.append(algo) or real(algo))
+    est = estimate(TINY, [ENV], ["PPO", "SAC"], ENV, probe_steps=64, env_probe_steps=64, verbose=0, n_envs=2)
+    assert made == ["PPO", "SAC"]  # the configuration's trainer is the one timed
+    assert {row["algo"] for row in est["per_run"]} == {"PPO", "SAC"} and all(row["steps_per_s_cpu"] > 0 for row in est["per_run"])
