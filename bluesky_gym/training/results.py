@@ -421,9 +421,14 @@ def _training_return(runs: Sequence[Run], at: float, window: float) -> float:
 
 
 def budgets_section(results: Sequence[EnvResults]) -> list[str]:
-    """Markdown lines comparing the budgets of an algorithm run with several (e.g. PPO at 2e6 and 2e7 steps); none otherwise."""
+    """Markdown lines comparing the budgets of an algorithm run with several (e.g. PPO at 2e6 and 2e7 steps); none otherwise.
+
+    Runs that differ in their trainer alone are compared by :func:`trainers_section`, not here.
+    """
     labels = sorted({r.algo for er in results for r in er.runs})
-    multi = sorted({algorithm_of(a) for a in labels if sum(algorithm_of(b) == algorithm_of(a) for b in labels) > 1})
+    multi = sorted(
+        {algorithm_of(a) for a in labels if sum(algorithm_of(b) == algorithm_of(a) for b in labels) > 1 and (" steps" in a or " env" in a)}
+    )
     if not multi:
         return []
     lines = ["## Scale: the same algorithm at other budgets", ""]

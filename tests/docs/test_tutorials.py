@@ -145,3 +145,15 @@ def test_the_library_table_is_the_committed_measurement() -> None:
             assert cells[k] == expected, (candidate, setting, cells[k], expected)
         ratios = [measured.get((candidate, s), {}).get("cpu_ratio_to_sb3") for s in "ABC"]
         assert cells[4] == " / ".join("1" if candidate == "sb3" else "–" if x is None else f"{x:.2f}" for x in ratios), (candidate, cells[4])
+
+
+def test_the_parity_claim_is_what_the_generated_parity_page_shows() -> None:
+    page = (DOCS / "training-fast.md").read_text(encoding="utf-8")
+    claim = "On all three environments the fast trainer's mean held-out return lies\nwithin the 95% interval of SB3's"
+    assert claim in page and "(results-parity.md)" in page
+    results = (DOCS / "results-parity.md").read_text(encoding="utf-8")
+    assert "bluesky-gym results results/parity/fast results/parity/sb3 --out docs/results-parity.md" in results
+    table = results.split("## Trainers compared")[1].split("\n## ")[0]
+    rows = [line for line in table.splitlines() if line.startswith("| ") and "-v" in line]
+    assert {row.split(" | ")[0].lstrip("| ") for row in rows} == {"DescentEnv-v0", "HorizontalCREnv-v0", "SectorCREnv-v0"}
+    assert all(row.rstrip().endswith("| yes |") for row in rows), rows

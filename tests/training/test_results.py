@@ -199,3 +199,17 @@ def test_runs_of_one_algorithm_at_other_budgets_and_trainers_are_rows_of_their_o
     header = [line for line in observed.splitlines() if line.startswith("| environment | PPO")][0]
     cells = dict(zip((c.strip() for c in header.strip("|").split("|")), (c.strip() for c in drops[-1].strip("|").split("|")), strict=True))
     assert float(cells["TD3"]) > 0.5 and float(cells["SAC"]) == 0.0
+
+
+def test_runs_that_differ_in_their_trainer_alone_are_compared_as_trainers_not_as_budgets(tmp_path: Path) -> None:
+    root = _sweep(tmp_path / "sweep", {})
+    for name, value in (("random", 0), ("classical", 10)):
+        save_result(EvalResult("MergeEnv-v0", name, _episodes([value] * 4), 0.1), reference_episode_dir(root), stem=f"MergeEnv-v0_{name}")
+    for s in range(2):
+        _configured_run(root, "MergeEnv-v0", "PPO", s, [5.0, 5.0, 6.0, 6.0], 1000, trainer="fast", curve=np.linspace(0, 6, 20))
+        _configured_run(root, "MergeEnv-v0", "PPO", s + 10, [5.5, 5.5, 5.5, 5.5], 1000, curve=np.linspace(0, 6, 20))  # SB3
+    out = tmp_path / "page.md"
+    build_results([root], out, ["bluesky-gym", "results", str(root), "--out", str(out)], reps=200)
+    text = out.read_text()
+    assert "## Trainers compared" in text and "| MergeEnv-v0 | PPO |" in text.split("## Trainers compared")[1]
+    assert "## Scale" not in text
