@@ -162,7 +162,11 @@ def format_cell(v: Any) -> str:
 
 def read_csv_rows(path: str | os.PathLike[str]) -> tuple[list[str], list[list[str]]]:
     """Header and complete rows of a CSV file (a trailing line cut off by a crash is dropped)."""
-    text = Path(path).read_text(encoding="utf-8")
+    return read_csv_text(Path(path).read_text(encoding="utf-8"))
+
+
+def read_csv_text(text: str) -> tuple[list[str], list[list[str]]]:
+    """Header and complete rows of CSV text (a trailing line cut off by a crash is dropped)."""
     if not text:
         return [], []
     complete = text if text.endswith("\n") else text[: text.rfind("\n") + 1]
