@@ -1,8 +1,10 @@
-"""Project hygiene: the license file, the one place of the version, and the documents the code cites."""
+"""Project hygiene: the license file, the one place of the version, the documents the code cites, the size of tracked files."""
 
 from __future__ import annotations
 
 import re
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -133,3 +135,34 @@ def test_the_readme_gives_the_setup_and_test_durations() -> None:
     setup, tests = first_block.split("bash scripts/test.sh")[0].split("\n\n")
     assert re.search(r"\d+ (?:to \d+ )?minutes", setup) and re.search(r"\d(?:\.\d)? GB", setup), setup
     assert re.search(r"\d+ minutes", tests), tests
+
+
+def _size_check() -> Any:
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("check_file_sizes", ROOT / "scripts" / "check_file_sizes.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.skipif(shutil.which("git") is None or not (ROOT / ".git").exists(), reason="needs a git checkout")
+def test_no_tracked_file_is_over_the_size_limit() -> None:
+    check = _size_check()
+    tracked = check.tracked_files(ROOT)
+    assert "pyproject.toml" in tracked
+    assert check.oversized(tracked, ROOT) == [], "tracked files over the limit: run data goes to a release asset (bluesky-gym results pack)"
+
+
+def test_the_size_check_names_a_file_over_the_limit(tmp_path: Path) -> None:
+    check = _size_check()
+    (tmp_path / "big.bin").write_bytes(b"x" * (check.MAX_KB * 1024 + 1))
+    (tmp_path / "small.bin").write_bytes(b"x" * (check.MAX_KB * 1024))
+    assert check.oversized(["big.bin", "small.bin", "deleted.bin"], tmp_path) == [("big.bin", check.MAX_KB * 1024 + 1)]
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "check_file_sizes.py"), "big.bin", "small.bin"], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert done.returncode == 1
+    assert done.stderr.startswith("big.bin: 512001 bytes, over the repository's limit of 500 KiB")
+    assert "small.bin" not in done.stderr

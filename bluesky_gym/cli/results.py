@@ -56,12 +56,20 @@ def add_parser(subparsers: Any) -> None:
         metavar="N",
         help="held-out episodes of the reference policies a sweep lacks (default: as many as the runs' evaluations)",
     )
-    p.add_argument("--artifact", type=Path, metavar="FILE", help="packed run files (manifest or archive, see results pack): raw learning curves of summarised runs")
+    p.add_argument(
+        "--artifact",
+        type=Path,
+        metavar="FILE",
+        help="packed run files (manifest or archive, see results pack): raw learning curves of summarised runs",
+    )
     p.set_defaults(func=run)
 
     pack = p.add_nested(
         "pack",
-        description="Pack what the summaries of the runs below DIR drop (models, checkpoints, raw logs) into a .tar.gz release asset and write its SHA-256 manifest (committed).",
+        description=(
+            "Pack what the summaries of the runs below DIR drop (models, checkpoints, raw logs) into a .tar.gz release asset "
+            "and write its SHA-256 manifest (committed)."
+        ),
         help="pack run files into a release artifact with a SHA-256 manifest",
     )
     pack.add_argument("dirs", nargs="+", type=Path, metavar="DIR", help="sweep (or run) directories")
@@ -71,7 +79,10 @@ def add_parser(subparsers: Any) -> None:
 
     unpack = p.add_nested(
         "unpack",
-        description="Check packed run files against their SHA-256 manifest and write them back into their run directories (paths relative to the current directory).",
+        description=(
+            "Check packed run files against their SHA-256 manifest and write them back into their run directories "
+            "(paths relative to the current directory)."
+        ),
         help="restore packed run files into their run directories",
     )
     unpack.add_argument("artifact", type=Path, metavar="FILE", help="the manifest (archive beside it) or the archive (manifest beside it)")
@@ -116,7 +127,9 @@ def run_pack(args: argparse.Namespace) -> int:
         print(f"bluesky-gym results pack: error: {exc}", file=sys.stderr)
         return 2
     size = sum(e["bytes"] for e in record["files"])
-    print(f"packed {len(record['files'])} files of {len(record['runs'])} runs ({size / 1e6:.1f} MB) into {args.out} ({record['archive_bytes'] / 1e6:.1f} MB); manifest {manifest_path}")
+    print(
+        f"packed {len(record['files'])} files of {len(record['runs'])} runs ({size / 1e6:.1f} MB) into {args.out} ({record['archive_bytes'] / 1e6:.1f} MB); manifest {manifest_path}"
+    )
     return 0
 
 

@@ -104,7 +104,7 @@ def pack_runs(
     manifest_path = Path(manifest) if manifest is not None else default_manifest_path(archive)
     if not archive.name.endswith(ARCHIVE_SUFFIX):
         raise ValueError(f"{archive}: an artifact archive's name ends with {ARCHIVE_SUFFIX}")
-    runs = find_runs(dirs)
+    runs = find_runs([Path(d) for d in dirs])
     if not runs:
         raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, dirs))}")
     files = sorted({_relative(p, root): p for run in runs for p in dropped_files(run)}.items())
@@ -112,7 +112,11 @@ def pack_runs(
         raise ValueError(f"nothing to pack: the runs below {', '.join(map(str, dirs))} hold only summaries")
     entries = []
     with atomic_path(archive) as tmp:
-        with open(tmp, "wb") as raw, gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0) as gz, tarfile.open(fileobj=gz, mode="w", format=tarfile.PAX_FORMAT) as tar:
+        with (
+            open(tmp, "wb") as raw,
+            gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0) as gz,
+            tarfile.open(fileobj=gz, mode="w", format=tarfile.PAX_FORMAT) as tar,
+        ):
             for rel, path in files:
                 data = path.read_bytes()
                 info = tarfile.TarInfo(rel)
@@ -175,7 +179,9 @@ class RunArtifact:
         if manifest.get("format") != MANIFEST_FORMAT or not isinstance(manifest.get("files"), list):
             raise ValueError(f"{manifest_path} is not an artifact manifest (format {MANIFEST_FORMAT})")
         if not archive_path.is_file():
-            raise FileNotFoundError(f"{archive_path}: the artifact archive named by {manifest_path} is missing (download the release asset {manifest['archive']})")
+            raise FileNotFoundError(
+                f"{archive_path}: the artifact archive named by {manifest_path} is missing (download the release asset {manifest['archive']})"
+            )
         expected = {e["path"]: e for e in manifest["files"]}
         for name in expected:
             if name.startswith("/") or ".." in name.split("/"):

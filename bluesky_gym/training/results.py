@@ -557,7 +557,12 @@ def observations_section(results: Sequence[EnvResults]) -> list[str]:
 
 
 def build_results(
-    sweep_dirs: Sequence[str | Path], out: str | Path, command: Sequence[str], seed: int = 0, reps: int = BOOTSTRAP, artifact: RunArtifact | None = None
+    sweep_dirs: Sequence[str | Path],
+    out: str | Path,
+    command: Sequence[str],
+    seed: int = 0,
+    reps: int = BOOTSTRAP,
+    artifact: RunArtifact | None = None,
 ) -> Path:
     """Write the results page ``out`` (Markdown) and its figures in ``<out stem>/``.
 
