@@ -127,9 +127,8 @@ def run_pack(args: argparse.Namespace) -> int:
         print(f"bluesky-gym results pack: error: {exc}", file=sys.stderr)
         return 2
     size = sum(e["bytes"] for e in record["files"])
-    print(
-        f"packed {len(record['files'])} files of {len(record['runs'])} runs ({size / 1e6:.1f} MB) into {args.out} ({record['archive_bytes'] / 1e6:.1f} MB); manifest {manifest_path}"
-    )
+    packed = f"packed {len(record['files'])} files of {len(record['runs'])} runs ({size / 1e6:.1f} MB)"
+    print(f"{packed} into {args.out} ({record['archive_bytes'] / 1e6:.1f} MB); manifest {manifest_path}")
     return 0
 
 

@@ -201,7 +201,7 @@ class AppendCSV:
         """Append one row (keys outside the header are ignored, missing ones left empty)."""
         if self._file is None:
             new = not self.path.exists() or self.path.stat().st_size == 0
-            self._file = open(self.path, "a", newline="", encoding="utf-8")
+            self._file = open(self.path, "a", newline="", encoding="utf-8")  # noqa: SIM115 - held open across rows, closed by close()
             if new or self.header is None:
                 self.header = self._header_fn(record)
                 self._file.write(",".join(self.header) + "\n")

@@ -494,7 +494,7 @@ def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed
     for algo, by_env in sorted(final.items()):
         point, lo, hi = stratified_bootstrap_iqm({k: np.asarray(v) for k, v in by_env.items()}, rng)
         if max(map(len, by_env.values())) < 2:  # one run per environment: resampling cannot vary, there is no interval
-            lo = hi = np.float64(math.nan)
+            lo = hi = np.asarray(math.nan)
         out["final"][algo] = {
             "iqm": float(point),
             "ci_low": float(lo),

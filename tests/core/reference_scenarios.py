@@ -30,7 +30,7 @@ def open_recording(name: str) -> TextIO:
     path = recording_path(name)
     if path.suffix == ".xz":
         return lzma.open(path, "rt", encoding="utf-8", newline="")
-    return open(path, newline="")  # noqa: SIM115 - returned to the caller's with-block
+    return open(path, newline="")
 
 
 def recording_names(pattern: str = "*") -> set[str]:

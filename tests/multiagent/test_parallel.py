@@ -11,14 +11,14 @@ import pytest
 
 pytest.importorskip("pettingzoo")
 
-from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
+from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-from bluesky_gym.core import geo  # noqa: E402
-from bluesky_gym.core.extras import install_hint  # noqa: E402
-from bluesky_gym.multiagent import names, parallel_env, require_pettingzoo  # noqa: E402
-from bluesky_gym.multiagent.base import STATE_FEATURES  # noqa: E402
-from bluesky_gym.tasks import merge as mg  # noqa: E402
-from bluesky_gym.tasks.geometry import point_at_distance  # noqa: E402
+from bluesky_gym.core import geo
+from bluesky_gym.core.extras import install_hint
+from bluesky_gym.multiagent import names, parallel_env, require_pettingzoo
+from bluesky_gym.multiagent.base import STATE_FEATURES
+from bluesky_gym.tasks import merge as mg
+from bluesky_gym.tasks.geometry import point_at_distance
 
 NAMES = names()
 

@@ -411,7 +411,7 @@ def test_vector_env_resets_a_crashed_episode_and_keeps_the_others() -> None:
 class _ReferenceLoopTask(StaticObstacleTask):
     """One airspace stepped sub-step by sub-step as the reference does (tests.oracle.static_obstacle)."""
 
-    def transition(self):  # noqa: ANN201
+    def transition(self):
         reward, terminated, components = reference_substeps(self)
         g = self.measure()
         self.remember(g)  # the waypoint values of this observation, for the next step

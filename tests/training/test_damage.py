@@ -12,13 +12,13 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
+from stable_baselines3.common.callbacks import BaseCallback
 
-from bluesky_gym.cli import main  # noqa: E402
-from bluesky_gym.training.evaluation import reference_returns, reference_scores  # noqa: E402
-from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
-from bluesky_gym.training.io import file_damage, latest_checkpoint, read_json  # noqa: E402
-from bluesky_gym.training.runner import RunDamaged, inspect_run, make_run_spec, run_training  # noqa: E402
+from bluesky_gym.cli import main
+from bluesky_gym.training.evaluation import reference_returns, reference_scores
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.io import file_damage, latest_checkpoint, read_json
+from bluesky_gym.training.runner import RunDamaged, inspect_run, make_run_spec, run_training
 
 ENV = "DescentEnv-v0"
 # One gradient step per 8 vector steps: what is tested is the bookkeeping, not the learning.

@@ -11,12 +11,12 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-import torch  # noqa: E402
+import torch
 
-from bluesky_gym.training.evaluation import evaluate, load_policy  # noqa: E402
-from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
-from bluesky_gym.training.io import latest_checkpoint, read_json  # noqa: E402
-from bluesky_gym.training.runner import make_run_spec, resolve_compile, run_status, run_training  # noqa: E402
+from bluesky_gym.training.evaluation import evaluate, load_policy
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.io import latest_checkpoint, read_json
+from bluesky_gym.training.runner import make_run_spec, resolve_compile, run_status, run_training
 
 ENV = "DescentEnv-v0"
 TINY = merge(

@@ -14,11 +14,11 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
+from stable_baselines3.common.callbacks import BaseCallback
 
-from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
-from bluesky_gym.training.io import latest_checkpoint, read_json  # noqa: E402
-from bluesky_gym.training.runner import (  # noqa: E402
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.io import latest_checkpoint, read_json
+from bluesky_gym.training.runner import (
     RunConfigMismatch,
     RunLock,
     RunLocked,
