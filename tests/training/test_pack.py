@@ -149,3 +149,14 @@ def test_results_pack_is_a_subcommand_beside_the_page_command(sweep: Path, capsy
     ]
     assert main(["results", "pack", "nowhere", "--out", "x.tar.gz"]) == 2
     assert capsys.readouterr().err.startswith("bluesky-gym results pack: error: nowhere is not a run or sweep directory")
+
+
+def test_the_page_command_refuses_a_missing_or_damaged_artifact_in_one_line(sweep: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["results", str(sweep), "--artifact", "nowhere.manifest.json", "--out", "page.md"]) == 2
+    assert capsys.readouterr().err == "bluesky-gym results: error: nowhere.manifest.json: no such artifact manifest\n"
+    pack_runs([sweep], "files.tar.gz")
+    Path("files.tar.gz").write_bytes(b"not a tar.gz")
+    assert main(["results", str(sweep), "--artifact", "files.tar.gz", "--out", "page.md"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bluesky-gym results: error: files.tar.gz is not a readable .tar.gz") and err.count("\n") == 1
+    assert not Path("page.md").exists()
