@@ -153,6 +153,16 @@ def test_no_tracked_file_is_over_the_size_limit() -> None:
     assert check.oversized(tracked, ROOT) == [], "tracked files over the limit: run data goes to a release asset (bluesky-gym results pack)"
 
 
+@pytest.mark.skipif(shutil.which("git") is None or not (ROOT / ".git").exists(), reason="needs a git checkout")
+def test_the_committed_results_stay_under_5_mb() -> None:
+    """results/ keeps what the pages read; models and raw logs are a release asset (bluesky-gym results pack)."""
+    check = _size_check()
+    results = [p for p in check.tracked_files(ROOT) if p.startswith("results/")]
+    assert any(p.endswith("/curve.csv") for p in results)
+    total = sum((ROOT / p).stat().st_size for p in results if (ROOT / p).is_file())
+    assert total < 5_000_000, f"results/ holds {total / 1e6:.2f} MB of tracked files, over 5 MB"
+
+
 def test_the_size_check_names_a_file_over_the_limit(tmp_path: Path) -> None:
     check = _size_check()
     (tmp_path / "big.bin").write_bytes(b"x" * (check.MAX_KB * 1024 + 1))
