@@ -160,3 +160,16 @@ def test_the_page_command_refuses_a_missing_or_damaged_artifact_in_one_line(swee
     err = capsys.readouterr().err
     assert err.startswith("bluesky-gym results: error: files.tar.gz is not a readable .tar.gz") and err.count("\n") == 1
     assert not Path("page.md").exists()
+
+
+def test_a_summarised_run_names_where_its_model_went(sweep: Path) -> None:
+    from bluesky_gym.training.evaluation import find_model
+
+    d = sweep / "DescentEnv-v0" / "PPO" / "seed_0"
+    _summarise(sweep)
+    shutil.rmtree(d / "checkpoints")
+    with pytest.raises(FileNotFoundError, match="holds neither model.zip nor a checkpoint"):
+        find_model(d)
+    (d / "result.json").write_text(json.dumps({"summarised": {"removed": ["checkpoints", "episodes.csv", "model.zip"]}}))
+    with pytest.raises(FileNotFoundError, match=r"is a run summary: its model.zip went to the run files' release asset \(bluesky-gym results unpack"):
+        find_model(d)
