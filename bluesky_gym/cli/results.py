@@ -20,13 +20,14 @@ The repository keeps run summaries (``bluesky-gym runs DIR --summarise``); what 
 (models, checkpoints, TensorBoard and raw episode logs) is a release asset made by ``results
 pack``, a ``.tar.gz`` with a SHA-256 manifest that is committed::
 
-    bluesky-gym results pack results/v0-ppo results/v1-ppo --out /tmp/run-files.tar.gz --manifest results/run-files.manifest.json
-    bluesky-gym results results/v0-ppo results/v1-ppo --artifact results/run-files.manifest.json --out /tmp/results.md
-    bluesky-gym results unpack results/run-files.manifest.json   # the files back in their run directories
+    bluesky-gym results pack results/v0-ppo results/v1-ppo --out results/run-files.tar.gz
+    bluesky-gym results unpack results/run-files.manifest.json    # the files back in their runs
+    bluesky-gym results results/v0-ppo --artifact results/run-files.manifest.json --out x.md
 
-``--artifact`` (the manifest, with the archive beside it under the name it records, or the
-archive, with its manifest beside it) checks every file against its SHA-256 and draws the
-learning curves of summarised runs from their raw episode logs instead of the binned
+``pack`` writes the manifest beside the archive (``--manifest FILE`` elsewhere). ``unpack`` and
+``--artifact`` take the manifest (the archive beside it, under the name it records) or the
+archive (its manifest beside it) and check every file against its SHA-256; ``--artifact`` draws
+the learning curves of summarised runs from their raw episode logs instead of the binned
 ``curve.csv``. A sweep directory called ``pack`` or ``unpack`` is written ``./pack``.
 """
 
@@ -67,8 +68,8 @@ def add_parser(subparsers: Any) -> None:
     pack = p.add_nested(
         "pack",
         description=(
-            "Pack what the summaries of the runs below DIR drop (models, checkpoints, raw logs) into a .tar.gz release asset "
-            "and write its SHA-256 manifest (committed)."
+            "Pack what the summaries of the runs below DIR drop (models, checkpoints, raw logs)\n"
+            "into a .tar.gz release asset and write its SHA-256 manifest (committed)."
         ),
         help="pack run files into a release artifact with a SHA-256 manifest",
     )
@@ -80,8 +81,8 @@ def add_parser(subparsers: Any) -> None:
     unpack = p.add_nested(
         "unpack",
         description=(
-            "Check packed run files against their SHA-256 manifest and write them back into their run directories "
-            "(paths relative to the current directory)."
+            "Check packed run files against their SHA-256 manifest and write them back into their\n"
+            "run directories (paths relative to the current directory)."
         ),
         help="restore packed run files into their run directories",
     )
