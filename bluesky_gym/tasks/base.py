@@ -434,6 +434,17 @@ class Task(abc.ABC):
         self.observation_terms: list[ObservationTerms] = []
         self.allocate()
 
+    def __repr__(self) -> str:
+        """The task as it was made: its id, batch size, physics, time limit and its frozen configuration, every field.
+
+        For example ``HorizontalCRTask(id='HorizontalCREnv-v0', n_envs=1, physics=Simulator,
+        time_limit=300, config=HorizontalCRConfig(float32_spaces=False, num_intruders=5, ...))``.
+        """
+        return (
+            f"{type(self).__name__}(id={self.id!r}, n_envs={self.n_envs}, physics={type(self.sim).__name__}, "
+            f"time_limit={self.time_limit}, config={self.config!r})"
+        )
+
     def wrap_physics(self, wrapper: Callable[[Physics], Physics]) -> Physics:
         """Put a wrapper around the physics, e.g. a :class:`~bluesky_gym.scenarios.export.ScenarioRecorder`.
 

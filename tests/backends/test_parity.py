@@ -37,12 +37,12 @@ import pytest
 
 pytest.importorskip("bluesky")
 
-from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics  # noqa: E402
-from bluesky_gym.core import Simulator  # noqa: E402
-from bluesky_gym.registration import available_envs  # noqa: E402
-from tests.oracle.simulator import OracleSimulator  # noqa: E402
+from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
+from bluesky_gym.core import Simulator
+from bluesky_gym.registration import available_envs
+from tests.oracle.simulator import OracleSimulator
 
-from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run_core_scenario, run_env_episodes  # noqa: E402
+from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run_core_scenario, run_env_episodes
 
 pytestmark = pytest.mark.bluesky
 
