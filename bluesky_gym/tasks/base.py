@@ -417,7 +417,7 @@ class Task(abc.ABC):
         if isinstance(backend, str):
             from bluesky_gym.backends import make_physics
 
-            self.sim = make_physics(backend, type(self), self.n_envs, self.max_aircraft(), self.max_waypoints())
+            self.sim = make_physics(backend, self.dt, self.n_envs, self.max_aircraft(), self.max_waypoints())
         else:
             self.sim = backend
         if self.sim.n_envs != self.n_envs:
