@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, resolve_type
 from bluesky_gym.core.extras import missing_extra
 from bluesky_gym.core.resolution import AsasConfig
-from bluesky_gym.core.state import STATE_FIELDS, aircraft_index
+from bluesky_gym.core.state import STATE_FIELDS, AircraftState, aircraft_index
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.core.wind import WindField
 
@@ -53,46 +53,21 @@ Array = NDArray[np.float64]
 
 ACTYPE = DEFAULT_TYPE  # the type of an aircraft created without one
 
+#: Where BlueSky keeps a state array that is not ``bs.traf.<name>``: (object under ``bs.traf``, attribute).
+_BLUESKY_NAMES: dict[str, tuple[str, str]] = {
+    "mach": ("", "M"),
+    **{f"ap_{a}": ("ap", a) for a in ("trk", "tas", "vs", "alt")},
+    "turnphi": ("ap", "turnphi"),
+    **{name: ("perf", name) for name in ("phase", "vmin", "vmax", "axmax")},
+    **{f"actwp_{a}": ("actwp", a) for a in ("lat", "lon")},
+    **{name: ("actwp", name) for name in ("curlegdir", "turndist", "next_qdr", "swlastwp")},
+}
+#: State arrays derived from BlueSky's routes and slots rather than read from one of its arrays.
+_DERIVED = frozenset({"active", "iactwp", "nwp", "route_has_dest"})
 # State array -> (object under bs.traf, or "" for bs.traf itself; attribute). These are read
 # after every step, creation and command.
-TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = (
-    ("lat", "", "lat"),
-    ("lon", "", "lon"),
-    ("alt", "", "alt"),
-    ("hdg", "", "hdg"),
-    ("trk", "", "trk"),
-    ("tas", "", "tas"),
-    ("cas", "", "cas"),
-    ("mach", "", "M"),
-    ("gs", "", "gs"),
-    ("gsnorth", "", "gsnorth"),
-    ("gseast", "", "gseast"),
-    ("vs", "", "vs"),
-    ("ax", "", "ax"),
-    ("windnorth", "", "windnorth"),
-    ("windeast", "", "windeast"),
-    ("distflown", "", "distflown"),
-    ("selspd", "", "selspd"),
-    ("selalt", "", "selalt"),
-    ("selvs", "", "selvs"),
-    ("swlnav", "", "swlnav"),
-    ("swvnav", "", "swvnav"),
-    ("swvnavspd", "", "swvnavspd"),
-    ("ap_trk", "ap", "trk"),
-    ("ap_tas", "ap", "tas"),
-    ("ap_vs", "ap", "vs"),
-    ("ap_alt", "ap", "alt"),
-    ("turnphi", "ap", "turnphi"),
-    ("phase", "perf", "phase"),
-    ("vmin", "perf", "vmin"),
-    ("vmax", "perf", "vmax"),
-    ("axmax", "perf", "axmax"),
-    ("actwp_lat", "actwp", "lat"),
-    ("actwp_lon", "actwp", "lon"),
-    ("curlegdir", "actwp", "curlegdir"),
-    ("turndist", "actwp", "turndist"),
-    ("next_qdr", "actwp", "next_qdr"),
-    ("swlastwp", "actwp", "swlastwp"),
+TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = tuple(
+    (name, *_BLUESKY_NAMES.get(name, ("", name))) for name, _, _ in STATE_FIELDS if name not in _DERIVED
 )
 
 _TRAFFIC_SOURCE = {name: (owner, attr) for name, owner, attr in TRAFFIC_FIELDS}
@@ -257,7 +232,7 @@ class _ReadOnly:
         return obj._views[self.name]
 
 
-class BlueSkyPhysics:
+class BlueSkyPhysics(AircraftState):
     """One airspace simulated by the real BlueSky 1.1.1, implementing :class:`~bluesky_gym.core.physics.Physics`.
 
     The state arrays, their shapes (``(1, max_aircraft)``) and meaning are those of
@@ -276,48 +251,7 @@ class BlueSkyPhysics:
     """
 
     closed: bool
-    # The read-only state arrays (see bluesky_gym.core.physics.Physics), (1, max_aircraft).
-    active: NDArray[np.bool_]
-    lat: Array
-    lon: Array
-    alt: Array
-    hdg: Array
-    trk: Array
-    tas: Array
-    cas: Array
-    mach: Array
-    gs: Array
-    gsnorth: Array
-    gseast: Array
-    vs: Array
-    ax: Array
-    windnorth: Array
-    windeast: Array
-    distflown: Array
-    selspd: Array
-    selalt: Array
-    selvs: Array
-    swlnav: NDArray[np.bool_]
-    swvnav: NDArray[np.bool_]
-    swvnavspd: NDArray[np.bool_]
-    ap_trk: Array
-    ap_tas: Array
-    ap_vs: Array
-    ap_alt: Array
-    turnphi: Array
-    phase: NDArray[np.int64]
-    vmin: Array
-    vmax: Array
-    axmax: Array
-    iactwp: NDArray[np.int64]
-    nwp: NDArray[np.int64]
-    actwp_lat: Array
-    actwp_lon: Array
-    curlegdir: Array
-    turndist: Array
-    next_qdr: Array
-    swlastwp: NDArray[np.bool_]
-    route_has_dest: NDArray[np.bool_]
+    # The read-only state arrays are those of AircraftState, (1, max_aircraft), and the routes.
     route_lat: Array
     route_lon: Array
 

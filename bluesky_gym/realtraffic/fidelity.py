@@ -30,7 +30,7 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.simulator import Simulator
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, WindowPlayer, Window, simulator_type
+from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, Window, WindowPlayer, simulator_type
 from bluesky_gym.scenarios.export import ScenarioRecorder
 
 HORIZONS_S = (300.0, 600.0, 1200.0)  # s after creation: 5, 10, 20 minutes

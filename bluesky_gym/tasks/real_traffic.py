@@ -28,7 +28,7 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FT, KTS, NM
 from bluesky_gym.realtraffic.cache import collection_path, combine, load_collection, unprepared
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, WindowPlayer, Window, split_windows, windows
+from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, Window, WindowPlayer, split_windows, windows
 from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
 from bluesky_gym.tasks.base import (
     Array,

@@ -16,8 +16,7 @@ from bluesky_gym.realtraffic.fidelity import fidelity, pair_los, window_scenario
 from bluesky_gym.realtraffic.fidelity import fly as fly_window
 from bluesky_gym.realtraffic.flights import RecordedFlights
 from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, Window, WindowPlayer, split_windows, windows
-from bluesky_gym.scenarios import ScenarioPlayer
-from bluesky_gym.scenarios import parse_scenario
+from bluesky_gym.scenarios import ScenarioPlayer, parse_scenario
 from bluesky_gym.scenarios.export import scn_time
 from bluesky_gym.scenarios.player import slots_needed, waypoints_needed
 
