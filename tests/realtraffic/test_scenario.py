@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from bluesky_gym.core.atmosphere import tas2cas
+from bluesky_gym.core.command_text import time_stamp
 from bluesky_gym.core.geo import qdrdist
 from bluesky_gym.core.simulator import Simulator
 from bluesky_gym.core.units import FT, KTS, NM
@@ -17,7 +18,6 @@ from bluesky_gym.realtraffic.fidelity import fly as fly_window
 from bluesky_gym.realtraffic.flights import RecordedFlights
 from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, Window, WindowPlayer, split_windows, windows
 from bluesky_gym.scenarios import ScenarioPlayer, parse_scenario
-from bluesky_gym.scenarios.export import scn_time
 from bluesky_gym.scenarios.player import slots_needed, waypoints_needed
 
 from .synthetic import collection, fly, traffic_collection
@@ -191,7 +191,7 @@ def test_scn_file_of_a_window() -> None:
     # each is deleted at the first decision step after its last recorded sample, or at the end of the window
     dels = {ln.split()[1]: ln.split(">")[0] for ln in body if ">DEL " in ln}
     t_end = np.minimum(flights.t_end[list(window.flights)] - window.start, 600.0)
-    assert dels == {acid: scn_time(min(np.floor(t / 10.0 + 1e-9) * 10.0 + 10.0, 600.0)) for acid, t in zip(SCN_ACIDS, t_end)}
+    assert dels == {acid: time_stamp(min(np.floor(t / 10.0 + 1e-9) * 10.0 + 10.0, 600.0)) for acid, t in zip(SCN_ACIDS, t_end)}
     assert dels["EZY4U"] < "00:10:00.00" and dels["AC002"] < "00:10:00.00" and dels["SWR123"] == "00:10:00.00"
 
 
