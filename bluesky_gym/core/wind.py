@@ -145,6 +145,8 @@ class Wind:
 
     ``gym.make(id, wind=Wind(...))`` or ``gym.make(id, wind={"lat": ..., ...})`` (a mapping of
     these fields). Array-like points are stored as tuples (the configuration stays hashable).
+    The multi-agent environments take the option too and fly their aircraft in the wind; their
+    per-agent observations do not carry ``observe``'s entries (those are the ownship's, slot 0).
 
     Attributes:
         lat: Latitudes of the points [deg].
