@@ -9,6 +9,7 @@ Writing:
 * numbers (:func:`number`): the shortest positional text that reads back as exactly the same
   float (``repr``'s digits, never an exponent: BlueSky's argument parsers read ``1e-05`` as a
   name, not a number), with a decimal point as ``repr`` writes it (``150.0``, ``-0.0``);
+* numbers to a fixed number of decimals (:func:`fixed`, for files read by people);
 * altitudes in feet, vertical speeds in feet per minute, speeds in knots CAS or as a Mach number
   ``M0.78`` (:func:`altitude`, :func:`vertical_speed`, :func:`speed`), from SI values;
 * times as ``HH:MM:SS.hh`` (:func:`time_stamp`), switches as ``ON``/``OFF``, and whole commands
@@ -59,6 +60,23 @@ def number(x: float) -> str:
     if not math.isfinite(value):
         raise ValueError(f"BlueSky commands need finite numbers, got {value!r}")
     return np.format_float_positional(value, unique=True, trim="0")
+
+
+def fixed(x: float, decimals: int) -> str:
+    """``x`` with ``decimals`` digits after the point (``%.6f``): text that reads back as exactly ``round(x, decimals)``.
+
+    For files meant to be read by people (the benchmark geometries), where a fixed precision reads
+    better than :func:`number`'s full one.
+
+    Raises:
+        ValueError: ``x`` is not a finite number, or ``decimals`` is negative.
+    """
+    value = float(x)
+    if not math.isfinite(value):
+        raise ValueError(f"BlueSky commands need finite numbers, got {value!r}")
+    if decimals < 0:
+        raise ValueError(f"decimals must be >= 0, got {decimals}")
+    return f"{value:.{int(decimals)}f}"
 
 
 def altitude(alt: float) -> str:

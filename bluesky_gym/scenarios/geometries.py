@@ -23,7 +23,7 @@ from importlib import resources
 from pathlib import Path
 
 from bluesky_gym.core.atmosphere import vcasormach
-from bluesky_gym.core.command_text import command, timed
+from bluesky_gym.core.command_text import command, fixed, timed
 from bluesky_gym.core.units import FPM, FT, KTS, NM, R_EARTH
 
 #: Folder of the shipped scenario files (package data).
@@ -57,8 +57,8 @@ def _header(title: str, lines: list[str]) -> list[str]:
 
 
 def _cre(acid: str, actype: str, lat: float, lon: float, hdg: float, alt_ft: float, spd_kts: float) -> str:
-    """A ``CRE`` at time 0, its values rounded to a micro-degree, 0.01 deg, 1 ft and 0.1 kt (files that read well)."""
-    return timed(0.0, command("CRE", acid, actype, round(lat, 6), round(lon, 6), round(hdg, 2), round(alt_ft), round(spd_kts, 1)))
+    """A ``CRE`` at time 0, its values to a micro-degree, 0.01 deg, 1 ft and 0.1 kt (files that read well)."""
+    return timed(0.0, command("CRE", acid, actype, fixed(lat, 6), fixed(lon, 6), fixed(hdg, 2), fixed(alt_ft, 0), fixed(spd_kts, 1)))
 
 
 def super_conflict(
@@ -158,7 +158,7 @@ def sphere_conflict(
             lines.append(_cre(acid, actype, alat, alon, _bearing(alat, alon, lat, lon), centre_ft + dz, speed_kts))
             if dz:
                 vs_fpm = -dz * FT / t_centre / FPM
-                commands.append(timed(0.0, command("ALT", acid, round(centre_ft - dz), round(vs_fpm))))
+                commands.append(timed(0.0, command("ALT", acid, fixed(centre_ft - dz, 0), fixed(vs_fpm, 0))))
     return "\n".join(lines + commands) + "\n"
 
 

@@ -17,6 +17,7 @@ import pytest
 from bluesky_gym.core.command_text import (
     altitude,
     command,
+    fixed,
     number,
     parse_altitude,
     parse_heading,
@@ -98,12 +99,22 @@ def test_a_number_reads_back_bit_for_bit_without_an_exponent(x: float) -> None:
     assert number(float(text)) == text  # one text per number
 
 
+@pytest.mark.parametrize("decimals", [0, 1, 2, 6])
+@pytest.mark.parametrize("x", [*FORMS, *random_doubles(200, seed=1)])
+def test_a_fixed_precision_number_reads_back_as_the_rounded_value(x: float, decimals: int) -> None:
+    text = fixed(x, decimals)
+    assert "e" not in text.lower() and len(text.partition(".")[2]) == decimals
+    assert bits(parse_number(text)) == bits(round(x, decimals))
+
+
 @pytest.mark.parametrize("x", [math.nan, math.inf, -math.inf])
 def test_no_text_for_a_non_finite_number(x: float) -> None:
     with pytest.raises(ValueError, match="finite numbers"):
         number(x)
     with pytest.raises(ValueError, match="finite numbers"):
         command("HDG", "AC000", x)
+    with pytest.raises(ValueError, match="finite numbers"):
+        fixed(x, 2)
 
 
 def test_a_number_is_as_short_as_repr() -> None:
