@@ -1,8 +1,22 @@
-"""BlueSky's stack argument forms, converted to SI: altitudes, speeds, headings, positions and times.
+"""BlueSky command text, both ways: values written as BlueSky 1.1.1's stack reads them, and read back.
 
-Each function takes one argument text as it appears in a ``.scn`` line and returns the value in
-the core's units (m, m/s, deg, s), or raises :class:`ValueError` with a one-line message. The
-accepted forms are those of BlueSky 1.1.1's stack:
+The one place that writes BlueSky command text (the scenario exporter, the scenario geometries
+and the BlueSky backend use it) and that reads its argument forms (the scenario parser,
+:mod:`bluesky_gym.scenarios.parser`, uses it); each writer is the inverse of a reader.
+
+Writing:
+
+* numbers (:func:`number`): the shortest positional text that reads back as exactly the same
+  float (``repr``'s digits, never an exponent: BlueSky's argument parsers read ``1e-05`` as a
+  name, not a number), with a decimal point as ``repr`` writes it (``150.0``, ``-0.0``);
+* numbers to a fixed number of decimals (:func:`fixed`, for files read by people);
+* altitudes in feet, vertical speeds in feet per minute, speeds in knots CAS or as a Mach number
+  ``M0.78`` (:func:`altitude`, :func:`vertical_speed`, :func:`speed`), from SI values;
+* times as ``HH:MM:SS.hh`` (:func:`time_stamp`), switches as ``ON``/``OFF``, and whole commands
+  (:func:`command`, :func:`timed`).
+
+Reading, each argument text to the value in the core's units (m, m/s, deg, s) or a
+:class:`ValueError` with a one-line message, in the forms of BlueSky 1.1.1's stack:
 
 * altitude: ``FL350`` (flight level, hundreds of feet) or a number of feet (``5000``);
 * speed: a number of knots CAS (``250``), or a Mach number written ``M.78``, ``M78``, ``M0.78`` or
@@ -16,18 +30,128 @@ accepted forms are those of BlueSky 1.1.1's stack:
 * longitude: ``4.5``, ``E4.5``, ``W004.5``, ``E004'30'00"``;
 * time: ``SS.hh``, ``MM:SS.hh`` or ``HH:MM:SS.hh``.
 
-Python's ``float`` also reads ``nan``, ``inf`` and ``1e999`` (infinite); every function here
-refuses a value that is not a finite number (BlueSky accepts them and flies NaN).
+Python's ``float`` also reads ``nan``, ``inf`` and ``1e999`` (infinite); every reader here
+refuses a value that is not a finite number (BlueSky accepts them and flies NaN), and every
+writer refuses to write one.
 """
 
 from __future__ import annotations
 
 import math
 
-from bluesky_gym.core.units import FPM, FT, KTS
+import numpy as np
+
+from bluesky_gym.core.units import CASMACH_THRESHOLD, FPM, FT, KTS, MACH_MIN
 
 #: Characters separating degrees, minutes and seconds in a latitude or longitude.
 DMS_SEPARATORS = ("'", '"', "\N{DEGREE SIGN}")
+
+
+# ----------------------------------------------------------------------------------------------
+# Writing
+# ----------------------------------------------------------------------------------------------
+def number(x: float) -> str:
+    """The shortest positional text that reads back as exactly ``x``: ``repr``'s digits, never an exponent (``1e-05`` is ``0.00001``).
+
+    Raises:
+        ValueError: ``x`` is not a finite number (BlueSky would fly NaN).
+    """
+    value = float(x)
+    if not math.isfinite(value):
+        raise ValueError(f"BlueSky commands need finite numbers, got {value!r}")
+    return np.format_float_positional(value, unique=True, trim="0")
+
+
+def fixed(x: float, decimals: int) -> str:
+    """``x`` with ``decimals`` digits after the point (``%.6f``): text that reads back as exactly ``round(x, decimals)``.
+
+    For files meant to be read by people (the benchmark geometries), where a fixed precision reads
+    better than :func:`number`'s full one.
+
+    Raises:
+        ValueError: ``x`` is not a finite number, or ``decimals`` is negative.
+    """
+    value = float(x)
+    if not math.isfinite(value):
+        raise ValueError(f"BlueSky commands need finite numbers, got {value!r}")
+    if decimals < 0:
+        raise ValueError(f"decimals must be >= 0, got {decimals}")
+    return f"{value:.{int(decimals)}f}"
+
+
+def altitude(alt: float) -> str:
+    """An altitude [m] as BlueSky's altitude argument: feet."""
+    return number(float(alt) / FT)
+
+
+def vertical_speed(vs: float) -> str:
+    """A vertical speed [m/s] as BlueSky's argument: feet per minute."""
+    return number(float(vs) / FPM)
+
+
+def speed(v: float) -> str:
+    """A CAS [m/s] or a Mach number as BlueSky's speed argument: knots, or ``M0.78``.
+
+    A value ``MACH_MIN < v < CASMACH_THRESHOLD`` is a Mach number (as the core reads speeds).
+
+    Raises:
+        ValueError: ``v`` is not finite, or is a speed BlueSky 1.1.1's text cannot carry (a Mach
+            number of 1 or more, a CAS under one knot that it would read as a Mach number).
+    """
+    value = float(v)
+    if MACH_MIN < value < CASMACH_THRESHOLD:
+        if value >= 1.0:
+            raise ValueError(f"BlueSky 1.1.1's speed text has no form for Mach {value!r} (Mach 1 or more)")
+        return f"M{number(value)}"
+    text = number(value / KTS)
+    if MACH_MIN < abs(float(text)) < 1.0:
+        raise ValueError(f"a CAS of {value!r} m/s is {text} kt, which BlueSky reads as a Mach number")
+    return text
+
+
+def switch(on: bool) -> str:
+    """``ON`` or ``OFF``."""
+    return "ON" if on else "OFF"
+
+
+def time_stamp(t: float) -> str:
+    """``HH:MM:SS.hh`` of a time [s] (hundredths, rounded; negative times are 0)."""
+    if not math.isfinite(float(t)):
+        raise ValueError(f"a time stamp needs a finite time, got {t!r}")
+    cs = int(round(max(float(t), 0.0) * 100.0))
+    return f"{cs // 360000:02d}:{cs // 6000 % 60:02d}:{cs // 100 % 60:02d}.{cs % 100:02d}"
+
+
+def command(name: str, *args: str | float) -> str:
+    """One command: its name and arguments separated by blanks (numbers written by :func:`number`).
+
+    Args:
+        name: The command (``"HDG"``).
+        *args: Text arguments (callsigns, types, already written values) as they are, integers
+            as integers, other numbers (``float``, numpy floats) with :func:`number`; a bool is
+            a switch.
+    """
+    parts = [name]
+    for a in args:
+        if isinstance(a, (bool, np.bool_)):
+            parts.append(switch(bool(a)))
+        elif isinstance(a, str):
+            parts.append(a)
+        elif isinstance(a, (int, np.integer)):
+            parts.append(str(int(a)))
+        else:
+            parts.append(number(a))
+    return " ".join(parts)
+
+
+def timed(t: float, text: str) -> str:
+    """A scenario line: ``HH:MM:SS.hh>`` then ``text``."""
+    return f"{time_stamp(t)}>{text}"
+
+
+# ----------------------------------------------------------------------------------------------
+# Reading
+# ----------------------------------------------------------------------------------------------
 
 
 def finite(value: float, text: str, what: str) -> float:
@@ -162,7 +286,7 @@ def _degrees(text: str, negative: bool) -> float:
         value = sum(abs(float(p)) / 60.0**k for k, p in enumerate(parts))
         return -value if negative else value
     value = float(text)
-    return -abs(value) if negative and value > 0 else value
+    return -abs(value) if negative else value  # also -0.0 for -0
 
 
 def parse_latitude(text: str) -> float:
