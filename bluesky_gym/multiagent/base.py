@@ -211,6 +211,9 @@ class MultiAgentTask(Task):
     completion: ClassVar[str] = "arrival"
     #: Per-episode info keys shown in the picture's text panel.
     info_keys: ClassVar[tuple[str, ...]] = ("agents_active", "agents_completed", "total_intrusions")
+    #: Configuration switches of the single-agent step that this multi-agent form does not have
+    #: (setting one raises ``ValueError`` instead of being ignored).
+    unsupported_options: ClassVar[tuple[str, ...]] = ()
     stats: MultiAgentStats  # type: ignore[assignment]
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
@@ -229,9 +232,14 @@ class MultiAgentTask(Task):
             check_int("max_episode_steps", max_episode_steps, 1)
         #: The single-agent task generating the scenarios; it shares :attr:`sim`.
         self.scenario: Task = self.scenario_class(int(n_envs), config, backend="native", max_episode_steps=max_episode_steps)
+        unsupported = [f for f in self.unsupported_options if getattr(self.scenario.config, f)]
+        if unsupported:
+            raise ValueError(f"{self.name} does not have the option(s) {unsupported}: they change the single-agent step only")
         self.n_agents = int(self.scenario.sim.max_aircraft)
         super().__init__(int(n_envs), self.scenario.config, backend=self.scenario.sim, max_episode_steps=max_episode_steps)
         self.id = self.name
+        if self.config.float32_spaces:
+            self.observation_spec = self.finite_bounds(self.observation_spec)
         self.rngs = self.scenario.rngs  # one list: seeding either task seeds the scenario generator
         self.stats = MultiAgentStats(self.n_envs, self.n_agents)
         #: (n_envs,) episodes that ended (or were never reset): they are not stepped.
@@ -252,6 +260,19 @@ class MultiAgentTask(Task):
         self.intrusion_counts = np.zeros((self.n_envs, self.n_agents), np.int64)
         self._leaving = np.zeros((self.n_envs, self.n_agents), bool)
         self._agent_components: dict[str, Array] = {}
+
+    def finite_bounds(self, spec: dict[str, BoxSpec]) -> dict[str, BoxSpec]:
+        """``-v1``: the bounds of the single-agent ``-v1`` observation for the entries it shares (same key and shape).
+
+        Raises:
+            ValueError: If an entry is left without finite bounds.
+        """
+        own = self.scenario.observation_spec
+        out = {k: own[k] if k in own and own[k].shape == v.shape else v for k, v in spec.items()}
+        unbounded = [k for k, v in out.items() if not (np.all(np.isfinite(v.low)) and np.all(np.isfinite(v.high)))]
+        if unbounded:
+            raise ValueError(f"{self.name}: float32_spaces needs finite bounds; {unbounded} have none")
+        return out
 
     def max_aircraft(self) -> int:
         """Aircraft slots per airspace: the scenario's (one agent per slot)."""

@@ -18,7 +18,7 @@ import numpy as np
 from gymnasium.utils import seeding
 
 from bluesky_gym.envs.seeds import eval_seeds
-from bluesky_gym.multiagent import task_class
+from bluesky_gym.multiagent import make_task
 from bluesky_gym.multiagent.policies import Policy
 
 #: (record key, column label) of the KPI table.
@@ -55,8 +55,7 @@ def evaluate(
     Returns:
         One record per episode: ``return`` (team return) and the ``kpi_*`` values.
     """
-    cls = task_class(name)
-    task = cls(episodes, cls.make_config(options), max_episode_steps=max_episode_steps)
+    task = make_task(name, episodes, max_episode_steps, **dict(options or {}))
     task.seed(task.all_envs, [seeding.np_random(s)[0] for s in eval_seeds(episodes, seed_offset)])
     policy.bind(task)
     task.reset()

@@ -53,6 +53,7 @@ class MergeMultiAgentTask(MultiAgentTask):
     state_origin: ClassVar[tuple[float, float]] = (mg.FAF_LAT, mg.FAF_LON)
     state_scale_nm: ClassVar[float] = mg.WAYPOINT_DIST_SCALE
     completion: ClassVar[str] = "arrival"
+    unsupported_options: ClassVar[tuple[str, ...]] = ("faf_same_step", "faf_distance_in_nm", "margins_in_km", "normalise_airspeed")
     num_neighbours: ClassVar[int] = mg.NUM_AC_STATE
     scenario: mg.MergeTask
 

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core.conflicts import PZ_HEIGHT, PZ_RADIUS, detect
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
-from bluesky_gym.core.units import NM
+from bluesky_gym.core.units import KTS, NM
 from bluesky_gym.multiagent.base import Array, MultiAgentTask
 from bluesky_gym.tasks import horizontal_cr, merge, sector_cr
 from bluesky_gym.tasks.descent import ACTION_2_MS
@@ -183,7 +183,7 @@ class GeometricCRPolicy(Policy):
         north = d * np.cos(q) + dv * tcpa
         side = (np.degrees(np.arctan2(east, north)) - s.hdg + 180.0) % 360.0 - 180.0
         turn = np.where(side > 0.0, -1.0, 1.0)  # passes on the right: turn left, and vice versa
-        steer = np.clip(-task.agent_drift() / D_HEADING[task.name], -1.0, 1.0)
+        steer = np.clip(-task.agent_drift() / D_HEADING[type(task).name], -1.0, 1.0)
         heading = np.where(has_conflict, turn, steer)
         out = np.zeros((task.n_envs, task.n_agents, *task.action_spec.shape))
         out[..., 0] = heading
@@ -218,11 +218,14 @@ class MVPMapping:
 
 def multiagent_mvp_mapping(task: MultiAgentTask) -> MVPMapping:
     """MVP's mapping of a multi-agent task: RMETHH ``BOTH`` with a speed action, else ``HDG``; the task's intrusion distance."""
-    if task.name not in D_HEADING:
+    problem = type(task).name  # the _v0 name: a _v1 name has the same steps, the speed step in knots where configured
+    if problem not in D_HEADING:
         raise ValueError(f"no MVP mapping for {task.name}; available: {', '.join(D_HEADING)}")
-    speed_step = D_SPEED.get(task.name)
+    speed_step = D_SPEED.get(problem)
+    if speed_step is not None and getattr(task.config, "speed_step_in_knots", False):
+        speed_step *= KTS
     return MVPMapping(
-        rmethh="BOTH" if speed_step is not None else "HDG", rpz_nm=task.intrusion_distance, heading_step=D_HEADING[task.name], speed_step=speed_step
+        rmethh="BOTH" if speed_step is not None else "HDG", rpz_nm=task.intrusion_distance, heading_step=D_HEADING[problem], speed_step=speed_step
     )
 
 
@@ -253,6 +256,7 @@ class MVPPolicy(Policy):
 
     def __init__(self, mapping: MVPMapping | None = None, env_id: str | None = None) -> None:
         self.env_id = env_id
+        self.from_task = mapping is None  # the mapping comes from the multi-agent task bound
         self.mapping: MVPMapping | None = None
         self.resolver: MVPResolver | None = None
         self.nominal: Policy | None = None
@@ -271,7 +275,7 @@ class MVPPolicy(Policy):
         """Use the physics of the batched environment or multi-agent task ``env``."""
         task = bound_task(env)
         if isinstance(task, MultiAgentTask):
-            if self.mapping is None or self.task is None or self.task.name != task.name:
+            if self.from_task and (self.task is None or self.task.name != task.name or self.task.config != task.config):
                 self._use(multiagent_mvp_mapping(task))
             self.task = task
         else:

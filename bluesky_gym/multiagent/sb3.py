@@ -51,7 +51,7 @@ from gymnasium.utils import seeding
 
 from bluesky_gym.core.extras import require_sb3
 from bluesky_gym.envs.seeds import train_env_seeds
-from bluesky_gym.multiagent import task_class
+from bluesky_gym.multiagent import make_task
 from bluesky_gym.multiagent.base import MultiAgentTask
 
 require_sb3()
@@ -82,8 +82,7 @@ class SharedPolicyVecEnv(VecEnv):
 
     def __init__(self, task: MultiAgentTask | str, n_episodes: int = 8, max_episode_steps: int | None = None, **options: Any) -> None:
         if isinstance(task, str):
-            cls = task_class(task)
-            self.task: MultiAgentTask = cls(n_episodes, cls.make_config(options), max_episode_steps=max_episode_steps)
+            self.task: MultiAgentTask = make_task(task, n_episodes, max_episode_steps, **options)
         elif options or max_episode_steps is not None:
             raise TypeError("scenario options and max_episode_steps are only accepted together with an environment name")
         else:

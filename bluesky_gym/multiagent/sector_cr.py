@@ -20,6 +20,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from bluesky_gym.core.units import KTS
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks import sector_cr as sc
@@ -55,6 +56,8 @@ class SectorCRMultiAgentTask(MultiAgentTask):
     state_origin: ClassVar[tuple[float, float]] = sc.CENTER
     state_scale_nm: ClassVar[float] = STATE_SCALE_NM
     completion: ClassVar[str] = "exit"
+    unsupported_options: ClassVar[tuple[str, ...]] = ("exit_ends_episode",)
+    config: sc.SectorCRConfig
     num_neighbours: ClassVar[int] = sc.NUM_AC_STATE
     scenario: sc.SectorCRTask
 
@@ -75,7 +78,8 @@ class SectorCRMultiAgentTask(MultiAgentTask):
 
     def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt, for every acting agent."""
-        self.command_heading_and_speed(action, sc.D_HEADING, sc.D_VELOCITY)
+        d_speed = sc.D_VELOCITY * KTS if self.config.speed_step_in_knots else sc.D_VELOCITY
+        self.command_heading_and_speed(action, sc.D_HEADING, d_speed)
 
     def targets(self) -> tuple[Array, Array]:
         """Each aircraft's exit point."""
