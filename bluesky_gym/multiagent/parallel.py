@@ -52,7 +52,8 @@ RENDER_FPS = 30
 
 def box(spec: BoxSpec, dtype: Any = np.float64) -> spaces.Box:
     """Return a ``Box`` (float64, or float32 for ``-v1``) from a task's :class:`~bluesky_gym.tasks.base.BoxSpec`."""
-    return spaces.Box(low=spec.low, high=spec.high, shape=spec.shape, dtype=dtype)
+    low, high = (np.asarray(b, dtype=dtype) if isinstance(b, np.ndarray) else b for b in (spec.low, spec.high))  # bounds in the space's dtype
+    return spaces.Box(low=low, high=high, shape=spec.shape, dtype=dtype)
 
 
 def agent_observation_space(task: MultiAgentTask) -> spaces.Dict:

@@ -47,6 +47,7 @@ from gymnasium.utils import seeding
 from bluesky_gym.envs.seeds import is_eval_seed
 from bluesky_gym.multiagent import require_pettingzoo
 from bluesky_gym.multiagent.base import agent_action, agent_actions
+from bluesky_gym.multiagent.parallel import box
 from bluesky_gym.tasks import real_traffic as rt
 
 require_pettingzoo()  # a clear error naming the extra when PettingZoo is missing
@@ -79,9 +80,8 @@ class RealTrafficParallelEnv(ParallelEnv):
         self.metadata = {**self.metadata, "name": name}
         self._dtype = self.task.space_dtype
         spec = self.task.observation_spec
-        self._obs_space = spaces.Dict({k: spaces.Box(v.low, v.high, v.shape, self._dtype) for k, v in spec.items()})
-        a = self.task.action_spec
-        self._act_space = spaces.Box(a.low, a.high, a.shape, self._dtype)
+        self._obs_space = spaces.Dict({k: box(v, self._dtype) for k, v in spec.items()})
+        self._act_space = box(self.task.action_spec, self._dtype)
         self.state_space = spaces.Box(-np.inf, np.inf, (self.task.sim.max_aircraft * len(STATE_COLUMNS),), np.float64)
         self.possible_agents: list[str] = self._possible_agents()
         self.agents: list[str] = []
