@@ -79,7 +79,7 @@ class BlueSkyParallelEnv(ParallelEnv):
     """
 
     task_class: ClassVar[type[MultiAgentTask]]
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS, "is_parallelizable": True}
+    metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS, "is_parallelizable": True}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
     def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, name: str | None = None, **options: Any) -> None:
         if render_mode is not None and render_mode not in RENDER_MODES:
@@ -199,7 +199,7 @@ class SectorCRParallelEnv(BlueSkyParallelEnv):
     """
 
     task_class = SectorCRMultiAgentTask
-    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": SectorCRMultiAgentTask.name}
+    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": SectorCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 class MergeParallelEnv(BlueSkyParallelEnv):
@@ -210,7 +210,7 @@ class MergeParallelEnv(BlueSkyParallelEnv):
     """
 
     task_class = MergeMultiAgentTask
-    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": MergeMultiAgentTask.name}
+    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": MergeMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 class HorizontalCRParallelEnv(BlueSkyParallelEnv):
@@ -221,7 +221,7 @@ class HorizontalCRParallelEnv(BlueSkyParallelEnv):
     """
 
     task_class = HorizontalCRMultiAgentTask
-    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}
+    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 def parallel_env(name: str, **kwargs: Any) -> BlueSkyParallelEnv:

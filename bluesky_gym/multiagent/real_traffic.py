@@ -38,7 +38,7 @@ Example::
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -70,7 +70,7 @@ class RealTrafficParallelEnv(ParallelEnv):
         **options: Options of RealTrafficCREnv-v0 (collections, split, window_s, ...).
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"name": "real_traffic_cr_v0", "render_modes": [], "is_parallelizable": True}
+    metadata: dict[str, Any] = {"name": "real_traffic_cr_v0", "render_modes": [], "is_parallelizable": True}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
     def __init__(self, max_episode_steps: int | None = None, name: str = "real_traffic_cr_v0", **options: Any) -> None:
         if name not in NAMES:
