@@ -60,9 +60,8 @@ def test_the_frame_pattern_finds_a_frame_read() -> None:
     assert not FRAME_READS.search("np.stack(arrays)")
 
 
-#: Names still defined twice until the multi-agent policies become the single-agent ones (one
-#: MVP policy, one random policy); each must still be shared, so that the entry goes with the merge.
-PENDING_MERGE = frozenset({"MVPPolicy", "RandomPolicy"})
+#: Names that may still be defined twice (none: the random and MVP policies are one class each).
+PENDING_MERGE: frozenset[str] = frozenset()
 
 
 def class_names(root: Path) -> dict[str, list[str]]:

@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.cli.arguments import add_env_option
-from bluesky_gym.envs.registry import ENVIRONMENTS, multiagent_entries
+from bluesky_gym.envs.registry import ENVIRONMENTS
+from bluesky_gym.multiagent.registration import centralised_ids
 
 
 def add_parser(subparsers: Any) -> None:
@@ -69,11 +70,6 @@ def _attribute_docs(cls: type) -> dict[str, str]:
         elif current and line.strip():
             out[current] += " " + line.strip()
     return out
-
-
-def centralised_ids() -> list[str]:
-    """Ids of the centralised multi-agent environments (one agent steering every aircraft)."""
-    return [m.centralised_id for m in multiagent_entries()]
 
 
 def known_env(env_id: str) -> str:

@@ -40,17 +40,22 @@ class MultiAgentEntry:
         name: PettingZoo environment name (``"sector_cr_v0"``).
         task: Batched multi-agent task class.
         parallel_env: PettingZoo ``ParallelEnv`` class.
-        centralised_id: Gymnasium id of the centralised form (one agent steering every aircraft).
+        centralised_id: Gymnasium id of the centralised form (one agent steering every aircraft),
+            or None (the ``-v1`` names have none).
         centralised_env: Its environment class.
         scene: Scene builder ``(task, env_index) -> Scene`` of the multi-agent picture.
+        options: Configuration values of this name, ``(name, value)`` pairs of the task's config
+            (a ``_v1`` name: float32 spaces with finite bounds and the ``-v1`` fixes the
+            multi-agent form has).
     """
 
     name: str
     task: str
     parallel_env: str
-    centralised_id: str
+    centralised_id: str | None
     centralised_env: str
     scene: str
+    options: tuple[tuple[str, Any], ...] = ()
 
     def task_class(self) -> type[Any]:
         """The batched multi-agent task class."""
@@ -236,6 +241,32 @@ V1_OPTIONS: dict[str, tuple[tuple[str, Any], ...]] = {
 }
 
 
+#: The ``-v1`` fixes of :data:`V1_OPTIONS` that the multi-agent form of a problem has (its ``_v1``
+#: name): the others change functions of the single-agent step that the multi-agent task does not
+#: share (docs/multiagent.md lists them).
+MULTIAGENT_V1_OPTIONS: dict[str, tuple[tuple[str, Any], ...]] = {
+    "HorizontalCREnv-v0": (("airborne_start", True),),
+    "SectorCREnv-v0": (("flight_level_altitude", True), ("speed_step_in_knots", True)),
+    "MergeEnv-v0": (),
+}
+
+
+def _v1_multiagent(row: EnvEntry) -> MultiAgentEntry | None:
+    """The ``_v1`` multi-agent form of a ``-v0`` row's (None without one)."""
+    m = row.multiagent
+    if m is None:
+        return None
+    return MultiAgentEntry(
+        name=m.name.replace("_v0", "_v1"),
+        task=m.task,
+        parallel_env=m.parallel_env,
+        centralised_id=None,
+        centralised_env=m.centralised_env,
+        scene=m.scene,
+        options=(("float32_spaces", True), *MULTIAGENT_V1_OPTIONS[row.id]),
+    )
+
+
 def _v1(row: EnvEntry) -> EnvEntry:
     """The ``-v1`` row of a ``-v0`` row: the same classes and scene, the ``-v1`` configuration."""
     return EnvEntry(
@@ -244,6 +275,7 @@ def _v1(row: EnvEntry) -> EnvEntry:
         env=row.env,
         vector_env=row.vector_env,
         scene=row.scene,
+        multiagent=_v1_multiagent(row),
         options=(("float32_spaces", True), *V1_OPTIONS[row.id]),
         data=row.data,
         data_note=row.data_note,
@@ -269,7 +301,7 @@ def entry(env_id: str) -> EnvEntry:
 
 
 def multiagent_entries() -> list[MultiAgentEntry]:
-    """The multi-agent forms, in table order."""
+    """The multi-agent forms, in table order (the ``_v0`` names, then the ``_v1`` names)."""
     return [e.multiagent for e in ENVIRONMENTS if e.multiagent is not None]
 
 

@@ -49,6 +49,7 @@ _TASK_NAMES = {
 
 __all__ = [
     "centralised_ids",
+    "make_task",
     "names",
     "register_envs",
     "require_pettingzoo",
@@ -59,8 +60,24 @@ __all__ = [
 
 
 def names() -> list[str]:
-    """The multi-agent environment names (``"horizontal_cr_v0"``, ``"sector_cr_v0"``, ``"merge_v0"``), from the environment table."""
+    """The multi-agent environment names (``"horizontal_cr_v0"``, ..., ``"merge_v1"``), from the environment table."""
     return [m.name for m in multiagent_entries()]
+
+
+def make_task(name: str, n_envs: int = 1, max_episode_steps: int | None = None, **options: Any) -> Any:
+    """The batched multi-agent task of an environment name, with that name's configuration and ``options`` on top.
+
+    Args:
+        name: A multi-agent environment name (``"sector_cr_v0"``, ``"sector_cr_v1"``, ...).
+        n_envs: Number of episodes simulated together.
+        max_episode_steps: Time limit in decision steps (default: the single-agent environment's).
+        **options: Scenario options (the single-agent task's configuration fields).
+    """
+    entry = multiagent_entry(name)
+    cls = entry.task_class()
+    task = cls(n_envs, cls.make_config({**dict(entry.options), **options}), max_episode_steps=max_episode_steps)
+    task.name = task.id = entry.name
+    return task
 
 
 def require_pettingzoo() -> ModuleType:

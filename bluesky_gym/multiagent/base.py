@@ -34,7 +34,6 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.physics import Physics
 from bluesky_gym.tasks.base import (
     Array,
     BoolArray,
@@ -179,8 +178,16 @@ def mask_padding(obs: dict[str, Array], keys: tuple[str, ...], valid: BoolArray)
     return out
 
 
-class MultiAgentTask(abc.ABC):
-    """Base class of the batched multi-agent tasks.
+class MultiAgentTask(Task):
+    """Base class of the batched multi-agent tasks: the multi-agent layout of :meth:`Task.step`.
+
+    The step is :meth:`bluesky_gym.tasks.base.Task.step` itself; this layout supplies its hooks
+    over the rows (episode, agent slot) of the acting agents: the joint action
+    (:meth:`clip_action`), the geometry of those rows (:meth:`measure`), their observation and
+    reward scattered to ``(n_envs, n_agents)`` (:meth:`observe`, :meth:`reward`), the statistics
+    (:meth:`record`), the agents that leave (:meth:`truncate`, :meth:`end_step`) and the result
+    (:meth:`step_result`). A problem supplies the functions of rows: :meth:`measure`,
+    :meth:`observe_rows`, :meth:`reward_rows` (the single-agent task's module functions).
 
     Args:
         n_envs: Number of multi-agent episodes simulated together.
@@ -204,6 +211,19 @@ class MultiAgentTask(abc.ABC):
     completion: ClassVar[str] = "arrival"
     #: Per-episode info keys shown in the picture's text panel.
     info_keys: ClassVar[tuple[str, ...]] = ("agents_active", "agents_completed", "total_intrusions")
+    #: Configuration switches of the single-agent step that this multi-agent form does not have
+    #: (setting one raises ``ValueError`` instead of being ignored).
+    unsupported_options: ClassVar[tuple[str, ...]] = ()
+    stats: MultiAgentStats  # type: ignore[assignment]
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        scenario = cls.__dict__.get("scenario_class")
+        if scenario is not None:  # the scenario's configuration and clock
+            cls.config_class = scenario.config_class
+            cls.dt = scenario.dt
+            cls.action_frequency = scenario.action_frequency
+            cls.max_episode_steps = scenario.max_episode_steps
 
     def __init__(self, n_envs: int = 1, config: TaskConfig | None = None, max_episode_steps: int | None = None) -> None:
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
@@ -212,19 +232,20 @@ class MultiAgentTask(abc.ABC):
             check_int("max_episode_steps", max_episode_steps, 1)
         #: The single-agent task generating the scenarios; it shares :attr:`sim`.
         self.scenario: Task = self.scenario_class(int(n_envs), config, backend="native", max_episode_steps=max_episode_steps)
-        self.sim: Physics = self.scenario.sim
-        self.config = self.scenario.config
-        self.n_envs = int(n_envs)
-        self.n_agents = int(self.sim.max_aircraft)
-        self.time_limit = int(self.scenario.time_limit)
-        self.dt = float(self.scenario.dt)
-        self.action_frequency = int(self.scenario.action_frequency)
-        self.all_envs = np.arange(self.n_envs)
-        self.observation_spec: dict[str, BoxSpec] = self.build_observation_spec()
-        self.action_spec: BoxSpec = self.build_action_spec()
+        unsupported = [f for f in self.unsupported_options if getattr(self.scenario.config, f)]
+        if unsupported:
+            raise ValueError(f"{self.name} does not have the option(s) {unsupported}: they change the single-agent step only")
+        self.n_agents = int(self.scenario.sim.max_aircraft)
+        super().__init__(int(n_envs), self.scenario.config, backend=self.scenario.sim, max_episode_steps=max_episode_steps)
+        self.id = self.name
+        if self.config.float32_spaces:
+            self.observation_spec = self.finite_bounds(self.observation_spec)
+        self.rngs = self.scenario.rngs  # one list: seeding either task seeds the scenario generator
         self.stats = MultiAgentStats(self.n_envs, self.n_agents)
         #: (n_envs,) episodes that ended (or were never reset): they are not stepped.
         self.finished = np.ones(self.n_envs, bool)
+        #: (n_envs, n_agents) agents acting in the current step (active at its start, episode running).
+        self.acting = np.zeros((self.n_envs, self.n_agents), bool)
         self.agent_return = np.zeros((self.n_envs, self.n_agents))
         self.agent_steps = np.zeros((self.n_envs, self.n_agents), np.int64)
         self.agent_intrusions = np.zeros((self.n_envs, self.n_agents), np.int64)
@@ -235,17 +256,51 @@ class MultiAgentTask(abc.ABC):
         self.pair_dist = np.full((self.n_envs, self.n_agents, self.n_agents), np.inf)
         #: (n_envs, n_agents) signed drift [deg] of each agent at the last measurement (0 for empty slots).
         self.drift = np.zeros((self.n_envs, self.n_agents))
+        #: (n_envs, n_agents) other aircraft within the intrusion distance of each acting agent (last step).
         self.intrusion_counts = np.zeros((self.n_envs, self.n_agents), np.int64)
-        self.allocate()
+        self._leaving = np.zeros((self.n_envs, self.n_agents), bool)
+        self._agent_components: dict[str, Array] = {}
+
+    def finite_bounds(self, spec: dict[str, BoxSpec]) -> dict[str, BoxSpec]:
+        """``-v1``: the bounds of the single-agent ``-v1`` observation for the entries it shares (same key and shape).
+
+        Raises:
+            ValueError: If an entry is left without finite bounds.
+        """
+        own = self.scenario.observation_spec
+        out = {k: own[k] if k in own and own[k].shape == v.shape else v for k, v in spec.items()}
+        unbounded = [k for k, v in out.items() if not (np.all(np.isfinite(v.low)) and np.all(np.isfinite(v.high)))]
+        if unbounded:
+            raise ValueError(f"{self.name}: float32_spaces needs finite bounds; {unbounded} have none")
+        return out
+
+    def max_aircraft(self) -> int:
+        """Aircraft slots per airspace: the scenario's (one agent per slot)."""
+        return int(self.scenario.max_aircraft())
+
+    @classmethod
+    def episode_limit(cls, config: TaskConfig) -> int:
+        """The single-agent task's episode limit."""
+        return cls.scenario_class.episode_limit(config)
+
+    def generate(self, envs: IntArray) -> None:
+        """The single-agent scenario of the episodes ``envs`` (with its effects), every aircraft an agent."""
+        self.scenario.generate(envs)
+        for effect in self.scenario.effects:
+            effect.on_reset(self.scenario, envs)
+        self.stats.n_start[envs] = self.sim.active[envs].sum(axis=1)
+        self.finished[envs] = False
+        self.agent_return[envs] = 0.0
+        self.agent_steps[envs] = 0
+        self.agent_intrusions[envs] = 0
+        self.agent_outcome[envs] = 0
+        self.on_reset(envs)
 
     # --- what a task defines ----------------------------------------------------------------------
     @classmethod
     def make_config(cls, options: Mapping[str, Any] | None = None) -> TaskConfig:
         """Return the scenario configuration with ``options`` applied and validated."""
         return cls.scenario_class.make_config(options)
-
-    def allocate(self) -> None:  # noqa: B027 - optional hook
-        """Allocate the task's own per-agent arrays (called once by ``__init__``)."""
 
     @abc.abstractmethod
     def build_observation_spec(self) -> dict[str, BoxSpec]:
@@ -255,28 +310,34 @@ class MultiAgentTask(abc.ABC):
     def build_action_spec(self) -> BoxSpec:
         """Per-agent action Box."""
 
-    def on_reset(self, envs: IntArray) -> None:  # noqa: B027 - optional hook
+    def on_reset(self, envs: IntArray) -> None:
         """Initialise the per-agent arrays of the episodes ``envs`` after their scenario was generated."""
 
     @abc.abstractmethod
-    def apply_action(self, action: Array, acting: BoolArray) -> None:
-        """Turn clipped actions (n_envs, n_agents, dim) of the acting agents into autopilot commands."""
+    def apply_action(self, action: Array) -> None:
+        """Turn clipped actions (n_envs, n_agents, dim) of the acting agents (:attr:`acting`) into autopilot commands."""
 
-    def command_heading_and_speed(self, action: Array, acting: BoolArray, d_heading: float, d_speed: float) -> None:
+    def command_heading_and_speed(self, action: Array, d_heading: float, d_speed: float) -> None:
         """The single-agent SectorCR/Merge action mapping (:func:`bluesky_gym.tasks.base.command_heading_and_speed`) for every acting agent."""
-        e, k = np.nonzero(acting)
+        e, k = np.nonzero(self.acting)
         command_heading_and_speed(self.sim, e, k, action[e, k], d_heading, d_speed)
 
-    @abc.abstractmethod
-    def measure(self, envs: IntArray, own: IntArray) -> StepGeometry:
-        """The step's geometry of the rows (episode ``envs[r]``, agent slot ``own[r]``): the single-agent task's ``measure``."""
+    def measure(self, envs: IntArray | None = None, own: IntArray | None = None) -> StepGeometry:
+        """The geometry of the rows (episode ``envs[r]``, agent slot ``own[r]``); without rows, of the acting agents (the step's)."""
+        if envs is None or own is None:
+            envs, own = np.nonzero(self.acting)
+        return self.measure_rows(np.asarray(envs, dtype=np.int64), np.asarray(own, dtype=np.int64))
 
     @abc.abstractmethod
-    def observe(self, g: StepGeometry) -> dict[str, Array]:
+    def measure_rows(self, envs: IntArray, own: IntArray) -> StepGeometry:
+        """The geometry of the rows (episode ``envs[r]``, agent slot ``own[r]``): the single-agent task's ``measure``."""
+
+    @abc.abstractmethod
+    def observe_rows(self, g: StepGeometry) -> dict[str, Array]:
         """Observation of the rows of ``g``: key -> (rows, *shape)."""
 
     @abc.abstractmethod
-    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward_rows(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Reward, termination (goal reached) and reward components of the rows of ``g``, (rows,) each."""
 
     @abc.abstractmethod
@@ -304,41 +365,25 @@ class MultiAgentTask(abc.ABC):
         """(n, n_agents, n_agents) pairs of active aircraft closer than the intrusion distance."""
         return self.pair_dist < self.intrusion_distance
 
-    # --- the episode loop -------------------------------------------------------------------------
-    @property
-    def rngs(self) -> list[np.random.Generator]:
-        """The per-episode random generators (shared with the scenario generator)."""
-        return self.scenario.rngs
-
-    def seed(self, envs: IntArray, generators: list[np.random.Generator]) -> None:
-        """Give episodes ``envs`` their own random generators."""
-        self.scenario.seed(np.asarray(envs, dtype=np.int64), generators)
-
+    # --- the layout of Task.step ------------------------------------------------------------------
     def reset(self, envs: IntArray | None = None) -> None:
         """Start new episodes in ``envs`` (all when None)."""
         envs = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
         if envs.size == 0:
             return
         self.sim.reset_envs(envs)
-        self.scenario.generate(envs)
-        for effect in self.scenario.effects:
-            effect.on_reset(self.scenario, envs)
         self.stats.clear(envs)
-        self.stats.n_start[envs] = self.sim.active[envs].sum(axis=1)
-        self.finished[envs] = False
-        self.agent_return[envs] = 0.0
-        self.agent_steps[envs] = 0
-        self.agent_intrusions[envs] = 0
-        self.agent_outcome[envs] = 0
-        self.on_reset(envs)
+        self.generate(envs)
         mask = np.zeros_like(self.sim.active)
         mask[envs] = self.sim.active[envs]
         self._store_geometry(envs, self.measure(*np.nonzero(mask)))
         self._track_separation(envs, count_steps=False)
 
-    def observation(self) -> dict[str, Array]:
-        """Return the current observation of every agent slot (zeros for empty slots)."""
-        return self._scatter(self.observe(self.measure(*np.nonzero(self.sim.active))))
+    def observation(self, envs: IntArray | None = None) -> dict[str, Array]:
+        """Return the current observation of every agent slot (zeros for empty slots), key -> (n_envs, n_agents, *shape)."""
+        if envs is not None:
+            raise ValueError("the multi-agent observation is of every episode: call observation() without envs")
+        return self.with_observation_terms(self._scatter(self.observe_rows(self.measure(*np.nonzero(self.sim.active)))))
 
     def _scatter(self, g_obs: dict[str, Array], g: StepGeometry | None = None) -> dict[str, Array]:
         """Rows -> (n_envs, n_agents, *shape) arrays, zeros for the other slots."""
@@ -353,6 +398,12 @@ class MultiAgentTask(abc.ABC):
             out[k] = full
         return out
 
+    def _rows_to_slots(self, g: StepGeometry, values: NDArray[Any], fill: Any = 0) -> NDArray[Any]:
+        """(rows,) values of ``g`` -> (n_envs, n_agents), ``fill`` for the other slots."""
+        full = np.full((self.n_envs, self.n_agents), fill, dtype=values.dtype)
+        full[g.envs, g.own] = values  # type: ignore[attr-defined]
+        return full
+
     def _store_geometry(self, envs: IntArray, g: StepGeometry) -> None:
         """Keep the pair distances and drift of the rows of ``g`` (episodes ``envs`` are cleared first)."""
         self.pair_dist[envs] = np.inf
@@ -362,7 +413,10 @@ class MultiAgentTask(abc.ABC):
             self.drift[g.envs, g.own] = g.drift_deg  # type: ignore[attr-defined]
 
     def clip_action(self, action: Any) -> Array:
-        """Validate a batch of joint actions (n_envs, n_agents, dim) and clip it to the action space."""
+        """Validate a batch of joint actions (n_envs, n_agents, dim) and clip it; fix the acting agents of the step.
+
+        Episodes that have ended are not stepped until they are reset.
+        """
         spec = self.action_spec
         shape = (self.n_envs, self.n_agents, *spec.shape)
         a = numeric_action(action, shape)
@@ -370,44 +424,35 @@ class MultiAgentTask(abc.ABC):
             raise ValueError(f"action has shape {a.shape}, expected {shape} for {self.name}")
         if not np.all(np.isfinite(a)):
             raise ValueError("action contains NaN or infinite values")
+        self.acting = self.sim.active & ~self.finished[:, None]
         return np.clip(a, spec.low, spec.high)
 
-    def step(self, action: Any) -> MultiAgentStepResult:
-        """Apply the joint actions, run the physics sub-steps, evaluate and remove the agents that left.
-
-        Episodes that have ended are not stepped until they are reset.
-        """
-        a = self.clip_action(action)
-        running = ~self.finished
-        acting = self.sim.active & running[:, None]
-        self.apply_action(a, acting)
+    def advance(self) -> None:
+        """The scenario's physics sub-steps (one ``Physics.run`` call)."""
         self.scenario.advance()
-        rows = np.nonzero(acting)
-        g = self.measure(*rows)
-        self._store_geometry(self.all_envs, g)
-        obs = self._scatter(self.observe(g), g)
-        r_rows, term_rows, comp_rows = self.reward(g)
-        reward = np.zeros((self.n_envs, self.n_agents))
-        reward[rows] = r_rows
-        terminated = np.zeros_like(acting)
-        terminated[rows] = term_rows
-        components = {}
-        for k, v in comp_rows.items():
-            components[k] = np.zeros((self.n_envs, self.n_agents))
-            components[k][rows] = v
-        leaving = np.zeros_like(acting)
-        leaving[rows] = self.leaving(g)
-        #: (n_envs, n_agents) other aircraft within the intrusion distance of each acting agent.
-        self.intrusion_counts = np.zeros((self.n_envs, self.n_agents), np.int64)
-        self.intrusion_counts[rows] = g.los.sum(axis=1)
-        st = self.stats
-        st.steps[running] += 1
-        time_up = running & (st.steps >= self.time_limit)
-        left = acting & ~terminated & leaving
-        truncated = acting & ~terminated & (left | time_up[:, None])
-        completed = terminated | left
-        done = terminated | truncated
 
+    def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
+        """Observation of the rows of ``g`` scattered to (n_envs, n_agents, *shape) (``g`` None: every active agent now)."""
+        if g is None:
+            g = self.measure(*np.nonzero(self.sim.active))
+        return self._scatter(self.observe_rows(g), g)
+
+    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Reward and termination (n_envs, n_agents) of the rows of ``g``; the components summed per episode (n_envs,)."""
+        r_rows, term_rows, comp_rows = self.reward_rows(g)
+        self._agent_components = {k: self._rows_to_slots(g, v, 0.0) for k, v in comp_rows.items()}
+        self._leaving = self._rows_to_slots(g, self.leaving(g), False)
+        self.intrusion_counts = self._rows_to_slots(g, g.los.sum(axis=1), 0)
+        components = {k: v.sum(axis=1) for k, v in self._agent_components.items()}
+        return self._rows_to_slots(g, r_rows, 0.0), self._rows_to_slots(g, term_rows, False), components
+
+    def record(self, g: StepGeometry, reward: Array | None) -> None:
+        """Episode and agent statistics of the step (the reset keeps its own, :meth:`reset`)."""
+        assert reward is not None
+        self._store_geometry(self.all_envs, g)
+        st, acting = self.stats, self.acting
+        running = ~self.finished
+        st.steps[running] += 1
         st.total_reward += reward.sum(axis=1)
         self.agent_return += reward
         self.agent_steps += acting
@@ -417,6 +462,20 @@ class MultiAgentTask(abc.ABC):
         st.intrusions += self.intrusion_counts.sum(axis=1)
         self.agent_intrusions += self.intrusion_counts
         self._track_separation(np.flatnonzero(running), count_steps=True)
+
+    def time_up(self) -> BoolArray:
+        """(n_envs, n_agents) acting agents of running episodes at the time limit."""
+        return self.acting & ((~self.finished) & (self.stats.steps >= self.time_limit))[:, None]
+
+    def truncate(self, g: StepGeometry) -> BoolArray:
+        """(n_envs, n_agents) agents the task removes after this step without a goal (:meth:`leaving`)."""
+        return self._leaving
+
+    def end_step(self, terminated: BoolArray, truncated: BoolArray) -> BoolArray:
+        """Count the outcomes, delete the aircraft of the agents that left; return the episodes that ended (no agent left)."""
+        st = self.stats
+        completed = terminated | (truncated & self._leaving)
+        done = terminated | truncated
         st.completed += completed.sum(axis=1)
         st.completion_time += completed.sum(axis=1) * st.steps * self.dt * self.action_frequency
         st.timed_out += (done & ~completed).sum(axis=1)
@@ -426,20 +485,18 @@ class MultiAgentTask(abc.ABC):
         env_idx, slot_idx = np.nonzero(done)
         if env_idx.size:
             self.sim.delete(env_idx, slot_idx)
-        episode_done = running & ~self.sim.active.any(axis=1)
+        episode_done = ~self.finished & ~self.sim.active.any(axis=1)
         self.finished |= episode_done
+        self._completed = completed
+        return episode_done
 
-        info = self.episode_info()
-        info.update({f"reward_{k}": np.where(acting, v, 0.0).sum(axis=1) for k, v in components.items()})
-        if np.any(episode_done):
-            info.update(self.kpis())
-        agent_info = {
-            "return": self.agent_return.copy(),
-            "intrusions": self.agent_intrusions.copy(),
-            "completed": completed,
-        }
-        agent_info.update({f"reward_{k}": np.where(acting, v, 0.0) for k, v in components.items()})
-        return MultiAgentStepResult(obs, reward, terminated, truncated, acting, episode_done, info, agent_info)  # type: ignore[arg-type]  # float64 arrays
+    def step_result(
+        self, obs: dict[str, Array], reward: Array, terminated: BoolArray, truncated: BoolArray, ended: BoolArray, info: dict[str, Array]
+    ) -> MultiAgentStepResult:
+        """A :class:`MultiAgentStepResult`, with the per-agent infos."""
+        agent_info = {"return": self.agent_return.copy(), "intrusions": self.agent_intrusions.copy(), "completed": self._completed}
+        agent_info.update({f"reward_{k}": v for k, v in self._agent_components.items()})
+        return MultiAgentStepResult(obs, reward, terminated, truncated, self.acting, ended, info, agent_info)  # type: ignore[arg-type]  # float64 arrays
 
     def _track_separation(self, envs: IntArray, count_steps: bool) -> None:
         if envs.size == 0:

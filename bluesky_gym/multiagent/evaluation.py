@@ -18,8 +18,8 @@ import numpy as np
 from gymnasium.utils import seeding
 
 from bluesky_gym.envs.seeds import eval_seeds
-from bluesky_gym.multiagent import task_class
-from bluesky_gym.multiagent.policies import MultiAgentPolicy
+from bluesky_gym.multiagent import make_task
+from bluesky_gym.multiagent.policies import Policy
 
 #: (record key, column label) of the KPI table.
 KPI_COLUMNS: tuple[tuple[str, str], ...] = (
@@ -35,7 +35,7 @@ KPI_COLUMNS: tuple[tuple[str, str], ...] = (
 
 def evaluate(
     name: str,
-    policy: MultiAgentPolicy,
+    policy: Policy,
     episodes: int,
     *,
     seed_offset: int = 0,
@@ -46,7 +46,7 @@ def evaluate(
 
     Args:
         name: Multi-agent environment name (``"sector_cr_v0"``, ...).
-        policy: The joint policy.
+        policy: The joint policy (bound to the task here).
         episodes: Number of episodes (the first ``episodes`` evaluation seeds from ``seed_offset``).
         seed_offset: Index of the first evaluation seed.
         options: Scenario options.
@@ -55,15 +55,15 @@ def evaluate(
     Returns:
         One record per episode: ``return`` (team return) and the ``kpi_*`` values.
     """
-    cls = task_class(name)
-    task = cls(episodes, cls.make_config(options), max_episode_steps=max_episode_steps)
+    task = make_task(name, episodes, max_episode_steps, **dict(options or {}))
     task.seed(task.all_envs, [seeding.np_random(s)[0] for s in eval_seeds(episodes, seed_offset)])
+    policy.bind(task)
     task.reset()
     policy.reset()
     obs = task.observation()
     records: list[dict[str, float] | None] = [None] * episodes
     while not task.finished.all():
-        res = task.step(policy.act(task, obs))
+        res = task.step(policy.act(obs))
         obs = res.observation
         for e in np.flatnonzero(res.episode_done):
             rec = {"return": float(res.info["total_reward"][e])}

@@ -151,21 +151,21 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
         self.start_lat[envs] = s.lat[envs]
         self.start_lon[envs] = s.lon[envs]
 
-    def apply_action(self, action: Array, acting: BoolArray) -> None:
+    def apply_action(self, action: Array) -> None:
         """HDG = heading at the last observation + 45 a, for every acting agent."""
-        e, k = np.nonzero(acting)
+        e, k = np.nonzero(self.acting)
         self.sim.cmd_heading(e, k, self.ac_hdg[e, k] + action[e, k, 0] * hc.D_HEADING)
 
     def targets(self) -> tuple[Array, Array]:
         """Each aircraft's waypoint."""
         return self.wpt_lat, self.wpt_lon
 
-    def measure(self, envs: IntArray, own: IntArray) -> hc.HorizontalCRGeometry:
+    def measure_rows(self, envs: IntArray, own: IntArray) -> hc.HorizontalCRGeometry:
         """HorizontalCREnv-v0's geometry of the agents ``own`` of episodes ``envs``, with the nearest other aircraft."""
         rows = (envs, own)
         return hc.measure(self.sim, envs, own, self.wpt_lat[rows], self.wpt_lon[rows], self.wpt_reach[rows], nearest=True, k=self.num_neighbours)
 
-    def observe(self, g: StepGeometry) -> dict[str, Array]:
+    def observe_rows(self, g: StepGeometry) -> dict[str, Array]:
         """HorizontalCREnv-v0's observation of each agent; padding entries zeroed, plus ``traffic_mask``.
 
         Stores the observed heading: the agent's next action's reference.
@@ -173,7 +173,7 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
         self.ac_hdg[g.envs, g.own] = g.heading  # type: ignore[attr-defined]
         return mask_padding(hc.observation(g), hc.INTRUDER_KEYS, padding_mask(g.n_others, self.num_neighbours))  # type: ignore[arg-type, attr-defined]
 
-    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward_rows(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Reach reward (terminates the agent), drift and intrusion penalties."""
         r, _, components = hc.reward(g)  # type: ignore[arg-type]
         self.wpt_reach[g.envs, g.own] = g.goal_reached  # type: ignore[attr-defined]

@@ -53,6 +53,7 @@ class MergeMultiAgentTask(MultiAgentTask):
     state_origin: ClassVar[tuple[float, float]] = (mg.FAF_LAT, mg.FAF_LON)
     state_scale_nm: ClassVar[float] = mg.WAYPOINT_DIST_SCALE
     completion: ClassVar[str] = "arrival"
+    unsupported_options: ClassVar[tuple[str, ...]] = ("faf_same_step", "faf_distance_in_nm", "margins_in_km", "normalise_airspeed")
     num_neighbours: ClassVar[int] = mg.NUM_AC_STATE
     scenario: mg.MergeTask
 
@@ -83,23 +84,23 @@ class MergeMultiAgentTask(MultiAgentTask):
         self.wpt_reach[envs] = 0
         self.faf_reached[envs] = 0
 
-    def apply_action(self, action: Array, acting: BoolArray) -> None:
+    def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 15 a0); SPD (CAS + 20 a1) * 1.94384 kt, for every acting agent."""
-        self.command_heading_and_speed(action, acting, mg.D_HEADING, mg.D_SPEED)
+        self.command_heading_and_speed(action, mg.D_HEADING, mg.D_SPEED)
 
     def targets(self) -> tuple[Array, Array]:
         """Return the FAF, or the runway for agents that reached the FAF."""
         return mg.target(self.wpt_reach != 0)
 
-    def measure(self, envs: IntArray, own: IntArray) -> mg.MergeGeometry:
+    def measure_rows(self, envs: IntArray, own: IntArray) -> mg.MergeGeometry:
         """MergeEnv-v0's geometry of the agents ``own`` of episodes ``envs``."""
         return mg.measure(self.sim, envs, own, self.wpt_reach[envs, own] != 0)
 
-    def observe(self, g: StepGeometry) -> dict[str, Array]:
+    def observe_rows(self, g: StepGeometry) -> dict[str, Array]:
         """MergeEnv-v0's observation of each agent; padding entries zeroed, plus ``traffic_mask``."""
         return mask_padding(mg.observation(g), mg.INTRUDER_KEYS, padding_mask(g.n_others, self.num_neighbours))  # type: ignore[arg-type, attr-defined]
 
-    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward_rows(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """FAF reach reward, runway arrival, drift and intrusion penalties (MergeEnv-v0's, per agent)."""
         r, reach_faf, near_runway, _, components = mg.reward(g)  # type: ignore[arg-type]
         rows = (g.envs, g.own)  # type: ignore[attr-defined]

@@ -35,7 +35,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 
 from bluesky_gym.envs.registry import multiagent_entry, resolve
-from bluesky_gym.multiagent import require_pettingzoo
+from bluesky_gym.multiagent import make_task, require_pettingzoo
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, agent_action, agent_actions
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
@@ -50,14 +50,15 @@ RENDER_MODES = ["rgb_array", "human"]
 RENDER_FPS = 30
 
 
-def box(spec: BoxSpec) -> spaces.Box:
-    """Return a float64 ``Box`` from a task's :class:`~bluesky_gym.tasks.base.BoxSpec`."""
-    return spaces.Box(low=spec.low, high=spec.high, shape=spec.shape, dtype=np.float64)
+def box(spec: BoxSpec, dtype: Any = np.float64) -> spaces.Box:
+    """Return a ``Box`` (float64, or float32 for ``-v1``) from a task's :class:`~bluesky_gym.tasks.base.BoxSpec`."""
+    low, high = (np.asarray(b, dtype=dtype) if isinstance(b, np.ndarray) else b for b in (spec.low, spec.high))  # bounds in the space's dtype
+    return spaces.Box(low=low, high=high, shape=spec.shape, dtype=dtype)
 
 
 def agent_observation_space(task: MultiAgentTask) -> spaces.Dict:
-    """Return the observation space of one agent."""
-    return spaces.Dict({k: box(v) for k, v in task.observation_spec.items()})
+    """Return the observation space of one agent (in the task's space dtype)."""
+    return spaces.Dict({k: box(v, task.space_dtype) for k, v in task.observation_spec.items()})
 
 
 def state_box(task: MultiAgentTask) -> spaces.Box:
@@ -71,23 +72,30 @@ class BlueSkyParallelEnv(ParallelEnv):
     Args:
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         max_episode_steps: Time limit in decision steps (default: the single-agent environment's).
+        name: The environment name, ``_v0`` (default) or ``_v1`` (the configuration of the
+            ``-v1`` contract: float32 spaces with finite bounds; :func:`parallel_env` passes it).
         **options: Scenario options of the single-agent task (see its config dataclass).
 
     """
 
     task_class: ClassVar[type[MultiAgentTask]]
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS, "is_parallelizable": True}
+    metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS, "is_parallelizable": True}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
-    def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, **options: Any) -> None:
+    def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, name: str | None = None, **options: Any) -> None:
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
         self.render_mode = render_mode
-        self.task = self.task_class(1, self.task_class.make_config(options), max_episode_steps=max_episode_steps)
+        name = self.task_class.name if name is None else name
+        if multiagent_entry(name).task_class() is not self.task_class:
+            raise ValueError(f"{name} is not a form of {self.task_class.name}")
+        self.task = make_task(name, 1, max_episode_steps, **options)
+        self.metadata = {**self.metadata, "name": name}
+        self._dtype = self.task.space_dtype
         self.possible_agents: list[str] = [agent_name(k) for k in range(self.task.n_agents)]
         self.agent_name_mapping: dict[str, int] = {a: k for k, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
         self._observation_spaces = {a: agent_observation_space(self.task) for a in self.possible_agents}
-        self._action_spaces = {a: box(self.task.action_spec) for a in self.possible_agents}
+        self._action_spaces = {a: box(self.task.action_spec, self._dtype) for a in self.possible_agents}
         self.state_space = state_box(self.task)
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
@@ -119,7 +127,7 @@ class BlueSkyParallelEnv(ParallelEnv):
         active = np.flatnonzero(self.task.sim.active[0])
         self.agents = [self.possible_agents[k] for k in active]
         obs = self.task.observation()
-        observations = {self.possible_agents[k]: {key: v[0, k].copy() for key, v in obs.items()} for k in active}
+        observations = {self.possible_agents[k]: {key: v[0, k].astype(self._dtype) for key, v in obs.items()} for k in active}
         infos: dict[str, dict[str, Any]] = {a: {} for a in self.agents}
         self._last_reward = 0.0
         self._last_info = {k: v[0].item() for k, v in self.task.episode_info().items()}
@@ -139,7 +147,7 @@ class BlueSkyParallelEnv(ParallelEnv):
         res = task.step(joint)
         acting = np.flatnonzero(res.acting[0])
         names = [self.possible_agents[k] for k in acting]
-        observations = {a: {key: v[0, k].copy() for key, v in res.observation.items()} for a, k in zip(names, acting, strict=True)}
+        observations = {a: {key: v[0, k].astype(self._dtype) for key, v in res.observation.items()} for a, k in zip(names, acting, strict=True)}
         rewards = {a: float(res.reward[0, k]) for a, k in zip(names, acting, strict=True)}
         terminations = {a: bool(res.terminated[0, k]) for a, k in zip(names, acting, strict=True)}
         truncations = {a: bool(res.truncated[0, k]) for a, k in zip(names, acting, strict=True)}
@@ -191,7 +199,7 @@ class SectorCRParallelEnv(BlueSkyParallelEnv):
     """
 
     task_class = SectorCRMultiAgentTask
-    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": SectorCRMultiAgentTask.name}
+    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": SectorCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 class MergeParallelEnv(BlueSkyParallelEnv):
@@ -202,7 +210,7 @@ class MergeParallelEnv(BlueSkyParallelEnv):
     """
 
     task_class = MergeMultiAgentTask
-    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": MergeMultiAgentTask.name}
+    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": MergeMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 class HorizontalCRParallelEnv(BlueSkyParallelEnv):
@@ -213,11 +221,11 @@ class HorizontalCRParallelEnv(BlueSkyParallelEnv):
     """
 
     task_class = HorizontalCRMultiAgentTask
-    metadata: ClassVar[dict[str, Any]] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}
+    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 def parallel_env(name: str, **kwargs: Any) -> BlueSkyParallelEnv:
-    """Create a multi-agent environment by name (``"sector_cr_v0"``, ``"merge_v0"``, ``"horizontal_cr_v0"``).
+    """Create a multi-agent environment by name (``"sector_cr_v0"``, ``"merge_v0"``, ``"horizontal_cr_v0"``, and their ``_v1``).
 
     Args:
         name: Environment name (the multi-agent names of the environment table).
@@ -225,4 +233,4 @@ def parallel_env(name: str, **kwargs: Any) -> BlueSkyParallelEnv:
 
     """
     cls: type[BlueSkyParallelEnv] = resolve(multiagent_entry(name).parallel_env)
-    return cls(**kwargs)
+    return cls(name=name, **kwargs)

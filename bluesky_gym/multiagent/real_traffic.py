@@ -38,7 +38,7 @@ Example::
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -47,10 +47,14 @@ from gymnasium.utils import seeding
 from bluesky_gym.envs.seeds import is_eval_seed
 from bluesky_gym.multiagent import require_pettingzoo
 from bluesky_gym.multiagent.base import agent_action, agent_actions
+from bluesky_gym.multiagent.parallel import box
 from bluesky_gym.tasks import real_traffic as rt
 
 require_pettingzoo()  # a clear error naming the extra when PettingZoo is missing
 from pettingzoo import ParallelEnv  # noqa: E402
+
+#: The names of the environment and the configuration each adds to the options (RealTrafficCREnv-v0's, -v1's).
+NAMES: dict[str, tuple[tuple[str, Any], ...]] = {"real_traffic_cr_v0": (), "real_traffic_cr_v1": (("float32_spaces", True),)}
 
 #: Columns of one aircraft slot in :meth:`RealTrafficParallelEnv.state`.
 STATE_COLUMNS = ("active", "lat", "lon", "altitude", "heading", "ground_speed")
@@ -61,17 +65,23 @@ class RealTrafficParallelEnv(ParallelEnv):
 
     Args:
         max_episode_steps: Time limit in decision steps (default: the window).
+        name: ``"real_traffic_cr_v0"`` (default) or ``"real_traffic_cr_v1"``: RealTrafficCREnv-v1's
+            configuration (float32 spaces with finite bounds, ``intruders`` as one vector).
         **options: Options of RealTrafficCREnv-v0 (collections, split, window_s, ...).
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"name": "real_traffic_cr_v0", "render_modes": [], "is_parallelizable": True}
+    metadata: dict[str, Any] = {"name": "real_traffic_cr_v0", "render_modes": [], "is_parallelizable": True}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
-    def __init__(self, max_episode_steps: int | None = None, **options: Any) -> None:
-        self.task = rt.RealTrafficAllAgentsTask(1, rt.RealTrafficTask.make_config(options), max_episode_steps=max_episode_steps)
+    def __init__(self, max_episode_steps: int | None = None, name: str = "real_traffic_cr_v0", **options: Any) -> None:
+        if name not in NAMES:
+            raise ValueError(f"name must be one of {list(NAMES)}, got {name!r}")
+        config = rt.RealTrafficTask.make_config({**dict(NAMES[name]), **options})
+        self.task = rt.RealTrafficAllAgentsTask(1, config, max_episode_steps=max_episode_steps)
+        self.metadata = {**self.metadata, "name": name}
+        self._dtype = self.task.space_dtype
         spec = self.task.observation_spec
-        self._obs_space = spaces.Dict({k: spaces.Box(v.low, v.high, v.shape, np.float64) for k, v in spec.items()})
-        a = self.task.action_spec
-        self._act_space = spaces.Box(a.low, a.high, a.shape, np.float64)
+        self._obs_space = spaces.Dict({k: box(v, self._dtype) for k, v in spec.items()})
+        self._act_space = box(self.task.action_spec, self._dtype)
         self.state_space = spaces.Box(-np.inf, np.inf, (self.task.sim.max_aircraft * len(STATE_COLUMNS),), np.float64)
         self.possible_agents: list[str] = self._possible_agents()
         self.agents: list[str] = []
@@ -104,9 +114,9 @@ class RealTrafficParallelEnv(ParallelEnv):
             return {}, np.zeros(0), None
         slots = np.fromiter(names.values(), dtype=np.int64)
         g = rt.measure(self.task, np.zeros(len(slots), np.int64), slots)
-        obs = rt.observation(self.task, g)
+        obs = self.task.with_observation_terms(rt.observation(self.task, g), np.zeros(len(slots), np.int64))  # -v1: clipped to the bounds
         reward, _ = rt.reward(g)
-        return {a: {k: v[i].copy() for k, v in obs.items()} for i, a in enumerate(names)}, reward, g
+        return {a: {k: v[i].astype(self._dtype) for k, v in obs.items()} for i, a in enumerate(names)}, reward, g
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode (seeded: the window of that seed)."""
@@ -141,7 +151,7 @@ class RealTrafficParallelEnv(ParallelEnv):
         # flying after the step: those that acted and are still recorded, then (unless the window ends) those that appeared
         flying = {n: s for n, s in now.items() if n in acting or not end}
         obs, reward, g = self._observe(flying)
-        blank = {k: np.zeros(spec.shape) for k, spec in self.task.observation_spec.items()}
+        blank = {k: np.zeros(spec.shape, self._dtype) for k, spec in self.task.observation_spec.items()}
         for n in acting:
             if n not in flying:
                 obs[n] = {k: v.copy() for k, v in blank.items()}

@@ -28,8 +28,9 @@ Row semantics:
   removes their cost (most SectorCR slots are empty) and their noise from the gradient;
 * :class:`LiveRowsVecNormalize` is SB3's observation normalisation (``VecNormalize``) with running
   statistics taken from the live rows only (the zeros of dummy rows would bias them);
-* when an episode ends (no agent left, or the time limit), it restarts in the same step: its
-  rows' next observations are the first of the new episode. Its KPIs (``kpi_*`` of
+* when an episode ends (no agent left, or the time limit), it restarts in the same step (the
+  task's own autoreset, :attr:`~bluesky_gym.tasks.base.Task.autoreset`, which the adapter
+  switches on): its rows' next observations are the first of the new episode. Its KPIs (``kpi_*`` of
   :meth:`~bluesky_gym.multiagent.base.MultiAgentTask.kpis`, plus the team return) are appended
   to :attr:`SharedPolicyVecEnv.episode_kpis`.
 
@@ -50,7 +51,7 @@ from gymnasium.utils import seeding
 
 from bluesky_gym.core.extras import require_sb3
 from bluesky_gym.envs.seeds import train_env_seeds
-from bluesky_gym.multiagent import task_class
+from bluesky_gym.multiagent import make_task
 from bluesky_gym.multiagent.base import MultiAgentTask
 
 require_sb3()
@@ -81,13 +82,13 @@ class SharedPolicyVecEnv(VecEnv):
 
     def __init__(self, task: MultiAgentTask | str, n_episodes: int = 8, max_episode_steps: int | None = None, **options: Any) -> None:
         if isinstance(task, str):
-            cls = task_class(task)
-            self.task: MultiAgentTask = cls(n_episodes, cls.make_config(options), max_episode_steps=max_episode_steps)
+            self.task: MultiAgentTask = make_task(task, n_episodes, max_episode_steps, **options)
         elif options or max_episode_steps is not None:
             raise TypeError("scenario options and max_episode_steps are only accepted together with an environment name")
         else:
             self.task = task
         task = self.task
+        task.autoreset = True  # an episode that ends restarts within its step
         self.n_episodes, self.n_agents = task.n_envs, task.n_agents
         self.render_mode = None
         obs_space = spaces.Dict({k: spaces.Box(v.low, v.high, v.shape, np.float64) for k, v in task.observation_spec.items()})
@@ -147,15 +148,15 @@ class SharedPolicyVecEnv(VecEnv):
         task = self.task
         actions = self._actions.reshape(self.n_episodes, self.n_agents, *task.action_spec.shape)
         self._actions = None
-        res = task.step(actions)
+        lengths = (task.agent_steps + (task.sim.active & ~task.finished[:, None])).reshape(-1)  # agent steps after this one
+        res = task.step(actions)  # the task resets the episodes that ended (autoreset)
         live = res.acting.reshape(-1)
         ended_agent = (res.terminated | res.truncated).reshape(-1)
         dones = ~live | ended_agent
         reward = res.reward.reshape(-1).astype(np.float32)
         time_limit = (res.truncated & ~res.terminated).reshape(-1)
         final_obs = self._rows(res.observation)
-        returns = task.agent_return.reshape(-1).copy()
-        lengths = task.agent_steps.reshape(-1).copy()
+        returns = res.agent_info["return"].reshape(-1)
         ended_episodes = np.flatnonzero(res.episode_done)
         for e in ended_episodes:
             rec = {"return": float(res.info["total_reward"][e])}
@@ -163,7 +164,6 @@ class SharedPolicyVecEnv(VecEnv):
             self.episode_kpis.append(rec)
         self.episodes_done += int(ended_episodes.size)
         if ended_episodes.size:
-            task.reset(ended_episodes)
             obs = self._rows(task.observation())
         else:
             keep = ~ended_agent

@@ -20,6 +20,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from bluesky_gym.core.units import KTS
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks import sector_cr as sc
@@ -55,6 +56,8 @@ class SectorCRMultiAgentTask(MultiAgentTask):
     state_origin: ClassVar[tuple[float, float]] = sc.CENTER
     state_scale_nm: ClassVar[float] = STATE_SCALE_NM
     completion: ClassVar[str] = "exit"
+    unsupported_options: ClassVar[tuple[str, ...]] = ("exit_ends_episode",)
+    config: sc.SectorCRConfig
     num_neighbours: ClassVar[int] = sc.NUM_AC_STATE
     scenario: sc.SectorCRTask
 
@@ -73,23 +76,24 @@ class SectorCRMultiAgentTask(MultiAgentTask):
         """Heading change and speed change, each in [-1, 1]."""
         return BoxSpec((2,), -1.0, 1.0)
 
-    def apply_action(self, action: Array, acting: BoolArray) -> None:
+    def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt, for every acting agent."""
-        self.command_heading_and_speed(action, acting, sc.D_HEADING, sc.D_VELOCITY)
+        d_speed = sc.D_VELOCITY * KTS if self.config.speed_step_in_knots else sc.D_VELOCITY
+        self.command_heading_and_speed(action, sc.D_HEADING, d_speed)
 
     def targets(self) -> tuple[Array, Array]:
         """Each aircraft's exit point."""
         return self.scenario.wpt_lat, self.scenario.wpt_lon
 
-    def measure(self, envs: IntArray, own: IntArray) -> sc.SectorGeometry:
+    def measure_rows(self, envs: IntArray, own: IntArray) -> sc.SectorGeometry:
         """SectorCREnv-v0's geometry of the agents ``own`` of episodes ``envs``."""
         return sc.measure(self.sim, self.scenario, envs, own)
 
-    def observe(self, g: StepGeometry) -> dict[str, Array]:
+    def observe_rows(self, g: StepGeometry) -> dict[str, Array]:
         """SectorCREnv-v0's observation of each agent; padding entries zeroed, plus ``traffic_mask``."""
         return mask_padding(sc.observation(g), sc.INTRUDER_KEYS, padding_mask(g.n_others, self.num_neighbours))  # type: ignore[arg-type, attr-defined]
 
-    def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+    def reward_rows(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """Drift and intrusion penalties; no agent terminates (leaving the sector truncates it)."""
         r, _, components = sc.reward(g)  # type: ignore[arg-type]
         return r, np.zeros(len(g.envs), bool), components

@@ -83,7 +83,7 @@ def train(
 
     Returns:
         The trained PPO model and its observation normaliser (frozen:
-        ``training = False``); pass both to :class:`SharedSB3Policy`.
+        ``training = False``); pass both to :class:`~bluesky_gym.multiagent.policies.SB3Policy`.
     """
     from stable_baselines3 import PPO
 
@@ -137,7 +137,7 @@ def train_and_compare(
     import torch
 
     from bluesky_gym.multiagent.evaluation import evaluate, kpi_table
-    from bluesky_gym.multiagent.policies import GeometricCRPolicy, MVPPolicy, RandomPolicy, SharedSB3Policy
+    from bluesky_gym.multiagent.policies import GeometricCRPolicy, MVPPolicy, RandomPolicy, SB3Policy
 
     torch.set_num_threads(threads)
     t0 = time.time()
@@ -153,7 +153,7 @@ def train_and_compare(
         RandomPolicy(seed=hyperparams.get("seed", 0)),
         GeometricCRPolicy(),
         MVPPolicy(),
-        SharedSB3Policy(model, normalizer=normalizer, name="shared PPO"),
+        SB3Policy(model, normalizer=normalizer, name="shared PPO"),
     )
     results = {p.name: evaluate(env, p, eval_episodes) for p in policies}
     print(f"evaluation on {eval_episodes} held-out episodes ({time.time() - t1:.0f} s):")

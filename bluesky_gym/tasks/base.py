@@ -405,6 +405,10 @@ class Task(abc.ABC):
     info_keys: ClassVar[tuple[str, ...]]
     #: Whether the task has a goal (for the success / time-to-goal KPIs).
     has_goal: ClassVar[bool] = True
+    #: Reset the episodes that ended at the end of :meth:`step` (the step's result keeps their
+    #: final observation; :meth:`observation` then gives the first of the new episodes). The
+    #: Gymnasium shells reset themselves; the shared-policy SB3 adapter sets it.
+    autoreset: bool = False
 
     def __init__(
         self, n_envs: int = 1, config: TaskConfig | None = None, backend: str | Physics = "native", max_episode_steps: int | None = None
@@ -650,11 +654,16 @@ class Task(abc.ABC):
             raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
         return np.minimum(np.maximum(a, spec.low), spec.high)  # np.clip's result, for finite values
 
-    def step(self, action: Any) -> StepResult:
-        """Apply a batch of actions, run the physics sub-steps and evaluate every episode.
+    def step(self, action: Any) -> Any:
+        """Apply a batch of actions, run the physics sub-steps and evaluate the controlled rows.
 
-        As in the reference, the observation is built before the reward is evaluated (reach
-        flags updated by the reward therefore show in the next observation).
+        This is the one step pipeline of every agent layout. Its rows are (episode, aircraft
+        slot) pairs: slot 0 of every episode here (:attr:`ownship`); every acting aircraft in the
+        multi-agent layout (:class:`~bluesky_gym.multiagent.base.MultiAgentTask`, which supplies
+        the same hooks over its rows). As in the reference, the observation is built before the
+        reward is evaluated (reach flags updated by the reward therefore show in the next
+        observation). With :attr:`autoreset`, the episodes that ended are reset at the end of the
+        step (:meth:`end_step`).
         """
         a = self.clip_action(action)
         self.apply_action(a)
@@ -663,11 +672,29 @@ class Task(abc.ABC):
         obs = self.with_observation_terms(self.observe(g))
         reward, terminated, components = self.reward(g)
         self.record(g, reward)
-        truncated = ~terminated & ((self.stats.steps >= self.time_limit) | self.truncate(g))
+        truncated = ~terminated & (self.time_up() | self.truncate(g))
+        ended = self.end_step(terminated, truncated)
         info = self.episode_info()
         info.update({f"reward_{k}": v for k, v in components.items()})
-        if (terminated | truncated).any():
+        if ended.any():
             info.update(self.kpis())
+        result = self.step_result(obs, reward, terminated, truncated, ended, info)
+        if self.autoreset and ended.any():
+            self.reset(np.flatnonzero(ended))
+        return result
+
+    def time_up(self) -> BoolArray:
+        """Rows at the time limit after this step's :meth:`record`: (n_envs,) here."""
+        return self.stats.steps >= self.time_limit
+
+    def end_step(self, terminated: BoolArray, truncated: BoolArray) -> BoolArray:
+        """Close the step (the multi-agent layout removes the agents that left); return the (n_envs,) episodes that ended."""
+        return terminated | truncated
+
+    def step_result(
+        self, obs: dict[str, Array], reward: Array, terminated: BoolArray, truncated: BoolArray, ended: BoolArray, info: dict[str, Array]
+    ) -> Any:
+        """What :meth:`step` returns: a :class:`StepResult` here."""
         return StepResult(obs, reward, terminated, truncated, info)
 
     def advance(self) -> None:

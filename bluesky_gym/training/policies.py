@@ -43,27 +43,29 @@ A third reference exists for the environments with traffic (:data:`MVP`):
 
 from __future__ import annotations
 
-import abc
 import dataclasses
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.conflicts import PZ_HEIGHT, PZ_RADIUS
-from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
 from bluesky_gym.core.units import FT, KTS, NM, NM2KM
+from bluesky_gym.multiagent.policies import MIN_ACTION as MIN_ACTION  # the one policy module of every agent layout
+from bluesky_gym.multiagent.policies import MVPMapping as MVPMapping
+from bluesky_gym.multiagent.policies import MVPPolicy as MVPPolicy
+from bluesky_gym.multiagent.policies import Obs as Obs
+from bluesky_gym.multiagent.policies import Policy as Policy
+from bluesky_gym.multiagent.policies import RandomPolicy as RandomPolicy
+from bluesky_gym.multiagent.policies import SB3Policy as SB3Policy
+from bluesky_gym.multiagent.policies import vertical_speed_action
 from bluesky_gym.tasks import horizontal_cr, merge, plan_waypoint, sector_cr, static_obstacle, vertical_cr
 from bluesky_gym.tasks import real_traffic as rt
-from bluesky_gym.tasks.descent import ACTION_2_MS, ALT_MEAN, ALT_STD, RWY_DIS_MEAN, RWY_DIS_STD, DescentTask
+from bluesky_gym.tasks.descent import ALT_MEAN, ALT_STD, RWY_DIS_MEAN, RWY_DIS_STD, DescentTask
 from bluesky_gym.tasks.plan_waypoint import PlanWaypointConfig
 from bluesky_gym.tasks.static_obstacle import StaticObstacleConfig
 
 Array = NDArray[np.float64]
-Obs = dict[str, Array]
 
 # The observation and action scales the controllers decode with are the tasks' own (imported, or
 # derived from them in one expression); the numbers declared here are the controllers' tuning.
@@ -75,7 +77,6 @@ STEP_S_VERTICAL = DescentTask.dt * DescentTask.action_frequency  # s per decisio
 GROUND_SPEED_EST = 0.17  # km/s, typical ground speed of the descent scenarios (CAS 150 m/s)
 GLIDE_SLOPE = 80.0  # m per km of runway distance: steeper than the ~70 m/km possible, as the command lags
 RUNWAY_ALT = 60.0  # m, altitude aimed at over the runway threshold (alt <= 0 before it crashes)
-MIN_ACTION = 0.01  # -: |a| <= VS_SELECT_EPS / ACTION_2_MS (0.008) selects BlueSky's default vertical speed; stay above
 VERTICAL_ALERT_KM = 40.0  # km: intruders closer than this (and closing in) are avoided
 VERTICAL_ALERT_ALT = 450.0  # m: vertical distance kept from an alerting intruder
 VERTICAL_MIN_ALT = 300.0  # m: do not avoid downwards below this
@@ -103,27 +104,6 @@ OBSTACLE_LOOKAHEAD_KM = 60.0  # km: length of the path checked for obstacles
 CANDIDATE_TURNS = np.arange(-180.0, 180.0, 5.0)  # deg, relative headings searched
 
 
-class Policy(abc.ABC):
-    """A batched policy: a dict of ``(n_envs, *shape)`` observations to ``(n_envs, dim)`` actions."""
-
-    #: Name shown in result tables.
-    name: str = "policy"
-
-    def reset(self, envs: NDArray[np.bool_] | None = None) -> None:  # noqa: B027 - stateless by default
-        """Forget the memory of the environments ``envs`` (a mask; all when None)."""
-
-    def bind(self, env: Any) -> None:  # noqa: B027 - observation-only policies need nothing
-        """Attach the policy to the batched environment it is about to act in (before its reset).
-
-        Policies that read the simulator state (``mvp``) keep the environment's physics; the
-        others ignore it.
-        """
-
-    @abc.abstractmethod
-    def act(self, obs: Obs) -> Array:
-        """Actions for a batch of observations."""
-
-
 class FunctionPolicy(Policy):
     """A stateless policy given as a function of the batched observation.
 
@@ -140,59 +120,9 @@ class FunctionPolicy(Policy):
         return self._act(obs)
 
 
-class RandomPolicy(Policy):
-    """Uniform random actions in ``[low, high]`` from a seeded generator.
-
-    Args:
-        low: Lower bound of the action box (per component).
-        high: Upper bound.
-        seed: Seed of the action generator.
-
-    """
-
-    name = "random"
-
-    def __init__(self, low: Array, high: Array, seed: int = 0) -> None:
-        self.low = np.asarray(low, dtype=np.float64)
-        self.high = np.asarray(high, dtype=np.float64)
-        self.rng = np.random.default_rng(seed)
-
-    def act(self, obs: Obs) -> Array:
-        """Draw one action per environment."""
-        n = next(iter(obs.values())).shape[0]
-        return self.rng.uniform(self.low, self.high, size=(n, *self.low.shape))
-
-
-class SB3Policy(Policy):
-    """A trained Stable-Baselines3 model, acting deterministically by default.
-
-    Args:
-        model: An SB3 algorithm instance (``PPO.load(...)`` etc.).
-        deterministic: Use the mean / greedy action.
-        name: Name shown in result tables.
-
-    """
-
-    def __init__(self, model: Any, deterministic: bool = True, name: str = "model") -> None:
-        self.model = model
-        self.deterministic = deterministic
-        self.name = name
-
-    def act(self, obs: Obs) -> Array:
-        """Predict the model's actions."""
-        action, _ = self.model.predict(obs, deterministic=self.deterministic)
-        return np.asarray(action, dtype=np.float64)
-
-
 def _angle(sin: Array, cos: Array) -> Array:
     """Angle [deg, (-180, 180]] from its sine and cosine."""
     return np.degrees(np.arctan2(sin, cos))
-
-
-def _vs_action(v_cmd: Array) -> Array:
-    """Vertical-speed command [m/s] to an action, avoiding BlueSky's default-VS band."""
-    a = np.clip(v_cmd / ACTION_2_MS, -1.0, 1.0)
-    return np.where(np.abs(a) < MIN_ACTION, np.where(a < 0, -MIN_ACTION, MIN_ACTION), a)
 
 
 class _ClosingTracker:
@@ -234,7 +164,7 @@ class DescentController(Policy):
     def act(self, obs: Obs) -> Array:
         """Compute the controller's actions."""
         alt, wanted = self.target_altitude(obs)
-        return _vs_action((wanted - alt) / STEP_S_VERTICAL)[:, None]
+        return vertical_speed_action((wanted - alt) / STEP_S_VERTICAL)[:, None]
 
 
 class VerticalCRController(DescentController):
@@ -265,7 +195,7 @@ class VerticalCRController(DescentController):
         go_below = (int_alt > alt) & (below > VERTICAL_MIN_ALT)
         avoid = np.where(go_below, np.minimum(wanted, below), np.maximum(wanted, above))
         wanted = np.where(alert, avoid, wanted)
-        return _vs_action((wanted - alt) / STEP_S_VERTICAL)[:, None]
+        return vertical_speed_action((wanted - alt) / STEP_S_VERTICAL)[:, None]
 
 
 class HorizontalCRController(Policy):
@@ -460,31 +390,6 @@ class StaticObstacleController(Policy):
         return np.stack([heading, np.ones_like(heading)], axis=1)
 
 
-@dataclass(frozen=True)
-class MVPMapping:
-    """How MVP drives one environment: RMETH setting, protected zone and the action normalisation.
-
-    Attributes:
-        nominal: Factory of the policy flown without an active resolution (observation only).
-        rmethh: BlueSky ``RMETHH`` value (None: not given).
-        rmethv: BlueSky ``RMETHV`` value (None: not given).
-        rpz_nm: Protected-zone radius [NM] (the environment's intrusion distance).
-        hpz_m: Protected-zone half height [m].
-        heading_step: Degrees of heading change per unit of action 0, or None (no heading action).
-        speed_step: m/s of CAS change per unit of action 1, or None (no speed action).
-        vertical: Action 0 is a vertical speed (``ACTION_2_MS`` m/s per unit).
-    """
-
-    nominal: Callable[[], Policy]
-    rmethh: str | None = None
-    rmethv: str | None = None
-    rpz_nm: float = PZ_RADIUS / NM
-    hpz_m: float = PZ_HEIGHT
-    heading_step: float | None = None
-    speed_step: float | None = None
-    vertical: bool = False
-
-
 class SteerToGoal(Policy):
     """Cancel the drift to the goal with a heading action, at most a full step; speed action 0.
 
@@ -506,68 +411,6 @@ class SteerToGoal(Policy):
         out = np.zeros((drift.shape[0], self.dims))
         out[:, 0] = np.clip(-drift / self.heading_step, -1.0, 1.0)
         return out
-
-
-class MVPPolicy(Policy):
-    """MVP conflict resolution (BlueSky ``RESO MVP``) mapped to an environment's actions.
-
-    The ownship (slot 0) follows MVP's resolution while BlueSky's ASAS would (from the first
-    conflict until its pairs are past their closest point of approach); otherwise it flies the
-    mapping's nominal policy. Heading actions turn by the resolution's track change, speed
-    actions change CAS by what gives the resolution ground speed, vertical-speed actions fly the
-    resolution's vertical speed towards its altitude; all divided by the environment's action
-    steps and clipped to the action box.
-
-    Args:
-        env_id: Environment id (a key of :data:`MVP`).
-    """
-
-    name = "mvp"
-
-    def __init__(self, env_id: str) -> None:
-        if env_id not in MVP:
-            raise ValueError(f"no MVP mapping for {env_id} (environments without traffic have nothing to resolve); available: {', '.join(MVP)}")
-        self.env_id = env_id
-        self.mapping = MVP[env_id]
-        m = self.mapping
-        settings = ResolutionSettings.from_methods(m.rmethh, m.rmethv)
-        self.resolver = MVPResolver(settings, rpz=m.rpz_nm * NM, hpz=m.hpz_m)
-        self.nominal = m.nominal()
-        self.physics: Physics | None = None
-
-    def bind(self, env: Any) -> None:
-        """Use the physics of the batched environment ``env`` (its task's :class:`Physics`)."""
-        base = getattr(env, "unwrapped", env)
-        task = getattr(base, "task", None)
-        spec = getattr(base, "spec", None)
-        if task is None or getattr(spec, "id", task.id) != self.env_id:
-            raise ValueError(f"the mvp policy of {self.env_id} needs that environment, got {env!r}")
-        self.physics = task.sim
-        self.resolver.reset()
-
-    def reset(self, envs: NDArray[np.bool_] | None = None) -> None:
-        """Forget the resolutions of the environments ``envs`` (all when None)."""
-        self.nominal.reset(envs)
-        self.resolver.reset(envs)
-
-    def act(self, obs: Obs) -> Array:
-        """Resolution actions where MVP is active, the nominal policy's elsewhere."""
-        if self.physics is None:
-            raise RuntimeError("the mvp policy reads the simulator state: bind(env) it to its environment first")
-        action = np.asarray(self.nominal.act(obs), dtype=np.float64).copy()
-        cmd = self.resolver.update(self.physics)
-        follow = cmd.follow[:, 0]
-        m = self.mapping
-        if m.vertical:
-            reso = _vs_action(np.nan_to_num(cmd.vertical_speed[:, 0]))
-            action[:, 0] = np.where(follow, reso, action[:, 0])
-        if m.heading_step is not None:
-            reso = np.clip(np.nan_to_num(cmd.track_change[:, 0]) / m.heading_step, -1.0, 1.0)
-            action[:, 0] = np.where(follow, reso, action[:, 0])
-        if m.speed_step is not None:
-            reso = np.clip(np.nan_to_num(cmd.cas_change[:, 0]) / m.speed_step, -1.0, 1.0)
-            action[:, 1] = np.where(follow, reso, action[:, 1])
-        return action
 
 
 #: MVP's mapping per environment id (environments with traffic). A new environment with the same
@@ -674,5 +517,12 @@ def reference_policy(name: str, env_id: str, action_low: Array, action_high: Arr
             raise ValueError(f"no classical controller for {env_id}; available: {', '.join(CLASSICAL)}")
         return CLASSICAL[env_id]()
     if name == "mvp":
-        return MVPPolicy(env_id)
+        return mvp_policy(env_id)
     raise ValueError(f"unknown reference policy {name!r}; choose one of {', '.join(REFERENCE_POLICIES)}")
+
+
+def mvp_policy(env_id: str) -> MVPPolicy:
+    """The ``mvp`` reference policy of an environment with traffic (bind it to that environment before acting)."""
+    if env_id not in MVP:
+        raise ValueError(f"no MVP mapping for {env_id} (environments without traffic have nothing to resolve); available: {', '.join(MVP)}")
+    return MVPPolicy(MVP[env_id], env_id)

@@ -290,13 +290,13 @@ def test_creconfs_env_scenarios(env_id: str, settings: tuple[str | None, str | N
 @pytest.mark.parametrize("env_id", ["HorizontalCREnv-v0", "SectorCREnv-v0"])
 def test_mvp_policy_flies_the_same_episode_on_both_backends(env_id: str) -> None:
     """The mvp policy reads the state through the Physics interface: same seed, same actions on native and BlueSky."""
-    from bluesky_gym.training.policies import MVPPolicy
+    from bluesky_gym.training.policies import mvp_policy
 
     actions: dict[str, list[np.ndarray]] = {}
     resolving = 0
     for backend in ("native", "bluesky"):
         env = gym.make(env_id, backend=backend)
-        policy = MVPPolicy(env_id)
+        policy = mvp_policy(env_id)
         policy.bind(env)
         obs, _ = env.reset(seed=5)
         actions[backend] = []

@@ -35,6 +35,9 @@ def test_gymnasium_registration_is_the_table() -> None:
         spec = gym.spec(e.id)
         assert (spec.entry_point, spec.vector_entry_point, spec.max_episode_steps) == (e.env, e.vector_env, None)
     for m in registry.multiagent_entries():
+        if m.centralised_id is None:  # the _v1 names have no centralised id
+            assert m.name.endswith("_v1")
+            continue
         spec = gym.spec(m.centralised_id)
         assert (spec.entry_point, spec.max_episode_steps) == (m.centralised_env, None)
 
@@ -42,12 +45,15 @@ def test_gymnasium_registration_is_the_table() -> None:
 def test_multiagent_forms() -> None:
     import bluesky_gym.multiagent as ma
 
-    assert sorted(ma.names()) == ["horizontal_cr_v0", "merge_v0", "sector_cr_v0"]
+    assert sorted(ma.names()) == ["horizontal_cr_v0", "horizontal_cr_v1", "merge_v0", "merge_v1", "sector_cr_v0", "sector_cr_v1"]
     for m in registry.multiagent_entries():
         task = m.task_class()
-        assert task.name == m.name and ma.task_class(m.name) is task
-        assert registry.multiagent_entry(m.centralised_id) is m
+        assert task.name == m.name.replace("_v1", "_v0") and ma.task_class(m.name) is task
+        assert ma.make_task(m.name).name == m.name
+        if m.centralised_id is not None:
+            assert registry.multiagent_entry(m.centralised_id) is m
         assert registry.single_agent_entry(m.name).multiagent is m
+        assert registry.single_agent_entry(m.name).id.endswith(m.name[-2:])
         assert registry.resolve(m.parallel_env).task_class is task
         assert registry.resolve(m.centralised_env).task_class is task
         assert callable(m.scene_builder())

@@ -11,24 +11,28 @@ from bluesky_gym.multiagent.base import Array, MultiAgentTask
 from bluesky_gym.multiagent.evaluation import evaluate
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
-from bluesky_gym.multiagent.policies import D_HEADING, MultiAgentPolicy, MVPPolicy
+from bluesky_gym.multiagent.policies import D_HEADING, MVPPolicy, Policy
 from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
 
 #: Task -> (decision steps flown, time to loss of separation of the head-on pair [s]).
 CASES = {SectorCRMultiAgentTask: (40, 60.0), MergeMultiAgentTask: (8, 150.0), HorizontalCRMultiAgentTask: (8, 150.0)}
 
 
-class NoAction(MultiAgentPolicy):
+class NoAction(Policy):
     """Every agent keeps its heading and speed (zero actions)."""
 
     name = "no action"
 
-    def act(self, task: MultiAgentTask, obs: dict[str, Array]) -> Array:
+    def bind(self, env: MultiAgentTask) -> None:
+        self.task = env
+
+    def act(self, obs: dict[str, Array]) -> Array:
+        task = self.task
         assert task.name in D_HEADING
         return np.zeros((task.n_envs, task.n_agents, *task.action_spec.shape))
 
 
-def _head_on(task_class: type[MultiAgentTask], policy: MultiAgentPolicy, n: int = 2) -> np.ndarray:
+def _head_on(task_class: type[MultiAgentTask], policy: Policy, n: int = 2) -> np.ndarray:
     """Smallest horizontal separation [protected-zone radii] of agents 0 and 1, put on a head-on course."""
     steps, tlosh = CASES[task_class]
     task = task_class(n)
@@ -38,11 +42,12 @@ def _head_on(task_class: type[MultiAgentTask], policy: MultiAgentPolicy, n: int 
     for e in range(n):
         sim.delete(e, 1)
         sim.creconfs(e, 0, 1, 180.0, 0.0, tlosh)
+    policy.bind(task)
     policy.reset()
     obs = task.observation()
     worst = np.full(n, np.inf)
     for _ in range(steps):
-        res = task.step(policy.act(task, obs))
+        res = task.step(policy.act(obs))
         obs = res.observation
         both = sim.active[:, 0] & sim.active[:, 1]
         d = kwikdist(sim.lat[:, 0], sim.lon[:, 0], sim.lat[:, 1], sim.lon[:, 1]) / task.intrusion_distance

@@ -18,6 +18,7 @@ from bluesky_gym.core.extras import install_hint
 from bluesky_gym.multiagent import names, parallel_env, require_pettingzoo
 from bluesky_gym.multiagent.base import STATE_FEATURES
 from bluesky_gym.tasks import merge as mg
+from bluesky_gym.tasks import sector_cr
 from bluesky_gym.tasks.geometry import point_at_distance
 
 from ..conftest import same_values
@@ -31,12 +32,59 @@ def test_parallel_api(name: str) -> None:
         # SectorCR sizes its agent slots for the densest traffic, so an episode ends with unused
         # possible agents, which the API test reports as a warning.
         warnings.filterwarnings("ignore", message="No agents present but not all possible_agents")
-        parallel_api_test(parallel_env(name), num_cycles=400)
+        parallel_api_test(parallel_env(name), num_cycles=1000)
 
 
 @pytest.mark.parametrize("name", NAMES)
 def test_parallel_seed(name: str) -> None:
     parallel_seed_test(lambda: parallel_env(name), num_cycles=50)
+
+
+def test_every_traffic_problem_has_a_v0_and_a_v1_name() -> None:
+    assert sorted(NAMES) == sorted(f"{p}_{v}" for p in ("horizontal_cr", "sector_cr", "merge") for v in ("v0", "v1"))
+
+
+@pytest.mark.parametrize("name", [n for n in NAMES if n.endswith("_v1")])
+def test_v1_spaces_are_float32_with_finite_bounds_that_hold(name: str) -> None:
+    env = parallel_env(name)
+    assert env.metadata["name"] == name and env.task.name == name
+    obs, _ = env.reset(seed=0)
+    for step in range(30):
+        for agent, o in obs.items():
+            space = env.observation_space(agent)
+            for key, box in space.spaces.items():
+                assert box.dtype == np.float32 and np.all(np.isfinite(box.low)) and np.all(np.isfinite(box.high)), key
+            assert space.contains(o), (step, agent)
+        if not env.agents:
+            break
+        obs = env.step({a: env.action_space(a).sample() for a in env.agents})[0]
+        assert all(env.action_space(a).dtype == np.float32 for a in env.agents)
+
+
+def test_sector_v1_speed_action_is_in_knots() -> None:
+    from bluesky_gym.core.units import KTS, MPS2KT
+
+    changes, expected = {}, {}
+    for name in ("sector_cr_v0", "sector_cr_v1"):
+        env = parallel_env(name)
+        env.reset(seed=2)
+        task = env.task
+        agent = env.agents[0]
+        k = env.agent_name_mapping[agent]
+        cas = task.sim.cas[0, k]
+        env.step({agent: np.array([0.0, 1.0])})
+        changes[name] = task.sim.selspd[0, k]
+        step = sector_cr.D_VELOCITY * (KTS if name.endswith("v1") else 1.0)
+        expected[name] = (cas + step) * MPS2KT * KTS  # SectorCREnv's command: CAS + step, in knots
+    assert changes == expected
+
+
+@pytest.mark.parametrize(
+    ("name", "option"), [("sector_cr_v0", "exit_ends_episode"), ("merge_v0", "faf_same_step"), ("merge_v1", "normalise_airspeed")]
+)
+def test_single_agent_step_options_are_refused(name: str, option: str) -> None:
+    with pytest.raises(ValueError, match=f"does not have the option.*{option}"):
+        parallel_env(name, **{option: True})
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -11,7 +11,7 @@ from stable_baselines3 import PPO
 
 from bluesky_gym.multiagent.evaluation import evaluate, kpi_table, summarise
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
-from bluesky_gym.multiagent.policies import GeometricCRPolicy, RandomPolicy, SharedSB3Policy
+from bluesky_gym.multiagent.policies import GeometricCRPolicy, RandomPolicy, SB3Policy
 from bluesky_gym.multiagent.sb3 import (
     LiveRowsRolloutBuffer,
     LiveRowsVecNormalize,
@@ -84,7 +84,7 @@ def test_ppo_trains_on_the_shared_adapter() -> None:
     model = PPO("MultiInputPolicy", venv, n_steps=4, batch_size=76, n_epochs=1, seed=0, device="cpu")
     model.learn(total_timesteps=400)
     assert model.num_timesteps >= 400
-    policy = SharedSB3Policy(model)
+    policy = SB3Policy(model)
     records = evaluate("sector_cr_v0", policy, 2, max_episode_steps=5)
     assert len(records) == 2 and all(np.isfinite(r["kpi_los_steps"]) for r in records)
 
@@ -120,7 +120,7 @@ def test_live_rows_buffer_and_normaliser() -> None:
     # The normaliser's statistics are frozen when evaluating.
     venv.training = False
     before = venv.obs_rms["x_r"].mean.copy()
-    evaluate("sector_cr_v0", SharedSB3Policy(model, normalizer=venv), 1, max_episode_steps=3)
+    evaluate("sector_cr_v0", SB3Policy(model, normalizer=venv), 1, max_episode_steps=3)
     assert np.array_equal(before, venv.obs_rms["x_r"].mean)
     with pytest.raises(TypeError):
         track_live_rows(PPO("MultiInputPolicy", rows, n_steps=8, batch_size=76, device="cpu"), rows)
@@ -149,6 +149,8 @@ def test_classical_rule_turns_away_from_a_head_on_conflict() -> None:
     s.lon[0, 1] = s.lon[0, 0] + 1 / (60 * np.cos(np.radians(s.lat[0, 0])))
     s.hdg[0, :2] = s.trk[0, :2] = [0.0, 180.0]
     s.gs[0, 1] = s.gs[0, 0]
-    a = GeometricCRPolicy().act(task, task.observation())
+    policy = GeometricCRPolicy()
+    policy.bind(task)
+    a = policy.act(task.observation())
     # It passes on 0's right: 0 turns left; 0 passes on 1's right too (seen from 1): 1 turns left.
     assert a[0, 0, 0] == -1.0 and a[0, 1, 0] == -1.0

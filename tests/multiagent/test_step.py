@@ -53,7 +53,7 @@ def test_agent_zero_has_the_single_agent_geometry_and_reward(ma_class, sa_class)
     g_ma, g_sa = ma.measure(np.arange(2), np.zeros(2, np.int64)), sa.measure()
     for name in ("separation_nm", "los", "drift_deg", "goal_reached"):
         np.testing.assert_array_equal(getattr(g_ma, name), getattr(g_sa, name), err_msg=name)
-    r_ma, _, comp_ma = ma.reward(g_ma)
+    r_ma, _, comp_ma = ma.reward_rows(g_ma)
     r_sa, _, comp_sa = sa.reward(g_sa)
     np.testing.assert_array_equal(r_ma, r_sa)
     assert comp_ma.keys() == comp_sa.keys()

@@ -7,7 +7,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from bluesky_gym.multiagent.evaluation import evaluate, summarise
-from bluesky_gym.multiagent.policies import RandomPolicy, SharedSB3Policy
+from bluesky_gym.multiagent.policies import RandomPolicy, SB3Policy
 from bluesky_gym.multiagent.train import main, train
 
 
@@ -18,7 +18,7 @@ def test_short_training_run_reduces_losses_of_separation() -> None:
     # Fewer row-steps cut the number of losses of separation, but not yet the time spent in them.
     model, normalizer = train("merge_v0", 250_000, episodes=16, seed=1)
     episodes = 16
-    trained = summarise(evaluate("merge_v0", SharedSB3Policy(model, normalizer=normalizer), episodes))
+    trained = summarise(evaluate("merge_v0", SB3Policy(model, normalizer=normalizer), episodes))
     random = summarise(evaluate("merge_v0", RandomPolicy(seed=0), episodes))
     assert trained["kpi_los_count"][0] < 0.75 * random["kpi_los_count"][0]
     assert trained["kpi_los_steps"][0] < random["kpi_los_steps"][0]

@@ -23,18 +23,37 @@ def options(tmp_path_factory) -> dict:
     return {"collections": (path,), "min_traffic": 1, "max_traffic": 8}
 
 
-def test_parallel_api(options) -> None:
+@pytest.mark.parametrize("name", ["real_traffic_cr_v0", "real_traffic_cr_v1"])
+def test_parallel_api(options, name: str) -> None:
     with warnings.catch_warnings():
         # A window has only some of the collection's flights: the episode ends with possible agents that never played.
         warnings.filterwarnings("ignore", message="No agents present but not all possible_agents")
         # The other findings of the API test are warnings too: here they are failures.
         warnings.filterwarnings("error", message="Live agent was not given")
         warnings.filterwarnings("error", message="Agent was given")
-        parallel_api_test(RealTrafficParallelEnv(**options), num_cycles=80)
+        parallel_api_test(RealTrafficParallelEnv(name=name, **options), num_cycles=1000)
 
 
-def test_parallel_seed(options) -> None:
-    parallel_seed_test(lambda: RealTrafficParallelEnv(**options), num_cycles=50)
+@pytest.mark.parametrize("name", ["real_traffic_cr_v0", "real_traffic_cr_v1"])
+def test_parallel_seed(options, name: str) -> None:
+    parallel_seed_test(lambda: RealTrafficParallelEnv(name=name, **options), num_cycles=50)
+
+
+def test_v1_spaces_are_float32_with_bounds_that_hold(options) -> None:
+    env = RealTrafficParallelEnv(name="real_traffic_cr_v1", **options)
+    assert env.metadata["name"] == "real_traffic_cr_v1"
+    for seed in (0, 1):
+        obs, _ = env.reset(seed=seed)
+        while True:
+            for agent, o in obs.items():
+                space = env.observation_space(agent)
+                assert all(b.dtype == np.float32 and np.isfinite(b.low).all() and np.isfinite(b.high).all() for b in space.spaces.values())
+                assert space.contains(o), agent
+            if not env.agents:
+                break
+            obs = env.step({a: env.action_space(a).sample() for a in env.agents})[0]
+    with pytest.raises(ValueError, match="name must be one of"):
+        RealTrafficParallelEnv(name="real_traffic_cr_v2", **options)
 
 
 def test_an_agent_that_appears_gets_its_first_observation(options) -> None:

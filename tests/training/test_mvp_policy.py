@@ -14,7 +14,7 @@ from bluesky_gym.cli import main
 from bluesky_gym.core.conflicts import PZ_HEIGHT
 from bluesky_gym.core.geo import kwikdist
 from bluesky_gym.training.evaluation import evaluate, make_policy, reference_scores
-from bluesky_gym.training.policies import MVP, MVPPolicy, reference_names, reference_policy
+from bluesky_gym.training.policies import MVP, mvp_policy, reference_names, reference_policy
 
 #: Env -> (decision steps flown, time to loss of separation of the head-on intruder [s]).
 HEAD_ON = {
@@ -37,7 +37,7 @@ def _head_on_separation(env_id: str, resolve: bool, n: int = 3) -> np.ndarray:
     """
     steps, tlosh = HEAD_ON[env_id]
     venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
-    policy = MVPPolicy(env_id)
+    policy = mvp_policy(env_id)
     policy.bind(venv)
     venv.reset(seed=list(range(n)))
     sim = venv.unwrapped.task.sim
@@ -128,11 +128,11 @@ def test_eval_cli_with_mvp(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 def test_mvp_caps_the_ownship_vertical_speed_with_its_own_type() -> None:
     """VerticalCR with a B744 ownship: MVP's vertical speed is capped with the B744's envelope (BlueSky's perf per aircraft)."""
     from bluesky_gym.core.aircraft import aircraft_performance
-    from bluesky_gym.training.policies import ACTION_2_MS
+    from bluesky_gym.tasks.descent import ACTION_2_MS
 
     b744, a320 = aircraft_performance("B744"), aircraft_performance("A320")
     venv = gym.make_vec("VerticalCREnv-v0", num_envs=4, vectorization_mode="vector_entry_point", ownship_types="B744")
-    own, fixed = MVPPolicy("VerticalCREnv-v0"), MVPPolicy("VerticalCREnv-v0")
+    own, fixed = mvp_policy("VerticalCREnv-v0"), mvp_policy("VerticalCREnv-v0")
     own.bind(venv)
     fixed.bind(venv)
     fixed.resolver.vsmin, fixed.resolver.vsmax = a320.vsmin, a320.vsmax  # one envelope for every aircraft
