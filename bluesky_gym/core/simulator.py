@@ -971,6 +971,26 @@ class DeviceSimulator(Simulator):
         """Whether the current state is on the device (the host arrays are stale until the next access)."""
         return object.__getattribute__(self, "_device") is not None
 
+    def device_arrays(self, *names: str) -> tuple[Any, ...]:
+        """Device views (n_envs, max_aircraft) of state arrays, for kernels launched on the device; the state stays there.
+
+        ``names`` are float state fields (``lat``, ``tas``, ...) or ``active``. The views are
+        current until the next command or host read (which bring the state back to the host).
+
+        Raises:
+            KeyError: A name that is neither.
+        """
+        d = self._to_device()
+        out = []
+        for name in names:
+            if name == "active":
+                out.append(d["active"].reshape(self.n_envs, self.max_aircraft))
+            elif name in FIELD_INDEX:
+                out.append(d["F"][FIELD_INDEX[name]].reshape(self.n_envs, self.max_aircraft))
+            else:
+                raise KeyError(f"device_arrays: {name!r} is not a float state field or 'active'")
+        return tuple(out)
+
     def _to_host(self) -> None:
         """Copy the state back from the device (the host arrays become current)."""
         d = object.__getattribute__(self, "_device")
