@@ -219,7 +219,9 @@ def detect(
     All inputs are shaped (n_envs, n_aircraft). Only pairs of active aircraft can conflict.
     """
     active = np.ascontiguousarray(active, dtype=np.bool_)
-    lat, lon, alt, gs, trk, vs = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), active.shape)) for x in (lat, lon, alt, gs, trk, vs))
+    lat, lon, alt, gs, trk, vs = (
+        np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), active.shape)) for x in (lat, lon, alt, gs, trk, vs)
+    )
     pairs = active.shape + (active.shape[-1],)
     conflict, los = np.empty(pairs, np.bool_), np.empty(pairs, np.bool_)
     qdr, dist, tcpa, dcpa, tin = (np.empty(pairs) for _ in range(5))
@@ -228,9 +230,23 @@ def detect(
 
 
 @jit
-def detect_pair(  # type: ignore[no-untyped-def]  # noqa: ANN201
-    lat_i, lon_i, alt_i, gs_i, trk_i, vs_i, lat_j, lon_j, alt_j, gs_j, trk_j, vs_j, rpz, hpz, lookahead  # noqa: ANN001
-):
+def detect_pair(
+    lat_i: float,
+    lon_i: float,
+    alt_i: float,
+    gs_i: float,
+    trk_i: float,
+    vs_i: float,
+    lat_j: float,
+    lon_j: float,
+    alt_j: float,
+    gs_j: float,
+    trk_j: float,
+    vs_j: float,
+    rpz: float,
+    hpz: float,
+    lookahead: float,
+) -> tuple[bool, bool, float, float, float, float, float]:
     """CSTATEBASED for one ordered pair, ownship ``i`` and intruder ``j`` (not masked by activity) [docs/dynamics.md §5].
 
     Returns:

@@ -1076,7 +1076,7 @@ class DeviceSimulator(Simulator):
             track[...] = trace.copy_to_host().reshape(track.shape)
 
     def set_conflict_resolution(self, env: ArrayLike, config: AsasConfig) -> None:
-        """:meth:`Simulator.set_conflict_resolution`, with the state brought back to the host first (the next step uploads it with the ASAS arrays)."""
+        """:meth:`Simulator.set_conflict_resolution`; with the state brought back to the host first."""
         if self.on_device:
             self._to_host()
         super().set_conflict_resolution(env, config)

@@ -130,7 +130,9 @@ def test_task_kernels_on_the_device_state_of_seeded_steps_with_conflict_resoluti
             cuda_target.launch(compiled.kwik_separation, n, up(envs), up(own), lat, lon, alt, active, 15.0, 1000.0 * 0.3048, sep_d, los_d)
             cuda_target.launch(compiled.record_step, n, up(envs), sep_d, los_d, step > 0, up(reward), up(drift), up(goal), 5.0, 12, *stats_dev)
             obs_d = [up(np.empty(n)), up(np.empty((n, 3))), up(np.empty((n, 7, K))), up(np.empty(n, dtype=np.int64))]
-            cuda_target.launch(compiled.sector_observe, n, up(envs), up(own), lat, lon, hdg, tas, active, up(wpt_lat), up(wpt_lon), center, scales, *obs_d)
+            cuda_target.launch(
+                compiled.sector_observe, n, up(envs), up(own), lat, lon, hdg, tas, active, up(wpt_lat), up(wpt_lon), center, scales, *obs_d
+            )
             rel_d = [up(np.empty((5, n, K))), up(np.empty(n, dtype=np.int64))]
             cuda_target.launch(compiled.intruder_relative_state, n, up(envs), up(own), lat, lon, hdg, gs, active, True, *rel_d)
             launched[n, step] = cuda_target.launches() - before
