@@ -923,14 +923,19 @@ class DeviceSimulator(Simulator):
     while the simulator steps: each :meth:`step` is one launch of the LNAV kernel (when any
     aircraft flies LNAV) and one of the step kernel over every aircraft of every airspace, and
     :meth:`run` one launch of the run kernel (every aircraft through all its steps), whatever the
-    number of airspaces. These are the CPU core's own kernels (:mod:`bluesky_gym.core.step`,
-    :mod:`bluesky_gym.core.lnav`), compiled for CUDA by :mod:`bluesky_gym.core.cuda_target`.
+    number of airspaces. With conflict resolution a step is nine launches: LNAV, autopilot,
+    detection, MVP, the ASAS bookkeeping, ``resumenav``, ended resolutions, targets, kinematics.
+    These are the CPU core's own kernels (:mod:`bluesky_gym.core.step`, :mod:`bluesky_gym.core.lnav`,
+    :mod:`bluesky_gym.core.conflicts`, :mod:`bluesky_gym.core.resolution`), compiled for CUDA by
+    :mod:`bluesky_gym.core.cuda_target`. :meth:`device_arrays` gives device views of the state
+    for other kernels (the tasks'), without bringing it back.
     Reading or writing any state array (or any command, which does) first copies the state back
     to the host; the next step copies it to the device again. Everything else is the
     :class:`Simulator`'s, so this class implements :class:`~bluesky_gym.core.physics.Physics`.
 
-    On the device: no wind, or a wind that is uniform within each airspace (one point or none).
-    Conflict resolution (ASAS with MVP) and wind fields of several points raise
+    On the device: no wind, or a wind that is uniform within each airspace (one point or none);
+    conflict resolution when every airspace has the same CSTATEBASED configuration with MVP.
+    Wind fields of several points, STATEBASED and mixed ASAS configurations raise
     :class:`NotImplementedError` at the step (use :class:`Simulator`). Airspaces hold at most
     :data:`bluesky_gym.core.cuda_target.SCRATCH_CAPACITY` + 1 aircraft.
 
