@@ -39,5 +39,7 @@ def register_envs() -> None:
     warnings.filterwarnings("ignore", message=rf".*The environment ({paper})-v0 is out of date", category=DeprecationWarning)
     for entry in ENVIRONMENTS:
         if entry.id not in gym.registry and entry.is_available():
-            gym.register(id=entry.id, entry_point=entry.env, vector_entry_point=entry.vector_env, max_episode_steps=None, kwargs=dict(entry.options))
+            # An id that configures its task (a -v1) passes itself, so that its errors name it.
+            kwargs = {"env_id": entry.id, **dict(entry.options)} if entry.options else {}
+            gym.register(id=entry.id, entry_point=entry.env, vector_entry_point=entry.vector_env, max_episode_steps=None, kwargs=kwargs)
     register_centralised()

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Static checks, as CI runs them: ruff lint, ruff format check, mypy.
+# Static checks, as CI runs them: ruff lint, ruff format check, mypy, no tracked file over 500 KiB.
 # Uses $PYTHON (default: .venv/bin/python, else python3); runs every check and fails if any failed.
 # The package's layering (no import cycles, no upward imports) is a test: tests/test_layering.py.
 set -uo pipefail
@@ -15,4 +15,5 @@ run() {
 run "$PY" -m ruff check .
 run "$PY" -m ruff format --check .
 run "$PY" -m mypy bluesky_gym
+run "$PY" scripts/check_file_sizes.py
 exit $status

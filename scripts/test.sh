@@ -36,8 +36,13 @@ export SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy MPLBACKEND=Agg
 # kernels call the C library and do not depend on this setting.
 export NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL AVX512_SPR AVX512F AVX512CD AVX512_SKX AVX512_CLX AVX512_CNL"
 
-# Native suite (slow tests included), on both cores.
-.venv/bin/python -m pytest -n 2 -p no:cacheprovider -m "not bluesky" "$@"
+# Native suite (slow tests included), on both cores, with its line coverage of the package and a
+# floor at the figure measured when it was set (numba-compiled kernel bodies are not traced). The
+# floor holds for the whole suite only: a run narrowed by arguments (-k, paths) reports coverage.
+COVERAGE_FLOOR=84  # measured 84.7% (17177 statements, 2620 missed), 2026-11-26
+COVERAGE=(--cov=bluesky_gym --cov-report=term:skip-covered)
+if [ $# -eq 0 ]; then COVERAGE+=(--cov-fail-under="$COVERAGE_FLOOR"); fi
+.venv/bin/python -m pytest -n 2 -p no:cacheprovider -m "not bluesky" "${COVERAGE[@]}" "$@"
 # The CUDA target without a GPU: every kernel of core/ and tasks/ compiled to PTX (NVVM from the
 # gpu extra's toolkit wheels), then the device logic under numba-cuda's simulator at small sizes.
 .venv/bin/python -m bluesky_gym bench gpu --compile-only --quiet

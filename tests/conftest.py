@@ -86,3 +86,15 @@ def recorded_traffic_stand_ins() -> None:
         assert path.is_relative_to(RECORDED_TRAFFIC_CACHE), f"{path}: the tests' recorded-traffic cache moved"
         if not path.exists():
             traffic_collection(n_flights=40 - 16 * k, spacing_s=90.0 + 60.0 * k, seed=1 + k).save(path)
+
+
+def same_values(a: object, b: object) -> bool:
+    """Whether two nested results (dicts, lists, tuples of arrays and scalars) hold the same values, NaN equal to NaN."""
+    import numpy as np
+
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(same_values(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)):
+        return isinstance(b, (list, tuple)) and len(a) == len(b) and all(same_values(x, y) for x, y in zip(a, b, strict=True))
+    x, y = np.asarray(a), np.asarray(b)
+    return bool(np.array_equal(x, y, equal_nan=x.dtype.kind in "fc" and y.dtype.kind in "fc"))

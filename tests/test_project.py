@@ -1,8 +1,10 @@
-"""Project hygiene: the license file, the one place of the version, and the documents the code cites."""
+"""Project hygiene: the license file, the one place of the version, the documents the code cites, the size of tracked files."""
 
 from __future__ import annotations
 
 import re
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -24,10 +26,8 @@ MARKDOWN_LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)]*)?\)")
 
 
 def _pyproject() -> dict[str, Any]:
-    if sys.version_info >= (3, 11):
-        import tomllib
-    else:
-        tomllib = pytest.importorskip("tomli", reason="reading pyproject.toml on Python 3.10 needs tomli")
+    import tomllib
+
     with open(ROOT / "pyproject.toml", "rb") as f:
         return tomllib.load(f)
 
@@ -133,3 +133,44 @@ def test_the_readme_gives_the_setup_and_test_durations() -> None:
     setup, tests = first_block.split("bash scripts/test.sh")[0].split("\n\n")
     assert re.search(r"\d+ (?:to \d+ )?minutes", setup) and re.search(r"\d(?:\.\d)? GB", setup), setup
     assert re.search(r"\d+ minutes", tests), tests
+
+
+def _size_check() -> Any:
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("check_file_sizes", ROOT / "scripts" / "check_file_sizes.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.skipif(shutil.which("git") is None or not (ROOT / ".git").exists(), reason="needs a git checkout")
+def test_no_tracked_file_is_over_the_size_limit() -> None:
+    check = _size_check()
+    tracked = check.tracked_files(ROOT)
+    assert "pyproject.toml" in tracked
+    assert check.oversized(tracked, ROOT) == [], "tracked files over the limit: run data goes to a release asset (bluesky-gym results pack)"
+
+
+@pytest.mark.skipif(shutil.which("git") is None or not (ROOT / ".git").exists(), reason="needs a git checkout")
+def test_the_committed_results_stay_under_5_mb() -> None:
+    """results/ keeps what the pages read; models and raw logs are a release asset (bluesky-gym results pack)."""
+    check = _size_check()
+    results = [p for p in check.tracked_files(ROOT) if p.startswith("results/")]
+    assert any(p.endswith("/curve.csv") for p in results)
+    total = sum((ROOT / p).stat().st_size for p in results if (ROOT / p).is_file())
+    assert total < 5_000_000, f"results/ holds {total / 1e6:.2f} MB of tracked files, over 5 MB"
+
+
+def test_the_size_check_names_a_file_over_the_limit(tmp_path: Path) -> None:
+    check = _size_check()
+    (tmp_path / "big.bin").write_bytes(b"x" * (check.MAX_KB * 1024 + 1))
+    (tmp_path / "small.bin").write_bytes(b"x" * (check.MAX_KB * 1024))
+    assert check.oversized(["big.bin", "small.bin", "deleted.bin"], tmp_path) == [("big.bin", check.MAX_KB * 1024 + 1)]
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "check_file_sizes.py"), "big.bin", "small.bin"], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert done.returncode == 1
+    assert done.stderr.startswith("big.bin: 512001 bytes, over the repository's limit of 500 KiB")
+    assert "small.bin" not in done.stderr

@@ -11,7 +11,7 @@ import time
 import common
 import gymnasium as gym
 import numpy as np
-import pufferlib.pufferl as pufferl  # noqa: E402
+import pufferlib.pufferl as pufferl
 import torch
 from torch import nn
 

@@ -10,10 +10,10 @@ import time
 
 import common
 import numpy as np
-from rl_games.common import env_configurations, vecenv  # noqa: E402
-from rl_games.common.algo_observer import DefaultAlgoObserver  # noqa: E402
-from rl_games.common.ivecenv import IVecEnv  # noqa: E402
-from rl_games.torch_runner import Runner  # noqa: E402
+from rl_games.common import env_configurations, vecenv
+from rl_games.common.algo_observer import DefaultAlgoObserver
+from rl_games.common.ivecenv import IVecEnv
+from rl_games.torch_runner import Runner
 
 CLOCK = None
 

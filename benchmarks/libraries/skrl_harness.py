@@ -9,12 +9,12 @@ import time
 import common
 import gymnasium as gym
 import torch
-from skrl.agents.torch.ppo import PPO, PPO_CFG  # noqa: E402
-from skrl.agents.torch.sac import SAC, SAC_CFG  # noqa: E402
-from skrl.envs.wrappers.torch import wrap_env  # noqa: E402
-from skrl.memories.torch import RandomMemory  # noqa: E402
-from skrl.models.torch import DeterministicMixin, GaussianMixin, Model  # noqa: E402
-from skrl.trainers.torch import SequentialTrainer  # noqa: E402
+from skrl.agents.torch.ppo import PPO, PPO_CFG
+from skrl.agents.torch.sac import SAC, SAC_CFG
+from skrl.envs.wrappers.torch import wrap_env
+from skrl.memories.torch import RandomMemory
+from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
+from skrl.trainers.torch import SequentialTrainer
 from torch import nn
 
 

@@ -21,7 +21,7 @@ from torchrl.envs import CatTensors, Compose, DoubleToFloat, GymWrapper, Transfo
 from torchrl.modules import (  # noqa: E402
     MLP,
     IndependentNormal,
-    NormalParamExtractor,  # noqa: E402
+    NormalParamExtractor,
     ProbabilisticActor,
     TanhNormal,
     ValueOperator,

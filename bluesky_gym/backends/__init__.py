@@ -2,28 +2,23 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from bluesky_gym.core import Physics, Simulator
-
-if TYPE_CHECKING:
-    from bluesky_gym.tasks.base import Task
 
 BACKENDS = ("native", "bluesky")
 
 
-def make_physics(backend: str, task_class: type[Task], n_envs: int, max_aircraft: int, max_waypoints: int) -> Physics:
-    """Create the physics provider of a task.
+def make_physics(backend: str, dt: float, n_envs: int, max_aircraft: int, max_waypoints: int) -> Physics:
+    """Create a physics provider.
 
     Args:
         backend: ``"native"`` (the batched compiled core) or ``"bluesky"`` (BlueSky 1.1.1 in-process).
-        task_class: The task the physics is for (gives the time step).
+        dt: Simulation time step [s].
         n_envs: Number of airspaces.
         max_aircraft: Aircraft slots per airspace.
         max_waypoints: Route capacity per aircraft.
     """
     if backend == "native":
-        return Simulator(n_envs, max_aircraft, dt=task_class.dt, max_waypoints=max_waypoints)
+        return Simulator(n_envs, max_aircraft, dt=dt, max_waypoints=max_waypoints)
     if backend == "bluesky":
         from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
 
@@ -32,5 +27,5 @@ def make_physics(backend: str, task_class: type[Task], n_envs: int, max_aircraft
                 "the 'bluesky' backend simulates one airspace per process (BlueSky has one global simulator); "
                 "for several environments use gymnasium.vector.AsyncVectorEnv, one process per environment"
             )
-        return BlueSkyPhysics(max_aircraft, dt=task_class.dt, max_waypoints=max_waypoints)
+        return BlueSkyPhysics(max_aircraft, dt=dt, max_waypoints=max_waypoints)
     raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")

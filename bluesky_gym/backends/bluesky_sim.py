@@ -43,9 +43,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, resolve_type
+from bluesky_gym.core.command_text import command, number
 from bluesky_gym.core.extras import missing_extra
 from bluesky_gym.core.resolution import AsasConfig
-from bluesky_gym.core.state import STATE_FIELDS, aircraft_index
+from bluesky_gym.core.state import STATE_FIELDS, AircraftState, aircraft_index
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.core.wind import WindField
 
@@ -53,46 +54,21 @@ Array = NDArray[np.float64]
 
 ACTYPE = DEFAULT_TYPE  # the type of an aircraft created without one
 
+#: Where BlueSky keeps a state array that is not ``bs.traf.<name>``: (object under ``bs.traf``, attribute).
+_BLUESKY_NAMES: dict[str, tuple[str, str]] = {
+    "mach": ("", "M"),
+    **{f"ap_{a}": ("ap", a) for a in ("trk", "tas", "vs", "alt")},
+    "turnphi": ("ap", "turnphi"),
+    **{name: ("perf", name) for name in ("phase", "vmin", "vmax", "axmax")},
+    **{f"actwp_{a}": ("actwp", a) for a in ("lat", "lon")},
+    **{name: ("actwp", name) for name in ("curlegdir", "turndist", "next_qdr", "swlastwp")},
+}
+#: State arrays derived from BlueSky's routes and slots rather than read from one of its arrays.
+_DERIVED = frozenset({"active", "iactwp", "nwp", "route_has_dest"})
 # State array -> (object under bs.traf, or "" for bs.traf itself; attribute). These are read
 # after every step, creation and command.
-TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = (
-    ("lat", "", "lat"),
-    ("lon", "", "lon"),
-    ("alt", "", "alt"),
-    ("hdg", "", "hdg"),
-    ("trk", "", "trk"),
-    ("tas", "", "tas"),
-    ("cas", "", "cas"),
-    ("mach", "", "M"),
-    ("gs", "", "gs"),
-    ("gsnorth", "", "gsnorth"),
-    ("gseast", "", "gseast"),
-    ("vs", "", "vs"),
-    ("ax", "", "ax"),
-    ("windnorth", "", "windnorth"),
-    ("windeast", "", "windeast"),
-    ("distflown", "", "distflown"),
-    ("selspd", "", "selspd"),
-    ("selalt", "", "selalt"),
-    ("selvs", "", "selvs"),
-    ("swlnav", "", "swlnav"),
-    ("swvnav", "", "swvnav"),
-    ("swvnavspd", "", "swvnavspd"),
-    ("ap_trk", "ap", "trk"),
-    ("ap_tas", "ap", "tas"),
-    ("ap_vs", "ap", "vs"),
-    ("ap_alt", "ap", "alt"),
-    ("turnphi", "ap", "turnphi"),
-    ("phase", "perf", "phase"),
-    ("vmin", "perf", "vmin"),
-    ("vmax", "perf", "vmax"),
-    ("axmax", "perf", "axmax"),
-    ("actwp_lat", "actwp", "lat"),
-    ("actwp_lon", "actwp", "lon"),
-    ("curlegdir", "actwp", "curlegdir"),
-    ("turndist", "actwp", "turndist"),
-    ("next_qdr", "actwp", "next_qdr"),
-    ("swlastwp", "actwp", "swlastwp"),
+TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = tuple(
+    (name, *_BLUESKY_NAMES.get(name, ("", name))) for name, _, _ in STATE_FIELDS if name not in _DERIVED
 )
 
 _TRAFFIC_SOURCE = {name: (owner, attr) for name, owner, attr in TRAFFIC_FIELDS}
@@ -180,13 +156,6 @@ def _first_start_lock(workdir: Path | None = None) -> Iterator[None]:
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-def _number(x: float) -> str:
-    """Shortest text that parses back to exactly ``x`` (no exponent, which BlueSky's parsers reject)."""
-    if not np.isfinite(x):
-        raise ValueError(f"BlueSky commands need finite numbers, got {x}")
-    return np.format_float_positional(float(x), unique=True, trim="-")
-
-
 class BlueSkyWind(WindField):
     """Wind of a :class:`BlueSkyPhysics`: BlueSky's own wind field (``bs.traf.wind``).
 
@@ -257,7 +226,7 @@ class _ReadOnly:
         return obj._views[self.name]
 
 
-class BlueSkyPhysics:
+class BlueSkyPhysics(AircraftState):
     """One airspace simulated by the real BlueSky 1.1.1, implementing :class:`~bluesky_gym.core.physics.Physics`.
 
     The state arrays, their shapes (``(1, max_aircraft)``) and meaning are those of
@@ -276,48 +245,7 @@ class BlueSkyPhysics:
     """
 
     closed: bool
-    # The read-only state arrays (see bluesky_gym.core.physics.Physics), (1, max_aircraft).
-    active: NDArray[np.bool_]
-    lat: Array
-    lon: Array
-    alt: Array
-    hdg: Array
-    trk: Array
-    tas: Array
-    cas: Array
-    mach: Array
-    gs: Array
-    gsnorth: Array
-    gseast: Array
-    vs: Array
-    ax: Array
-    windnorth: Array
-    windeast: Array
-    distflown: Array
-    selspd: Array
-    selalt: Array
-    selvs: Array
-    swlnav: NDArray[np.bool_]
-    swvnav: NDArray[np.bool_]
-    swvnavspd: NDArray[np.bool_]
-    ap_trk: Array
-    ap_tas: Array
-    ap_vs: Array
-    ap_alt: Array
-    turnphi: Array
-    phase: NDArray[np.int64]
-    vmin: Array
-    vmax: Array
-    axmax: Array
-    iactwp: NDArray[np.int64]
-    nwp: NDArray[np.int64]
-    actwp_lat: Array
-    actwp_lon: Array
-    curlegdir: Array
-    turndist: Array
-    next_qdr: Array
-    swlastwp: NDArray[np.bool_]
-    route_has_dest: NDArray[np.bool_]
+    # The read-only state arrays are those of AircraftState, (1, max_aircraft), and the routes.
     route_lat: Array
     route_lon: Array
 
@@ -408,7 +336,7 @@ class BlueSkyPhysics:
         self._data["route_lon"][...] = 0.0
         self.wind.clear()
         self._remap()
-        self.command(f"DT {_number(self.dt)}")
+        self.command(command("DT", self.dt))
         self.command("FF")  # start the simulation (state OP), as the reference envs' "DT dt;FF"
         self.simt = float(self._bs.sim.simt)  # BlueSky's clock runs on across resets (traf.reset keeps it)
 
@@ -509,12 +437,12 @@ class BlueSkyPhysics:
         if np.any(np.asarray(env) != 0):
             raise IndexError("the BlueSky backend has one airspace (env 0)")
         self._asas_methods |= {config.detector or "OFF", "MVP" if config.resolution else "OFF"}
-        self.command(f"ASAS {config.detector or 'OFF'}")
-        self.command(f"RESO {'MVP' if config.resolution else 'OFF'}")
+        self.command(command("ASAS", config.detector or "OFF"))
+        self.command(command("RESO", "MVP" if config.resolution else "OFF"))
         s = config.settings
-        factors = (f"RFACH {s.resofach!r}", f"RFACV {s.resofacv!r}")
+        factors = (command("RFACH", s.resofach), command("RFACV", s.resofacv))
         methods = {0: ("RMETHH BOTH",), 1: ("RMETHH SPD",), 2: ("RMETHH HDG",), 3: ("RMETHV V/S",), 4: ("RMETHH NONE", "RMETHV NONE")}
-        lines = [*factors, f"ZONER {config.rpz / NM!r}", f"ZONEDH {config.hpz / FT!r}", f"DTLOOK {config.lookahead!r}", *factors]
+        lines = [*factors, command("ZONER", config.rpz / NM), command("ZONEDH", config.hpz / FT), command("DTLOOK", config.lookahead), *factors]
         if config.resolution:
             lines += methods[s.mode]
         for line in lines:
@@ -540,10 +468,10 @@ class BlueSkyPhysics:
         env, slot = self._begin(env, slot)
         hdg = np.broadcast_to(np.asarray(hdg, dtype=np.float64), slot.shape)
         for s, h in zip(slot, hdg):
-            text = _number(h)
+            text = number(h)
             if self._txt2hdg(text) != h:  # pragma: no cover - positional text always round-trips
                 raise ValueError(f"heading {h!r} cannot be written exactly as a BlueSky HDG argument")
-            self.command(f"HDG {self._acid_of(s)} {text}")
+            self.command(command("HDG", self._acid_of(s), text))
 
     def cmd_speed(self, env: ArrayLike, slot: ArrayLike, casmach: ArrayLike) -> None:
         """Stack ``SPD acid kts`` for a CAS [m/s], or the Mach number; VNAV speed off.
@@ -557,7 +485,7 @@ class BlueSkyPhysics:
         for s, v in zip(slot, casmach):
             text = self._speed_text(float(v))
             if text is not None:
-                self.command(f"SPD {self._acid_of(s)} {text}")
+                self.command(command("SPD", self._acid_of(s), text))
             else:
                 self._bs.traf.ap.selspdcmd(self._tidx_of(s), float(v))
                 self._sync_out()
@@ -627,7 +555,7 @@ class BlueSkyPhysics:
         lat = np.broadcast_to(np.asarray(lat, dtype=np.float64), slot.shape)
         lon = np.broadcast_to(np.asarray(lon, dtype=np.float64), slot.shape)
         for s, la, lo in zip(slot, lat, lon):
-            self.command(f"ADDWPT {self._acid_of(s)} {_number(la)} {_number(lo)}")
+            self.command(command("ADDWPT", self._acid_of(s), la, lo))
 
     def set_destination(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """Stack ``DEST acid lat lon``.
@@ -641,7 +569,7 @@ class BlueSkyPhysics:
         lat = np.broadcast_to(np.asarray(lat, dtype=np.float64), slot.shape)
         lon = np.broadcast_to(np.asarray(lon, dtype=np.float64), slot.shape)
         for s, la, lo in zip(slot, lat, lon):
-            self.command(f"DEST {self._acid_of(s)} {_number(la)} {_number(lo)}")
+            self.command(command("DEST", self._acid_of(s), la, lo))
 
     def cmd_direct(self, env: ArrayLike, slot: ArrayLike, waypoint: ArrayLike) -> None:
         """Stack ``DIRECT acid wpname`` with the name of route waypoint ``waypoint`` (0-based)."""
@@ -651,14 +579,14 @@ class BlueSkyPhysics:
             route = self._bs.traf.ap.route[self._tidx_of(s)]
             if not 0 <= w < route.nwp:
                 raise ValueError("DIRECT: waypoint index outside the aircraft's route")
-            self.command(f"DIRECT {self._acid_of(s)} {route.wpname[w]}")
+            self.command(command("DIRECT", self._acid_of(s), str(route.wpname[w])))
 
     def cmd_lnav(self, env: ArrayLike, slot: ArrayLike, on: ArrayLike) -> None:
         """Stack ``LNAV acid ON/OFF``."""
         env, slot = self._begin(env, slot)
         flags = np.broadcast_to(np.asarray(on, dtype=bool), slot.shape)
         for s, f in zip(slot, flags):
-            self.command(f"LNAV {self._acid_of(s)} {'ON' if f else 'OFF'}")
+            self.command(command("LNAV", self._acid_of(s), bool(f)))
 
     def creconfs(
         self,
@@ -824,7 +752,7 @@ class BlueSkyPhysics:
                 lo, hi = np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
                 candidates += [hi, lo]
         for c in candidates:
-            text = _number(c)
+            text = number(c)
             if self._txt2spd(text) == v:
                 return text
         return None

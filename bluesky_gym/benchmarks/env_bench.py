@@ -65,7 +65,7 @@ def _cell(fn: Any, *args: Any) -> dict[str, Any]:
     """Run one in-process measurement; an exception becomes ``{"error": ...}``."""
     try:
         return fn(*args)
-    except Exception as exc:  # one broken environment must not end the whole table
+    except Exception as exc:  # noqa: BLE001 - one broken environment must not end the whole table
         return {"error": f"{type(exc).__name__}: {exc}"}
 
 

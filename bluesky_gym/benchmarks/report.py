@@ -22,7 +22,7 @@ def metadata() -> dict[str, Any]:
     except AttributeError:  # not available on every platform
         cores = os.cpu_count() or 0
     return {
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "bluesky_gym": bluesky_gym.__version__,
         "python": platform.python_version(),
         "numpy": np.__version__,

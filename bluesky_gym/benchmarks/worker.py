@@ -159,7 +159,7 @@ def main(argv: list[str]) -> int:
         # BlueSky and the reference print progress; keep stdout for them, results go to the file.
         out: dict[str, Any] = MODES[mode](config)
         code = 0
-    except Exception as exc:  # reported to the parent, which shows it in the table
+    except Exception as exc:  # noqa: BLE001 - reported to the parent, which shows it in the table
         out = {"error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
         code = 1
     out["pid"] = os.getpid()

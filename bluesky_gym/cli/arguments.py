@@ -50,11 +50,28 @@ class Parser(argparse.ArgumentParser):
         kwargs["allow_abbrev"] = False
         kwargs.setdefault("formatter_class", HelpFormatter)
         super().__init__(*args, **kwargs)
+        self.nested: dict[str, Parser] = {}
+
+    def add_nested(self, name: str, **kwargs: Any) -> Parser:
+        """Add a subcommand to a command that takes positional arguments of its own.
+
+        ``bluesky-gym results pack DIR...`` beside ``bluesky-gym results DIR...``: when the first
+        argument is ``name``, the returned parser parses the rest; otherwise this one parses all
+        (a directory called ``name`` is then written ``./name``).
+        """
+        kwargs.setdefault("prog", f"{self.prog} {name}")
+        line = f"  {self.prog} {name} ...  {kwargs.pop('help', '')}".rstrip()
+        self.epilog = f"{self.epilog or 'subcommands (each with --help):'}\n{line}"
+        parser = Parser(**kwargs)
+        self.nested[name] = parser
+        return parser
 
     def parse_known_args(  # type: ignore[override]
         self, args: Sequence[str] | None = None, namespace: Any = None
     ) -> tuple[Any, list[str]]:
         """Parse as ``ArgumentParser`` does, and record in ``cli_parser`` the innermost (sub)parser that parsed."""
+        if args is not None and len(args) and args[0] in self.nested:
+            return self.nested[args[0]].parse_known_args(list(args[1:]), namespace)
         parsed, extras = super().parse_known_args(args, namespace)
         if getattr(parsed, "cli_parser", None) is None:
             parsed.cli_parser = self

@@ -100,7 +100,7 @@ def conflict_geometry(
 
 
 @jit
-def _geometry_loop(latref, lonref, altref, trkref, gsref, vsref, dpsi, dcpa, tlosh, dh, tlosv, tas, wn, we, rpz, hpz, out):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
+def _geometry_loop(latref, lonref, altref, trkref, gsref, vsref, dpsi, dcpa, tlosh, dh, tlosv, tas, wn, we, rpz, hpz, out):  # type: ignore[no-untyped-def]
     for i in grid_range(latref.shape[0]):
         r = conflict_geometry(latref[i], lonref[i], altref[i], trkref[i], gsref[i], vsref[i],
                               dpsi[i], dcpa[i], tlosh[i], dh[i], tlosv[i], tas[i], wn[i], we[i], rpz, hpz)  # fmt: skip
@@ -109,7 +109,7 @@ def _geometry_loop(latref, lonref, altref, trkref, gsref, vsref, dpsi, dcpa, tlo
 
 
 @jit
-def _speed_loop(gsn, gse, wn, we, acalt, cas, hdg):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
+def _speed_loop(gsn, gse, wn, we, acalt, cas, hdg):  # type: ignore[no-untyped-def]
     for i in grid_range(gsn.shape[0]):
         tasn, tase = gsn[i] - wn[i], gse[i] - we[i]
         p, rho, _ = isa_layered(acalt[i])
@@ -300,7 +300,7 @@ def detect_pair(
 
 
 @jit
-def detect_loop(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def detect_loop(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin):  # type: ignore[no-untyped-def]
     """:func:`detect_pair` over every ordered pair of every airspace (one airspace per ``grid_range`` index); outputs (n_envs, m, m)."""
     m = active.shape[1]
     for e in grid_range(active.shape[0]):

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import importlib.metadata
 import re
-import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -92,13 +91,8 @@ def source_checkout() -> Path | None:
 
 def _checkout_requires_dist(root: Path) -> list[str]:
     """``Requires-Dist``-style lines of the optional dependencies in a checkout's ``pyproject.toml``."""
-    if sys.version_info >= (3, 11):
-        import tomllib
-    else:  # pragma: no cover - Python 3.10
-        try:
-            import tomli as tomllib
-        except ModuleNotFoundError:
-            return []
+    import tomllib
+
     with open(root / "pyproject.toml", "rb") as f:
         extras = tomllib.load(f).get("project", {}).get("optional-dependencies", {})
     return [f'{r}; extra == "{name}"' for name, reqs in extras.items() for r in reqs]

@@ -52,7 +52,7 @@ def turn_distance(tas: float, qdr: float, next_qdr: float) -> float:
 
 
 @jit_inline
-def lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # type: ignore[no-untyped-def]
     """LNAV of aircraft ``i``: waypoint switching and the autopilot track.
 
     Args:
@@ -110,7 +110,7 @@ def lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, rou
 
 
 @jit
-def lnav_kernel(F, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def lnav_kernel(F, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo):  # type: ignore[no-untyped-def]
     """LNAV of every aircraft (flattened arrays; ``route_*`` shaped (aircraft, waypoints))."""
     for i in grid_range(F.shape[1]):
         lnav_one(F, i, swlnav, swvnav, swvnavspd, swlastwp, active, iactwp, nwp, route_lat, route_lon, python_geo)

@@ -20,15 +20,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.resolution import AsasConfig
+from bluesky_gym.core.state import AircraftState, Array
 from bluesky_gym.core.wind import WindField
-
-Array = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
-IntArray = NDArray[np.int64]
 
 
 @runtime_checkable
-class Physics(Protocol):
+class Physics(AircraftState, Protocol):
     """A batch of ``n_envs`` airspaces with ``max_aircraft`` aircraft slots each."""
 
     n_envs: int
@@ -43,48 +40,7 @@ class Physics(Protocol):
         """The wind of every airspace (add points with ``wind.add_points``)."""
         ...
 
-    # Read-only state, (n_envs, max_aircraft); see bluesky_gym.core.state for units.
-    active: BoolArray
-    lat: Array  # deg
-    lon: Array  # deg
-    alt: Array  # m
-    hdg: Array  # deg
-    trk: Array  # deg
-    tas: Array  # m/s
-    cas: Array  # m/s
-    mach: Array  # -
-    gs: Array  # m/s
-    gsnorth: Array  # m/s
-    gseast: Array  # m/s
-    vs: Array  # m/s
-    ax: Array  # m/s^2
-    windnorth: Array  # m/s
-    windeast: Array  # m/s
-    distflown: Array  # m
-    selspd: Array  # m/s CAS or Mach
-    selalt: Array  # m
-    selvs: Array  # m/s
-    swlnav: BoolArray
-    swvnav: BoolArray
-    swvnavspd: BoolArray
-    ap_trk: Array  # deg
-    ap_tas: Array  # m/s
-    ap_vs: Array  # m/s
-    ap_alt: Array  # m
-    turnphi: Array  # rad
-    phase: IntArray
-    vmin: Array  # m/s CAS
-    vmax: Array  # m/s CAS
-    axmax: Array  # m/s^2
-    iactwp: IntArray
-    nwp: IntArray
-    actwp_lat: Array  # deg
-    actwp_lon: Array  # deg
-    curlegdir: Array  # deg
-    turndist: Array  # m
-    next_qdr: Array  # deg
-    swlastwp: BoolArray
-    route_has_dest: BoolArray
+    # Read-only state: the per-aircraft arrays of AircraftState (bluesky_gym.core.state, with units), and the routes.
     route_lat: Array  # (n_envs, max_aircraft, max_waypoints) deg
     route_lon: Array  # (n_envs, max_aircraft, max_waypoints) deg
 

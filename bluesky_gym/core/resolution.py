@@ -239,36 +239,36 @@ def mvp_pair(
 
 
 @jit
-def mvp_loop(  # type: ignore[no-untyped-def]  # noqa: ANN202
-    conflict,  # noqa: ANN001
-    qdr,  # noqa: ANN001
-    dist,  # noqa: ANN001
-    tcpa,  # noqa: ANN001
-    tlos,  # noqa: ANN001
-    active,  # noqa: ANN001
-    alt,  # noqa: ANN001
-    gseast,  # noqa: ANN001
-    gsnorth,  # noqa: ANN001
-    vs,  # noqa: ANN001
-    trk,  # noqa: ANN001
-    gs,  # noqa: ANN001
-    selalt,  # noqa: ANN001
-    ap_vs,  # noqa: ANN001
-    vmin,  # noqa: ANN001
-    vmax,  # noqa: ANN001
-    vsmin,  # noqa: ANN001
-    vsmax,  # noqa: ANN001
-    rpz_m,  # noqa: ANN001
-    hpz_m,  # noqa: ANN001
-    dtlook,  # noqa: ANN001
-    mode,  # noqa: ANN001
-    horizontal,  # noqa: ANN001
-    out_trk,  # noqa: ANN001
-    out_gs,  # noqa: ANN001
-    out_vs,  # noqa: ANN001
-    out_alt,  # noqa: ANN001
-    out_dv,  # noqa: ANN001
-    out_tsolv,  # noqa: ANN001
+def mvp_loop(  # type: ignore[no-untyped-def]
+    conflict,
+    qdr,
+    dist,
+    tcpa,
+    tlos,
+    active,
+    alt,
+    gseast,
+    gsnorth,
+    vs,
+    trk,
+    gs,
+    selalt,
+    ap_vs,
+    vmin,
+    vmax,
+    vsmin,
+    vsmax,
+    rpz_m,
+    hpz_m,
+    dtlook,
+    mode,
+    horizontal,
+    out_trk,
+    out_gs,
+    out_vs,
+    out_alt,
+    out_dv,
+    out_tsolv,
 ):
     n_envs, m = active.shape
     for e in grid_range(n_envs):
@@ -486,7 +486,7 @@ def mvp(
 
 
 @jit
-def resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist, keep, asas):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
+def resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist, keep, asas):  # type: ignore[no-untyped-def]
     n_envs, m = active.shape
     for e in grid_range(n_envs):
         for i in range(m):
@@ -512,7 +512,7 @@ def resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist,
 
 
 @jit
-def renew_loop(conflict, trk, gs, vs, alt, pairs, held):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
+def renew_loop(conflict, trk, gs, vs, alt, pairs, held):  # type: ignore[no-untyped-def]
     """BlueSky's ASAS bookkeeping before ``resumenav``, per airspace (one per ``grid_range`` index).
 
     Where the airspace has a conflict, ``held`` (4, n_envs, m: track, ground speed, vertical
@@ -536,7 +536,7 @@ def renew_loop(conflict, trk, gs, vs, alt, pairs, held):  # type: ignore[no-unty
 
 
 @jit
-def ended_loop(candidates, follow, active, ended, any_ended):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
+def ended_loop(candidates, follow, active, ended, any_ended):  # type: ignore[no-untyped-def]
     """Aircraft whose last resolution pair ended in this update (a candidate pair, no longer following), per airspace.
 
     ``any_ended[0]`` is set to True where any did (it is left as it is otherwise).
@@ -566,7 +566,7 @@ def finite(x: float) -> float:
 
 
 @jit
-def targets_loop(held, targets):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN202
+def targets_loop(held, targets):  # type: ignore[no-untyped-def]
     """The resolution the kinematics fly, from ``held`` (track, ground speed, vertical speed, altitude).
 
     ``targets`` (4, n_envs, m) gets track, ground speed, altitude, vertical speed, with NaN as 0

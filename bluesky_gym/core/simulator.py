@@ -26,7 +26,7 @@ from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts, detect_loop
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
 from bluesky_gym.core.resolution import AsasConfig, MVPResolver, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
-from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, aircraft_index, checked_index
+from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, AircraftState, aircraft_index, checked_index
 from bluesky_gym.core.step import MEMO_COLUMNS, post_kernel, pre_kernel, run_kernel, step_kernel
 from bluesky_gym.core.units import ASAS_INTERVAL, BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
 from bluesky_gym.core.wind import WindField
@@ -65,7 +65,7 @@ class _Field:
         getattr(obj, self.block)[self.index][...] = value
 
 
-class Simulator:
+class Simulator(AircraftState):
     """Many independent BlueSky airspaces stepped together.
 
     Args:
@@ -171,49 +171,6 @@ class Simulator:
     @_table.setter
     def _table(self, table: Array) -> None:
         self._performance = (self._types_loaded()[0], table)
-
-    # Type hints for the dynamically created state arrays (all shaped (n_envs, max_aircraft)).
-    active: NDArray[np.bool_]
-    lat: Array
-    lon: Array
-    alt: Array
-    hdg: Array
-    trk: Array
-    tas: Array
-    cas: Array
-    mach: Array
-    gs: Array
-    gsnorth: Array
-    gseast: Array
-    vs: Array
-    ax: Array
-    windnorth: Array
-    windeast: Array
-    distflown: Array
-    selspd: Array
-    selalt: Array
-    selvs: Array
-    swlnav: NDArray[np.bool_]
-    swvnav: NDArray[np.bool_]
-    swvnavspd: NDArray[np.bool_]
-    ap_trk: Array
-    ap_tas: Array
-    ap_vs: Array
-    ap_alt: Array
-    turnphi: Array
-    phase: IntArray
-    vmin: Array
-    vmax: Array
-    axmax: Array
-    iactwp: IntArray
-    nwp: IntArray
-    actwp_lat: Array
-    actwp_lon: Array
-    curlegdir: Array
-    turndist: Array
-    next_qdr: Array
-    swlastwp: NDArray[np.bool_]
-    route_has_dest: NDArray[np.bool_]
 
     # ------------------------------------------------------------------------------------------
     # Airspace management

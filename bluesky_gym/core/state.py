@@ -7,58 +7,98 @@ All float64 fields of a :class:`~bluesky_gym.core.Simulator` live in one contigu
 
 from __future__ import annotations
 
+from typing import Any, Protocol
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.units import NO_VALUE
 
-#: (name, dtype, value of an empty slot) of every per-aircraft state array.
-STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
-    ("active", np.bool_, False),
-    ("lat", np.float64, 0.0),  # deg
-    ("lon", np.float64, 0.0),  # deg
-    ("alt", np.float64, 0.0),  # m
-    ("hdg", np.float64, 0.0),  # deg true
-    ("trk", np.float64, 0.0),  # deg true
-    ("tas", np.float64, 0.0),  # m/s
-    ("cas", np.float64, 0.0),  # m/s
-    ("mach", np.float64, 0.0),  # -
-    ("gs", np.float64, 0.0),  # m/s
-    ("gsnorth", np.float64, 0.0),  # m/s
-    ("gseast", np.float64, 0.0),  # m/s
-    ("vs", np.float64, 0.0),  # m/s
-    ("ax", np.float64, 0.0),  # m/s^2, longitudinal acceleration of the last step
-    ("windnorth", np.float64, 0.0),  # m/s, wind at the aircraft
-    ("windeast", np.float64, 0.0),  # m/s
-    ("distflown", np.float64, 0.0),  # m
+Array = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+IntArray = NDArray[np.int64]
+
+
+class EmptySlot:
+    """The value of an empty slot of a state field, as :class:`AircraftState` declares it (a marker, never an array)."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def __repr__(self) -> str:
+        return f"empty_slot({self.value!r})"
+
+
+def empty_slot(value: float) -> Any:
+    """Declare a state field of :class:`AircraftState` whose empty slots hold ``value``."""
+    return EmptySlot(value)
+
+
+class AircraftState(Protocol):
+    """The per-aircraft state arrays, shaped ``(n_envs, max_aircraft)`` and meaningful where ``active``.
+
+    The one declaration of the state fields, each with its dtype (``Array``: float64,
+    ``BoolArray``, ``IntArray``: int64), the value of an empty slot and its unit:
+    :data:`STATE_FIELDS` is read from it, :class:`~bluesky_gym.core.physics.Physics` extends it,
+    and the native core and the BlueSky backend inherit it (they put their arrays in place of
+    the empty-slot markers).
+    """
+
+    active: BoolArray = empty_slot(False)
+    lat: Array = empty_slot(0.0)  # deg
+    lon: Array = empty_slot(0.0)  # deg
+    alt: Array = empty_slot(0.0)  # m
+    hdg: Array = empty_slot(0.0)  # deg true
+    trk: Array = empty_slot(0.0)  # deg true
+    tas: Array = empty_slot(0.0)  # m/s
+    cas: Array = empty_slot(0.0)  # m/s
+    mach: Array = empty_slot(0.0)  # -
+    gs: Array = empty_slot(0.0)  # m/s
+    gsnorth: Array = empty_slot(0.0)  # m/s
+    gseast: Array = empty_slot(0.0)  # m/s
+    vs: Array = empty_slot(0.0)  # m/s
+    ax: Array = empty_slot(0.0)  # m/s^2, longitudinal acceleration of the last step
+    windnorth: Array = empty_slot(0.0)  # m/s, wind at the aircraft
+    windeast: Array = empty_slot(0.0)  # m/s
+    distflown: Array = empty_slot(0.0)  # m
     # Selected (MCP) values.
-    ("selspd", np.float64, 0.0),  # m/s CAS, or Mach when 0.1 < v < 2
-    ("selalt", np.float64, 0.0),  # m
-    ("selvs", np.float64, 0.0),  # m/s
-    ("swlnav", np.bool_, False),
-    ("swvnav", np.bool_, False),
-    ("swvnavspd", np.bool_, False),
+    selspd: Array = empty_slot(0.0)  # m/s CAS, or Mach when 0.1 < v < 2
+    selalt: Array = empty_slot(0.0)  # m
+    selvs: Array = empty_slot(0.0)  # m/s
+    swlnav: BoolArray = empty_slot(False)
+    swvnav: BoolArray = empty_slot(False)
+    swvnavspd: BoolArray = empty_slot(False)
     # Autopilot outputs, before the performance limits.
-    ("ap_trk", np.float64, 0.0),  # deg
-    ("ap_tas", np.float64, 0.0),  # m/s
-    ("ap_vs", np.float64, NO_VALUE),  # m/s
-    ("ap_alt", np.float64, 0.0),  # m
-    ("turnphi", np.float64, 0.0),  # rad; 0 means "use the default bank"
+    ap_trk: Array = empty_slot(0.0)  # deg
+    ap_tas: Array = empty_slot(0.0)  # m/s
+    ap_vs: Array = empty_slot(NO_VALUE)  # m/s
+    ap_alt: Array = empty_slot(0.0)  # m
+    turnphi: Array = empty_slot(0.0)  # rad; 0 means "use the default bank"
     # Performance model.
-    ("phase", np.int64, 0),
-    ("vmin", np.float64, 67.0),  # m/s CAS
-    ("vmax", np.float64, 163.0),  # m/s CAS
-    ("axmax", np.float64, 2.37),  # m/s^2
+    phase: IntArray = empty_slot(0)
+    vmin: Array = empty_slot(67.0)  # m/s CAS
+    vmax: Array = empty_slot(163.0)  # m/s CAS
+    axmax: Array = empty_slot(2.37)  # m/s^2
     # Active waypoint (LNAV) [docs/dynamics.md §2.6].
-    ("iactwp", np.int64, -1),
-    ("nwp", np.int64, 0),
-    ("actwp_lat", np.float64, 0.0),  # deg
-    ("actwp_lon", np.float64, 0.0),  # deg
-    ("curlegdir", np.float64, NO_VALUE),  # deg
-    ("turndist", np.float64, 1.0),  # m
-    ("next_qdr", np.float64, NO_VALUE),  # deg
-    ("swlastwp", np.bool_, False),
-    ("route_has_dest", np.bool_, False),
+    iactwp: IntArray = empty_slot(-1)
+    nwp: IntArray = empty_slot(0)
+    actwp_lat: Array = empty_slot(0.0)  # deg
+    actwp_lon: Array = empty_slot(0.0)  # deg
+    curlegdir: Array = empty_slot(NO_VALUE)  # deg
+    turndist: Array = empty_slot(1.0)  # m
+    next_qdr: Array = empty_slot(NO_VALUE)  # deg
+    swlastwp: BoolArray = empty_slot(False)
+    route_has_dest: BoolArray = empty_slot(False)
+
+
+#: dtype of each array annotation of :class:`AircraftState` (annotations are strings here).
+_DTYPES: dict[str, type] = {"Array": np.float64, "BoolArray": np.bool_, "IntArray": np.int64}
+
+#: (name, dtype, value of an empty slot) of every per-aircraft state array, in declaration order.
+STATE_FIELDS: tuple[tuple[str, type, float], ...] = tuple(
+    (name, _DTYPES[str(kind)], AircraftState.__dict__[name].value) for name, kind in AircraftState.__annotations__.items()
 )
 
 #: Names of the float64 fields, in the order of the rows of the float block.

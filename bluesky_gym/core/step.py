@@ -82,7 +82,7 @@ MEMO_COLUMNS = 33
 
 
 @jit_inline
-def perf_row(table, t):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def perf_row(table, t):  # type: ignore[no-untyped-def]
     """Row ``t`` of the performance table as the tuples :func:`step_one` takes: (perf_tuple, (hmax, vsmax, mmo, v_rotate))."""
     r = table[t]
     perf = (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11], r[12], r[13], r[14], r[15], r[16], r[17], r[18])
@@ -90,7 +90,7 @@ def perf_row(table, t):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
 
 
 @jit_inline
-def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, part, follow, res_trk, res_gs, res_alt, res_vs):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, part, follow, res_trk, res_gs, res_alt, res_vs):  # type: ignore[no-untyped-def]
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`), or by one of its two parts.
 
     ``perf`` and ``limits`` are the aircraft's type's :func:`perf_row` tuples. ``part`` 0 is the
@@ -265,7 +265,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
 
 
 @jit
-def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo, active):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype, memo, active):  # type: ignore[no-untyped-def]
     """Advance every aircraft by one step, in BlueSky's update order.
 
     Args:
@@ -294,7 +294,7 @@ def step_kernel(F, phase, wn, we, haswind, any_wind, do_perf, dt, table, actype,
 
 
 @jit
-def pre_kernel(F, phase, do_perf, table, actype, memo, active):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def pre_kernel(F, phase, do_perf, table, actype, memo, active):  # type: ignore[no-untyped-def]
     """The first part of a step with conflict resolution (performance update and autopilot), every aircraft; arguments as :func:`step_kernel`."""
     one_type = actype.shape[0] == 0
     perf, limits = perf_row(table, 0)
@@ -308,7 +308,7 @@ def pre_kernel(F, phase, do_perf, table, actype, memo, active):  # type: ignore[
 
 
 @jit
-def post_kernel(F, phase, wn, we, haswind, any_wind, dt, table, actype, memo, active, follow, res_trk, res_gs, res_alt, res_vs):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def post_kernel(F, phase, wn, we, haswind, any_wind, dt, table, actype, memo, active, follow, res_trk, res_gs, res_alt, res_vs):  # type: ignore[no-untyped-def]
     """The second part of a step with conflict resolution, every aircraft, flying the resolution where ``follow`` (BlueSky's ``APorASAS``).
 
     Arguments as :func:`step_kernel`, plus per aircraft: ``follow`` (bool) and the resolution's
@@ -326,7 +326,7 @@ def post_kernel(F, phase, wn, we, haswind, any_wind, dt, table, actype, memo, ac
 
 
 @jit
-def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, table, actype, memo, active, lnav, trace):  # type: ignore[no-untyped-def]  # noqa: ANN001, ANN201
+def run_kernel(F, phase, wn, we, haswind, any_wind, perf_due, dt, table, actype, memo, active, lnav, trace):  # type: ignore[no-untyped-def]
     """Advance every aircraft by ``len(perf_due)`` steps, aircraft by aircraft.
 
     Valid when aircraft do not interact within these steps, which holds for the physics and

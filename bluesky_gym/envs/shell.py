@@ -176,25 +176,21 @@ def requested_time_limit(max_episode_steps: int | None) -> int | None:
     return None
 
 
-def requested_id(task_class: type[Task]) -> str:
-    """The id an environment constructor is making: that of the :func:`gymnasium.make` or :func:`gymnasium.make_vec` call constructing it.
+def made_as(env_id: str | None, task_class: type[Task]) -> str:
+    """The id an environment is made as: its ``env_id`` argument, else its task's own id.
 
-    As for :func:`requested_time_limit`, Gymnasium sets the environment's ``spec`` (and so its id)
-    only after the constructor has returned; the id is read from the making call's arguments so
-    that the constructor's own errors (bad options) name it too. Without such a call (the class
-    constructed directly), it is the task's :attr:`~bluesky_gym.tasks.base.Task.env_id`.
+    Registration passes ``env_id`` to the environments of an id that configures another id's task
+    (a ``-v1``), so that errors of the constructor already name it; Gymnasium sets the
+    environment's ``spec`` (and with it the id) only after the constructor has returned.
 
-    Args:
-        task_class: The environment's task class.
+    Raises:
+        ValueError: ``env_id`` is not a string.
     """
-    frame: FrameType | None = sys._getframe(1)
-    while frame is not None and frame.f_code.co_name == "__init__":  # the constructor chain
-        frame = frame.f_back
-    if frame is not None and frame.f_code in (gym.make.__code__, gym.make_vec.__code__):
-        made = getattr(frame.f_locals.get("env_spec"), "id", None)
-        if isinstance(made, str):
-            return made
-    return task_class.env_id
+    if env_id is None:
+        return task_class.env_id
+    if not isinstance(env_id, str):
+        raise ValueError(f"env_id must be an environment id (a string), got {env_id!r}")
+    return env_id
 
 
 def _renderer_of(task: Any, render_mode: str, fps: float) -> Any:
@@ -274,14 +270,18 @@ class BlueSkyEnv(MadeIdMixin, gym.Env):
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         backend: ``"native"`` or ``"bluesky"``.
         max_episode_steps: Truncation limit in decision steps (default: the reference's).
+        env_id: The id the environment is made as, named by its errors and pictures (registration
+            passes it for a ``-v1`` id; default: the task's own id).
         **options: Scenario options of the task (see its config dataclass).
     """
 
     task_class: ClassVar[type[Task]]
     metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}  # noqa: RUF012 - Gymnasium declares it an instance attribute
 
-    def __init__(self, render_mode: str | None = None, backend: str = "native", max_episode_steps: int | None = None, **options: Any) -> None:
-        env_id = requested_id(self.task_class)
+    def __init__(
+        self, render_mode: str | None = None, backend: str = "native", max_episode_steps: int | None = None, env_id: str | None = None, **options: Any
+    ) -> None:
+        env_id = made_as(env_id, self.task_class)
         self._errors = ErrorsNameTheId(env_id, self.task_class.env_id)
         with self._errors:
             _check_render_mode(render_mode)
@@ -397,6 +397,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         render_grid: If > 1, draw a grid of the first ``render_grid`` episodes instead.
         backend: ``"native"`` only (BlueSky has one simulator per process).
         max_episode_steps: Truncation limit in decision steps (default: the reference's).
+        env_id: The id the environment is made as (see :class:`BlueSkyEnv`).
         **options: Scenario options of the task.
     """
 
@@ -415,9 +416,10 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         render_grid: int = 1,
         backend: str = "native",
         max_episode_steps: int | None = None,
+        env_id: str | None = None,
         **options: Any,
     ) -> None:
-        env_id = requested_id(self.task_class)
+        env_id = made_as(env_id, self.task_class)
         self._errors = ErrorsNameTheId(env_id, self.task_class.env_id)
         with self._errors:
             _check_render_mode(render_mode)

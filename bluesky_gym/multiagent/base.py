@@ -439,7 +439,7 @@ class MultiAgentTask(abc.ABC):
             "completed": completed,
         }
         agent_info.update({f"reward_{k}": np.where(acting, v, 0.0) for k, v in components.items()})
-        return MultiAgentStepResult(obs, reward, terminated, truncated, acting, episode_done, info, agent_info)
+        return MultiAgentStepResult(obs, reward, terminated, truncated, acting, episode_done, info, agent_info)  # type: ignore[arg-type]  # float64 arrays
 
     def _track_separation(self, envs: IntArray, count_steps: bool) -> None:
         if envs.size == 0:

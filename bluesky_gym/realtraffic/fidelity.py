@@ -1,6 +1,6 @@
 """How closely the simulated aircraft follow their recorded paths when nobody acts.
 
-:func:`fidelity` replays windows with :class:`~bluesky_gym.realtraffic.scenario.ScenarioPlayer` on
+:func:`fidelity` replays windows with :class:`~bluesky_gym.realtraffic.scenario.WindowPlayer` on
 the native core and compares, for every aircraft, the simulated position with the recorded one
 at the same time, 5, 10 and 20 minutes after the aircraft was created: the lateral deviation
 (great-circle distance) and the vertical deviation (|altitude difference|). It reports the median
@@ -30,7 +30,7 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.simulator import Simulator
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window, simulator_type
+from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, Window, WindowPlayer, simulator_type
 from bluesky_gym.scenarios.export import ScenarioRecorder
 
 HORIZONS_S = (300.0, 600.0, 1200.0)  # s after creation: 5, 10, 20 minutes
@@ -109,7 +109,7 @@ def fidelity(
     for b in range(0, len(chosen), BATCH):
         batch = chosen[b : b + BATCH]
         sim = Simulator(len(batch), max_aircraft, dt=DT, max_waypoints=max_waypoints)
-        player = ScenarioPlayer(sim, flights, guided_ownship=True)
+        player = WindowPlayer(sim, flights, guided_ownship=True)
         player.load(np.arange(len(batch)), batch)
         in_los = np.zeros((len(batch), max_aircraft, max_aircraft), bool)
         for _ in fly(sim, player, max(w.duration for w in batch)):
@@ -139,7 +139,7 @@ def fidelity(
     return result
 
 
-def fly(sim: Physics, player: ScenarioPlayer, duration: float) -> Iterator[None]:
+def fly(sim: Physics, player: WindowPlayer, duration: float) -> Iterator[None]:
     """Fly the windows loaded into ``player`` for ``duration`` [s] with nobody acting.
 
     Runs :data:`DECISION_STEP` at a time (in steps of the physics' ``dt``) and yields after each,
@@ -172,7 +172,7 @@ def window_title(flights: RecordedFlights, window: Window) -> str:
 def window_scenario(flights: RecordedFlights, window: Window, max_waypoints: int = MAX_ROUTE_POINTS, title: str | None = None) -> str:
     """``window`` flown with nobody acting (as :func:`fidelity` flies it), as ``.scn`` text.
 
-    The window is flown on the native core with the :class:`ScenarioPlayer` under a
+    The window is flown on the native core with the :class:`WindowPlayer` under a
     :class:`~bluesky_gym.scenarios.export.ScenarioRecorder`, and the recorder's text is returned:
     every aircraft is created (``CRE``, with its recorded type or BlueSky's fallback B744) when it
     appears and given its route points (``ADDWPT``, which engages LNAV), then its altitude and
@@ -191,7 +191,7 @@ def window_scenario(flights: RecordedFlights, window: Window, max_waypoints: int
     rec.reset_envs()
     rec.set_callsigns(0, [str(flights.callsign[f]) for f in window.flights])
     physics = cast(Physics, rec)  # a Physics by delegation
-    player = ScenarioPlayer(physics, flights, guided_ownship=True)
+    player = WindowPlayer(physics, flights, guided_ownship=True)
     player.load(np.array([0]), [window])
     for _ in fly(physics, player, window.duration):
         pass

@@ -3,7 +3,7 @@
 A :class:`Window` is one scenario: a start time, a duration, an ownship (a flight recorded over
 the whole window) and the recorded traffic around it. :func:`windows` lists every such window of a
 collection; :func:`split_windows` divides them into a training and a test part that share no
-recorded time. :class:`ScenarioPlayer` plays windows on any :class:`~bluesky_gym.core.physics.Physics`:
+recorded time. :class:`WindowPlayer` plays windows on any :class:`~bluesky_gym.core.physics.Physics`:
 
 * every aircraft is created at its recorded state at the window start, or at its first recorded
   sample if it appears later (at the first decision step from then on), and deleted after its
@@ -153,7 +153,7 @@ def simulator_type(typecode: str) -> str:
     return FALLBACK_TYPE if (not code or code in ROTORCRAFT_TYPES) else code
 
 
-class ScenarioPlayer:
+class WindowPlayer:
     """Plays recorded windows on a batched physics, one window per airspace.
 
     Args:

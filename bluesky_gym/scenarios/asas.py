@@ -21,10 +21,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from bluesky_gym.core.command_text import parse_number, parse_time
 from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS
 from bluesky_gym.core.resolution import RESO_FACTOR, RMETHH_VALUES, RMETHV_VALUES, AsasConfig, ResolutionSettings
 from bluesky_gym.core.units import FT, NM
-from bluesky_gym.scenarios.arguments import parse_number, parse_time
 
 #: BlueSky command names and their aliases -> the name used here.
 ASAS_COMMANDS = {

@@ -16,7 +16,8 @@ that BlueSky (and ``bluesky-gym replay``) plays back:
   ``ap_trk`` as ``HDG`` (identical without wind), and ``set_state`` after the first step as ``MOVE``.
 
 Aircraft are named ``AC000``, ``AC001``, ... by slot, unless :meth:`ScenarioRecorder.set_callsigns`
-names them (e.g. with their recorded callsigns). Numbers are written with full precision (``repr``), converted to BlueSky's units (ft, kt, fpm).
+names them (e.g. with their recorded callsigns). The text is written by :mod:`bluesky_gym.core.command_text`:
+numbers with full precision and never an exponent, converted to BlueSky's units (ft, kt, fpm).
 """
 
 from __future__ import annotations
@@ -31,9 +32,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from bluesky_gym.core.command_text import altitude, command, speed, timed, vertical_speed
 from bluesky_gym.core.physics import Physics, RouteCommands
 from bluesky_gym.core.state import aircraft_index
-from bluesky_gym.core.units import CASMACH_THRESHOLD, FPM, FT, KTS, MACH_MIN
+from bluesky_gym.core.units import KTS
 from bluesky_gym.core.wind import WindField
 
 
@@ -61,23 +63,6 @@ def unique_callsigns(names: Sequence[str], reserved: Sequence[str] = ()) -> list
     return out
 
 
-def scn_time(t: float) -> str:
-    """``HH:MM:SS.hh`` of a time [s] (hundredths, rounded)."""
-    cs = int(round(max(t, 0.0) * 100.0))
-    return f"{cs // 360000:02d}:{cs // 6000 % 60:02d}:{cs // 100 % 60:02d}.{cs % 100:02d}"
-
-
-def _num(x: float) -> str:
-    return repr(float(x))
-
-
-def speed_text(v: float) -> str:
-    """A CAS [m/s] or Mach as BlueSky's speed argument: knots, or ``M0.xx`` for a Mach number."""
-    if MACH_MIN < v < CASMACH_THRESHOLD:
-        return f"M{_num(v)}" if v < 1.0 else _num(v)
-    return _num(v / KTS)
-
-
 @dataclass
 class _Created:
     """A creation whose state is read when the episode's first step starts."""
@@ -101,7 +86,7 @@ class Episode:
         for t, entry in self.entries:
             text = entry.line if isinstance(entry, _Created) else entry
             # one command per line: BlueSky's PCALL does not split ";" for commands due at once
-            out.extend(f"{scn_time(t)}>{part}" for part in text.split("\n") if part)
+            out.extend(timed(t, part) for part in text.split("\n") if part)
         return out
 
 
@@ -115,7 +100,7 @@ class _LoggedWind:
         self._owner.inner.wind.add_points(env, lat, lon, vnorth, veast)
         for la, lo, vn, ve in zip(*(np.atleast_1d(np.asarray(x, dtype=np.float64)) for x in (lat, lon, vnorth, veast))):
             direction = math.degrees(math.atan2(-ve, -vn)) % 360.0  # where the wind comes from
-            self._owner._add(int(env), f"WIND {_num(la)} {_num(lo)} {_num(direction)} {_num(math.hypot(vn, ve) / KTS)}")
+            self._owner._add(int(env), command("WIND", la, lo, direction, math.hypot(vn, ve) / KTS))
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._owner.inner.wind, name)
@@ -183,10 +168,8 @@ class ScenarioRecorder:
         for env, created in self._pending:
             s = created.slot
             if p.active[env, s]:
-                created.line = (
-                    f"CRE {self.acid(env, s)} {created.actype} {_num(p.lat[env, s])} {_num(p.lon[env, s])} {_num(p.hdg[env, s])} "
-                    f"{_num(p.alt[env, s] / FT)} {_num(p.cas[env, s] / KTS)}"
-                )
+                position = (p.lat[env, s], p.lon[env, s], p.hdg[env, s])
+                created.line = command("CRE", self.acid(env, s), created.actype, *position, altitude(p.alt[env, s]), p.cas[env, s] / KTS)
         self._pending.clear()
 
     def _each(self, env: ArrayLike, slot: ArrayLike, fmt: Callable[[int, int, int], str]) -> None:
@@ -254,19 +237,19 @@ class ScenarioRecorder:
         e, s = self._index(env, slot)
         alive = self.inner.active[e, s].copy()
         self.inner.delete(e, s)
-        self._each(e[alive], s[alive], lambda k, e_, s_: f"DEL {self.acid(e_, s_)}")
+        self._each(e[alive], s[alive], lambda k, e_, s_: command("DEL", self.acid(e_, s_)))
 
     def cmd_heading(self, env: ArrayLike, slot: ArrayLike, hdg: ArrayLike) -> None:
         """``HDG``."""
         self.inner.cmd_heading(env, slot, hdg)
         h = np.broadcast_to(np.asarray(hdg, dtype=np.float64), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"HDG {self.acid(e, s)} {_num(h[k])}")
+        self._each(env, slot, lambda k, e, s: command("HDG", self.acid(e, s), h[k]))
 
     def cmd_speed(self, env: ArrayLike, slot: ArrayLike, casmach: ArrayLike) -> None:
         """``SPD``."""
         self.inner.cmd_speed(env, slot, casmach)
         v = np.broadcast_to(np.asarray(casmach, dtype=np.float64), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"SPD {self.acid(e, s)} {speed_text(v[k])}")
+        self._each(env, slot, lambda k, e, s: command("SPD", self.acid(e, s), speed(v[k])))
 
     def cmd_altitude(self, env: ArrayLike, slot: ArrayLike, alt: ArrayLike, vs: ArrayLike | None = None) -> None:
         """``ALT alt [vs]``."""
@@ -274,27 +257,32 @@ class ScenarioRecorder:
         shape = self._index(env, slot)[0].shape
         a = np.broadcast_to(np.asarray(alt, dtype=np.float64), shape)
         v = None if vs is None else np.broadcast_to(np.asarray(vs, dtype=np.float64), shape)
-        self._each(env, slot, lambda k, e, s: f"ALT {self.acid(e, s)} {_num(a[k] / FT)}" + ("" if v is None or v[k] == 0 else f" {_num(v[k] / FPM)}"))
+
+        def fmt(k: int, e: int, s: int) -> str:
+            rate = () if v is None or v[k] == 0 else (vertical_speed(v[k]),)
+            return command("ALT", self.acid(e, s), altitude(a[k]), *rate)
+
+        self._each(env, slot, fmt)
 
     def cmd_vertical_speed(self, env: ArrayLike, slot: ArrayLike, vs: ArrayLike) -> None:
         """``VS``."""
         self.inner.cmd_vertical_speed(env, slot, vs)
         v = np.broadcast_to(np.asarray(vs, dtype=np.float64), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"VS {self.acid(e, s)} {_num(v[k] / FPM)}")
+        self._each(env, slot, lambda k, e, s: command("VS", self.acid(e, s), vertical_speed(v[k])))
 
     def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """``ADDWPT``."""
         self.inner.add_waypoint(env, slot, lat, lon)
         shape = self._index(env, slot)[0].shape
         la, lo = (np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (lat, lon))
-        self._each(env, slot, lambda k, e, s: f"ADDWPT {self.acid(e, s)} {_num(la[k])} {_num(lo[k])}")
+        self._each(env, slot, lambda k, e, s: command("ADDWPT", self.acid(e, s), la[k], lo[k]))
 
     def set_destination(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """``DEST``."""
         self.inner.set_destination(env, slot, lat, lon)
         shape = self._index(env, slot)[0].shape
         la, lo = (np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (lat, lon))
-        self._each(env, slot, lambda k, e, s: f"DEST {self.acid(e, s)} {_num(la[k])} {_num(lo[k])}")
+        self._each(env, slot, lambda k, e, s: command("DEST", self.acid(e, s), la[k], lo[k]))
 
     def cmd_direct(self, env: ArrayLike, slot: ArrayLike, waypoint: ArrayLike) -> None:
         """``DIRECT``, written with BlueSky's name of the ``k``-th waypoint added by ``ADDWPT`` (callsign + ``k``)."""
@@ -302,7 +290,7 @@ class ScenarioRecorder:
             raise TypeError(f"{type(self.inner).__name__} has no DIRECT command")
         self.inner.cmd_direct(env, slot, waypoint)
         w = np.broadcast_to(np.asarray(waypoint, dtype=np.int64), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"DIRECT {self.acid(e, s)} {self.acid(e, s)}{int(w[k]) + 1:03d}")
+        self._each(env, slot, lambda k, e, s: command("DIRECT", self.acid(e, s), f"{self.acid(e, s)}{int(w[k]) + 1:03d}"))
 
     def cmd_lnav(self, env: ArrayLike, slot: ArrayLike, on: ArrayLike) -> None:
         """``LNAV ON/OFF``."""
@@ -310,7 +298,7 @@ class ScenarioRecorder:
             raise TypeError(f"{type(self.inner).__name__} has no LNAV command")
         self.inner.cmd_lnav(env, slot, on)
         f = np.broadcast_to(np.asarray(on, dtype=bool), self._index(env, slot)[0].shape)
-        self._each(env, slot, lambda k, e, s: f"LNAV {self.acid(e, s)} {'ON' if f[k] else 'OFF'}")
+        self._each(env, slot, lambda k, e, s: command("LNAV", self.acid(e, s), bool(f[k])))
 
     def set_autopilot(
         self,
@@ -335,13 +323,13 @@ class ScenarioRecorder:
             acid = self.acid(e, s)
             parts = []
             if n is not None:
-                parts.append(f"VNAV {acid} {'ON' if n[k] else 'OFF'}")
+                parts.append(command("VNAV", acid, bool(n[k])))
             if v is not None:
-                parts.append(f"VS {acid} {_num(float(v[k]) / FPM)}")
+                parts.append(command("VS", acid, vertical_speed(v[k])))
             if a is not None:
-                parts.append(f"ALT {acid} {_num(float(a[k]) / FT)}")
+                parts.append(command("ALT", acid, altitude(a[k])))
             if t is not None:
-                parts.append(f"HDG {acid} {_num(float(t[k]))}")
+                parts.append(command("HDG", acid, float(t[k])))
             return "\n".join(parts)
 
         self._each(env, slot, fmt)
@@ -356,9 +344,7 @@ class ScenarioRecorder:
         self._each(
             e[later],
             s[later],
-            lambda k, e_, s_: (
-                f"MOVE {self.acid(e_, s_)} {_num(p.lat[e_, s_])} {_num(p.lon[e_, s_])} {_num(p.alt[e_, s_] / FT)} {_num(p.hdg[e_, s_])}"
-            ),
+            lambda k, e_, s_: command("MOVE", self.acid(e_, s_), p.lat[e_, s_], p.lon[e_, s_], altitude(p.alt[e_, s_]), p.hdg[e_, s_]),
         )
 
     def step(self) -> None:
@@ -390,7 +376,7 @@ class ScenarioRecorder:
             f"# {title}" if title else "# BlueSky-Gym episode",
             "# Written by bluesky_gym.scenarios.export; play it in BlueSky with PCALL or IC.",
             "",
-            f"00:00:00.00>DT {_num(self.inner.dt)}",
+            timed(0.0, command("DT", self.inner.dt)),
         ]
         return "\n".join([*head, *ep.lines()]) + "\n"
 

@@ -23,6 +23,7 @@ from importlib import resources
 from pathlib import Path
 
 from bluesky_gym.core.atmosphere import vcasormach
+from bluesky_gym.core.command_text import command, fixed, timed
 from bluesky_gym.core.units import FPM, FT, KTS, NM, R_EARTH
 
 #: Folder of the shipped scenario files (package data).
@@ -56,7 +57,8 @@ def _header(title: str, lines: list[str]) -> list[str]:
 
 
 def _cre(acid: str, actype: str, lat: float, lon: float, hdg: float, alt_ft: float, spd_kts: float) -> str:
-    return f"00:00:00.00>CRE {acid} {actype} {lat:.6f} {lon:.6f} {hdg:.2f} {alt_ft:.0f} {spd_kts:.1f}"
+    """A ``CRE`` at time 0, its values to a micro-degree, 0.01 deg, 1 ft and 0.1 kt (files that read well)."""
+    return timed(0.0, command("CRE", acid, actype, fixed(lat, 6), fixed(lon, 6), fixed(hdg, 2), fixed(alt_ft, 0), fixed(spd_kts, 1)))
 
 
 def super_conflict(
@@ -156,7 +158,7 @@ def sphere_conflict(
             lines.append(_cre(acid, actype, alat, alon, _bearing(alat, alon, lat, lon), centre_ft + dz, speed_kts))
             if dz:
                 vs_fpm = -dz * FT / t_centre / FPM
-                commands.append(f"00:00:00.00>ALT {acid} {centre_ft - dz:.0f} {vs_fpm:.0f}")
+                commands.append(timed(0.0, command("ALT", acid, fixed(centre_ft - dz, 0), fixed(vs_fpm, 0))))
     return "\n".join(lines + commands) + "\n"
 
 
@@ -214,8 +216,8 @@ def with_resolution(text: str, detector: str = "ON", settings: tuple[str, ...] =
     Returns:
         The text with ``ASAS detector``, ``RESO MVP`` and the settings appended.
     """
-    lines = [f"ASAS {detector}", "RESO MVP", *settings]
-    return text.rstrip("\n") + "\n" + "".join(f"00:00:00.00>{line}\n" for line in lines)
+    lines = [command("ASAS", detector), command("RESO", "MVP"), *settings]
+    return text.rstrip("\n") + "\n" + "".join(timed(0.0, line) + "\n" for line in lines)
 
 
 #: The shipped files: name -> generator call.

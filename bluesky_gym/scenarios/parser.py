@@ -21,10 +21,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bluesky_gym.core.conflicts import PZ_HEIGHT
-from bluesky_gym.core.resolution import AsasConfig
-from bluesky_gym.core.units import FT
-from bluesky_gym.scenarios.arguments import (
+from bluesky_gym.core.command_text import (
     is_latitude,
     parse_altitude,
     parse_heading,
@@ -37,6 +34,9 @@ from bluesky_gym.scenarios.arguments import (
     parse_vertical_speed,
     split_arguments,
 )
+from bluesky_gym.core.conflicts import PZ_HEIGHT
+from bluesky_gym.core.resolution import AsasConfig
+from bluesky_gym.core.units import FT
 from bluesky_gym.scenarios.asas import ASAS_COMMANDS, AsasState
 
 #: The only aircraft type the core flies until per-aircraft types are available.
@@ -445,7 +445,8 @@ def _parse_command(t: float, src: Source, ctx: _Context) -> Command:
         pos = _position(a, ctx)
         hdg, alt, spd = (a.take(w, f, optional=True) for w, f in (("hdg", parse_heading), ("alt", parse_altitude), ("spd", parse_speed)))
         a.done()
-        out = Create(t, src, acid, actype, pos, float(hdg or 0.0), float(alt or 0.0), float(spd or 0.0))  # type: ignore[arg-type]
+        hdg, alt, spd = (0.0 if x is None else float(x) for x in (hdg, alt, spd))  # type: ignore[arg-type]
+        out = Create(t, src, acid, actype, pos, hdg, alt, spd)
         ctx.alive.add(acid)
         ctx.routes[acid] = []
     elif cmd == "CRECONFS":

@@ -58,6 +58,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, check_types
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import KTS, MPS2KT
+from bluesky_gym.core.wind import WIND_KEYS, Wind, wind_at_ownship
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.geometry import ref_kwikqdrdist
 from bluesky_gym.tasks.geometry import wrap180 as wrap180  # re-exported for the tasks
@@ -87,9 +88,12 @@ class TaskConfig:
         float32_spaces: ``-v1``: float32 observation and action spaces with finite declared
             bounds, every observation entry clipped to its bound (``-v0``: float64, the
             reference's bounds, infinite for most entries).
+        wind: Wind installed in every episode, and observed with ``observe``
+            (:class:`~bluesky_gym.core.wind.Wind`, or a mapping of its fields); None: no wind.
     """
 
     float32_spaces: bool = False
+    wind: Wind | None = None
 
     def __post_init__(self) -> None:
         # Aircraft-type mixes are stored hashable: a name -> (name,), a list -> tuple, a mapping
@@ -97,6 +101,8 @@ class TaskConfig:
         for f in dataclasses.fields(self):
             if f.name in TYPE_MIX_OPTIONS:
                 object.__setattr__(self, f.name, freeze_type_mix(getattr(self, f.name)))
+            elif f.name == "wind":
+                object.__setattr__(self, f.name, Wind.of(getattr(self, f.name)))
             elif f.type in ("bool", bool):
                 # A switch (float32_spaces, the -v1 fixes): "no" or 0 would silently mean something else.
                 value = getattr(self, f.name)
@@ -303,6 +309,10 @@ class ObservationTerms:
     value: Callable[[Task, NDArray[np.int64]], Mapping[str, Array]]
 
 
+#: The ``wind_u`` and ``wind_v`` observation entries of a task with observed wind.
+WIND_OBSERVATION = ObservationTerms(spec={k: BoxSpec((1,)) for k in WIND_KEYS}, value=wind_at_ownship)
+
+
 @dataclass(frozen=True)
 class StepGeometry:
     """One step's geometry of rows ``envs``, computed once by :meth:`Task.measure`.
@@ -417,7 +427,7 @@ class Task(abc.ABC):
         if isinstance(backend, str):
             from bluesky_gym.backends import make_physics
 
-            self.sim = make_physics(backend, type(self), self.n_envs, self.max_aircraft(), self.max_waypoints())
+            self.sim = make_physics(backend, self.dt, self.n_envs, self.max_aircraft(), self.max_waypoints())
         else:
             self.sim = backend
         if self.sim.n_envs != self.n_envs:
@@ -433,6 +443,19 @@ class Task(abc.ABC):
         self.effects: list[Effect] = []
         self.observation_terms: list[ObservationTerms] = []
         self.allocate()
+        if self.config.wind is not None:
+            self.add_wind(self.config.wind)
+
+    def __repr__(self) -> str:
+        """The task as it was made: its id, batch size, physics, time limit and its frozen configuration, every field.
+
+        For example ``HorizontalCRTask(id='HorizontalCREnv-v0', n_envs=1, physics=Simulator,
+        time_limit=300, config=HorizontalCRConfig(float32_spaces=False, num_intruders=5, ...))``.
+        """
+        return (
+            f"{type(self).__name__}(id={self.id!r}, n_envs={self.n_envs}, physics={type(self.sim).__name__}, "
+            f"time_limit={self.time_limit}, config={self.config!r})"
+        )
 
     def wrap_physics(self, wrapper: Callable[[Physics], Physics]) -> Physics:
         """Put a wrapper around the physics, e.g. a :class:`~bluesky_gym.scenarios.export.ScenarioRecorder`.
@@ -534,6 +557,20 @@ class Task(abc.ABC):
         if not callable(getattr(effect, "on_reset", None)):
             raise TypeError(f"an effect needs an on_reset(task, envs) method, got {type(effect).__name__}")
         self.effects.append(effect)
+
+    def add_wind(self, wind: Wind) -> None:
+        """Install ``wind`` in every new episode (an effect) and, with ``wind.observe``, observe it.
+
+        The ``wind`` option does this when the task is built.
+
+        Raises:
+            ValueError: ``wind.observe`` and the task observes a wind already.
+        """
+        if wind.observe and set(WIND_KEYS) & set(self.observation_spec):
+            raise ValueError("the environment already observes the wind (wind_u, wind_v); observe it only once")
+        self.add_effect(wind)
+        if wind.observe:
+            self.add_observation_terms(WIND_OBSERVATION)
 
     def add_observation_terms(self, terms: ObservationTerms) -> None:
         """Add entries to the observation (and to :attr:`observation_spec`), after the task's own.

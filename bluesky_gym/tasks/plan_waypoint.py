@@ -176,7 +176,7 @@ class PlanWaypointTask(Task):
             separation_nm=np.full(shape, np.inf),
             los=np.zeros(shape, bool),
             drift_deg=None,
-            goal_reached=(reached_before | new).all(axis=1),
+            goal_reached=np.asarray((reached_before | new).all(axis=1)),
             dist_km=dist_km,
             drift=drift,
             reached_before=reached_before,

@@ -2,7 +2,7 @@
 
 Every episode is a window of recorded ADS-B traffic (:mod:`bluesky_gym.realtraffic`): one flight
 recorded over the whole window is the ownship, the recorded aircraft around it fly their recorded
-routes and profiles (:class:`~bluesky_gym.realtraffic.scenario.ScenarioPlayer`). The agent steers
+routes and profiles (:class:`~bluesky_gym.realtraffic.scenario.WindowPlayer`). The agent steers
 the ownship relative to its own recorded path (heading and speed, optionally altitude offsets);
 with a zero action it follows the recording. Reward: stay near the recorded route and keep
 5 NM / 1000 ft from every other aircraft.
@@ -28,7 +28,7 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FT, KTS, NM
 from bluesky_gym.realtraffic.cache import collection_path, combine, load_collection, unprepared
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, ScenarioPlayer, Window, split_windows, windows
+from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, Window, WindowPlayer, split_windows, windows
 from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
 from bluesky_gym.tasks.base import (
     Array,
@@ -399,7 +399,7 @@ class RealTrafficTask(Task):
         need no data. A ``.npz`` collection that does not exist is refused here.
         """
         self._data: EpisodeData | None = None
-        self._player: ScenarioPlayer | None = None
+        self._player: WindowPlayer | None = None
         if not unprepared(self.config.collections, self.config.cache_dir):
             self._data = episode_data(self.config)
         self.test_split = np.full(self.n_envs, self.config.split == "test")
@@ -420,10 +420,10 @@ class RealTrafficTask(Task):
         return self.data.flights
 
     @property
-    def player(self) -> ScenarioPlayer:
+    def player(self) -> WindowPlayer:
         """The player of the recorded traffic on the task's physics."""
         if self._player is None:
-            self._player = ScenarioPlayer(self.sim, self.flights, guided_ownship=False, guided_traffic=self.guided_traffic)
+            self._player = WindowPlayer(self.sim, self.flights, guided_ownship=False, guided_traffic=self.guided_traffic)
         return self._player
 
     def wrap_physics(self, wrapper: Callable[[Physics], Physics]) -> Physics:

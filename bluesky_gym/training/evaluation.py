@@ -291,6 +291,10 @@ def find_model(path: str | Path) -> tuple[Path, str | None]:
         else:
             ckpt = latest_checkpoint(p)
             if ckpt is None:
+                summary = read_json(p / "result.json").get("summarised") if (p / "result.json").exists() else None
+                if summary and "model.zip" in summary.get("removed", ()):
+                    restore = "bluesky-gym results unpack MANIFEST puts it back"
+                    raise FileNotFoundError(f"{path} is a run summary: its model.zip went to the run files' release asset ({restore})")
                 raise FileNotFoundError(f"{path} holds neither model.zip nor a checkpoint")
             p = ckpt[1] / "model.zip"
             record = ckpt[0].get("files", {}).get("model.zip")

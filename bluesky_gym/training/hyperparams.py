@@ -32,7 +32,6 @@ import importlib.util
 import inspect
 import json
 import re
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -130,13 +129,8 @@ def load_config_file(path: str | Path) -> dict[str, Any]:
     if not p.is_file():
         raise ValueError(f"config file {p} not found")
     if p.suffix.lower() == ".toml":
-        try:
-            if sys.version_info >= (3, 11):
-                import tomllib
-            else:
-                import tomli as tomllib
-        except ModuleNotFoundError as exc:  # Python 3.10 without tomli
-            raise ValueError(f"reading {p} needs Python >= 3.11 or the 'tomli' package; or use a .json config") from exc
+        import tomllib
+
         text = p.read_text(encoding="utf-8")
         try:
             data = tomllib.loads(text)

@@ -162,7 +162,11 @@ def format_cell(v: Any) -> str:
 
 def read_csv_rows(path: str | os.PathLike[str]) -> tuple[list[str], list[list[str]]]:
     """Header and complete rows of a CSV file (a trailing line cut off by a crash is dropped)."""
-    text = Path(path).read_text(encoding="utf-8")
+    return read_csv_text(Path(path).read_text(encoding="utf-8"))
+
+
+def read_csv_text(text: str) -> tuple[list[str], list[list[str]]]:
+    """Header and complete rows of CSV text (a trailing line cut off by a crash is dropped)."""
     if not text:
         return [], []
     complete = text if text.endswith("\n") else text[: text.rfind("\n") + 1]
@@ -197,7 +201,7 @@ class AppendCSV:
         """Append one row (keys outside the header are ignored, missing ones left empty)."""
         if self._file is None:
             new = not self.path.exists() or self.path.stat().st_size == 0
-            self._file = open(self.path, "a", newline="", encoding="utf-8")
+            self._file = open(self.path, "a", newline="", encoding="utf-8")  # noqa: SIM115 - held open across rows, closed by close()
             if new or self.header is None:
                 self.header = self._header_fn(record)
                 self._file.write(",".join(self.header) + "\n")

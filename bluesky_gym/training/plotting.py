@@ -32,12 +32,15 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.training.io import DamagedFileError, atomic_path, atomic_write_json, read_csv_rows, read_json
+from bluesky_gym.training.io import DamagedFileError, atomic_path, atomic_write_json, read_csv_rows, read_csv_text, read_json
+
+if TYPE_CHECKING:
+    from bluesky_gym.training.pack import RunArtifact
 
 Array = NDArray[np.float64]
 
@@ -177,14 +180,23 @@ def find_runs(paths: Sequence[str | Path]) -> list[Path]:
     return list(dict.fromkeys(found))
 
 
-def load_run(path: str | Path) -> Run:
-    """Read a run's config, episode log (or a run summary's ``curve.csv``, one row per span of timesteps) and final held-out return."""
+def load_run(path: str | Path, artifact: RunArtifact | None = None) -> Run:
+    """Read a run's config, episode log and final held-out return.
+
+    The episode log is the run's ``episodes.csv``; for a run summary, the raw log in ``artifact``
+    (the run files packed by ``bluesky-gym results pack``, checked against their SHA-256) where
+    given and holding it, else the summary's ``curve.csv`` (one row per span of timesteps).
+    """
     d = Path(path)
     cfg = read_json(d / "config.json")
     columns: dict[str, Array] = {}
     log = d / "episodes.csv" if (d / "episodes.csv").exists() else d / "curve.csv"  # a run summary keeps the binned curve
-    if log.exists():
+    packed = artifact.get(d / "episodes.csv") if artifact is not None and not (d / "episodes.csv").exists() else None
+    if packed is not None:
+        header, rows = read_csv_text(packed.decode("utf-8"))
+    elif log.exists():
         header, rows = read_csv_rows(log)
+    if packed is not None or log.exists():
         data = np.array([[_num(x) for x in r] for r in rows], dtype=np.float64).reshape(len(rows), len(header))
         columns = {h: data[:, j] for j, h in enumerate(header)}
     final = None
@@ -482,7 +494,7 @@ def aggregate(runs: Sequence[Run], references: dict[str, dict[str, float]], seed
     for algo, by_env in sorted(final.items()):
         point, lo, hi = stratified_bootstrap_iqm({k: np.asarray(v) for k, v in by_env.items()}, rng)
         if max(map(len, by_env.values())) < 2:  # one run per environment: resampling cannot vary, there is no interval
-            lo = hi = np.float64(math.nan)
+            lo = hi = np.asarray(math.nan)
         out["final"][algo] = {
             "iqm": float(point),
             "ci_low": float(lo),

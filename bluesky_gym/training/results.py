@@ -28,7 +28,7 @@ import shlex
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -37,6 +37,9 @@ from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.training.evaluation import KPI_COLUMNS, format_number, normalised_score
 from bluesky_gym.training.io import atomic_path, read_csv_rows, read_json
 from bluesky_gym.training.plotting import Run, find_runs, load_run, plot_learning_curves, smoothed
+
+if TYPE_CHECKING:
+    from bluesky_gym.training.pack import RunArtifact
 
 #: Bootstrap resamples of every confidence interval on the page.
 BOOTSTRAP = 2000
@@ -163,8 +166,11 @@ def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None =
     return done
 
 
-def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTRAP) -> list[EnvResults]:
+def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTRAP, artifact: RunArtifact | None = None) -> list[EnvResults]:
     """Read the runs and references of the sweeps, per environment (sorted by id).
+
+    ``artifact`` (the packed run files, :mod:`bluesky_gym.training.pack`) gives summarised runs
+    their raw episode logs back.
 
     Raises:
         FileNotFoundError: If a directory holds no run.
@@ -175,7 +181,7 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
     if not run_dirs:
         raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, dirs))}")
     rng = np.random.default_rng(seed)
-    loaded = [load_run(d) for d in run_dirs]
+    loaded = [load_run(d, artifact) for d in run_dirs]
     labels = page_labels(loaded)
     by_env: dict[str, list[tuple[Run, dict[str, np.ndarray] | None]]] = {}
     for run in loaded:
@@ -555,7 +561,14 @@ def observations_section(results: Sequence[EnvResults]) -> list[str]:
     return lines
 
 
-def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Sequence[str], seed: int = 0, reps: int = BOOTSTRAP) -> Path:
+def build_results(
+    sweep_dirs: Sequence[str | Path],
+    out: str | Path,
+    command: Sequence[str],
+    seed: int = 0,
+    reps: int = BOOTSTRAP,
+    artifact: RunArtifact | None = None,
+) -> Path:
     """Write the results page ``out`` (Markdown) and its figures in ``<out stem>/``.
 
     Args:
@@ -564,6 +577,7 @@ def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Se
         command: The command line that made the page, written at its top.
         seed: Seed of the bootstraps (the page is reproducible).
         reps: Bootstrap resamples per interval.
+        artifact: The packed run files of summarised runs (their raw episode logs for the curves).
 
     Returns:
         The path of the page.
@@ -574,7 +588,7 @@ def build_results(sweep_dirs: Sequence[str | Path], out: str | Path, command: Se
     out = Path(out)
     fig_dir = out.parent / out.stem
     fig_dir.mkdir(parents=True, exist_ok=True)
-    results = collect(sweep_dirs, seed, reps)
+    results = collect(sweep_dirs, seed, reps, artifact)
     runs = [r for er in results for r in er.runs]
     configs = {r.path: read_json(r.path / "config.json") for r in runs}
     rel = f"{fig_dir.name}"

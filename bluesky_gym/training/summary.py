@@ -29,6 +29,8 @@ CURVE = "curve.csv"
 DEFAULT_BINS = 200
 #: Significant digits of the curve's means (a plot's resolution, a quarter of the file of full precision).
 CURVE_DIGITS = 6
+#: What a summary removes from a run (the final model last: ``keep_model`` keeps it); ``bluesky-gym results pack`` packs them.
+SUMMARY_DROPS = ("checkpoints", "checkpoint.json", TENSORBOARD_DIR, EPISODE_LOG, "model.zip")
 #: Episode-log columns the curve does not average (the span's end and its episode count replace them).
 _NOT_AVERAGED = ("episode", "timesteps", "wall_time_s", "env_index")
 
@@ -89,9 +91,7 @@ def summarise_run(run_dir: str | Path, bins: int = DEFAULT_BINS, keep_model: boo
         header, rows = read_csv_rows(log)
         curve_header, curve = curve_rows(header, rows, int(result["timesteps"]), bins)
         atomic_write_csv(d / CURVE, curve_header, curve)
-    removed = [name for name in ("checkpoints", "checkpoint.json", TENSORBOARD_DIR, EPISODE_LOG) if (d / name).exists()]
-    if not keep_model and (d / "model.zip").exists():
-        removed.append("model.zip")
+    removed = [name for name in SUMMARY_DROPS if (d / name).exists() and not (keep_model and name == "model.zip")]
     record = {"removed": removed, "curve": CURVE if log.exists() else None, "bins": bins}
     files = {k: v for k, v in result.get("files", {}).items() if k not in removed}
     atomic_write_json(d / "result.json", {**result, "files": files, "summarised": record})

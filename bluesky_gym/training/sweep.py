@@ -64,7 +64,7 @@ def _run_cell(spec: RunSpec, run_dir: str, verbose: int, on_damage: str = "error
         result = run_training(spec, run_dir, progress_bar=False, verbose=verbose, on_damage=on_damage)
         result.setdefault("skipped", False)
         return result
-    except Exception as exc:  # one failed run must not stop the grid
+    except Exception as exc:  # noqa: BLE001 - one failed run must not stop the grid
         return {
             "status": "failed",
             "env_id": spec.env_id,
@@ -114,7 +114,7 @@ def run_ray(
                 k = pending.pop(ref)
                 try:
                     results[k] = ray.get(ref)
-                except Exception as exc:  # a dead worker fails its run only
+                except Exception as exc:  # noqa: BLE001 - a dead worker fails its run only
                     c = cells[k]
                     results[k] = {"status": "failed", "env_id": c.spec.env_id, "algo": c.spec.algo, "seed": c.spec.seed, "error": repr(exc)}
                 if verbose:

@@ -23,7 +23,7 @@ def test_missing_bluesky_raises_install_hint(monkeypatch: pytest.MonkeyPatch) ->
     with pytest.raises(ImportError, match=re.escape(install_hint("bluesky"))):
         load_bluesky()
     with pytest.raises(ImportError, match=re.escape('"bluesky-simulator==1.1.1"')):
-        make_physics("bluesky", DescentTask, 1, 1, 2)
+        make_physics("bluesky", DescentTask.dt, 1, 1, 2)
 
 
 def test_numpy_too_new_raises_install_hint(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -53,7 +53,7 @@ def test_backend_implements_physics_without_the_native_core() -> None:
 
 def test_several_airspaces_are_refused() -> None:
     with pytest.raises(ValueError, match="AsyncVectorEnv"):
-        make_physics("bluesky", DescentTask, 2, 1, 2)
+        make_physics("bluesky", DescentTask.dt, 2, 1, 2)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -37,12 +37,12 @@ import pytest
 
 pytest.importorskip("bluesky")
 
-from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics  # noqa: E402
-from bluesky_gym.core import Simulator  # noqa: E402
-from bluesky_gym.registration import available_envs  # noqa: E402
-from tests.oracle.simulator import OracleSimulator  # noqa: E402
+from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
+from bluesky_gym.core import Simulator
+from bluesky_gym.registration import available_envs
+from tests.oracle.simulator import OracleSimulator
 
-from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run_core_scenario, run_env_episodes  # noqa: E402
+from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run_core_scenario, run_env_episodes
 
 pytestmark = pytest.mark.bluesky
 
@@ -155,11 +155,11 @@ WINDS = {
 @pytest.mark.parametrize("wind", sorted(WINDS))
 @pytest.mark.parametrize("env_id", [e for e in ("DescentEnv-v0", "SectorCREnv-v0") if e in ENVS])
 def test_env_episodes_with_wind_match(env_id: str, wind: str) -> None:
-    """The wind wrapper (wind points added at every reset, wind in the observation) on both backends."""
-    from bluesky_gym.wrappers import WindFieldWrapper
+    """The wind option (wind points added at every reset, wind in the observation) on both backends."""
+    from bluesky_gym.core.wind import Wind
 
     episodes = [(100 * k + 3, 30 if k == 0 else 6) for k in range(4)]
-    dev, steps = run_env_episodes(env_id, episodes, 30, ENV_TOL, wrap=lambda e: WindFieldWrapper(e, *WINDS[wind], augment_obs=True))
+    dev, steps = run_env_episodes(env_id, episodes, 30, ENV_TOL, options={"wind": Wind(*WINDS[wind], observe=True)})
     assert steps >= len(episodes)
     print(f"{env_id} with {wind} wind: {steps} steps; largest scaled deviation {dev.max:.2e}: {dev.summary()}")
 

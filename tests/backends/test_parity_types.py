@@ -10,12 +10,12 @@ import pytest
 
 pytest.importorskip("bluesky")
 
-from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics, load_bluesky  # noqa: E402
-from bluesky_gym.core import Simulator  # noqa: E402
-from bluesky_gym.core.aircraft import ROTORCRAFT_TYPES, aircraft_performance, supported_types  # noqa: E402
-from tests.core.reference_scenarios import SCENARIOS, Scenario, _types_one_call  # noqa: E402
+from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics, load_bluesky
+from bluesky_gym.core import Simulator
+from bluesky_gym.core.aircraft import ROTORCRAFT_TYPES, aircraft_performance, supported_types
+from tests.core.reference_scenarios import SCENARIOS, Scenario, _types_one_call
 
-from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run_core_scenario, run_env_episodes  # noqa: E402
+from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run_core_scenario, run_env_episodes
 
 pytestmark = pytest.mark.bluesky
 

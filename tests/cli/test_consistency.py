@@ -36,6 +36,9 @@ SUBCOMMANDS = [
     ["bench", "envs"],
     ["bench", "all"],
     ["bench", "profile"],
+    ["results"],
+    ["results", "pack"],
+    ["results", "unpack"],
 ]
 
 

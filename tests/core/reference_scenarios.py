@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import csv
+import lzma
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -13,6 +15,28 @@ from bluesky_gym.core import Simulator
 from bluesky_gym.core.units import FPM, FT, KTS
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "reference"
+#: Recordings larger than this are stored xz-compressed (``NAME.csv.xz``); the repository's file-size limit.
+COMPRESS_ABOVE_BYTES = 500 * 1024
+
+
+def recording_path(name: str) -> Path:
+    """The file of a recording: ``NAME.csv``, or ``NAME.csv.xz`` for one over :data:`COMPRESS_ABOVE_BYTES`."""
+    plain = DATA / f"{name}.csv"
+    return plain if plain.exists() else DATA / f"{name}.csv.xz"
+
+
+def open_recording(name: str) -> TextIO:
+    """Open a recording (plain or xz-compressed CSV) as text, for ``csv`` readers."""
+    path = recording_path(name)
+    if path.suffix == ".xz":
+        return lzma.open(path, "rt", encoding="utf-8", newline="")
+    return open(path, newline="")
+
+
+def recording_names(pattern: str = "*") -> set[str]:
+    """Names of the recordings matching a glob pattern (without ``.csv`` / ``.csv.xz``)."""
+    return {p.name.removesuffix(".xz").removesuffix(".csv") for p in DATA.glob(f"{pattern}.csv*")}
+
 
 Event = Callable[[Simulator, int], None]  # (sim, env) -> None
 
@@ -291,7 +315,7 @@ COLUMNS = {
 def load_reference(name: str) -> dict[str, dict[str, np.ndarray]]:
     """Recorded trajectories: {acid: {column: array over time}} (time in column 't')."""
     out: dict[str, dict[str, list[float]]] = {}
-    with open(DATA / f"{name}.csv", newline="") as fh:
+    with open_recording(name) as fh:
         for row in csv.DictReader(fh):
             rec = out.setdefault(row["acid"], {})
             for k, v in row.items():

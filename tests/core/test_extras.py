@@ -5,10 +5,10 @@ from __future__ import annotations
 import re
 import shutil
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
-import tomllib
 from packaging.requirements import Requirement
 
 from bluesky_gym.core import extras
@@ -64,7 +64,7 @@ def test_every_hint_installs_the_extras_own_requirements(extra: str) -> None:
 
 def test_the_hint_comes_from_the_installed_metadata_when_there_is_one(monkeypatch: pytest.MonkeyPatch) -> None:
     class Dist:
-        requires = ['made-up-package==1.2; extra == "train"', "numpy"]
+        requires = ('made-up-package==1.2; extra == "train"', "numpy")
 
     def distribution(name: str) -> Dist:
         assert name == DISTRIBUTION

@@ -12,6 +12,7 @@ import pytest
 from bluesky_gym.core import Simulator
 from tests.oracle.simulator import OracleSimulator
 
+from .conftest import bits
 from .reference_scenarios import SCENARIOS, run
 from .test_batch import _random_traffic
 
@@ -49,13 +50,6 @@ FIELDS = [
 ]
 
 
-def _bits(a: np.ndarray, active: np.ndarray | None = None) -> np.ndarray:
-    """The bit patterns of the values in occupied slots (empty slots carry no meaning)."""
-    a = np.ascontiguousarray(a)
-    a = a.view(np.int64) if a.dtype == np.float64 else a
-    return a if active is None else a[active]
-
-
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
 def test_reference_scenarios_bitwise(name: str) -> None:
     sc = SCENARIOS[name]
@@ -65,7 +59,7 @@ def test_reference_scenarios_bitwise(name: str) -> None:
         sc.setup(sim, 0)
         out[kind] = run(sc, sim, 0)
     for col in out["oracle"]:
-        np.testing.assert_array_equal(_bits(out["oracle"][col]), _bits(out["kernel"][col]), err_msg=col)
+        np.testing.assert_array_equal(bits(out["oracle"][col]), bits(out["kernel"][col]), err_msg=col)
 
 
 @pytest.mark.parametrize("dt", [1.0, 5.0, 0.5])
@@ -90,7 +84,7 @@ def test_random_traffic_bitwise(dt: float) -> None:
             sim.step()
         for f in FIELDS:
             act = sims["oracle"].active
-            np.testing.assert_array_equal(_bits(getattr(sims["oracle"], f), act), _bits(getattr(sims["kernel"], f), act), err_msg=f"step {k}: {f}")
+            np.testing.assert_array_equal(bits(getattr(sims["oracle"], f), act), bits(getattr(sims["kernel"], f), act), err_msg=f"step {k}: {f}")
 
 
 @pytest.mark.parametrize(("wind", "geo"), [(False, "compiled"), (True, "compiled"), (False, "python")])
@@ -117,7 +111,7 @@ def test_run_many_steps_equals_stepping(wind: bool, geo: str) -> None:
         for _ in range(30):
             sims[1].step()
     for f in FIELDS + ["iactwp", "swlastwp", "turndist", "curlegdir", "next_qdr"]:
-        np.testing.assert_array_equal(_bits(getattr(sims[0], f), sims[1].active), _bits(getattr(sims[1], f), sims[1].active), err_msg=f)
+        np.testing.assert_array_equal(bits(getattr(sims[0], f), sims[1].active), bits(getattr(sims[1], f), sims[1].active), err_msg=f)
     assert sims[0].simt == sims[1].simt
     assert (sims[1].iactwp[::2, 2] == 2).all() and not sims[1].swlnav.any()  # every route was flown to its end
 
@@ -134,10 +128,10 @@ def test_traced_run_records_the_positions_of_every_step(kind: str) -> None:
     act = stepped.active
     for k in range(12):
         stepped.step()
-        np.testing.assert_array_equal(_bits(track[k, 0], act), _bits(stepped.lat, act), err_msg=f"lat after step {k}")
-        np.testing.assert_array_equal(_bits(track[k, 1], act), _bits(stepped.lon, act), err_msg=f"lon after step {k}")
+        np.testing.assert_array_equal(bits(track[k, 0], act), bits(stepped.lat, act), err_msg=f"lat after step {k}")
+        np.testing.assert_array_equal(bits(track[k, 1], act), bits(stepped.lon, act), err_msg=f"lon after step {k}")
     for f in FIELDS:
-        np.testing.assert_array_equal(_bits(getattr(traced, f), act), _bits(getattr(stepped, f), act), err_msg=f)
+        np.testing.assert_array_equal(bits(getattr(traced, f), act), bits(getattr(stepped, f), act), err_msg=f)
     assert traced.run(3) is None
 
 
@@ -154,7 +148,7 @@ def test_snapshot_restore_all_and_some_airspaces() -> None:
     assert sim.simt == start["simt"] != clocks
     sim.run(20)
     for f in FIELDS:
-        np.testing.assert_array_equal(_bits(getattr(sim, f), sim.active), _bits(after[f], sim.active), err_msg=f)
+        np.testing.assert_array_equal(bits(getattr(sim, f), sim.active), bits(after[f], sim.active), err_msg=f)
     # A partial restore changes only the given airspaces (and not the shared clocks).
     some = np.array([3, 17])
     part = sim._snapshot(some)

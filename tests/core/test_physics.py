@@ -8,14 +8,10 @@ import pytest
 from bluesky_gym.core import Physics, Simulator
 from tests.oracle.simulator import OracleSimulator
 
+from .conftest import bits
 from .test_batch import _random_traffic
 
 FIELDS = ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "gs", "vs", "ax", "axmax", "ap_trk", "distflown", "iactwp", "swlnav")
-
-
-def _bits(a: np.ndarray, active: np.ndarray) -> np.ndarray:
-    a = np.ascontiguousarray(a)
-    return (a.view(np.int64) if a.dtype == np.float64 else a)[active]
 
 
 def _pair(n_envs: int, wind: bool, seed: int = 11) -> tuple[Simulator, Simulator]:
@@ -58,10 +54,10 @@ def test_run_with_stop_leaves_each_airspace_after_its_end(wind: bool) -> None:
         j = ends[e] if ends[e] else n_steps
         for f in FIELDS:
             np.testing.assert_array_equal(
-                _bits(getattr(run_sim, f)[e], act[e]), _bits(states[j - 1][f][e], act[e]), err_msg=f"airspace {e} (end {j}): {f}"
+                bits(getattr(run_sim, f)[e], act[e]), bits(states[j - 1][f][e], act[e]), err_msg=f"airspace {e} (end {j}): {f}"
             )
         # The track holds the positions up to the end.
-        np.testing.assert_array_equal(_bits(track[j - 1, 0, e], act[e]), _bits(states[j - 1]["lat"][e], act[e]))
+        np.testing.assert_array_equal(bits(track[j - 1, 0, e], act[e]), bits(states[j - 1]["lat"][e], act[e]))
     # Stepping on afterwards continues from there, for every airspace alike.
     run_sim.step()
     ref.step()
@@ -80,7 +76,7 @@ def test_run_with_stop_when_every_airspace_ended_stops_the_clock_at_the_last_end
         ref.step()
         states.append(ref.lat.copy())
     for e in range(5):
-        np.testing.assert_array_equal(_bits(run_sim.lat[e], act[e]), _bits(states[ends[e] - 1][e], act[e]))
+        np.testing.assert_array_equal(bits(run_sim.lat[e], act[e]), bits(states[ends[e] - 1][e], act[e]))
     # Nothing ended: the same as run(n).
     a, b = _pair(3, wind=False)
     a.run(6, stop=lambda track: np.zeros(3, np.int64))
@@ -107,7 +103,7 @@ def test_run_with_stop_on_the_oracle_is_the_same() -> None:
         sim.run(5, stop=lambda track: ends)
         sims.append(sim)
     for f in FIELDS:
-        np.testing.assert_array_equal(_bits(getattr(sims[0], f), sims[0].active), _bits(getattr(sims[1], f), sims[0].active), err_msg=f)
+        np.testing.assert_array_equal(bits(getattr(sims[0], f), sims[0].active), bits(getattr(sims[1], f), sims[0].active), err_msg=f)
 
 
 def test_set_autopilot_and_set_state_write_only_what_is_given() -> None:

@@ -19,7 +19,7 @@ from bluesky_gym.core import Simulator
 from bluesky_gym.core.conflicts import detect, detect_statebased
 from bluesky_gym.core.units import R_EARTH
 
-from .reference_scenarios import DATA, SCENARIOS, TYPES_ENROUTE, Scenario, _types_one_call, load_reference, run, run_alone
+from .reference_scenarios import SCENARIOS, TYPES_ENROUTE, Scenario, _types_one_call, load_reference, open_recording, recording_names, run, run_alone
 
 DEG_M = math.pi / 180.0 * R_EARTH  # metres per degree of latitude
 TOL = {
@@ -76,13 +76,13 @@ def test_reference_scenario(name: str) -> None:
 
 def test_reference_data_is_complete() -> None:
     """Every recorded scenario except VNAV (s8, documented as left out) has a replay."""
-    recorded = {p.stem for p in DATA.glob("s*.csv") if not p.stem.endswith("_cd") and "_cd_" not in p.stem}
+    recorded = {n for n in recording_names("s*") if not n.endswith("_cd") and "_cd_" not in n}
     assert recorded - set(SCENARIOS) == {"s8_route_vnav"}
 
 
 def _read_cd(name: str) -> dict[int, dict[tuple[str, str], dict[str, float | str]]]:
     out: dict[int, dict] = {}
-    with open(DATA / f"{name}_cd.csv", newline="") as fh:
+    with open_recording(f"{name}_cd") as fh:
         for row in csv.DictReader(fh):
             key = (row["ownship"], row["intruder"])
             entry = out.setdefault(int(float(row["t"])), {}).setdefault(key, {})

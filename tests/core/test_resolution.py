@@ -17,7 +17,7 @@ from bluesky_gym.core.resolution import RESO_FACTOR, MVPResolver, ResolutionSett
 A320 = aircraft_performance("A320")
 
 
-def _detect(sim: Simulator, rpz: float = PZ_RADIUS):  # noqa: ANN202
+def _detect(sim: Simulator, rpz: float = PZ_RADIUS):
     return detect(sim.lat, sim.lon, sim.alt, sim.gs, sim.trk, sim.vs, sim.active, rpz, PZ_HEIGHT, LOOKAHEAD)
 
 

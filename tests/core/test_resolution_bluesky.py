@@ -34,14 +34,14 @@ import pytest
 
 pytest.importorskip("bluesky")
 
-import gymnasium as gym  # noqa: E402
+import gymnasium as gym
 
-import bluesky_gym  # noqa: E402,F401  (registers the environments)
-from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics  # noqa: E402
-from bluesky_gym.core.aircraft import aircraft_performance  # noqa: E402
-from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect  # noqa: E402
-from bluesky_gym.core.resolution import MVPResolver, Resolution, ResolutionSettings, mvp, vertical_speed_limits  # noqa: E402
-from bluesky_gym.core.units import FT, KTS  # noqa: E402
+import bluesky_gym  # noqa: F401  (registers the environments)
+from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
+from bluesky_gym.core.aircraft import aircraft_performance
+from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect
+from bluesky_gym.core.resolution import MVPResolver, Resolution, ResolutionSettings, mvp, vertical_speed_limits
+from bluesky_gym.core.units import FT, KTS
 
 A320 = aircraft_performance("A320")
 

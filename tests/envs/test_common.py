@@ -10,6 +10,7 @@ from gymnasium.utils.env_checker import check_env
 import bluesky_gym
 from bluesky_gym.registration import available_envs
 
+from ..conftest import same_values
 from .expected_spaces import ACTION_SHAPE, DTYPE, MAX_EPISODE_STEPS, OBSERVATION, REFERENCE_INFO_KEYS
 
 IDS = available_envs()
@@ -27,16 +28,6 @@ def _rollout(env, seed: int, n: int, action_seed: int = 0):
             obs, info = env.reset()
             out.append((obs, None, None, None, info))
     return out
-
-
-def _equal(a, b) -> bool:
-    if isinstance(a, (tuple, list)):
-        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
-    if isinstance(a, (np.ndarray, float, np.floating)):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
-    return a == b
 
 
 def test_all_seven_registered() -> None:
@@ -95,8 +86,8 @@ def test_same_seed_same_episode_other_seed_differs(env_id: str) -> None:
     a = _rollout(gym.make(env_id), seed=11, n=40)
     b = _rollout(gym.make(env_id), seed=11, n=40)
     c = _rollout(gym.make(env_id), seed=12, n=40)
-    assert len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
-    assert not _equal(a[0][0], c[0][0]), "another seed gave the same initial observation"
+    assert len(a) == len(b) and all(same_values(x, y) for x, y in zip(a, b))
+    assert not same_values(a[0][0], c[0][0]), "another seed gave the same initial observation"
 
 
 @pytest.mark.parametrize("env_id", IDS)
@@ -121,11 +112,11 @@ def test_vector_episode_equals_single_env(env_id: str) -> None:
     for i in range(n):
         env = gym.make(env_id)
         o, _ = env.reset(seed=seed + i)
-        assert _equal(o, {k: v[i] for k, v in vec_obs[0].items()})
+        assert same_values(o, {k: v[i] for k, v in vec_obs[0].items()})
         for t in range(steps):
             o, r, te, tr, _ = env.step(actions[t, i])
             assert r == vec_rew[t][i], f"episode {i} step {t}: reward {r} != {vec_rew[t][i]}"
-            assert _equal(o, {k: v[i] for k, v in vec_obs[t + 1].items()}), f"episode {i} step {t}: observation differs"
+            assert same_values(o, {k: v[i] for k, v in vec_obs[t + 1].items()}), f"episode {i} step {t}: observation differs"
             assert (te or tr) == vec_done[t][i]
             if te or tr:
                 o, _ = env.reset()
@@ -161,7 +152,7 @@ def test_out_of_range_actions_are_clipped(env_id: str) -> None:
     shape = a.action_space.shape
     ra = a.step(np.full(shape, 7.0))
     rb = b.step(np.full(shape, 1.0))
-    assert _equal(ra[0], rb[0]) and ra[1] == rb[1]
+    assert same_values(ra[0], rb[0]) and ra[1] == rb[1]
 
 
 @pytest.mark.parametrize("env_id", IDS)

@@ -37,6 +37,7 @@ def test_a_v1_id_for_every_v0_id_and_v0_unchanged() -> None:
     assert len(V1) == 8  # the paper's seven and RealTrafficCREnv
     for env_id in V1:
         assert gym.spec(env_id).kwargs["float32_spaces"] is True
+        assert gym.spec(env_id).kwargs["env_id"] == env_id  # passed to the constructor, whose errors name it
         assert gym.spec(env_id.replace("-v1", "-v0")).kwargs == {}  # -v0: the defaults, the paper's MDP
 
 
@@ -260,7 +261,7 @@ def test_real_traffic_v1_has_the_float32_finite_spaces_that_v0_lacks() -> None:
     o1, _ = v1.reset(seed=4)
     np.testing.assert_array_equal(o1["intruders"], o0["intruders"].reshape(-1).astype(np.float32))
     np.testing.assert_array_equal(o1["ownship"], o0["ownship"].astype(np.float32))
-    assert gym.spec("RealTrafficCREnv-v1").kwargs == {"float32_spaces": True}
+    assert gym.spec("RealTrafficCREnv-v1").kwargs == {"env_id": "RealTrafficCREnv-v1", "float32_spaces": True}  # the id, for its errors
 
 
 def test_real_traffic_v1_position_bound_follows_the_scenario_options() -> None:

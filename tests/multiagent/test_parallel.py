@@ -11,14 +11,16 @@ import pytest
 
 pytest.importorskip("pettingzoo")
 
-from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
+from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-from bluesky_gym.core import geo  # noqa: E402
-from bluesky_gym.core.extras import install_hint  # noqa: E402
-from bluesky_gym.multiagent import names, parallel_env, require_pettingzoo  # noqa: E402
-from bluesky_gym.multiagent.base import STATE_FEATURES  # noqa: E402
-from bluesky_gym.tasks import merge as mg  # noqa: E402
-from bluesky_gym.tasks.geometry import point_at_distance  # noqa: E402
+from bluesky_gym.core import geo
+from bluesky_gym.core.extras import install_hint
+from bluesky_gym.multiagent import names, parallel_env, require_pettingzoo
+from bluesky_gym.multiagent.base import STATE_FEATURES
+from bluesky_gym.tasks import merge as mg
+from bluesky_gym.tasks.geometry import point_at_distance
+
+from ..conftest import same_values
 
 NAMES = names()
 
@@ -37,14 +39,6 @@ def test_parallel_seed(name: str) -> None:
     parallel_seed_test(lambda: parallel_env(name), num_cycles=50)
 
 
-def _equal(a, b) -> bool:
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
-    if isinstance(a, (list, tuple)):
-        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b, strict=True))
-    return np.array_equal(np.asarray(a), np.asarray(b))
-
-
 @pytest.mark.parametrize("name", NAMES)
 def test_reset_seed_gives_the_same_episode(name: str) -> None:
     env = parallel_env(name)
@@ -58,12 +52,12 @@ def test_reset_seed_gives_the_same_episode(name: str) -> None:
             out.append(env.step(actions)[:2])
         rng = np.random.default_rng(0)
         runs.append(out)
-    assert _equal(runs[0], runs[1])
-    assert not _equal(runs[0][0], runs[2][0])
+    assert same_values(runs[0], runs[1])
+    assert not same_values(runs[0][0], runs[2][0])
     # A reset without a seed continues the generator: a new scenario.
     env.reset(seed=7)
     obs, _ = env.reset()
-    assert not _equal(obs, runs[0][0])
+    assert not same_values(obs, runs[0][0])
 
 
 def test_sector_agent_leaves_when_it_exits() -> None:

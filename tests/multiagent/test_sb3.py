@@ -7,18 +7,18 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3 import PPO
 
-from bluesky_gym.multiagent.evaluation import evaluate, kpi_table, summarise  # noqa: E402
-from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask  # noqa: E402
-from bluesky_gym.multiagent.policies import GeometricCRPolicy, RandomPolicy, SharedSB3Policy  # noqa: E402
-from bluesky_gym.multiagent.sb3 import (  # noqa: E402
+from bluesky_gym.multiagent.evaluation import evaluate, kpi_table, summarise
+from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
+from bluesky_gym.multiagent.policies import GeometricCRPolicy, RandomPolicy, SharedSB3Policy
+from bluesky_gym.multiagent.sb3 import (
     LiveRowsRolloutBuffer,
     LiveRowsVecNormalize,
     SharedPolicyVecEnv,
     track_live_rows,
 )
-from bluesky_gym.tasks.geometry import point_at_distance  # noqa: E402
+from bluesky_gym.tasks.geometry import point_at_distance
 
 
 def test_rows_are_agent_slots() -> None:

@@ -6,9 +6,9 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from bluesky_gym.multiagent.evaluation import evaluate, summarise  # noqa: E402
-from bluesky_gym.multiagent.policies import RandomPolicy, SharedSB3Policy  # noqa: E402
-from bluesky_gym.multiagent.train import main, train  # noqa: E402
+from bluesky_gym.multiagent.evaluation import evaluate, summarise
+from bluesky_gym.multiagent.policies import RandomPolicy, SharedSB3Policy
+from bluesky_gym.multiagent.train import main, train
 
 
 @pytest.mark.slow

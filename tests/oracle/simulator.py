@@ -47,11 +47,11 @@ BANK_LNAV = np.deg2rad(np.rad2deg(BANK))
 class OracleSimulator(Simulator):
     """A :class:`~bluesky_gym.core.Simulator` stepped by the numpy oracle."""
 
-    def __init__(self, *args, **kwargs) -> None:  # noqa: ANN002, ANN003
+    def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
         self._oracle_qdrdist = ogeo.qdrdist if self.geo == "compiled" else ogeo.qdrdist_python
 
-    def creconfs(self, env, target, slot, dpsi, dcpa, tlosh, dh=None, tlosv=None, spd=None, actype=None) -> None:  # noqa: ANN001
+    def creconfs(self, env, target, slot, dpsi, dcpa, tlosh, dh=None, tlosv=None, spd=None, actype=None) -> None:
         """``creconfs`` through the numpy oracle of the conflict geometry."""
         oconf.create_conflicts(self, env, target, slot, dpsi, dcpa, tlosh, dh, tlosv, spd, actype=actype)
 

@@ -16,7 +16,7 @@ DRIFT_PENALTY = -0.01  # per rad of |drift|
 INTRUSION_PENALTY = -5.0  # per obstacle containing the aircraft
 
 
-def reference_substeps(task) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:  # noqa: ANN001 - a StaticObstacleTask
+def reference_substeps(task) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """Run one decision step's sub-steps of a one-airspace task; reward, done and components of the last one."""
     assert task.n_envs == 1
     sim = task.sim

@@ -13,6 +13,7 @@ import bluesky_gym
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE
 from bluesky_gym.tasks.real_traffic import RealTrafficConfig, episode_data
 
+from ..conftest import same_values
 from .synthetic import save, traffic_collection
 
 bluesky_gym.register_envs()
@@ -34,14 +35,6 @@ def _episode(env, seed: int, actions: np.ndarray) -> list:
         if te or tr:
             break
     return out
-
-
-def _same(a, b) -> bool:
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
-    if isinstance(a, (list, tuple)):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    return np.array_equal(np.asarray(a), np.asarray(b))
 
 
 def test_contract_and_kpis(options) -> None:
@@ -68,8 +61,8 @@ def test_same_seed_same_episode_other_seed_different(options) -> None:
     a = _episode(gym.make(ENV, **options), 11, actions)
     b = _episode(gym.make(ENV, **options), 11, actions)
     c = _episode(gym.make(ENV, **options), 12, actions)
-    assert _same(a, b)
-    assert not _same(a, c)
+    assert same_values(a, b)
+    assert not same_values(a, c)
 
 
 def test_batched_equals_single(options) -> None:
@@ -83,11 +76,11 @@ def test_batched_equals_single(options) -> None:
     for i in range(n):
         env = gym.make(ENV, **options)
         o, _ = env.reset(seed=seed + i)
-        assert _same(o, {k: v[i] for k, v in batched[0].items()})
+        assert same_values(o, {k: v[i] for k, v in batched[0].items()})
         for k, a in enumerate(actions):
             o, r, te, tr, _ = env.step(a[i])
             bo, br, bte, btr, _ = batched[k + 1]
-            assert _same(o, {key: v[i] for key, v in bo.items()}) and r == br[i] and (te, tr) == (bte[i], btr[i])
+            assert same_values(o, {key: v[i] for key, v in bo.items()}) and r == br[i] and (te, tr) == (bte[i], btr[i])
 
 
 def test_evaluation_seeds_draw_from_the_test_split(options) -> None:

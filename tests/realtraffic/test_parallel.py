@@ -9,11 +9,11 @@ import pytest
 
 pytest.importorskip("pettingzoo")
 
-from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
+from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-from bluesky_gym.multiagent.real_traffic import RealTrafficParallelEnv  # noqa: E402
+from bluesky_gym.multiagent.real_traffic import RealTrafficParallelEnv
 
-from .synthetic import joining_collection, save  # noqa: E402
+from .synthetic import joining_collection, save
 
 
 @pytest.fixture(scope="module")

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from bluesky_gym.core.atmosphere import tas2cas
+from bluesky_gym.core.command_text import time_stamp
 from bluesky_gym.core.geo import qdrdist
 from bluesky_gym.core.simulator import Simulator
 from bluesky_gym.core.units import FT, KTS, NM
@@ -15,10 +16,8 @@ from bluesky_gym.realtraffic.fidelity import DT as fidelity_dt
 from bluesky_gym.realtraffic.fidelity import fidelity, pair_los, window_scenario
 from bluesky_gym.realtraffic.fidelity import fly as fly_window
 from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, ScenarioPlayer, Window, split_windows, windows
-from bluesky_gym.scenarios import ScenarioPlayer as CommandPlayer
-from bluesky_gym.scenarios import parse_scenario
-from bluesky_gym.scenarios.export import scn_time
+from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, Window, WindowPlayer, split_windows, windows
+from bluesky_gym.scenarios import ScenarioPlayer, parse_scenario
 from bluesky_gym.scenarios.player import slots_needed, waypoints_needed
 
 from .synthetic import collection, fly, traffic_collection
@@ -40,7 +39,7 @@ def test_known_route_is_reproduced_within_tolerance() -> None:
     flights = _dogleg()
     assert flights.route_points(0).tolist() == [0, 48, 96, 144]
     sim = Simulator(1, 2, dt=1.0, max_waypoints=MAX_ROUTE_POINTS)
-    player = ScenarioPlayer(sim, flights)
+    player = WindowPlayer(sim, flights)
     player.load(np.array([0]), [Window(0.0, 1400.0, 0, ())])
     lateral, vertical = [], []
     for _ in range(140):
@@ -68,7 +67,7 @@ def test_aircraft_appear_and_leave_with_their_recordings() -> None:
     b = fly(47.2, 7.0, [(90.0, 20.0)], gs=200.0, alt=9000.0)  # about 3 minutes, appears at 120 s
     flights = collection([(0.0, a), (120.0, b)])
     sim = Simulator(1, 3, dt=1.0, max_waypoints=MAX_ROUTE_POINTS)
-    player = ScenarioPlayer(sim, flights)
+    player = WindowPlayer(sim, flights)
     player.load(np.array([0]), [Window(0.0, 600.0, 0, (1,))])
     seen = []
     for _ in range(60):
@@ -153,7 +152,7 @@ def _scn_window() -> tuple[RecordedFlights, Window]:
 def _fly_window(flights: RecordedFlights, window: Window) -> list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """(time in the window, lat, lon, alt, active) of the slots after every decision step of the replay with nobody acting."""
     sim = Simulator(1, len(window.flights), dt=fidelity_dt, max_waypoints=MAX_ROUTE_POINTS)
-    player = ScenarioPlayer(sim, flights)
+    player = WindowPlayer(sim, flights)
     player.load(np.array([0]), [window])
     return [
         (float(player.elapsed[0]), sim.lat[0].copy(), sim.lon[0].copy(), sim.alt[0].copy(), sim.active[0].copy())
@@ -192,7 +191,7 @@ def test_scn_file_of_a_window() -> None:
     # each is deleted at the first decision step after its last recorded sample, or at the end of the window
     dels = {ln.split()[1]: ln.split(">")[0] for ln in body if ">DEL " in ln}
     t_end = np.minimum(flights.t_end[list(window.flights)] - window.start, 600.0)
-    assert dels == {acid: scn_time(min(np.floor(t / 10.0 + 1e-9) * 10.0 + 10.0, 600.0)) for acid, t in zip(SCN_ACIDS, t_end)}
+    assert dels == {acid: time_stamp(min(np.floor(t / 10.0 + 1e-9) * 10.0 + 10.0, 600.0)) for acid, t in zip(SCN_ACIDS, t_end)}
     assert dels["EZY4U"] < "00:10:00.00" and dels["AC002"] < "00:10:00.00" and dels["SWR123"] == "00:10:00.00"
 
 
@@ -202,7 +201,7 @@ def test_scn_file_of_a_window_replays_exactly_on_the_core() -> None:
     scenario = parse_scenario(window_scenario(flights, window), "w.scn")
     track = _fly_window(flights, window)
     sim = Simulator(1, slots_needed(scenario), dt=fidelity_dt, max_waypoints=waypoints_needed(scenario))
-    player = CommandPlayer([scenario], sim)
+    player = ScenarioPlayer([scenario], sim)
     seen = np.zeros(len(SCN_ACIDS), bool)
     for t, lat, lon, alt, active in track:
         player.advance(int(round(t / fidelity_dt)) - player.steps_done)
@@ -312,7 +311,7 @@ def test_a_climb_steeper_than_the_type_can_fly_is_commanded_at_its_vsmax() -> No
     flights.typecode[:] = "B744"
     vsmax = aircraft_performance("B744").vsmax
     sim = Simulator(1, 2, dt=1.0, max_waypoints=MAX_ROUTE_POINTS)
-    player = ScenarioPlayer(sim, flights)
+    player = WindowPlayer(sim, flights)
     player.load(np.array([0]), [Window(0.0, 600.0, 0, ())])
     rates = []
     for _ in range(40):

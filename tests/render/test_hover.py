@@ -6,7 +6,6 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import bluesky_gym
 from bluesky_gym.registration import available_envs
 
 pygame = pytest.importorskip("pygame")
@@ -16,13 +15,6 @@ from bluesky_gym.render.backend import WINDOW  # noqa: E402
 from bluesky_gym.render.renderer import HOVER_PX, MAP_SIZE, draw_map, surface_to_array  # noqa: E402
 from bluesky_gym.render.scene import MapAircraft, MapScene  # noqa: E402
 from bluesky_gym.render.views import MapView  # noqa: E402
-
-
-@pytest.fixture(autouse=True)
-def _headless(monkeypatch: pytest.MonkeyPatch) -> None:
-    """No screen: SDL's dummy video driver (read when a window is opened)."""
-    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
-    bluesky_gym.register_envs()
 
 
 def _scene() -> tuple[MapScene, MapView]:

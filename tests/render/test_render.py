@@ -9,7 +9,6 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import bluesky_gym
 from bluesky_gym.core.extras import install_hint
 from bluesky_gym.registration import available_envs
 
@@ -18,13 +17,6 @@ pygame = pytest.importorskip("pygame")
 from bluesky_gym.render import make_renderer, palette, write_video  # noqa: E402
 
 IDS = available_envs()
-
-
-@pytest.fixture(autouse=True)
-def _headless(monkeypatch: pytest.MonkeyPatch) -> None:
-    """No screen: SDL's dummy video driver (read when a window is opened)."""
-    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
-    bluesky_gym.register_envs()
 
 
 def _act(env: gym.Env, rng: np.random.Generator) -> np.ndarray:

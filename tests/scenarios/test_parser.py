@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from bluesky_gym.core.units import FPM, FT, KTS
-from bluesky_gym.scenarios import ScenarioError, parse_scenario, read_scenario
-from bluesky_gym.scenarios.arguments import (
+from bluesky_gym.core.command_text import (
     is_latitude,
     parse_altitude,
     parse_heading,
@@ -19,6 +17,8 @@ from bluesky_gym.scenarios.arguments import (
     parse_vertical_speed,
     split_arguments,
 )
+from bluesky_gym.core.units import FPM, FT, KTS
+from bluesky_gym.scenarios import ScenarioError, parse_scenario, read_scenario
 from bluesky_gym.scenarios.parser import (
     AddWaypoint,
     Altitude,

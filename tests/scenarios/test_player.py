@@ -16,10 +16,11 @@ import pytest
 import bluesky_gym
 from bluesky_gym.cli import main
 from bluesky_gym.core import Simulator
+from bluesky_gym.core.command_text import speed, time_stamp
 from bluesky_gym.core.geo import qdrdist
 from bluesky_gym.core.units import FT, KTS, NM
 from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioError, ScenarioPlayer, parse_scenario, read_scenario
-from bluesky_gym.scenarios.export import ScenarioRecorder, scn_time, speed_text, unique_callsigns
+from bluesky_gym.scenarios.export import ScenarioRecorder, unique_callsigns
 from bluesky_gym.scenarios.geometries import shipped_scenario, shipped_scenarios, sphere_conflict, super_conflict, wall_conflict, write_shipped
 from bluesky_gym.scenarios.player import UnknownAircraftTypeWarning, common_dt, slots_needed, unknown_types, waypoints_needed
 from tests.core.reference_scenarios import DATA
@@ -165,8 +166,8 @@ def test_replay_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 
 
 def test_export_helpers() -> None:
-    assert scn_time(0.0) == "00:00:00.00" and scn_time(3725.256) == "01:02:05.26"
-    assert speed_text(0.78) == "M0.78" and speed_text(150 * KTS) == repr(150 * KTS / KTS)
+    assert time_stamp(0.0) == "00:00:00.00" and time_stamp(3725.256) == "01:02:05.26"
+    assert speed(0.78) == "M0.78" and speed(150 * KTS) == repr(150 * KTS / KTS)
 
 
 @pytest.mark.parametrize("env_id", ["HorizontalCREnv-v0", "MergeEnv-v0", "DescentEnv-v0", "VerticalCREnv-v0", "SectorCREnv-v0"])

@@ -15,7 +15,7 @@ import pytest
 from bluesky_gym.core import Simulator
 from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioPlayer, parse_scenario, read_scenario
 from bluesky_gym.scenarios.player import slots_needed, waypoints_needed
-from tests.core.reference_scenarios import DATA
+from tests.core.reference_scenarios import DATA, open_recording
 from tests.core.test_reference import TOL
 
 #: name -> (file, dt [s], duration [s]), as in make_reference.py's SCN_SCENARIOS.
@@ -37,7 +37,7 @@ ANGLES = ("hdg", "trk", "ap_trk")
 
 
 def load(name: str) -> list[dict[str, str]]:
-    with open(DATA / f"{name}.csv", newline="") as fh:
+    with open_recording(name) as fh:
         return list(csv.DictReader(fh))
 
 

@@ -10,7 +10,7 @@ from bluesky_gym.tasks.plan_waypoint import PlanWaypointTask
 from bluesky_gym.tasks.static_obstacle import StaticObstacleTask
 from bluesky_gym.tasks.vertical_cr import VerticalCRTask
 
-R_EARTH = 6371000.0  # m, radius of the kwik geometry
+from .conftest import R_EARTH
 
 
 def _task(n_envs: int, task_class: type = DescentTask) -> DescentTask:

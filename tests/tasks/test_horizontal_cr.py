@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -10,32 +12,17 @@ import pytest
 import bluesky_gym
 from bluesky_gym.tasks.horizontal_cr import HorizontalCRConfig, HorizontalCRTask
 
-R_EARTH = 6371000.0  # m, radius of the kwik geometry
-NM = 1852.0
+from .conftest import NM, R_EARTH, east_of, north_of, seeded_task
 
-
-def _task(n_envs: int = 1, seeds: list[int] | None = None, **options) -> HorizontalCRTask:
-    task = HorizontalCRTask(n_envs, HorizontalCRTask.make_config(options))
-    seeds = list(range(n_envs)) if seeds is None else seeds
-    task.seed(task.all_envs, [np.random.default_rng(s) for s in seeds])
-    task.reset()
-    return task
-
-
-def _north_of(lat: float, dist_m: float) -> float:
-    return lat + np.degrees(dist_m / R_EARTH)
-
-
-def _east_of(lat: float, lon: float, dist_m: float) -> float:
-    return lon + np.degrees(dist_m / (R_EARTH * np.cos(np.radians(lat))))
+_task = functools.partial(seeded_task, HorizontalCRTask)
 
 
 def _hand_built(task: HorizontalCRTask, wpt_north_m: float, hdg: float = 0.0) -> None:
     """Ownship at 52N 4E with heading ``hdg``, waypoint due north, intruders 60 km east."""
     s = task.sim
     s.lat[:, 0], s.lon[:, 0], s.hdg[:, 0] = 52.0, 4.0, hdg
-    s.lat[:, 1:], s.lon[:, 1:] = 52.0, _east_of(52.0, 4.0, 60_000.0)
-    task.wpt_lat[:], task.wpt_lon[:] = _north_of(52.0, wpt_north_m), 4.0
+    s.lat[:, 1:], s.lon[:, 1:] = 52.0, east_of(52.0, 4.0, 60_000.0)
+    task.wpt_lat[:], task.wpt_lon[:] = north_of(52.0, wpt_north_m), 4.0
 
 
 # --- reward ----------------------------------------------------------------------------------------
@@ -43,11 +30,11 @@ def test_reward_drift_intrusion_and_reach() -> None:
     task = _task(3)
     _hand_built(task, wpt_north_m=50_000.0, hdg=30.0)
     s = task.sim
-    s.lat[1, 2], s.lon[1, 2] = _north_of(52.0, 4 * NM), 4.0  # env 1: one intruder at 4 NM
-    s.lat[1, 4], s.lon[1, 4] = 52.0, _east_of(52.0, 4.0, 6 * NM)  # and one at 6 NM (no intrusion)
-    s.lat[2, 1], s.lon[2, 1] = _north_of(52.0, 1 * NM), 4.0  # env 2: two intruders within 5 NM
-    s.lat[2, 3], s.lon[2, 3] = 52.0, _east_of(52.0, 4.0, -3 * NM)
-    task.wpt_lat[2] = _north_of(52.0, 4_000.0)  # and the waypoint within 5 km
+    s.lat[1, 2], s.lon[1, 2] = north_of(52.0, 4 * NM), 4.0  # env 1: one intruder at 4 NM
+    s.lat[1, 4], s.lon[1, 4] = 52.0, east_of(52.0, 4.0, 6 * NM)  # and one at 6 NM (no intrusion)
+    s.lat[2, 1], s.lon[2, 1] = north_of(52.0, 1 * NM), 4.0  # env 2: two intruders within 5 NM
+    s.lat[2, 3], s.lon[2, 3] = 52.0, east_of(52.0, 4.0, -3 * NM)
+    task.wpt_lat[2] = north_of(52.0, 4_000.0)  # and the waypoint within 5 km
     g = task.measure()
     task.observe(g)
     reward, terminated, comp = task.reward(g)
@@ -97,7 +84,7 @@ def test_reach_is_decided_on_the_returned_observation_within_the_step() -> None:
     # 89 m/s for 50 s covers ~4.45 km: from 8.5 km the waypoint is inside 5 km after one step.
     task.step(np.zeros((1, 1)))  # let the ownship settle at 89 m/s
     s = task.sim
-    task.wpt_lat[0], task.wpt_lon[0] = _north_of(s.lat[0, 0], 8_500.0), s.lon[0, 0]
+    task.wpt_lat[0], task.wpt_lon[0] = north_of(s.lat[0, 0], 8_500.0), s.lon[0, 0]
     s.hdg[0, 0] = 0.0
     task.observe()
     res = task.step(np.zeros((1, 1)))
@@ -121,8 +108,8 @@ def test_observation_matches_hand_computed_geometry() -> None:
     s = task.sim
     s.gs[0, 0] = 89.0
     # Intruder 1: 15 km due east, flying west at 80 m/s. Intruder 2: 45 km due north, flying north at 89 m/s.
-    s.lat[0, 1], s.lon[0, 1], s.hdg[0, 1], s.gs[0, 1] = 52.0, _east_of(52.0, 4.0, 15_000.0), 270.0, 80.0
-    s.lat[0, 2], s.lon[0, 2], s.hdg[0, 2], s.gs[0, 2] = _north_of(52.0, 45_000.0), 4.0, 0.0, 89.0
+    s.lat[0, 1], s.lon[0, 1], s.hdg[0, 1], s.gs[0, 1] = 52.0, east_of(52.0, 4.0, 15_000.0), 270.0, 80.0
+    s.lat[0, 2], s.lon[0, 2], s.hdg[0, 2], s.gs[0, 2] = north_of(52.0, 45_000.0), 4.0, 0.0, 89.0
     obs = task.observe()
     assert set(obs) == {
         "intruder_distance",
@@ -243,8 +230,8 @@ def test_ownship_separation_drift_and_extra_track() -> None:
     task = _task(1)
     _hand_built(task, wpt_north_m=50_000.0, hdg=350.0)
     s = task.sim
-    s.lat[0, 1], s.lon[0, 1] = _north_of(52.0, 4.5 * NM), 4.0
-    s.lat[0, 2], s.lon[0, 2] = 52.0, _east_of(52.0, 4.0, 5.5 * NM)
+    s.lat[0, 1], s.lon[0, 1] = north_of(52.0, 4.5 * NM), 4.0
+    s.lat[0, 2], s.lon[0, 2] = 52.0, east_of(52.0, 4.0, 5.5 * NM)
     s.active[0, 4] = False
     dist, los = task.ownship_separation()
     assert dist[0, 0] == np.inf and dist[0, 4] == np.inf

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import gymnasium as gym
@@ -13,16 +14,9 @@ from bluesky_gym.core import geo
 from bluesky_gym.tasks.geometry import initial_bearing
 from bluesky_gym.tasks.merge import FAF_LAT, FAF_LON, RWY_LAT, RWY_LON, MergeConfig, MergeTask
 
-R_EARTH = 6371000.0  # m, radius of the kwik geometry and of the reference's spawn geometry
-NM = 1852.0
+from .conftest import NM, R_EARTH, seeded_task
 
-
-def _task(n_envs: int = 1, seeds: list[int] | None = None, **options) -> MergeTask:
-    task = MergeTask(n_envs, MergeTask.make_config(options))
-    seeds = list(range(n_envs)) if seeds is None else seeds
-    task.seed(task.all_envs, [np.random.default_rng(s) for s in seeds])
-    task.reset()
-    return task
+_task = functools.partial(seeded_task, MergeTask)
 
 
 def _haversine_km(lat1, lon1, lat2, lon2):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 
@@ -13,34 +14,11 @@ import bluesky_gym
 from bluesky_gym.envs.plan_waypoint_env import PlanWaypointEnv
 from bluesky_gym.tasks.plan_waypoint import PlanWaypointConfig, PlanWaypointTask
 
+from .conftest import R_KM, great_circle, kwik, seeded_task
+
 bluesky_gym.register_envs()
 
-R_KM = 6371.0
-
-
-def kwik(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
-    """Flat-earth bearing [deg] and distance [km], written out independently (docs/environments-v0.md, Conventions)."""
-    dlat = math.radians(lat2) - math.radians(lat1)
-    dlon = math.radians(lon2) - math.radians(lon1)
-    c = math.cos(0.5 * (math.radians(lat1) + math.radians(lat2)))
-    return math.degrees(math.atan2(dlon * c, dlat)), R_KM * math.hypot(dlat, dlon * c)
-
-
-def great_circle(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
-    """Initial bearing [deg, 0..360) and haversine distance [km] on a 6371 km sphere."""
-    p1, p2 = math.radians(lat1), math.radians(lat2)
-    dl = math.radians(lon2 - lon1)
-    a = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
-    d = 2 * R_KM * math.asin(math.sqrt(a))
-    b = math.degrees(math.atan2(math.sin(dl) * math.cos(p2), math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) * math.cos(dl)))
-    return b % 360, d
-
-
-def seeded_task(seeds: list[int], **options) -> PlanWaypointTask:
-    task = PlanWaypointTask(len(seeds), PlanWaypointTask.make_config(options))
-    task.seed(task.all_envs, [np.random.default_rng(s) for s in seeds])
-    task.reset()
-    return task
+_task = functools.partial(seeded_task, PlanWaypointTask)
 
 
 def place_waypoint(task: PlanWaypointTask, e: int, i: int, north_km: float, east_km: float = 0.0) -> None:
@@ -91,7 +69,7 @@ def test_options_change_the_scenario() -> None:
 
 # --- scenario ---------------------------------------------------------------------------------------
 def test_scenario_draws_over_200_seeds() -> None:
-    task = seeded_task(list(range(200)))
+    task = _task(seeds=list(range(200)))
     sim = task.sim
     # A clean start: the creation point, heading north, on the ground, CAS 150 requested.
     assert np.all(sim.lat[:, 0] == 52.0) and np.all(sim.lon[:, 0] == 4.0)
@@ -111,7 +89,7 @@ def test_scenario_draws_over_200_seeds() -> None:
     assert not task.wpt_reached.any()
     # Different seeds give different scenarios; the same seed the same one.
     assert len({tuple(row) for row in d.tolist()}) > 190
-    again = seeded_task([17])
+    again = _task(seeds=[17])
     np.testing.assert_array_equal(again.wpt_lat[0], task.wpt_lat[17])
 
 
@@ -129,7 +107,7 @@ def test_reset_after_truncation_starts_clean() -> None:
 
 # --- observation ------------------------------------------------------------------------------------
 def test_observation_matches_hand_computed_geometry() -> None:
-    task = seeded_task([0])
+    task = _task(seeds=[0])
     sim = task.sim
     sim.lat[0, 0], sim.lon[0, 0], sim.hdg[0, 0] = 52.3, 4.7, 350.0
     pts = [(52.0, 4.65), (52.5, 5.2), (52.31, 4.69), (51.9, 3.9), (52.3, 4.7)]
@@ -158,7 +136,7 @@ def test_observation_matches_hand_computed_geometry() -> None:
 
 # --- action and physics -----------------------------------------------------------------------------
 def test_heading_action_is_unwrapped_hdg_plus_45a() -> None:
-    task = seeded_task([0, 1])
+    task = _task(seeds=[0, 1])
     task.sim.hdg[:, 0] = [10.0, 350.0]
     task.apply_action(np.array([[-1.0], [0.5]]))
     np.testing.assert_array_equal(task.sim.ap_trk[:, 0], [-35.0, 372.5])
@@ -169,7 +147,7 @@ def test_heading_action_is_unwrapped_hdg_plus_45a() -> None:
 
 
 def test_aircraft_stays_on_the_ground_at_89_mps() -> None:
-    task = seeded_task([3])
+    task = _task(seeds=[3])
     for _ in range(5):
         task.step(np.zeros((1, 1)))
     assert task.sim.alt[0, 0] == 0.0
@@ -178,7 +156,7 @@ def test_aircraft_stays_on_the_ground_at_89_mps() -> None:
 
 # --- reward, termination, one-step lag ----------------------------------------------------------------
 def test_reward_counts_each_newly_reached_waypoint_once() -> None:
-    task = seeded_task([2])
+    task = _task(seeds=[2])
     for i, north in enumerate([4.99, 5.01, -3.0, 40.0, 60.0]):
         place_waypoint(task, 0, i, north)
     r, te, comp = task.reward(task.measure())
@@ -229,7 +207,7 @@ def test_episode_ends_when_all_reached_with_kpis() -> None:
 
 
 def test_shortest_tour_matches_brute_force() -> None:
-    task = seeded_task([21, 22, 23])
+    task = _task(seeds=[21, 22, 23])
     for e in range(3):
         nodes = [(52.0, 4.0)] + list(zip(task.wpt_lat[e], task.wpt_lon[e], strict=True))
         best = min(
@@ -239,7 +217,7 @@ def test_shortest_tour_matches_brute_force() -> None:
 
 
 def test_shortest_tour_in_chunks_for_eight_waypoints() -> None:
-    task = seeded_task(list(range(7)), num_waypoints=8)  # 8! orders: a few episodes per chunk
+    task = _task(seeds=list(range(7)), num_waypoints=8)  # 8! orders: a few episodes per chunk
     for e in range(7):
         assert task.tour_km[e] == task._shortest_tour_km(np.array([e]))[0]
     assert len(set(task.tour_km.tolist())) == 7

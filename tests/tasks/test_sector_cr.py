@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import gymnasium as gym
@@ -13,17 +14,10 @@ import bluesky_gym
 from bluesky_gym.tasks.geometry import initial_bearing, nm_to_latlon
 from bluesky_gym.tasks.sector_cr import CENTER, SectorCRConfig, SectorCRTask
 
-R_EARTH = 6371000.0  # m, radius of the kwik geometry
-NM = 1852.0
+from .conftest import NM, R_EARTH, seeded_task
+
+_task = functools.partial(seeded_task, SectorCRTask)
 COS_C = math.cos(math.radians(CENTER[0]))
-
-
-def _task(n_envs: int = 1, seeds: list[int] | None = None, **options) -> SectorCRTask:
-    task = SectorCRTask(n_envs, SectorCRTask.make_config(options))
-    seeds = list(range(n_envs)) if seeds is None else seeds
-    task.seed(task.all_envs, [np.random.default_rng(s) for s in seeds])
-    task.reset()
-    return task
 
 
 def _latlon(north_nm: float, east_nm: float) -> tuple[float, float]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import gymnasium as gym
@@ -13,38 +14,15 @@ import bluesky_gym
 from bluesky_gym.tasks.static_obstacle import StaticObstacleConfig, StaticObstacleTask, sample_waypoint
 from tests.oracle.static_obstacle import reference_substeps
 
+from .conftest import great_circle, kwik, seeded_task
+
 bluesky_gym.register_envs()
 
-R_KM = 6371.0
-
-
-def kwik(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
-    """Flat-earth bearing [deg, mod 360] and distance [km], written out independently (docs/environments-v0.md, Conventions)."""
-    dlat = math.radians(lat2) - math.radians(lat1)
-    dlon = math.radians(lon2) - math.radians(lon1)
-    c = math.cos(0.5 * (math.radians(lat1) + math.radians(lat2)))
-    return math.degrees(math.atan2(dlon * c, dlat)) % 360.0, R_KM * math.hypot(dlat, dlon * c)
-
-
-def great_circle(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
-    """Initial bearing [deg, 0..360) and haversine distance [km] on a 6371 km sphere."""
-    p1, p2 = math.radians(lat1), math.radians(lat2)
-    dl = math.radians(lon2 - lon1)
-    a = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
-    d = 2 * R_KM * math.asin(math.sqrt(a))
-    b = math.degrees(math.atan2(math.sin(dl) * math.cos(p2), math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) * math.cos(dl)))
-    return b % 360, d
+_task = functools.partial(seeded_task, StaticObstacleTask)
 
 
 def wrap(x: float) -> float:
     return x - 360 if x > 180 else x + 360 if x < -180 else x
-
-
-def seeded_task(seeds: list[int], **options) -> StaticObstacleTask:
-    task = StaticObstacleTask(len(seeds), StaticObstacleTask.make_config(options))
-    task.seed(task.all_envs, [np.random.default_rng(s) for s in seeds])
-    task.reset()
-    return task
 
 
 def set_square(task: StaticObstacleTask, e: int, i: int, lat: float, lon: float, half: float) -> None:
@@ -100,7 +78,7 @@ def test_defaults_are_the_reference_values() -> None:
 
 
 def test_options_change_the_scenario() -> None:
-    task = seeded_task([0, 1], num_obstacles=4, obstacle_distance_min=60, obstacle_distance_max=61, obstacle_area_max=400)
+    task = _task(seeds=[0, 1], num_obstacles=4, obstacle_distance_min=60, obstacle_distance_max=61, obstacle_area_max=400)
     assert task.observe()["restricted_area_radius"].shape == (2, 4)
     for e in range(2):
         for i in range(4):
@@ -111,7 +89,7 @@ def test_options_change_the_scenario() -> None:
 # --- scenario ---------------------------------------------------------------------------------------
 def test_scenario_draws_over_200_seeds() -> None:
     n = 200
-    task = seeded_task(list(range(n)))
+    task = _task(seeds=list(range(n)))
     sim = task.sim
     assert np.all(sim.lat[:, 0] == 52.0) and np.all(sim.lon[:, 0] == 4.0) and np.all(sim.alt[:, 0] == 350.0)
     np.testing.assert_allclose(sim.cas[:, 0], 150.0)
@@ -143,6 +121,7 @@ def test_scenario_draws_over_200_seeds() -> None:
         assert b == pytest.approx(round(b) % 360, abs=1e-6)
         # The aircraft starts pointing at the waypoint (hdg and autopilot track).
         qdr, dist = kwik(52.0, 4.0, task.wpt_lat[e], task.wpt_lon[e])
+        qdr %= 360.0  # headings are kept in [0, 360)
         assert sim.hdg[e, 0] == pytest.approx(qdr, abs=1e-9) and sim.ap_trk[e, 0] == sim.hdg[e, 0]
         assert task.start_wpt_km[e] == pytest.approx(dist, rel=1e-12)
     centre_d, centre_b, areas = np.array(centre_d), np.array(centre_b), np.array(areas)
@@ -204,7 +183,7 @@ def test_generation_raises_when_obstacles_cover_the_waypoint_range() -> None:
 
 # --- observation ------------------------------------------------------------------------------------
 def test_observation_matches_hand_computed_geometry() -> None:
-    task = seeded_task([0])
+    task = _task(seeds=[0])
     sim = task.sim
     sim.lat[0, 0], sim.lon[0, 0], sim.hdg[0, 0] = 52.2, 3.8, 200.0
     task.wpt_lat[0], task.wpt_lon[0] = 52.9, 4.1
@@ -234,7 +213,7 @@ def test_observation_matches_hand_computed_geometry() -> None:
 
 # --- action -----------------------------------------------------------------------------------------
 def test_action_maps_to_wrapped_heading_and_speed_in_mps() -> None:
-    task = seeded_task([0, 1])
+    task = _task(seeds=[0, 1])
     task.sim.hdg[:, 0] = [170.0, 10.0]
     cas = task.sim.cas[:, 0].copy()
     task.apply_action(np.array([[1.0, -1.0], [-0.5, 0.5]]))
@@ -246,7 +225,7 @@ def test_action_maps_to_wrapped_heading_and_speed_in_mps() -> None:
 
 # --- reward -----------------------------------------------------------------------------------------
 def test_reward_uses_stale_waypoint_values_and_live_position() -> None:
-    task = seeded_task([3])
+    task = _task(seeds=[3])
     sim = task.sim
     clear_obstacles(task, 0)
     task.last_wpt_km[0], task.last_drift[0] = 50.0, -30.0
@@ -265,7 +244,7 @@ def test_reward_uses_stale_waypoint_values_and_live_position() -> None:
 
 
 def test_intrusion_penalty_per_containing_obstacle() -> None:
-    task = seeded_task([4])
+    task = _task(seeds=[4])
     clear_obstacles(task, 0)
     task.last_wpt_km[0], task.last_drift[0] = 80.0, 0.0
     lat, lon = task.sim.lat[0, 0], task.sim.lon[0, 0]
@@ -330,7 +309,7 @@ def _point(lat: float, lon: float, d_km: float, bearing: float) -> tuple[float, 
 
 def _crash_course(seed: int, k: int) -> tuple[StaticObstacleTask, list[tuple[float, float]]]:
     """A single episode whose only obstacle is entered during sub-step k (0-based) of step 1."""
-    probe = seeded_task([seed])
+    probe = _task(seeds=[seed])
     clear_obstacles(probe, 0)
     probe.apply_action(np.zeros((1, 2)))
     path = [(probe.sim.lat[0, 0], probe.sim.lon[0, 0])]
@@ -356,8 +335,8 @@ def _arm(task: StaticObstacleTask, e: int, path: list[tuple[float, float]], k: i
 def test_episode_ending_mid_step_returns_that_substep_in_a_batch() -> None:
     seeds, crash, k = [31, 32, 33], 1, 4
     _, path = _crash_course(seeds[crash], k)
-    batch = seeded_task(seeds)
-    alone = [seeded_task([s]) for s in seeds]
+    batch = _task(seeds=seeds)
+    alone = [_task(seeds=[s]) for s in seeds]
     for e in range(3):
         clear_obstacles(batch, e)
         clear_obstacles(alone[e], 0)
@@ -411,7 +390,7 @@ def test_vector_env_resets_a_crashed_episode_and_keeps_the_others() -> None:
 class _ReferenceLoopTask(StaticObstacleTask):
     """One airspace stepped sub-step by sub-step as the reference does (tests.oracle.static_obstacle)."""
 
-    def transition(self):  # noqa: ANN201
+    def transition(self):
         reward, terminated, components = reference_substeps(self)
         g = self.measure()
         self.remember(g)  # the waypoint values of this observation, for the next step
@@ -421,7 +400,7 @@ class _ReferenceLoopTask(StaticObstacleTask):
 def test_batched_substeps_equal_the_reference_loop_of_each_episode() -> None:
     seeds = [70, 71, 72, 73, 74, 75]
     options = {"num_obstacles": 14, "obstacle_area_max": 1500}  # crowded: crashes at every sub-step index
-    batch = seeded_task(seeds, **options)
+    batch = _task(seeds=seeds, **options)
     alone = []
     for s in seeds:
         t = _ReferenceLoopTask(1, StaticObstacleTask.make_config(options))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -10,26 +12,9 @@ import bluesky_gym
 from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.tasks.vertical_cr import VerticalCRConfig, VerticalCRTask
 
-R_EARTH = 6371000.0  # m, radius of the kwik geometry
-NM = 1852.0
+from .conftest import NM, R_EARTH, east_of, north_of, seeded_task
 
-
-def _task(n_envs: int = 1, seeds: list[int] | None = None, **options) -> VerticalCRTask:
-    task = VerticalCRTask(n_envs, VerticalCRTask.make_config(options))
-    seeds = list(range(n_envs)) if seeds is None else seeds
-    task.seed(task.all_envs, [np.random.default_rng(s) for s in seeds])
-    task.reset()
-    return task
-
-
-def _north_of(lat: float, dist_m: float) -> float:
-    """Latitude dist_m north of lat in the kwik (flat-earth, R = 6371 km) metric."""
-    return lat + np.degrees(dist_m / R_EARTH)
-
-
-def _east_of(lat: float, lon: float, dist_m: float) -> float:
-    """Longitude dist_m east of (lat, lon) in the kwik metric (same latitude)."""
-    return lon + np.degrees(dist_m / (R_EARTH * np.cos(np.radians(lat))))
+_task = functools.partial(seeded_task, VerticalCRTask)
 
 
 def _place_ownship(task: VerticalCRTask, alt: float, target: float) -> None:
@@ -38,7 +23,7 @@ def _place_ownship(task: VerticalCRTask, alt: float, target: float) -> None:
     task.target_alt[:] = target
     # Intruders far away by default (50 km east), at the ownship's altitude.
     s.lat[:, 1:] = 52.0
-    s.lon[:, 1:] = _east_of(52.0, 4.0, 50_000.0)
+    s.lon[:, 1:] = east_of(52.0, 4.0, 50_000.0)
     s.alt[:, 1:] = alt
 
 
@@ -48,13 +33,13 @@ def test_reward_altitude_term_and_intrusion_cylinder() -> None:
     _place_ownship(task, alt=3000.0, target=2600.0)
     s = task.sim
     # env 0: intruder 1 at 4 NM, 200 m above -> intrusion.
-    s.lat[0, 1], s.lon[0, 1], s.alt[0, 1] = _north_of(52.0, 4 * NM), 4.0, 3200.0
+    s.lat[0, 1], s.lon[0, 1], s.alt[0, 1] = north_of(52.0, 4 * NM), 4.0, 3200.0
     # env 1: intruder 1 at 4 NM but 400 m above (outside 304.8 m); intruder 2 at 6 NM level.
-    s.lat[1, 1], s.lon[1, 1], s.alt[1, 1] = _north_of(52.0, 4 * NM), 4.0, 3400.0
-    s.lat[1, 2], s.lon[1, 2], s.alt[1, 2] = 52.0, _east_of(52.0, 4.0, 6 * NM), 3000.0
+    s.lat[1, 1], s.lon[1, 1], s.alt[1, 1] = north_of(52.0, 4 * NM), 4.0, 3400.0
+    s.lat[1, 2], s.lon[1, 2], s.alt[1, 2] = 52.0, east_of(52.0, 4.0, 6 * NM), 3000.0
     # env 2: two intruders inside (1 NM, 100 m below; 3 NM, 300 m above).
-    s.lat[2, 1], s.lon[2, 1], s.alt[2, 1] = _north_of(52.0, 1 * NM), 4.0, 2900.0
-    s.lat[2, 3], s.lon[2, 3], s.alt[2, 3] = 52.0, _east_of(52.0, 4.0, 3 * NM), 3300.0
+    s.lat[2, 1], s.lon[2, 1], s.alt[2, 1] = north_of(52.0, 1 * NM), 4.0, 2900.0
+    s.lat[2, 3], s.lon[2, 3], s.alt[2, 3] = 52.0, east_of(52.0, 4.0, 3 * NM), 3300.0
     reward, terminated, comp = task.reward(task.measure())
     alt_term = -(5 / 3000) * 400.0
     np.testing.assert_allclose(comp["altitude"], alt_term, rtol=1e-12)
@@ -73,9 +58,9 @@ def test_reward_crash_and_runway_terminate_with_intrusions_added() -> None:
     _place_ownship(task, alt=3000.0, target=3000.0)
     s = task.sim
     s.alt[0, 0] = -5.0  # crashed; intruders 50 km away
-    s.lat[1, 0] = _north_of(52.0, 201_000.0)  # past the runway, 250 m up
+    s.lat[1, 0] = north_of(52.0, 201_000.0)  # past the runway, 250 m up
     s.alt[1, 0] = 250.0
-    s.lat[1, 2], s.lon[1, 2], s.alt[1, 2] = _north_of(52.0, 203_000.0), 4.0, 300.0  # 2 km ahead, 50 m above
+    s.lat[1, 2], s.lon[1, 2], s.alt[1, 2] = north_of(52.0, 203_000.0), 4.0, 300.0  # 2 km ahead, 50 m above
     g = task.measure()
     reward, terminated, comp = task.reward(g)
     np.testing.assert_array_equal(terminated, [True, True])
@@ -94,9 +79,9 @@ def test_observation_matches_hand_computed_geometry() -> None:
     s.vs[0, 0], s.gs[0, 0] = -5.0, 170.0
     # (lat, lon, alt, hdg, gs, vs) of intruders 1-3:
     intruders = [
-        (52.0, _east_of(52.0, 4.0, 10_000.0), 3500.0, 270.0, 160.0, 0.0),  # 10 km east, westbound, 500 m above
-        (_north_of(52.0, 20_000.0), 4.0, 2700.0, 180.0, 150.0, 2.0),  # 20 km north, head-on, 300 m below, climbing
-        (52.0, _east_of(52.0, 4.0, -30_000.0), 3000.0, 0.0, 170.0, -5.0),  # 30 km west (left), same velocity
+        (52.0, east_of(52.0, 4.0, 10_000.0), 3500.0, 270.0, 160.0, 0.0),  # 10 km east, westbound, 500 m above
+        (north_of(52.0, 20_000.0), 4.0, 2700.0, 180.0, 150.0, 2.0),  # 20 km north, head-on, 300 m below, climbing
+        (52.0, east_of(52.0, 4.0, -30_000.0), 3000.0, 0.0, 170.0, -5.0),  # 30 km west (left), same velocity
     ]
     for i, state in enumerate(intruders, start=1):
         s.lat[0, i], s.lon[0, i], s.alt[0, i], s.hdg[0, i], s.gs[0, i], s.vs[0, i] = state
@@ -247,8 +232,8 @@ def test_ownship_separation_uses_the_intrusion_cylinder() -> None:
     task = _task(1)
     _place_ownship(task, alt=3000.0, target=3000.0)
     s = task.sim
-    s.lat[0, 1], s.lon[0, 1], s.alt[0, 1] = _north_of(52.0, 4 * NM), 4.0, 3100.0  # inside
-    s.lat[0, 2], s.lon[0, 2], s.alt[0, 2] = _north_of(52.0, 2 * NM), 4.0, 3400.0  # above the cylinder
+    s.lat[0, 1], s.lon[0, 1], s.alt[0, 1] = north_of(52.0, 4 * NM), 4.0, 3100.0  # inside
+    s.lat[0, 2], s.lon[0, 2], s.alt[0, 2] = north_of(52.0, 2 * NM), 4.0, 3400.0  # above the cylinder
     s.active[0, 5] = False
     dist, los = task.ownship_separation()
     assert dist.shape == (1, 6) and dist[0, 0] == np.inf and dist[0, 5] == np.inf

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import csv
 import importlib.util
+from pathlib import Path
 
 import pytest
 
@@ -18,3 +20,9 @@ def _one_torch_thread() -> None:
     except ImportError:
         return
     torch.set_num_threads(1)
+
+
+def csv_rows(path: Path) -> list[list[str]]:
+    """Every row of a CSV file, the header first, as strings."""
+    with open(path, newline="") as f:
+        return list(csv.reader(f))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import json
 import shutil
 from collections.abc import Callable
@@ -12,13 +11,15 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
+from stable_baselines3.common.callbacks import BaseCallback
 
-from bluesky_gym.cli import main  # noqa: E402
-from bluesky_gym.training.evaluation import reference_returns, reference_scores  # noqa: E402
-from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
-from bluesky_gym.training.io import file_damage, latest_checkpoint, read_json  # noqa: E402
-from bluesky_gym.training.runner import RunDamaged, inspect_run, make_run_spec, run_training  # noqa: E402
+from bluesky_gym.cli import main
+from bluesky_gym.training.evaluation import reference_returns, reference_scores
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.io import file_damage, latest_checkpoint, read_json
+from bluesky_gym.training.runner import RunDamaged, inspect_run, make_run_spec, run_training
+
+from .conftest import csv_rows
 
 ENV = "DescentEnv-v0"
 # One gradient step per 8 vector steps: what is tested is the bookkeeping, not the learning.
@@ -52,11 +53,6 @@ def killed_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     assert record["previous"] is not None and record["episodes_logged"] > record["previous"]["episodes_logged"] > 0
     assert not inspect_run(d).problems
     return d
-
-
-def _rows(path: Path) -> list[list[str]]:
-    with open(path, newline="") as f:
-        return list(csv.reader(f))[1:]
 
 
 def _train(run_dir: Path, tiny_config: Path, *flags: str) -> int:
@@ -135,7 +131,7 @@ def test_damage_is_named_and_the_run_resumes_from_the_last_intact_checkpoint_or_
     damage: str, killed_run: Path, tmp_path: Path, tiny_config: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     harm, words, resumes_from = DAMAGE[damage]
-    original = _rows(killed_run / "episodes.csv")
+    original = csv_rows(killed_run / "episodes.csv")[1:]
     latest = read_json(killed_run / "checkpoint.json")
     intact = {"latest": latest, "previous": latest["previous"], None: None}[resumes_from]
     run_dir = tmp_path / "out" / ENV / "SAC" / "seed_0"
@@ -144,7 +140,7 @@ def test_damage_is_named_and_the_run_resumes_from_the_last_intact_checkpoint_or_
     if damage == "episodes.csv truncated":
         # cut below the previous checkpoint's rows too: nothing is left to resume from
         _truncate(run_dir / "episodes.csv")
-        if len(_rows(run_dir / "episodes.csv")) < latest["previous"]["episodes_logged"]:
+        if len(csv_rows(run_dir / "episodes.csv")[1:]) < latest["previous"]["episodes_logged"]:
             intact = None
     resumable = intact is not None
     before = {p: p.stat().st_mtime_ns for p in run_dir.rglob("*") if p.is_file()}
@@ -163,7 +159,7 @@ def test_damage_is_named_and_the_run_resumes_from_the_last_intact_checkpoint_or_
     out = capsys.readouterr().out
     assert "damaged" in out and str(run_dir) in out
     result = read_json(run_dir / "result.json")
-    rows = _rows(run_dir / "episodes.csv")
+    rows = csv_rows(run_dir / "episodes.csv")[1:]
     assert [int(r[0]) for r in rows] == list(range(len(rows))) == list(range(result["episodes"]))  # none lost, none twice
     assert [int(r[1]) for r in rows] == sorted(int(r[1]) for r in rows) and result["timesteps"] >= SPEC.total_timesteps
     repair = read_json(run_dir / "run.json")["processes"][-1]["repair"]

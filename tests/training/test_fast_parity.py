@@ -7,16 +7,16 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-import torch  # noqa: E402
-from stable_baselines3.common.logger import configure  # noqa: E402
+import torch
+from stable_baselines3.common.logger import configure
 
-from bluesky_gym.envs.seeds import train_env_seeds  # noqa: E402
-from bluesky_gym.training.fast import trainer_class  # noqa: E402
-from bluesky_gym.training.fast.base import NoHooks  # noqa: E402
-from bluesky_gym.training.fast.offpolicy import ReplayStorage  # noqa: E402
-from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
-from bluesky_gym.training.runner import make_run_spec, new_model  # noqa: E402
-from bluesky_gym.training.sb3_vec_env import SB3VecEnv  # noqa: E402
+from bluesky_gym.envs.seeds import train_env_seeds
+from bluesky_gym.training.fast import trainer_class
+from bluesky_gym.training.fast.base import NoHooks
+from bluesky_gym.training.fast.offpolicy import ReplayStorage
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.runner import make_run_spec, new_model
+from bluesky_gym.training.sb3_vec_env import SB3VecEnv
 
 ENV = "HorizontalCREnv-v0"
 

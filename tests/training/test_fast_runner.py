@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import subprocess
 import sys
 from pathlib import Path
@@ -11,12 +10,14 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-import torch  # noqa: E402
+import torch
 
-from bluesky_gym.training.evaluation import evaluate, load_policy  # noqa: E402
-from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
-from bluesky_gym.training.io import latest_checkpoint, read_json  # noqa: E402
-from bluesky_gym.training.runner import make_run_spec, resolve_compile, run_status, run_training  # noqa: E402
+from bluesky_gym.training.evaluation import evaluate, load_policy
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.io import latest_checkpoint, read_json
+from bluesky_gym.training.runner import make_run_spec, resolve_compile, run_status, run_training
+
+from .conftest import csv_rows
 
 ENV = "DescentEnv-v0"
 TINY = merge(
@@ -33,11 +34,6 @@ TINY = merge(
 )
 
 
-def _rows(path: Path) -> list[list[str]]:
-    with open(path, newline="") as f:
-        return list(csv.reader(f))
-
-
 def test_fast_run_writes_the_run_directory_of_an_sb3_run(tmp_path: Path) -> None:
     spec = make_run_spec(TINY, ENV, "PPO", 3, n_envs=4, total_timesteps=300, checkpoint_freq=100, eval_episodes=4)
     assert spec.trainer == "fast" and spec.compile is False  # "auto" does not compile a run this short
@@ -48,9 +44,9 @@ def test_fast_run_writes_the_run_directory_of_an_sb3_run(tmp_path: Path) -> None
     assert run_status(d) == "finished" and result["timesteps"] == 384 and result["trainer"] == "fast"
     ref = tmp_path / "sb3"
     run_training(sb3, ref, verbose=0)
-    header, sb3_header = _rows(d / "episodes.csv")[0], _rows(ref / "episodes.csv")[0]
+    header, sb3_header = csv_rows(d / "episodes.csv")[0], csv_rows(ref / "episodes.csv")[0]
     assert header == sb3_header  # the same columns, in the same order
-    data = _rows(d / "episodes.csv")[1:]
+    data = csv_rows(d / "episodes.csv")[1:]
     assert [int(r[0]) for r in data] == list(range(len(data))) and len(data) == result["episodes"] > 0
     col = header.index
     for r in data:
@@ -77,7 +73,7 @@ def test_same_seed_same_run_other_seed_another(tmp_path: Path) -> None:
         from stable_baselines3 import PPO
 
         weights = PPO.load(tmp_path / name / "model.zip").policy.state_dict()
-        log = [r[:2] + r[3:] for r in _rows(tmp_path / name / "episodes.csv")]  # without the wall time
+        log = [r[:2] + r[3:] for r in csv_rows(tmp_path / name / "episodes.csv")]  # without the wall time
         return weights, log
 
     a, log_a = run(5, "a")

@@ -13,9 +13,9 @@ import pytest
 pytest.importorskip("matplotlib")
 pytest.importorskip("rliable")
 
-from bluesky_gym.training.evaluation import EvalResult, save_result  # noqa: E402
-from bluesky_gym.training.io import atomic_write_csv, atomic_write_json  # noqa: E402
-from bluesky_gym.training.results import build_results, collect, reference_episode_dir, seed_episode_bootstrap  # noqa: E402
+from bluesky_gym.training.evaluation import EvalResult, save_result
+from bluesky_gym.training.io import atomic_write_csv, atomic_write_json
+from bluesky_gym.training.results import build_results, collect, reference_episode_dir, seed_episode_bootstrap
 
 
 def _episodes(returns, success=None, min_sep=None):

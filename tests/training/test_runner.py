@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import os
 import pickle
 import socket
@@ -14,11 +13,11 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
+from stable_baselines3.common.callbacks import BaseCallback
 
-from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
-from bluesky_gym.training.io import latest_checkpoint, read_json  # noqa: E402
-from bluesky_gym.training.runner import (  # noqa: E402
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.io import latest_checkpoint, read_json
+from bluesky_gym.training.runner import (
     RunConfigMismatch,
     RunLock,
     RunLocked,
@@ -26,6 +25,8 @@ from bluesky_gym.training.runner import (  # noqa: E402
     run_status,
     run_training,
 )
+
+from .conftest import csv_rows
 
 ENV = "DescentEnv-v0"
 TINY = merge(
@@ -62,11 +63,6 @@ class CrashAfterCheckpoints(BaseCallback):
         return True
 
 
-def _rows(path: Path) -> list[list[str]]:
-    with open(path, newline="") as f:
-        return list(csv.reader(f))
-
-
 def test_run_records_everything(tmp_path: Path) -> None:
     spec = make_run_spec(TINY, ENV, "PPO", 3, n_envs=4, total_timesteps=300, checkpoint_freq=100, eval_episodes=4)
     d = tmp_path / "run"
@@ -79,7 +75,7 @@ def test_run_records_everything(tmp_path: Path) -> None:
     assert cfg["seeds"]["eval_seed_base"] == 2**31 and all(s < 2**31 for s in cfg["seeds"]["train_env_seeds_at_start"])
     versions = read_json(d / "run.json")["processes"][0]["versions"]
     assert {"python", "numpy", "gymnasium", "stable_baselines3", "torch", "bluesky_gym"} <= set(versions)
-    rows = _rows(d / "episodes.csv")
+    rows = csv_rows(d / "episodes.csv")
     header, data = rows[0], rows[1:]
     assert header[:7] == ["episode", "timesteps", "wall_time_s", "env_index", "return", "length", "terminated"]
     assert {"total_reward", "final_altitude", "reward_altitude", "kpi_success", "kpi_min_separation_nm"} <= set(header)
@@ -167,14 +163,14 @@ def test_interrupted_run_resumes_without_loss_or_repeat(tmp_path: Path, trainer:
         run_training(spec, d, verbose=0, callbacks=[crash])
     ckpt, ckpt_dir = latest_checkpoint(d)
     assert run_status(d) == "checkpointed" and 100 <= ckpt["timesteps"] < total
-    before = _rows(d / "episodes.csv")
+    before = csv_rows(d / "episodes.csv")
     assert len(before) - 1 > ckpt["episodes_logged"]  # rows were logged after the checkpoint
     assert not (d / ".lock").exists()
 
     result = run_training(spec, d, verbose=0)
     assert result["resumed_from"] == ckpt["timesteps"]
     assert result["timesteps"] == total
-    after = _rows(d / "episodes.csv")
+    after = csv_rows(d / "episodes.csv")
     kept = ckpt["episodes_logged"] + 1
     assert after[:kept] == before[:kept]  # rows up to the checkpoint are untouched
     assert [int(r[0]) for r in after[1:]] == list(range(len(after) - 1))  # no row lost or repeated

@@ -7,14 +7,14 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-from stable_baselines3 import PPO, SAC  # noqa: E402
-from stable_baselines3.common.evaluation import evaluate_policy  # noqa: E402
-from stable_baselines3.common.monitor import Monitor  # noqa: E402
-from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv  # noqa: E402
+from stable_baselines3 import PPO, SAC
+from stable_baselines3.common.evaluation import evaluate_policy
+from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
-from bluesky_gym.envs.seeds import TRAIN_SEED_LIMIT, train_env_seeds  # noqa: E402
-from bluesky_gym.training import make_vector_env  # noqa: E402
-from bluesky_gym.training.sb3_vec_env import SB3VecEnv  # noqa: E402
+from bluesky_gym.envs.seeds import TRAIN_SEED_LIMIT, train_env_seeds
+from bluesky_gym.training import make_vector_env
+from bluesky_gym.training.sb3_vec_env import SB3VecEnv
 
 ENV = "DescentEnv-v0"
 

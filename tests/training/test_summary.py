@@ -11,11 +11,11 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="needs Stable-Baselines3 (the 'train' extra)")
 
-from bluesky_gym.training.hyperparams import PAPER, merge  # noqa: E402
-from bluesky_gym.training.io import read_csv_rows, read_json  # noqa: E402
-from bluesky_gym.training.plotting import load_run  # noqa: E402
-from bluesky_gym.training.runner import inspect_run, make_run_spec, run_status, run_training  # noqa: E402
-from bluesky_gym.training.summary import summarise_run  # noqa: E402
+from bluesky_gym.training.hyperparams import PAPER, merge
+from bluesky_gym.training.io import read_csv_rows, read_json
+from bluesky_gym.training.plotting import load_run
+from bluesky_gym.training.runner import inspect_run, make_run_spec, run_status, run_training
+from bluesky_gym.training.summary import summarise_run
 
 CONFIG = merge(PAPER, {"run": {"trainer": "fast"}, "algos": {"PPO": {"n_steps": 32, "batch_size": 64, "n_epochs": 1}}})
 

@@ -5,21 +5,27 @@ import numpy as np
 import pytest
 
 import bluesky_gym  # noqa: F401
+from bluesky_gym.core.wind import Wind
 from bluesky_gym.wrappers import (
     MAX_WIND,
     NoisyObservationWrapper,
     VectorNoisyObservationWrapper,
-    VectorWindFieldWrapper,
-    WindFieldWrapper,
 )
 
+#: The uniform wind of these tests: 10 m/s to the south, 15 m/s to the east.
+WIND = {"lat": [52.0], "lon": [4.0], "vnorth": [[-10.0]], "veast": [[15.0]]}
 
-def _wind_env(**kw):
-    return WindFieldWrapper(gym.make("DescentEnv-v0"), lat=[52.0], lon=[4.0], vnorth=[[-10.0]], veast=[[15.0]], **kw)
+
+def _wind_env(observe: bool = False) -> gym.Env:
+    return gym.make("DescentEnv-v0", wind=Wind(**WIND, observe=observe))
+
+
+def _wind_venv(env_id: str = "DescentEnv-v0", num_envs: int = 2, observe: bool = True) -> gym.vector.VectorEnv:
+    return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", wind=Wind(**WIND, observe=observe))
 
 
 def test_uniform_wind_changes_ground_track_and_obs_frame() -> None:
-    env = _wind_env(augment_obs=True)
+    env = _wind_env(observe=True)
     assert {"wind_u", "wind_v"} <= set(env.observation_space.spaces)
     obs, _ = env.reset(seed=1)
     # Heading 0 (north): along-heading = north component, cross = east component.
@@ -40,7 +46,7 @@ def test_uniform_wind_changes_ground_track_and_obs_frame() -> None:
 
 
 def test_wind_survives_terminal_step_and_resets() -> None:
-    env = _wind_env(augment_obs=True)
+    env = _wind_env(observe=True)
     env.reset(seed=2)
     done = False
     while not done:
@@ -52,7 +58,7 @@ def test_wind_survives_terminal_step_and_resets() -> None:
 
 
 def test_point_field_interpolates_between_points() -> None:
-    env = WindFieldWrapper(gym.make("DescentEnv-v0"), lat=[51.0, 53.0], lon=[4.0, 4.0], vnorth=[0.0, 0.0], veast=[0.0, 20.0], augment_obs=True)
+    env = gym.make("DescentEnv-v0", wind={"lat": [51.0, 53.0], "lon": [4.0, 4.0], "vnorth": [0.0, 0.0], "veast": [0.0, 20.0], "observe": True})
     obs, _ = env.reset(seed=0)
     # At 52N, equidistant from both points: the mean of their east components.
     assert obs["wind_v"][0] * MAX_WIND == pytest.approx(10.0, rel=1e-9)
@@ -60,23 +66,24 @@ def test_point_field_interpolates_between_points() -> None:
 
 def test_wind_rejects_bad_definitions() -> None:
     with pytest.raises(ValueError, match="same"):
-        WindFieldWrapper(gym.make("DescentEnv-v0"), lat=[52.0, 53.0], lon=[4.0], vnorth=[1.0], veast=[1.0])
+        gym.make("DescentEnv-v0", wind={"lat": [52.0, 53.0], "lon": [4.0], "vnorth": [1.0], "veast": [1.0]})
     with pytest.raises(ValueError, match="altitude"):
-        WindFieldWrapper(gym.make("DescentEnv-v0"), lat=[52.0], lon=[4.0], vnorth=[1.0], veast=[1.0], alt=[1000.0])
+        gym.make("DescentEnv-v0", wind={"lat": [52.0], "lon": [4.0], "vnorth": [1.0], "veast": [1.0], "alt": [1000.0]})
     with pytest.raises(ValueError, match="finite"):
-        WindFieldWrapper(gym.make("DescentEnv-v0"), lat=[52.0], lon=[4.0], vnorth=[np.nan], veast=[1.0])
+        gym.make("DescentEnv-v0", wind={"lat": [52.0], "lon": [4.0], "vnorth": [np.nan], "veast": [1.0]})
+    with pytest.raises(ValueError, match=r"unknown field\(s\) \['speed'\]"):
+        gym.make("DescentEnv-v0", wind={"lat": [52.0], "lon": [4.0], "vnorth": [1.0], "veast": [1.0], "speed": 3})
+    with pytest.raises(ValueError, match="observe must be True or False"):
+        Wind(**WIND, observe="yes")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="^wind must be a Wind"):
+        gym.make("DescentEnv-v0", wind=15.0)
+    with pytest.raises(ValueError, match="^DescentEnv-v1: wind must be a Wind"):
+        gym.make("DescentEnv-v1", wind=15.0)
 
 
 def test_vector_wind_matches_single() -> None:
-    venv = VectorWindFieldWrapper(
-        gym.make_vec("DescentEnv-v0", num_envs=2, vectorization_mode="vector_entry_point"),
-        lat=[52.0],
-        lon=[4.0],
-        vnorth=[-10.0],
-        veast=[15.0],
-        augment_obs=True,
-    )
-    single = _wind_env(augment_obs=True)
+    venv = _wind_venv()
+    single = _wind_env(observe=True)
     obs_v, _ = venv.reset(seed=5)
     obs_s, _ = single.reset(seed=6)
     rng = np.random.default_rng(0)
@@ -146,12 +153,11 @@ def _count_physics_calls(monkeypatch, sim) -> dict[str, list[int]]:
 
 @pytest.mark.parametrize("vector", [False, True])
 def test_wind_keeps_the_one_call_fast_path(monkeypatch, vector: bool) -> None:
-    wind = dict(lat=[52.0], lon=[4.0], vnorth=[-10.0], veast=[15.0], augment_obs=True)
     if vector:
-        env = VectorWindFieldWrapper(gym.make_vec("DescentEnv-v0", num_envs=3, vectorization_mode="vector_entry_point"), **wind)
+        env = _wind_venv(num_envs=3)
         action = np.zeros((3, 1))
     else:
-        env = WindFieldWrapper(gym.make("DescentEnv-v0"), **wind)
+        env = _wind_env(observe=True)
         action = np.zeros(1)
     task = env.unwrapped.task
     calls = _count_physics_calls(monkeypatch, task.sim)
@@ -165,7 +171,7 @@ def test_wind_keeps_the_one_call_fast_path(monkeypatch, vector: bool) -> None:
 
 
 def test_wind_is_part_of_the_task_observation() -> None:
-    env = _wind_env(augment_obs=True)
+    env = _wind_env(observe=True)
     task = env.unwrapped.task
     assert not hasattr(task, "reset_hooks") and not hasattr(task, "substep_hooks")
     assert list(task.observation_spec)[-2:] == ["wind_u", "wind_v"]
@@ -174,12 +180,11 @@ def test_wind_is_part_of_the_task_observation() -> None:
     assert obs in env.unwrapped.observation_space
     np.testing.assert_array_equal(task.observation()["wind_u"], obs["wind_u"][None])
     with pytest.raises(ValueError, match="only once"):
-        WindFieldWrapper(env, lat=[52.0], lon=[4.0], vnorth=[1.0], veast=[1.0], augment_obs=True)
+        task.add_wind(Wind(**WIND, observe=True))
 
 
 def test_vector_wind_final_obs_is_the_ended_state() -> None:
-    base = gym.make_vec("DescentEnv-v0", num_envs=2, vectorization_mode="vector_entry_point")
-    venv = VectorWindFieldWrapper(base, lat=[52.0], lon=[4.0], vnorth=[-10.0], veast=[15.0], augment_obs=True)
+    venv = _wind_venv()
     venv.reset(seed=0)
     while True:
         obs, _, te, tr, info = venv.step(np.full((2, 1), -1.0))
@@ -193,8 +198,7 @@ def test_vector_wind_final_obs_is_the_ended_state() -> None:
 
 
 def test_wind_terms_with_a_task_of_its_own_sub_step_loop() -> None:
-    base = gym.make_vec("StaticObstacleEnv-v0", num_envs=4, vectorization_mode="vector_entry_point")
-    venv = VectorWindFieldWrapper(base, lat=[52.0], lon=[4.0], vnorth=[-10.0], veast=[15.0], augment_obs=True)
+    venv = _wind_venv("StaticObstacleEnv-v0", num_envs=4)
     venv.reset(seed=0)
     ended = False
     for _ in range(100):
