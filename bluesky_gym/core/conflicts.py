@@ -18,8 +18,8 @@ from numpy.typing import ArrayLike, NDArray
 from bluesky_gym.core import geo
 from bluesky_gym.core.atmosphere import casormach2tas, isa_layered, tas2cas_at
 from bluesky_gym.core.geo import kwikpos_s
-from bluesky_gym.core.jit import grid_range, jit
-from bluesky_gym.core.scalar import DEG, RAD, maximum, sign
+from bluesky_gym.core.jit import fmod, grid_range, jit
+from bluesky_gym.core.scalar import DEG, RAD, divide, maximum, minimum, sign
 from bluesky_gym.core.state import aircraft_index
 from bluesky_gym.core.units import DEG2RAD, FT, M2NM, NM, R_EARTH, RAD2DEG
 
@@ -218,47 +218,107 @@ def detect(
 
     All inputs are shaped (n_envs, n_aircraft). Only pairs of active aircraft can conflict.
     """
-    with np.errstate(all="ignore"):
-        trkr = trk * DEG2RAD
-        u = gs * np.sin(trkr)
-        v = gs * np.cos(trkr)
-        du = u[..., :, None] - u[..., None, :]
-        dv = v[..., :, None] - v[..., None, :]
-        lat1, lat2 = (lat * DEG2RAD)[..., :, None], (lat * DEG2RAD)[..., None, :]
-        lon1, lon2 = (lon * DEG2RAD)[..., :, None], (lon * DEG2RAD)[..., None, :]
-        dlat, dlon = lat2 - lat1, lon2 - lon1
-        cavelat = np.cos(0.5 * (lat1 + lat2))
-        d = R_EARTH * np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)
-        q = np.fmod(np.arctan2(dlon * cavelat, dlat), 360.0)
-        dx, dy = d * np.sin(q), d * np.cos(q)
-        vreldotdx = du * dx + dv * dy
-        los_h = d < rpz
-        vrel2 = du * du + dv * dv
-        tcpa = vreldotdx / vrel2
-        cpa2 = d * d - vreldotdx * tcpa
-        dcpa = np.sqrt(cpa2)
-        dth = np.sqrt(np.maximum(rpz * rpz - cpa2, 0.0) / vrel2)
-        tin_h, tout_h = tcpa - dth, tcpa + dth
-        hor = (vreldotdx >= 0.0) | los_h
-        hor &= los_h | (tin_h <= lookahead)
+    active = np.ascontiguousarray(active, dtype=np.bool_)
+    lat, lon, alt, gs, trk, vs = (
+        np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), active.shape)) for x in (lat, lon, alt, gs, trk, vs)
+    )
+    pairs = active.shape + (active.shape[-1],)
+    conflict, los = np.empty(pairs, np.bool_), np.empty(pairs, np.bool_)
+    qdr, dist, tcpa, dcpa, tin = (np.empty(pairs) for _ in range(5))
+    detect_loop(lat, lon, alt, gs, trk, vs, active, float(rpz), float(hpz), float(lookahead), conflict, los, qdr, dist, tcpa, dcpa, tin)
+    return Conflicts(conflict, los, qdr, dist, tcpa, dcpa, tin)
 
-        dalt = alt[..., :, None] - alt[..., None, :]
-        dvs = vs[..., :, None] - vs[..., None, :]
-        los_v = np.abs(dalt) < hpz
-        moving = np.abs(dvs) > 1e-6
+
+@jit
+def detect_pair(
+    lat_i: float,
+    lon_i: float,
+    alt_i: float,
+    gs_i: float,
+    trk_i: float,
+    vs_i: float,
+    lat_j: float,
+    lon_j: float,
+    alt_j: float,
+    gs_j: float,
+    trk_j: float,
+    vs_j: float,
+    rpz: float,
+    hpz: float,
+    lookahead: float,
+) -> tuple[bool, bool, float, float, float, float, float]:
+    """CSTATEBASED for one ordered pair, ownship ``i`` and intruder ``j`` (not masked by activity) [docs/dynamics.md §5].
+
+    Returns:
+        (conflict, loss of separation, bearing i -> j [deg], distance [m], time to CPA [s],
+        distance at CPA [m], time to loss of separation [s]); see :class:`Conflicts`.
+    """
+    u_i = gs_i * math.sin(trk_i * DEG2RAD)
+    v_i = gs_i * math.cos(trk_i * DEG2RAD)
+    u_j = gs_j * math.sin(trk_j * DEG2RAD)
+    v_j = gs_j * math.cos(trk_j * DEG2RAD)
+    du = u_i - u_j
+    dv = v_i - v_j
+    lat1 = lat_i * DEG2RAD
+    lat2 = lat_j * DEG2RAD
+    dlat = lat2 - lat1
+    dlon = lon_j * DEG2RAD - lon_i * DEG2RAD
+    cavelat = math.cos(0.5 * (lat1 + lat2))
+    d = R_EARTH * math.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)
+    q = fmod(math.atan2(dlon * cavelat, dlat), 360.0)
+    dx = d * math.sin(q)
+    dy = d * math.cos(q)
+    vreldotdx = du * dx + dv * dy
+    los_h = d < rpz
+    vrel2 = du * du + dv * dv
+    tcpa = divide(vreldotdx, vrel2)
+    cpa2 = d * d - vreldotdx * tcpa
+    dcpa = math.sqrt(cpa2) if cpa2 >= 0.0 else math.nan
+    dth = math.sqrt(divide(maximum(rpz * rpz - cpa2, 0.0), vrel2))
+    tin_h = tcpa - dth
+    tout_h = tcpa + dth
+    hor = (vreldotdx >= 0.0) or los_h
+    hor = hor and (los_h or tin_h <= lookahead)
+
+    dalt = alt_i - alt_j
+    dvs = vs_i - vs_j
+    los_v = abs(dalt) < hpz
+    if abs(dvs) > 1e-6:
         tcrosshi = (dalt + hpz) / -dvs
         tcrosslo = (dalt - hpz) / -dvs
-        tin_v = np.where(moving, np.maximum(0.0, np.minimum(tcrosslo, tcrosshi)), 0.0)
-        tout_v = np.where(moving, np.maximum(tcrosslo, tcrosshi), 1e4)
-        ver = np.where(moving, (tin_v <= lookahead) & (tout_v > 0.0), los_v)
+        tin_v = maximum(0.0, minimum(tcrosslo, tcrosshi))
+        tout_v = maximum(tcrosslo, tcrosshi)
+        ver = tin_v <= lookahead and tout_v > 0.0
+    else:
+        tin_v = 0.0
+        tout_v = 1e4
+        ver = los_v
+    tin = maximum(tin_h, tin_v)
+    tout = minimum(tout_h, tout_v)
+    conflict = ver and hor and tin <= lookahead and tin < tout and tout > 0.0
+    return conflict, conflict and los_h and los_v, q * RAD2DEG, d, tcpa, dcpa, tin
 
-        tin = np.maximum(tin_h, tin_v)
-        tout = np.minimum(tout_h, tout_v)
-        n = lat.shape[-1]
-        pair = active[..., :, None] & active[..., None, :] & ~np.eye(n, dtype=bool)
-        conflict = pair & ver & hor & (tin <= lookahead) & (tin < tout) & (tout > 0.0)
-        los = conflict & los_h & los_v
-    return Conflicts(conflict, los, q * RAD2DEG, d, tcpa, dcpa, tin)
+
+@jit
+def detect_loop(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin):  # type: ignore[no-untyped-def]
+    """:func:`detect_pair` over every ordered pair of every airspace (one airspace per ``grid_range`` index); outputs (n_envs, m, m)."""
+    m = active.shape[1]
+    for e in grid_range(active.shape[0]):
+        for i in range(m):
+            for j in range(m):
+                c, lo, q, d, t, dc, ti = detect_pair(
+                    lat[e, i], lon[e, i], alt[e, i], gs[e, i], trk[e, i], vs[e, i],
+                    lat[e, j], lon[e, j], alt[e, j], gs[e, j], trk[e, j], vs[e, j],
+                    rpz, hpz, lookahead,
+                )  # fmt: skip
+                pair = active[e, i] and active[e, j] and i != j
+                conflict[e, i, j] = pair and c
+                los[e, i, j] = pair and lo
+                qdr[e, i, j] = q
+                dist[e, i, j] = d
+                tcpa[e, i, j] = t
+                dcpa[e, i, j] = dc
+                tin[e, i, j] = ti
 
 
 #: Conflict detectors by BlueSky name (``ASAS <name>``): the compiled CSTATEBASED and the Python STATEBASED.

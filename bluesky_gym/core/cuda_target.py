@@ -199,10 +199,20 @@ def kernel(fn: Any) -> Any:
     return c
 
 
+_launches = 0
+
+
+def launches() -> int:
+    """How many kernels :func:`launch` has launched in this process (to check that a step's launches do not grow with the batch)."""
+    return _launches
+
+
 def launch(fn: Any, n: int, *args: Any) -> None:
     """Launch kernel ``fn`` over ``n`` indices of its ``grid_range`` loop (nothing for ``n == 0``)."""
+    global _launches
     if n <= 0:
         return
+    _launches += 1
     blocks = math.ceil(n / THREADS_PER_BLOCK)
     kernel(fn)[blocks, THREADS_PER_BLOCK](*args)
 

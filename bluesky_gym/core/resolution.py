@@ -58,6 +58,7 @@ BoolArray = NDArray[np.bool_]
 RESO_FACTOR = 1.05  # -, BlueSky's resolution margins asas_marh and asas_marv (settings.cfg)
 HEAD_ON_MISS = 10.0  # m: a predicted miss distance at most this is treated as head-on
 NO_VERTICAL_SOLUTION = 1e9  # s, BlueSky's "no vertical resolution time" marker (timesolveV)
+FLOAT_MAX = float(np.finfo(np.float64).max)  # the largest finite float64, what np.nan_to_num puts for +inf
 BOUNCING_TRACK_DIFF = 30.0  # deg: pairs flying within this track difference keep resolving while close
 
 #: ``RMETHH`` values and their aliases, as BlueSky's command accepts them.
@@ -238,7 +239,7 @@ def mvp_pair(
 
 
 @jit
-def _mvp_loop(  # type: ignore[no-untyped-def]
+def mvp_loop(  # type: ignore[no-untyped-def]
     conflict,
     qdr,
     dist,
@@ -450,7 +451,7 @@ def mvp(
     tsolv = np.full(shape, np.nan)
     conflict = np.ascontiguousarray(conflicts.conflict, dtype=np.bool_)
     alt = f(state.alt)
-    _mvp_loop(
+    mvp_loop(
         conflict,
         np.ascontiguousarray(conflicts.qdr, dtype=np.float64),
         np.ascontiguousarray(conflicts.dist, dtype=np.float64),
@@ -485,7 +486,7 @@ def mvp(
 
 
 @jit
-def _resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist, keep, asas):  # type: ignore[no-untyped-def]
+def resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist, keep, asas):  # type: ignore[no-untyped-def]
     n_envs, m = active.shape
     for e in grid_range(n_envs):
         for i in range(m):
@@ -508,6 +509,85 @@ def _resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist
                 if not past_cpa or hdist < rpz or bouncing:
                     keep[e, i, j] = True
                     asas[e, i] = True
+
+
+@jit
+def renew_loop(conflict, trk, gs, vs, alt, pairs, held):  # type: ignore[no-untyped-def]
+    """BlueSky's ASAS bookkeeping before ``resumenav``, per airspace (one per ``grid_range`` index).
+
+    Where the airspace has a conflict, ``held`` (4, n_envs, m: track, ground speed, vertical
+    speed, altitude) takes the new resolution of every aircraft; elsewhere it keeps the last one.
+    ``pairs`` (n_envs, m, m) gains the current conflicts (the candidates of :func:`resume`).
+    """
+    n_envs, m = trk.shape
+    for e in grid_range(n_envs):
+        renew = False
+        for i in range(m):
+            for j in range(m):
+                if conflict[e, i, j]:
+                    renew = True
+                    pairs[e, i, j] = True
+        if renew:
+            for i in range(m):
+                held[0, e, i] = trk[e, i]
+                held[1, e, i] = gs[e, i]
+                held[2, e, i] = vs[e, i]
+                held[3, e, i] = alt[e, i]
+
+
+@jit
+def ended_loop(candidates, follow, active, ended, any_ended):  # type: ignore[no-untyped-def]
+    """Aircraft whose last resolution pair ended in this update (a candidate pair, no longer following), per airspace.
+
+    ``any_ended[0]`` is set to True where any did (it is left as it is otherwise).
+    """
+    n_envs, m = active.shape
+    for e in grid_range(n_envs):
+        for i in range(m):
+            had = False
+            for j in range(m):
+                if candidates[e, i, j]:
+                    had = True
+            ended[e, i] = had and not follow[e, i] and active[e, i]
+            if ended[e, i]:
+                any_ended[0] = True
+
+
+@jit
+def finite(x: float) -> float:
+    """``x`` with NaN as 0 and infinities as the largest finite floats (``np.nan_to_num``)."""
+    if x != x:
+        return 0.0
+    if x == math.inf:
+        return FLOAT_MAX
+    if x == -math.inf:
+        return -FLOAT_MAX
+    return x
+
+
+@jit
+def targets_loop(held, targets):  # type: ignore[no-untyped-def]
+    """The resolution the kinematics fly, from ``held`` (track, ground speed, vertical speed, altitude).
+
+    ``targets`` (4, n_envs, m) gets track, ground speed, altitude, vertical speed, with NaN as 0
+    and infinities as the largest finite floats (``np.nan_to_num``).
+    """
+    n_envs = held.shape[1]
+    m = held.shape[2]
+    for e in grid_range(n_envs):
+        for i in range(m):
+            targets[0, e, i] = finite(held[0, e, i])
+            targets[1, e, i] = finite(held[1, e, i])
+            targets[2, e, i] = finite(held[3, e, i])
+            targets[3, e, i] = finite(held[2, e, i])
+
+
+def resolution_targets(held: Array) -> Array:
+    """:func:`targets_loop` of ``held`` (4, n_envs, m), as a new array."""
+    held = np.ascontiguousarray(held, dtype=np.float64)
+    out = np.empty_like(held)
+    targets_loop(held, out)
+    return out
 
 
 def resume(
@@ -538,7 +618,7 @@ def resume(
     keep = np.zeros(pairs.shape, np.bool_)
     asas = np.zeros(active.shape, np.bool_)
     lat, lon, ve, vn, trk = (np.ascontiguousarray(x, dtype=np.float64) for x in (state.lat, state.lon, state.gseast, state.gsnorth, state.trk))
-    _resume_loop(np.ascontiguousarray(pairs, dtype=np.bool_), lat, lon, ve, vn, trk, active, float(rpz), float(rpz) * resofach, keep, asas)
+    resume_loop(np.ascontiguousarray(pairs, dtype=np.bool_), lat, lon, ve, vn, trk, active, float(rpz), float(rpz) * resofach, keep, asas)
     return keep, asas
 
 
@@ -641,11 +721,13 @@ class MVPResolver:
             vsmin = own_min if vsmin is None else vsmin
             vsmax = own_max if vsmax is None else vsmax
         res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
-        renew = np.asarray(c.conflict.any(axis=(1, 2)))[None, :, None]
-        self.held = np.where(renew, np.stack([res.trk, res.gs, res.vs, res.alt]), self.held)
-        candidates = self.pairs | c.conflict
+        candidates = np.array(self.pairs, dtype=np.bool_, order="C")
+        held = np.array(self.held, dtype=np.float64, order="C")
+        renew_loop(np.ascontiguousarray(c.conflict, dtype=np.bool_), res.trk, res.gs, res.vs, res.alt, candidates, held)
+        self.held = held
         self.pairs, follow = resume(state, candidates, rpz=self.rpz, resofach=self.settings.resofach)
-        ended = candidates.any(axis=-1) & ~follow & np.asarray(state.active, dtype=bool)
+        ended = np.empty(shape, np.bool_)
+        ended_loop(candidates, follow, np.ascontiguousarray(state.active, dtype=np.bool_), ended, np.zeros(1, np.bool_))
         trk, gs, vs, alt = self.held
         with np.errstate(invalid="ignore"):
             tas = np.asarray(state.tas) + (gs - np.asarray(state.gs))

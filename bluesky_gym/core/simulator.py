@@ -23,9 +23,9 @@ from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance, resolve_type
 from bluesky_gym.core.atmosphere import vcasormach
-from bluesky_gym.core.conflicts import create_conflicts
+from bluesky_gym.core.conflicts import create_conflicts, detect_loop
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
-from bluesky_gym.core.resolution import AsasConfig, MVPResolver
+from bluesky_gym.core.resolution import AsasConfig, MVPResolver, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
 from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, AircraftState, aircraft_index, checked_index
 from bluesky_gym.core.step import MEMO_COLUMNS, post_kernel, pre_kernel, run_kernel, step_kernel
 from bluesky_gym.core.units import ASAS_INTERVAL, BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
@@ -648,7 +648,7 @@ class Simulator(AircraftState):
             cmd = resolver.update(view)
             self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
             follow[envs] = cmd.follow
-            targets[:, envs] = np.nan_to_num(np.stack([cmd.trk, cmd.gs, cmd.alt, cmd.vs]))
+            targets[:, envs] = resolution_targets(resolver.held)
             # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
             for k, s in zip(*np.nonzero(cmd.ended & (self.nwp[envs] > 0))):
                 e = int(envs[k])
@@ -868,6 +868,8 @@ _KERNEL_STATE = frozenset({*(name for name, _, _ in STATE_FIELDS), "route_lat", 
     "_active_flat",
     "_type_flat",
     "_memo",
+    "_reso_pairs",
+    "_reso_held",
 }
 
 
@@ -878,14 +880,19 @@ class DeviceSimulator(Simulator):
     while the simulator steps: each :meth:`step` is one launch of the LNAV kernel (when any
     aircraft flies LNAV) and one of the step kernel over every aircraft of every airspace, and
     :meth:`run` one launch of the run kernel (every aircraft through all its steps), whatever the
-    number of airspaces. These are the CPU core's own kernels (:mod:`bluesky_gym.core.step`,
-    :mod:`bluesky_gym.core.lnav`), compiled for CUDA by :mod:`bluesky_gym.core.cuda_target`.
+    number of airspaces. With conflict resolution a step is nine launches: LNAV, autopilot,
+    detection, MVP, the ASAS bookkeeping, ``resumenav``, ended resolutions, targets, kinematics.
+    These are the CPU core's own kernels (:mod:`bluesky_gym.core.step`, :mod:`bluesky_gym.core.lnav`,
+    :mod:`bluesky_gym.core.conflicts`, :mod:`bluesky_gym.core.resolution`), compiled for CUDA by
+    :mod:`bluesky_gym.core.cuda_target`. :meth:`device_arrays` gives device views of the state
+    for other kernels (the tasks'), without bringing it back.
     Reading or writing any state array (or any command, which does) first copies the state back
     to the host; the next step copies it to the device again. Everything else is the
     :class:`Simulator`'s, so this class implements :class:`~bluesky_gym.core.physics.Physics`.
 
-    On the device: no wind, or a wind that is uniform within each airspace (one point or none).
-    Conflict resolution (ASAS with MVP) and wind fields of several points raise
+    On the device: no wind, or a wind that is uniform within each airspace (one point or none);
+    conflict resolution when every airspace has the same CSTATEBASED configuration with MVP.
+    Wind fields of several points, STATEBASED and mixed ASAS configurations raise
     :class:`NotImplementedError` at the step (use :class:`Simulator`). Airspaces hold at most
     :data:`bluesky_gym.core.cuda_target.SCRATCH_CAPACITY` + 1 aircraft.
 
@@ -926,6 +933,26 @@ class DeviceSimulator(Simulator):
         """Whether the current state is on the device (the host arrays are stale until the next access)."""
         return object.__getattribute__(self, "_device") is not None
 
+    def device_arrays(self, *names: str) -> tuple[Any, ...]:
+        """Device views (n_envs, max_aircraft) of state arrays, for kernels launched on the device; the state stays there.
+
+        ``names`` are float state fields (``lat``, ``tas``, ...) or ``active``. The views are
+        current until the next command or host read (which bring the state back to the host).
+
+        Raises:
+            KeyError: A name that is neither.
+        """
+        d = self._to_device()
+        out = []
+        for name in names:
+            if name == "active":
+                out.append(d["active"].reshape(self.n_envs, self.max_aircraft))
+            elif name in FIELD_INDEX:
+                out.append(d["F"][FIELD_INDEX[name]].reshape(self.n_envs, self.max_aircraft))
+            else:
+                raise KeyError(f"device_arrays: {name!r} is not a float state field or 'active'")
+        return tuple(out)
+
     def _to_host(self) -> None:
         """Copy the state back from the device (the host arrays become current)."""
         d = object.__getattribute__(self, "_device")
@@ -935,6 +962,8 @@ class DeviceSimulator(Simulator):
         self._memo[...] = d["memo"].copy_to_host()
         for name in ("swlnav", "swvnav", "swvnavspd", "swlastwp", "iactwp"):
             getattr(self, name).reshape(-1)[...] = d[name].copy_to_host()
+        self._reso_pairs[...] = d["pairs"].copy_to_host()
+        self._reso_held[...] = d["held"].copy_to_host()
 
     def _to_device(self) -> dict[str, Any]:
         """The device copy of the state, made from the host arrays where the host holds the state."""
@@ -955,7 +984,12 @@ class DeviceSimulator(Simulator):
             "route_lon": up(self.route_lon.reshape(m, -1)),
             # LNAV only ever switches itself off on the device: no aircraft flies it later if none does now.
             "any_lnav": bool(self.swlnav.any()),
+            # ASAS bookkeeping (BlueSky's resolution pairs and held resolutions), and the per-step work arrays.
+            "pairs": up(self._reso_pairs),
+            "held": up(self._reso_held),
         }
+        if any(c.resolving for c in self._asas.values()):
+            d.update(self._resolution_arrays())
         object.__setattr__(self, "_device", d)
         return d
 
@@ -1003,5 +1037,94 @@ class DeviceSimulator(Simulator):
         if track is not None and trace is not None:
             track[...] = trace.copy_to_host().reshape(track.shape)
 
+    def set_conflict_resolution(self, env: ArrayLike, config: AsasConfig) -> None:
+        """:meth:`Simulator.set_conflict_resolution`; with the state brought back to the host first."""
+        if self.on_device:
+            self._to_host()
+        super().set_conflict_resolution(env, config)
+
+    def _resolution_arrays(self) -> dict[str, Any]:
+        """Device arrays of the conflict detection and resolution: pair pictures, MVP's outputs, targets."""
+        up = self._cuda.to_device
+        shape = (self.n_envs, self.max_aircraft)
+        pairs = (*shape, self.max_aircraft)
+        vsmin = np.array([p.vsmin for p in self._type_perf])[self.type_index]
+        vsmax = np.array([p.vsmax for p in self._type_perf])[self.type_index]
+        return {
+            "conflict": up(np.zeros(pairs, np.bool_)),
+            "los": up(np.zeros(pairs, np.bool_)),
+            **{k: up(np.zeros(pairs)) for k in ("qdr", "dist", "tcpa", "dcpa", "tlos")},
+            # MVP writes active aircraft only (the others stay NaN, as mvp() gives them; activity does not change on the device).
+            **{k: up(np.full(shape, np.nan)) for k in ("res_trk", "res_gs", "res_vs", "res_alt", "tsolv")},
+            "dv": up(np.full((*shape, 3), np.nan)),
+            "keep": up(np.zeros(pairs, np.bool_)),
+            "follow": up(np.zeros(shape, np.bool_)),
+            "ended": up(np.zeros(shape, np.bool_)),
+            "any_ended": up(np.zeros(1, np.bool_)),
+            "targets": up(np.zeros((4, *shape))),
+            "vsmin": up(np.ascontiguousarray(vsmin, dtype=np.float64)),
+            "vsmax": up(np.ascontiguousarray(vsmax, dtype=np.float64)),
+        }
+
+    def _device_asas(self) -> AsasConfig:
+        """The one ASAS configuration of every airspace, which the device runs (see the class docstring)."""
+        configs = {self._asas.get(e, AsasConfig()) for e in range(self.n_envs)}
+        config = next(iter(configs))
+        if len(configs) > 1 or not config.resolving or config.detector != "CSTATEBASED":
+            raise NotImplementedError(
+                "DeviceSimulator: conflict resolution runs on the device when every airspace has the same CSTATEBASED configuration with RESO MVP"
+            )
+        return config
+
     def _step_resolving(self, do_perf: bool) -> None:
-        raise NotImplementedError("DeviceSimulator: conflict resolution (ASAS with MVP) runs on the CPU Simulator only")
+        """:meth:`Simulator._step_resolving` on the device: a fixed number of launches over every airspace.
+
+        LNAV (when any aircraft flies it), the autopilot and performance, conflict detection,
+        MVP, the ASAS bookkeeping, ``resumenav``, the aircraft whose resolution ended, the targets
+        and the kinematics: the CPU core's kernels, one launch each. One flag comes back to the host;
+        only where a resolution ended does the host send those aircraft DIRECT to their best
+        waypoint (BlueSky's recovery), with the state copied back for it.
+        """
+        config = self._device_asas()
+        wind = self._device_wind()
+        d = self._to_device()
+        launch = self._cuda.launch
+        n_envs, m = self.n_envs, self.max_aircraft
+        n = n_envs * m
+        if d["any_lnav"]:
+            launch(lnav_kernel, n, d["F"], *self._lnav_device_args(d))
+        launch(pre_kernel, n, d["F"], d["phase"], do_perf, d["table"], d["types"], d["memo"], d["active"])
+
+        def field(name: str) -> Any:
+            return d["F"][FIELD_INDEX[name]].reshape(n_envs, m)
+
+        active = d["active"].reshape(n_envs, m)
+        lat, lon, alt, gs, trk, vs = (field(k) for k in ("lat", "lon", "alt", "gs", "trk", "vs"))
+        gseast, gsnorth = field("gseast"), field("gsnorth")
+        rpz, hpz, look, s = float(config.rpz), float(config.hpz), float(config.lookahead), config.settings
+        c = (d["conflict"], d["los"], d["qdr"], d["dist"], d["tcpa"], d["dcpa"], d["tlos"])
+        launch(detect_loop, n_envs, lat, lon, alt, gs, trk, vs, active, rpz, hpz, look, *c)
+        res = (d["res_trk"], d["res_gs"], d["res_vs"], d["res_alt"])
+        launch(
+            mvp_loop, n_envs, d["conflict"], d["qdr"], d["dist"], d["tcpa"], d["tlos"], active, alt, gseast, gsnorth, vs, trk, gs,
+            field("selalt"), field("ap_vs"), field("vmin"), field("vmax"), d["vsmin"], d["vsmax"],
+            rpz * s.resofach, hpz * s.resofacv, look, s.mode, 1.0 if s.swresohoriz else 0.0, *res, d["dv"], d["tsolv"],
+        )  # fmt: skip
+        candidates = d["pairs"]  # becomes the candidates in place; the pairs kept go to the other buffer
+        launch(renew_loop, n_envs, d["conflict"], *res, candidates, d["held"])
+        launch(resume_loop, n_envs, candidates, lat, lon, gseast, gsnorth, trk, active, rpz, rpz * s.resofach, d["keep"], d["follow"])
+        d["pairs"], d["keep"] = d["keep"], candidates
+        launch(ended_loop, n_envs, candidates, d["follow"], active, d["ended"], d["any_ended"])
+        launch(targets_loop, n_envs, d["held"], d["targets"])
+        follow, targets = d["follow"], d["targets"]
+        if d["any_ended"].copy_to_host()[0]:
+            ended = d["ended"].copy_to_host()
+            follow_h, targets_h = follow.copy_to_host(), targets.copy_to_host()
+            for e, k in zip(*np.nonzero(ended & (self.nwp > 0))):  # (reading nwp brings the state to the host)
+                self.iactwp[e, k] = self._find_active(int(e), int(k))
+                self._direct(np.array([e]), np.array([k]))
+            d = self._to_device()
+            follow, targets = self._cuda.to_device(follow_h), self._cuda.to_device(targets_h)
+        wn, we, haswind, any_wind = wind
+        args = (d["phase"], wn, we, haswind, any_wind, self.dt, d["table"], d["types"], d["memo"], d["active"], follow.reshape(n))
+        launch(post_kernel, n, d["F"], *args, *(targets[k].reshape(n) for k in range(4)))

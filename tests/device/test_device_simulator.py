@@ -27,11 +27,15 @@ FIELDS = {
 }
 
 
-def _traffic(cls: type[Simulator], seed: int = 3, n_envs: int = 3, m: int = 4) -> Simulator:
-    """Mixed types, climbs and descents, turns, LNAV routes on half the aircraft, uniform wind in one airspace."""
+def _traffic(cls: type[Simulator], seed: int = 3, n_envs: int = 3, m: int = 4, n_aircraft: int | None = None) -> Simulator:
+    """Mixed types, climbs and descents, turns, LNAV routes on half the aircraft, uniform wind in one airspace.
+
+    ``n_aircraft`` (default ``m - 1``) aircraft per airspace fill the first slots.
+    """
     rng = np.random.default_rng(seed)
     sim = cls(n_envs, m, dt=1.0)
-    env, slot = np.repeat(np.arange(n_envs), m - 1), np.tile(np.arange(m - 1), n_envs)
+    n_aircraft = m - 1 if n_aircraft is None else n_aircraft
+    env, slot = np.repeat(np.arange(n_envs), n_aircraft), np.tile(np.arange(n_aircraft), n_envs)
     k = env.size
     sim.create(env, slot, 52 + rng.uniform(-0.3, 0.3, k), 4 + rng.uniform(-0.3, 0.3, k), rng.uniform(0, 360, k),
                rng.uniform(1000, 9000, k), rng.choice([130.0, 150.0, 0.7], k), actype=list(rng.choice(["A320", "B738", "E190"], k)))  # fmt: skip
@@ -102,8 +106,62 @@ def test_what_the_device_does_not_model_is_refused() -> None:
     with pytest.raises(NotImplementedError, match="several points"):
         dev.step()
     dev = _traffic(DeviceSimulator)
-    dev.set_conflict_resolution(0, AsasConfig(detector="CSTATEBASED", resolution=True))
-    with pytest.raises(NotImplementedError, match="conflict resolution"):
+    dev.set_conflict_resolution(0, AsasConfig(detector="CSTATEBASED", resolution=True))  # airspaces 1 and 2 do not resolve
+    with pytest.raises(NotImplementedError, match="same CSTATEBASED configuration"):
+        dev.step()
+    dev.set_conflict_resolution([0, 1, 2], AsasConfig(detector="STATEBASED", resolution=True))
+    with pytest.raises(NotImplementedError, match="same CSTATEBASED configuration"):
         dev.step()
     with pytest.raises(ValueError, match="aircraft per airspace"):
         DeviceSimulator(1, 200)
+
+
+def _conflicting(cls: type[Simulator], n_envs: int = 3, seed: int = 3) -> Simulator:
+    """Traffic with ASAS (CSTATEBASED, MVP) on in every airspace: conflicts made with creconfs, routes, level changes."""
+    sim = _traffic(cls, seed=seed, n_envs=n_envs, m=6, n_aircraft=4)
+    envs = np.arange(n_envs)
+    sim.creconfs(envs, 0, 4, np.linspace(20.0, 160.0, n_envs), 0.5, 120.0)  # slots 0-3 are taken by _traffic
+    sim.creconfs(envs[::2], 1, 5, 45.0, 1.0, 200.0, dh=200.0, tlosv=100.0)
+    sim.set_conflict_resolution(envs, AsasConfig(detector="CSTATEBASED", resolution=True))
+    return sim
+
+
+def test_conflict_detection_and_resolution_on_the_device_give_the_cpu_core_results() -> None:
+    cpu, dev = _conflicting(Simulator), _conflicting(DeviceSimulator)
+    recovered: dict[str, list[tuple[int, int]]] = {"cpu": [], "device": []}
+    for name, sim in (("cpu", cpu), ("device", dev)):  # count BlueSky's waypoint recovery (DIRECT after a resolution ends)
+        find = sim._find_active
+        sim._find_active = lambda e, k, find=find, name=name: recovered[name].append((e, k)) or find(e, k)  # type: ignore[method-assign]
+    resolving_steps = 0
+    for k in range(30):  # (an aircraft of airspace 1 recovers its route at 22 s)
+        cpu.step()
+        dev.step()
+        if k % 10 == 9:  # reading the state mid-run brings it back; the next step uploads it again
+            _assert_same_state(dev, cpu)
+            np.testing.assert_array_equal(dev._reso_pairs, cpu._reso_pairs)
+            assert_agree(dev._reso_held, cpu._reso_held, TOLERANCE["m/s"])
+        resolving_steps += int(cpu._reso_pairs.any())
+    _assert_same_state(dev, cpu)
+    assert resolving_steps > 5, "the scenario must resolve conflicts for several steps"
+    assert recovered["cpu"], "the scenario must end a resolution of an aircraft with a route"
+    assert recovered["device"] == recovered["cpu"]
+
+
+def test_a_device_step_is_a_fixed_number_of_launches_whatever_the_number_of_airspaces() -> None:
+    from bluesky_gym.core import cuda_target
+
+    counts = {}
+    for n_envs in (2, 8):
+        dev = _conflicting(DeviceSimulator, n_envs=n_envs)
+        dev.step()  # the upload
+        before = cuda_target.launches()
+        for _ in range(3):
+            dev.step()
+        counts[n_envs] = cuda_target.launches() - before
+        dev = _traffic(DeviceSimulator, n_envs=n_envs)
+        dev.step()
+        before = cuda_target.launches()
+        dev.step()
+        counts[n_envs, "no ASAS"] = cuda_target.launches() - before
+    # LNAV, autopilot, detection, MVP, bookkeeping, resumenav, ended, targets, kinematics; LNAV and the step without ASAS.
+    assert counts == {2: 27, 8: 27, (2, "no ASAS"): 2, (8, "no ASAS"): 2}

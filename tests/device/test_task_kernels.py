@@ -96,3 +96,56 @@ def test_episode_statistics() -> None:
     outputs = tuple(range(9, 18))
     for i, got in zip(outputs, _launch(compiled.record_step, N, _fresh(args), outputs)):
         assert_agree(got, cpu[i], 1e-12)
+
+
+def test_task_kernels_on_the_device_state_of_seeded_steps_with_conflict_resolution() -> None:
+    """A task's step on the device: physics with CD&R, then measure, observe and record kernels on the device's own state arrays.
+
+    Nothing comes back to the host between steps (the statistics accumulate on the device); after
+    each step the outputs are compared with the CPU kernels run on the CPU core's state.
+    """
+    from bluesky_gym.core import DeviceSimulator, Simulator
+
+    from .test_device_simulator import _conflicting
+
+    launched = {}
+    for n in (2, 8):
+        cpu, dev = _conflicting(Simulator, n_envs=n), _conflicting(DeviceSimulator, n_envs=n)
+        assert isinstance(dev, DeviceSimulator)
+        m = cpu.max_aircraft
+        envs, own = np.arange(n), np.zeros(n, dtype=np.int64)
+        stats = [np.zeros((n, m), dtype=np.bool_), np.full(n, np.inf), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64),
+                 np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(n), np.zeros(n, dtype=np.int64), np.full(n, np.nan)]  # fmt: skip
+        stats_dev = [cuda_target.to_device(a) for a in stats]
+        reward, drift, goal = np.linspace(-1.0, 0.0, n), np.linspace(-20.0, 20.0, n), np.arange(n) % 2 == 0
+        center, scales = (52.0, 4.0, float(np.cos(np.radians(52.0)))), (150.0, 20.0, 5000.0, 50.0, 50.0, 10000.0, 5000.0)
+        wpt_lat, wpt_lon = np.full(n, 52.2), np.full(n, 4.1)
+        up = cuda_target.to_device
+        for step in range(3):
+            cpu.step()
+            dev.step()
+            before = cuda_target.launches()
+            lat, lon, alt, hdg, tas, gs, active = dev.device_arrays("lat", "lon", "alt", "hdg", "tas", "gs", "active")
+            sep_d, los_d = up(np.empty((n, m))), up(np.empty((n, m), dtype=np.bool_))
+            cuda_target.launch(compiled.kwik_separation, n, up(envs), up(own), lat, lon, alt, active, 15.0, 1000.0 * 0.3048, sep_d, los_d)
+            cuda_target.launch(compiled.record_step, n, up(envs), sep_d, los_d, step > 0, up(reward), up(drift), up(goal), 5.0, 12, *stats_dev)
+            obs_d = [up(np.empty(n)), up(np.empty((n, 3))), up(np.empty((n, 7, K))), up(np.empty(n, dtype=np.int64))]
+            cuda_target.launch(
+                compiled.sector_observe, n, up(envs), up(own), lat, lon, hdg, tas, active, up(wpt_lat), up(wpt_lon), center, scales, *obs_d
+            )
+            rel_d = [up(np.empty((5, n, K))), up(np.empty(n, dtype=np.int64))]
+            cuda_target.launch(compiled.intruder_relative_state, n, up(envs), up(own), lat, lon, hdg, gs, active, True, *rel_d)
+            launched[n, step] = cuda_target.launches() - before
+            assert dev.on_device  # the kernels read the device state in place
+
+            sep, los = np.empty((n, m)), np.empty((n, m), dtype=np.bool_)
+            compiled.kwik_separation(envs, own, cpu.lat, cpu.lon, cpu.alt, cpu.active, 15.0, 1000.0 * 0.3048, sep, los)
+            compiled.record_step(envs, sep, los, step > 0, reward, drift, goal, 5.0, 12, *stats)
+            obs = [np.empty(n), np.empty((n, 3)), np.empty((n, 7, K)), np.empty(n, dtype=np.int64)]
+            compiled.sector_observe(envs, own, cpu.lat, cpu.lon, cpu.hdg, cpu.tas, cpu.active, wpt_lat, wpt_lon, center, scales, *obs)
+            rel = [np.empty((5, n, K)), np.empty(n, dtype=np.int64)]
+            compiled.intruder_relative_state(envs, own, cpu.lat, cpu.lon, cpu.hdg, cpu.gs, cpu.active, True, *rel)
+            for got, want in zip([sep_d, los_d, *stats_dev, *obs_d, *rel_d], [sep, los, *stats, *obs, *rel]):
+                assert_agree(got.copy_to_host(), want, 1e-9)
+        assert int(stats[3].sum()) > 0, "the scenario must count losses of separation"
+    assert set(launched.values()) == {4}, launched  # one launch per kernel, whatever the number of airspaces
