@@ -49,6 +49,9 @@ STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
     ("vmin", np.float64, 67.0),  # m/s CAS
     ("vmax", np.float64, 163.0),  # m/s CAS
     ("axmax", np.float64, 2.37),  # m/s^2
+    ("thrust", np.float64, 0.0),  # N, net thrust (drag + mass * ax)
+    ("drag", np.float64, 0.0),  # N
+    ("fuelflow", np.float64, 0.0),  # kg/s, all engines
     # Active waypoint (LNAV) [docs/dynamics.md §2.6].
     ("iactwp", np.int64, -1),
     ("nwp", np.int64, 0),
@@ -97,6 +100,9 @@ I_TURNPHI = FIELD_INDEX["turnphi"]
 I_VMIN = FIELD_INDEX["vmin"]
 I_VMAX = FIELD_INDEX["vmax"]
 I_AXMAX = FIELD_INDEX["axmax"]
+I_THRUST = FIELD_INDEX["thrust"]
+I_DRAG = FIELD_INDEX["drag"]
+I_FUELFLOW = FIELD_INDEX["fuelflow"]
 I_ACTWP_LAT = FIELD_INDEX["actwp_lat"]
 I_ACTWP_LON = FIELD_INDEX["actwp_lon"]
 I_CURLEGDIR = FIELD_INDEX["curlegdir"]
