@@ -133,9 +133,10 @@ def test_replay_cli_writes_the_reference_columns(tmp_path: Path, capsys: pytest.
     out = tmp_path / "t.csv"
     assert main(["replay", str(DATA / "scn" / "route.scn"), "--duration", "20", "--out", str(out), "--quiet"]) == 0
     rows = _rows(out)
-    with open(DATA / "pcall_route.csv", newline="") as fh:
+    with open(DATA / "pcall_fuel_types.csv", newline="") as fh:  # recorded with every column, thrust, drag and fuelflow too
         header = next(csv.reader(fh))
     assert list(rows[0]) == header == list(TRAJECTORY_COLUMNS)
+    assert list(TRAJECTORY_COLUMNS[-3:]) == ["thrust", "drag", "fuelflow"]
     assert len(rows) == 2 * 21 and rows[0]["t"] == "0" and rows[-1]["t"] == "20"
     ref = _rows(DATA / "pcall_route.csv")[: len(rows)]
     assert [r["lat"] for r in rows] == [r["lat"] for r in ref]
