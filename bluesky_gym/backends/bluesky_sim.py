@@ -87,6 +87,9 @@ TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("vmin", "perf", "vmin"),
     ("vmax", "perf", "vmax"),
     ("axmax", "perf", "axmax"),
+    ("thrust", "perf", "thrust"),
+    ("drag", "perf", "drag"),
+    ("fuelflow", "perf", "fuelflow"),
     ("actwp_lat", "actwp", "lat"),
     ("actwp_lon", "actwp", "lon"),
     ("curlegdir", "actwp", "curlegdir"),
@@ -309,6 +312,9 @@ class BlueSkyPhysics:
     vmin: Array
     vmax: Array
     axmax: Array
+    thrust: Array
+    drag: Array
+    fuelflow: Array
     iactwp: NDArray[np.int64]
     nwp: NDArray[np.int64]
     actwp_lat: Array

@@ -76,6 +76,9 @@ class Physics(Protocol):
     vmin: Array  # m/s CAS
     vmax: Array  # m/s CAS
     axmax: Array  # m/s^2
+    thrust: Array  # N, net thrust of the last performance update
+    drag: Array  # N
+    fuelflow: Array  # kg/s
     iactwp: IntArray
     nwp: IntArray
     actwp_lat: Array  # deg

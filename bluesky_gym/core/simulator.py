@@ -205,6 +205,9 @@ class Simulator:
     vmin: Array
     vmax: Array
     axmax: Array
+    thrust: Array
+    drag: Array
+    fuelflow: Array
     iactwp: IntArray
     nwp: IntArray
     actwp_lat: Array
