@@ -315,6 +315,7 @@ class BlueSkyPhysics:
     thrust: Array
     drag: Array
     fuelflow: Array
+    fuelburn: Array
     iactwp: NDArray[np.int64]
     nwp: NDArray[np.int64]
     actwp_lat: Array
@@ -724,8 +725,16 @@ class BlueSkyPhysics:
         """Run one ``bs.sim.step()`` and read the state back."""
         self._check_open()
         self._bs.sim.step()
+        self._burn()
         self.simt = float(self._bs.sim.simt)
         self._sync_out(routes=False)
+
+    def _burn(self) -> None:
+        """Add the fuel of the step just run (``perf.fuelflow`` times dt) to ``fuelburn``, as the core's kernel does (BlueSky keeps no such total)."""
+        slots, idx = self._slots, self._tidx
+        if slots.size:
+            burned = self._data["fuelburn"]
+            burned[0, slots] = burned[0, slots] + self._bs.traf.perf.fuelflow[idx] * self.dt
 
     def run(self, n_steps: int, trace: bool = False, stop: Callable[[np.ndarray], ArrayLike] | None = None) -> np.ndarray | None:
         """Advance by ``n_steps`` BlueSky steps (same result as calling :meth:`step` n times).
@@ -741,6 +750,7 @@ class BlueSkyPhysics:
         if not (trace or stop is not None):
             for _ in range(int(n_steps)):
                 self._bs.sim.step()
+                self._burn()
             self.simt = float(self._bs.sim.simt)
             self._sync_out(routes=False)
             return None

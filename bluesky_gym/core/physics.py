@@ -79,6 +79,7 @@ class Physics(Protocol):
     thrust: Array  # N, net thrust of the last performance update
     drag: Array  # N
     fuelflow: Array  # kg/s
+    fuelburn: Array  # kg, fuel burned since creation (fuelflow times dt, summed over the steps)
     iactwp: IntArray
     nwp: IntArray
     actwp_lat: Array  # deg

@@ -208,6 +208,7 @@ class Simulator:
     thrust: Array
     drag: Array
     fuelflow: Array
+    fuelburn: Array
     iactwp: IntArray
     nwp: IntArray
     actwp_lat: Array

@@ -52,6 +52,7 @@ STATE_FIELDS: tuple[tuple[str, type, float], ...] = (
     ("thrust", np.float64, 0.0),  # N, net thrust (drag + mass * ax)
     ("drag", np.float64, 0.0),  # N
     ("fuelflow", np.float64, 0.0),  # kg/s, all engines
+    ("fuelburn", np.float64, 0.0),  # kg, fuel burned since creation: the sum of fuelflow * dt over the steps
     # Active waypoint (LNAV) [docs/dynamics.md §2.6].
     ("iactwp", np.int64, -1),
     ("nwp", np.int64, 0),
@@ -103,6 +104,7 @@ I_AXMAX = FIELD_INDEX["axmax"]
 I_THRUST = FIELD_INDEX["thrust"]
 I_DRAG = FIELD_INDEX["drag"]
 I_FUELFLOW = FIELD_INDEX["fuelflow"]
+I_FUELBURN = FIELD_INDEX["fuelburn"]
 I_ACTWP_LAT = FIELD_INDEX["actwp_lat"]
 I_ACTWP_LON = FIELD_INDEX["actwp_lon"]
 I_CURLEGDIR = FIELD_INDEX["curlegdir"]

@@ -37,6 +37,7 @@ from bluesky_gym.core.state import (
     I_CAS,
     I_DISTFLOWN,
     I_DRAG,
+    I_FUELBURN,
     I_FUELFLOW,
     I_GS,
     I_GSEAST,
@@ -269,6 +270,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
     coslat = math.cos(la * RAD)
     F[I_LON, i] = F[I_LON, i] + (dt * ge / coslat / R_EARTH) * DEG
     F[I_DISTFLOWN, i] = F[I_DISTFLOWN, i] + g * dt
+    F[I_FUELBURN, i] = F[I_FUELBURN, i] + F[I_FUELFLOW, i] * dt
 
 
 @jit
