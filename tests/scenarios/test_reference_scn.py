@@ -152,7 +152,8 @@ def test_recordings_cover_the_scenario_commands() -> None:
 
 @pytest.mark.bluesky
 @pytest.mark.parametrize(
-    "name", ["pcall_commands", "pcall_direct_lnav", "pcall_reso_methods", "pcall_reso_route", "pcall_reso_super8", "pcall_fuel_types", "pcall_fuel_reso"]
+    "name",
+    ["pcall_commands", "pcall_direct_lnav", "pcall_reso_methods", "pcall_reso_route", "pcall_reso_super8", "pcall_fuel_types", "pcall_fuel_reso"],
 )
 def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
     """The same player on the BlueSky backend reproduces the PCALL recording (same commands, BlueSky's own physics)."""
