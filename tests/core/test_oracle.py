@@ -45,6 +45,10 @@ FIELDS = [
     "vmin",
     "vmax",
     "axmax",
+    "thrust",
+    "drag",
+    "fuelflow",
+    "fuelburn",
     "swlnav",
 ]
 
