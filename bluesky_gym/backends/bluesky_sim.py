@@ -59,12 +59,13 @@ _BLUESKY_NAMES: dict[str, tuple[str, str]] = {
     "mach": ("", "M"),
     **{f"ap_{a}": ("ap", a) for a in ("trk", "tas", "vs", "alt")},
     "turnphi": ("ap", "turnphi"),
-    **{name: ("perf", name) for name in ("phase", "vmin", "vmax", "axmax")},
+    **{name: ("perf", name) for name in ("phase", "vmin", "vmax", "axmax", "thrust", "drag", "fuelflow")},
     **{f"actwp_{a}": ("actwp", a) for a in ("lat", "lon")},
     **{name: ("actwp", name) for name in ("curlegdir", "turndist", "next_qdr", "swlastwp")},
 }
-#: State arrays derived from BlueSky's routes and slots rather than read from one of its arrays.
-_DERIVED = frozenset({"active", "iactwp", "nwp", "route_has_dest"})
+#: State arrays derived from BlueSky's routes and slots, or kept by the backend (the fuel burned),
+#: rather than read from one of its arrays.
+_DERIVED = frozenset({"active", "iactwp", "nwp", "route_has_dest", "fuelburn"})
 # State array -> (object under bs.traf, or "" for bs.traf itself; attribute). These are read
 # after every step, creation and command.
 TRAFFIC_FIELDS: tuple[tuple[str, str, str], ...] = tuple(
@@ -646,8 +647,16 @@ class BlueSkyPhysics(AircraftState):
         """Run one ``bs.sim.step()`` and read the state back."""
         self._check_open()
         self._bs.sim.step()
+        self._burn()
         self.simt = float(self._bs.sim.simt)
         self._sync_out(routes=False)
+
+    def _burn(self) -> None:
+        """Add the fuel of the step just run (``perf.fuelflow`` times dt) to ``fuelburn``, as the core's kernel does (BlueSky keeps no such total)."""
+        slots, idx = self._slots, self._tidx
+        if slots.size:
+            burned = self._data["fuelburn"]
+            burned[0, slots] = burned[0, slots] + self._bs.traf.perf.fuelflow[idx] * self.dt
 
     def run(self, n_steps: int, trace: bool = False, stop: Callable[[np.ndarray], ArrayLike] | None = None) -> np.ndarray | None:
         """Advance by ``n_steps`` BlueSky steps (same result as calling :meth:`step` n times).
@@ -663,6 +672,7 @@ class BlueSkyPhysics(AircraftState):
         if not (trace or stop is not None):
             for _ in range(int(n_steps)):
                 self._bs.sim.step()
+                self._burn()
             self.simt = float(self._bs.sim.simt)
             self._sync_out(routes=False)
             return None

@@ -10,7 +10,8 @@ Examples::
 Every scenario (each file, each copy) flies in its own airspace of one batch. The CSV has one row
 per aircraft per step with the columns, units (SI) and timing of the BlueSky reference recordings:
 row ``t=0`` is the state after the commands at time 0 (creation and the rest), and a command at
-time ``t`` acts in the step that starts at the first multiple of ``dt`` at or after ``t``. With
+time ``t`` acts in the step that starts at the first multiple of ``dt`` at or after ``t``. The last
+columns are the performance outputs ``thrust`` [N], ``drag`` [N] and ``fuelflow`` [kg/s]. With
 several scenarios a first column ``scenario`` names the file (``name#k`` for copy ``k``).
 A file name that does not exist is looked up among the shipped geometries.
 

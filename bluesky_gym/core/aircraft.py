@@ -4,7 +4,7 @@ BlueSky's default performance model (OpenAP) takes its numbers from the ``openap
 (version 2.6.2): the aircraft files (mass, wing, engine count and default engine), the engine
 table (static thrust, bypass ratio), the drag polars (clean polar, flap and gear increments) and
 the WRAP kinematic parameters (speed envelopes per phase, ceiling, maximum Mach, climb rates,
-take-off acceleration). :func:`aircraft_performance` builds one
+take-off acceleration) and the engine's ICAO fuel flows (fitted as BlueSky fits them). :func:`aircraft_performance` builds one
 :class:`~bluesky_gym.core.performance.AircraftPerformance` per type from the same files with the
 same arithmetic, once per process (cached). The step kernel reads these numbers as rows of a
 ``(types, N_COEFFICIENTS)`` table (:func:`~bluesky_gym.core.performance.table_row`).
@@ -36,6 +36,9 @@ FLAP_LANDING = 40.0
 DELTA_E_REAR = 0.0046
 DELTA_E_WING = 0.0026
 INSTALL_HINT = "pip install openap==2.6.2"
+#: Thrust ratios of ICAO's engine emission data points (zero, idle, approach, climb-out, take-off),
+#: to which BlueSky fits the fuel flow per engine (a quadratic, with the point (0, 0) added).
+FUEL_THRUST_RATIOS = (0.0, 0.07, 0.3, 0.85, 1.0)
 
 
 def _openap() -> Any:
@@ -103,6 +106,8 @@ def _load(resolved: str) -> AircraftPerformance:
     flap_factor = flaps["lambda_f"] * (flaps["cf/c"]) ** 1.38 * flaps["Sf/S"]
     delta_cd_to = flap_factor * np.sin(np.deg2rad(FLAP_TAKEOFF)) ** 2
     delta_cd_ld = flap_factor * np.sin(np.deg2rad(FLAP_LANDING)) ** 2
+    # Fuel flow per engine: BlueSky's least-squares quadratic through ICAO's points (numpy, as BlueSky).
+    fuel_a, fuel_b, fuel_c = np.polyfit(FUEL_THRUST_RATIOS, [0, engine["ff_idl"], engine["ff_app"], engine["ff_co"], engine["ff_to"]], 2)
     de_per_deg = DELTA_E_REAR if ac["engine"]["mount"] == "rear" else DELTA_E_WING
     ar = ac["wing"]["span"] ** 2 / ac["wing"]["area"]
     return AircraftPerformance(
@@ -130,6 +135,9 @@ def _load(resolved: str) -> AircraftPerformance:
         vsmin=min(lo(v) for v in vs_parts),
         mmo=float(wrap.cruise_max_mach()["default"]),
         axmax_initial=hi(wrap.takeoff_acceleration()),
+        fuel_a=float(fuel_a),
+        fuel_b=float(fuel_b),
+        fuel_c=float(fuel_c),
     )
 
 

@@ -3,7 +3,9 @@
 The model supplies three things to the kinematics: the flight phase, the speed envelope of that
 phase, and the maximum longitudinal acceleration ``axmax`` from maximum thrust and drag. It is
 evaluated from the state at the *start* of a simulation step, before the autopilot runs
-(:func:`performance`, a scalar kernel called by the step kernel).
+(:func:`performance`, a scalar kernel called by the step kernel). The same update gives the
+aircraft's drag, net thrust and fuel flow (:func:`fuel_flow`), outputs that nothing in the
+kinematics reads [docs/dynamics.md §1.4a].
 """
 
 from __future__ import annotations
@@ -53,6 +55,9 @@ class AircraftPerformance:
     vsmin: float  # m/s: OpenAP's smallest climb rate, BlueSky's perf.vsmin (used by conflict resolution)
     mmo: float  # maximum Mach number
     axmax_initial: float  # m/s^2 until the first performance update (WRAP's maximum take-off acceleration)
+    fuel_a: float  # kg/s per engine: quadratic coefficient of the fuel flow in the thrust ratio (ICAO fit)
+    fuel_b: float  # kg/s per engine: linear coefficient
+    fuel_c: float  # kg/s per engine: constant term
     axmax_ground: float = AXMAX_GROUND  # m/s^2
     axmax_floor: float = AXMAX_FLOOR  # m/s^2
 
@@ -87,15 +92,15 @@ def perf_tuple(perf: AircraftPerformance) -> tuple[float, ...]:
     )
 
 
-def limit_tuple(perf: AircraftPerformance) -> tuple[float, float, float, float]:
-    """The envelope limits (hmax, vsmax, mmo, v_rotate) as the step kernel takes them (columns 19-22)."""
-    return (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate)
+def limit_tuple(perf: AircraftPerformance) -> tuple[float, float, float, float, float, float, float]:
+    """The envelope limits (hmax, vsmax, mmo, v_rotate) and the fuel-flow coefficients (a, b, c) as the step kernel takes them (columns 19-25)."""
+    return (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate, perf.fuel_a, perf.fuel_b, perf.fuel_c)
 
 
 #: Columns of a row of the performance table: :func:`perf_tuple` then :func:`limit_tuple`.
 N_PERF = 19
-C_HMAX, C_VSMAX, C_MMO, C_V_ROTATE = range(N_PERF, N_PERF + 4)
-N_COEFFICIENTS = N_PERF + 4
+C_HMAX, C_VSMAX, C_MMO, C_V_ROTATE, C_FUEL_A, C_FUEL_B, C_FUEL_C = range(N_PERF, N_PERF + 7)
+N_COEFFICIENTS = N_PERF + 7
 
 
 def table_row(perf: AircraftPerformance) -> tuple[float, ...]:
@@ -135,8 +140,8 @@ def flight_phase(tas: float, vs: float, alt: float) -> int:
 
 
 @jit
-def performance(tas: float, vs: float, alt: float, perf: tuple[float, ...]) -> tuple[int, float, float, float]:
-    """OpenAP phase, CAS envelope [m/s] and axmax [m/s^2] [docs/dynamics.md §1.3-1.4].
+def performance(tas: float, vs: float, alt: float, perf: tuple[float, ...]) -> tuple[int, float, float, float, float]:
+    """OpenAP phase, CAS envelope [m/s], axmax [m/s^2] and drag [N] [docs/dynamics.md §1.3-1.4].
 
     Includes BlueSky's always-true en-route envelope test (quirk 9.1).
 
@@ -148,7 +153,7 @@ def performance(tas: float, vs: float, alt: float, perf: tuple[float, ...]) -> t
             first ``N_PERF`` values are read).
 
     Returns:
-        (phase, vmin, vmax, axmax).
+        (phase, vmin, vmax, axmax, drag).
     """
     mass = perf[0]
     wing_area = perf[1]
@@ -217,4 +222,30 @@ def performance(tas: float, vs: float, alt: float, perf: tuple[float, ...]) -> t
         axmax = ax_gd
     if axmax < ax_floor:
         axmax = ax_floor
-    return ph, vmin, vmax, axmax
+    return ph, vmin, vmax, axmax, drag
+
+
+@jit
+def fuel_flow(drag: float, ax: float, mass: float, n_eng: float, eng_thr: float, a: float, b: float, c: float) -> tuple[float, float]:
+    """Net thrust [N] and fuel flow [kg/s], as BlueSky 1.1.1's OpenAP update computes them [docs/dynamics.md §1.4a].
+
+    The thrust is what holds the last step's acceleration against the drag, ``T = D + m ax``; the
+    fuel flow is ICAO's quadratic fit per engine in the thrust ratio ``T / (n Tmax0)``, times the
+    number of engines. BlueSky evaluates them after the drag, with the ``ax`` of the previous step.
+
+    Args:
+        drag: Drag [N] (:func:`performance`).
+        ax: Longitudinal acceleration of the last step [m/s^2].
+        mass: Mass [kg].
+        n_eng: Number of engines.
+        eng_thr: Static maximum thrust per engine [N].
+        a: Quadratic coefficient of the fuel flow per engine [kg/s].
+        b: Linear coefficient [kg/s].
+        c: Constant term [kg/s].
+
+    Returns:
+        (thrust, fuelflow).
+    """
+    thrust = drag + mass * ax
+    ratio = thrust / (n_eng * eng_thr)
+    return thrust, n_eng * (a * (ratio * ratio) + b * ratio + c)

@@ -81,6 +81,10 @@ class AircraftState(Protocol):
     vmin: Array = empty_slot(67.0)  # m/s CAS
     vmax: Array = empty_slot(163.0)  # m/s CAS
     axmax: Array = empty_slot(2.37)  # m/s^2
+    thrust: Array = empty_slot(0.0)  # N, net thrust (drag + mass * ax)
+    drag: Array = empty_slot(0.0)  # N
+    fuelflow: Array = empty_slot(0.0)  # kg/s, all engines
+    fuelburn: Array = empty_slot(0.0)  # kg, fuel burned since creation: the sum of fuelflow * dt over the steps
     # Active waypoint (LNAV) [docs/dynamics.md §2.6].
     iactwp: IntArray = empty_slot(-1)
     nwp: IntArray = empty_slot(0)
@@ -137,6 +141,10 @@ I_TURNPHI = FIELD_INDEX["turnphi"]
 I_VMIN = FIELD_INDEX["vmin"]
 I_VMAX = FIELD_INDEX["vmax"]
 I_AXMAX = FIELD_INDEX["axmax"]
+I_THRUST = FIELD_INDEX["thrust"]
+I_DRAG = FIELD_INDEX["drag"]
+I_FUELFLOW = FIELD_INDEX["fuelflow"]
+I_FUELBURN = FIELD_INDEX["fuelburn"]
 I_ACTWP_LAT = FIELD_INDEX["actwp_lat"]
 I_ACTWP_LON = FIELD_INDEX["actwp_lon"]
 I_CURLEGDIR = FIELD_INDEX["curlegdir"]

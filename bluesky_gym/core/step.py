@@ -21,7 +21,7 @@ import numpy as np
 from bluesky_gym.core.atmosphere import GAMMA_R, cas2tas_at, is_mach, isa, tas2cas_at
 from bluesky_gym.core.jit import grid_range, jit, jit_inline, rint, scratch
 from bluesky_gym.core.lnav import lnav_one
-from bluesky_gym.core.performance import C_HMAX, C_MMO, C_V_ROTATE, C_VSMAX, PHASE_GD, performance
+from bluesky_gym.core.performance import C_FUEL_A, C_FUEL_B, C_FUEL_C, C_HMAX, C_MMO, C_V_ROTATE, C_VSMAX, PHASE_GD, fuel_flow, performance
 from bluesky_gym.core.scalar import DEG, RAD
 from bluesky_gym.core.scalar import maximum as _maximum
 from bluesky_gym.core.scalar import mod as _mod
@@ -36,6 +36,9 @@ from bluesky_gym.core.state import (
     I_AXMAX,
     I_CAS,
     I_DISTFLOWN,
+    I_DRAG,
+    I_FUELBURN,
+    I_FUELFLOW,
     I_GS,
     I_GSEAST,
     I_GSNORTH,
@@ -47,6 +50,7 @@ from bluesky_gym.core.state import (
     I_SELSPD,
     I_SELVS,
     I_TAS,
+    I_THRUST,
     I_TRK,
     I_TURNPHI,
     I_VMAX,
@@ -70,30 +74,31 @@ def same(a: float, b: float) -> bool:
 # Columns of the memo table (one row per aircraft slot). Each pure sub-computation is skipped
 # when its inputs are bit-identical to the previous step's, which is the common case in level,
 # constant-speed flight; the result is then exactly what recomputing would give.
-M_PERF_TAS, M_PERF_VS, M_PERF_ALT, M_PHASE, M_VMIN, M_VMAX, M_AXMAX = range(7)
-M_H, M_P_H, M_RHO_H, M_T_H = range(7, 11)
-M_HT, M_P_T, M_RHO_T, M_T_T = range(11, 15)
-M_SPD, M_SPD_H, M_APTAS = range(15, 18)
-M_LIM_TAS, M_LIM_HT, M_LIM_VMIN, M_LIM_VMAX, M_LIM_OUT = range(18, 23)
-M_CAS_V, M_CAS_H, M_CAS, M_MACH = range(23, 27)
-M_TR_V, M_TR_BANK, M_TURNRATE = range(27, 30)
-M_HDG, M_COS, M_SIN = range(30, 33)
-MEMO_COLUMNS = 33
+M_PERF_TAS, M_PERF_VS, M_PERF_ALT, M_PHASE, M_VMIN, M_VMAX, M_AXMAX, M_DRAG = range(8)
+M_H, M_P_H, M_RHO_H, M_T_H = range(8, 12)
+M_HT, M_P_T, M_RHO_T, M_T_T = range(12, 16)
+M_SPD, M_SPD_H, M_APTAS = range(16, 19)
+M_LIM_TAS, M_LIM_HT, M_LIM_VMIN, M_LIM_VMAX, M_LIM_OUT = range(19, 24)
+M_CAS_V, M_CAS_H, M_CAS, M_MACH = range(24, 28)
+M_TR_V, M_TR_BANK, M_TURNRATE = range(28, 31)
+M_HDG, M_COS, M_SIN = range(31, 34)
+MEMO_COLUMNS = 34
 
 
 @jit_inline
 def perf_row(table, t):  # type: ignore[no-untyped-def]
-    """Row ``t`` of the performance table as the tuples :func:`step_one` takes: (perf_tuple, (hmax, vsmax, mmo, v_rotate))."""
+    """Row ``t`` of the performance table as the tuples :func:`step_one` takes: (perf_tuple, limit_tuple)."""
     r = table[t]
     perf = (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11], r[12], r[13], r[14], r[15], r[16], r[17], r[18])
-    return perf, (r[C_HMAX], r[C_VSMAX], r[C_MMO], r[C_V_ROTATE])
+    return perf, (r[C_HMAX], r[C_VSMAX], r[C_MMO], r[C_V_ROTATE], r[C_FUEL_A], r[C_FUEL_B], r[C_FUEL_C])
 
 
 @jit_inline
 def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, memo, part, follow, res_trk, res_gs, res_alt, res_vs):  # type: ignore[no-untyped-def]
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`), or by one of its two parts.
 
-    ``perf`` and ``limits`` are the aircraft's type's :func:`perf_row` tuples. ``part`` 0 is the
+    ``perf`` and ``limits`` are the aircraft's type's :func:`perf_row` tuples (``limits`` carries
+    the fuel-flow coefficients too). ``part`` 0 is the
     whole step. With conflict resolution BlueSky's ASAS runs between the autopilot and the
     kinematics, so the step runs in two parts: ``part`` 1 is the performance update and the
     autopilot, ``part`` 2 the rest, which flies, where ``follow``, the resolution's track [deg],
@@ -101,19 +106,22 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
     vertical speed [m/s] instead of the autopilot's. One function serves the whole step and both
     parts, so the plain step compiles to the same code as an undivided one (and runs as fast).
     """
-    hmax, vsmax, mmo, v_rotate = limits
+    hmax, vsmax, mmo, v_rotate, fuel_a, fuel_b, fuel_c = limits
     mm = memo[i]
     if part != 2:
         # Performance update from the start-of-step state [docs/dynamics.md §2.1].
         if do_perf:
             if not (same(F[I_TAS, i], mm[M_PERF_TAS]) and same(F[I_VS, i], mm[M_PERF_VS]) and same(F[I_ALT, i], mm[M_PERF_ALT])):
-                ph, vmn, vmx, axm = performance(F[I_TAS, i], F[I_VS, i], F[I_ALT, i], perf)
+                ph, vmn, vmx, axm, drag = performance(F[I_TAS, i], F[I_VS, i], F[I_ALT, i], perf)
                 mm[M_PERF_TAS], mm[M_PERF_VS], mm[M_PERF_ALT] = F[I_TAS, i], F[I_VS, i], F[I_ALT, i]
-                mm[M_PHASE], mm[M_VMIN], mm[M_VMAX], mm[M_AXMAX] = ph, vmn, vmx, axm
+                mm[M_PHASE], mm[M_VMIN], mm[M_VMAX], mm[M_AXMAX], mm[M_DRAG] = ph, vmn, vmx, axm, drag
             phase[i] = int(mm[M_PHASE])
             F[I_VMIN, i] = mm[M_VMIN]
             F[I_VMAX, i] = mm[M_VMAX]
             F[I_AXMAX, i] = mm[M_AXMAX]
+            # Drag, net thrust and fuel flow: outputs only, with the previous step's ax [§1.4a].
+            F[I_DRAG, i] = mm[M_DRAG]
+            F[I_THRUST, i], F[I_FUELFLOW, i] = fuel_flow(mm[M_DRAG], F[I_AX, i], perf[0], perf[2], perf[3], fuel_a, fuel_b, fuel_c)
         h = F[I_ALT, i]
         if not same(h, mm[M_H]):
             mm[M_H] = h
@@ -262,6 +270,7 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
     coslat = math.cos(la * RAD)
     F[I_LON, i] = F[I_LON, i] + (dt * ge / coslat / R_EARTH) * DEG
     F[I_DISTFLOWN, i] = F[I_DISTFLOWN, i] + g * dt
+    F[I_FUELBURN, i] = F[I_FUELBURN, i] + F[I_FUELFLOW, i] * dt
 
 
 @jit

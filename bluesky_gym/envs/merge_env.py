@@ -83,6 +83,7 @@ class MergeEnv(BlueSkyEnv):
     | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | never |
     | `kpi_mean_abs_drift_deg` | mean absolute drift (from the bearing to the FAF, then the runway) [deg], over the decision steps | never |
     | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_fuel_kg` | fuel burned by the ownship [kg]: its fuel flow (BlueSky's OpenAP model) summed over the physics steps | never |
     | `kpi_episode_time_s` | simulated time of the episode [s] | never |
 
     ## Arguments

@@ -85,6 +85,7 @@ class RealTrafficCREnv(BlueSkyEnv):
     | `kpi_mean_abs_drift_deg` | mean absolute drift from the heading to the recorded position 60 s ahead [deg], over the decision steps | never |
     | `kpi_mean_route_deviation_nm` | mean lateral distance from the recorded route [NM] | `NaN` without a decision step |
     | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_fuel_kg` | fuel burned by the ownship [kg]: its fuel flow (BlueSky's OpenAP model) summed over the physics steps | never |
     | `kpi_episode_time_s` | simulated time of the episode [s] | never |
 
     ## Arguments

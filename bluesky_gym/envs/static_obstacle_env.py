@@ -102,6 +102,7 @@ class StaticObstacleEnv(BlueSkyEnv):
     | `kpi_min_separation_nm` | smallest distance to another aircraft [NM] | always `inf`: there is no other aircraft |
     | `kpi_mean_abs_drift_deg` | mean absolute drift from the heading to the waypoint [deg], over the decision steps | never |
     | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_fuel_kg` | fuel burned by the ownship [kg]: its fuel flow (BlueSky's OpenAP model) summed over the physics steps | never |
     | `kpi_episode_time_s` | simulated time of the episode [s] | never |
     | `kpi_obstacle_intrusions` | restricted areas the aircraft was inside at the end (0 without a crash) | never |
 

@@ -90,6 +90,7 @@ class VerticalCREnv(BlueSkyEnv):
     | `kpi_min_separation_nm` | smallest horizontal distance to an intruder [NM] | never |
     | `kpi_mean_abs_drift_deg` | mean absolute drift from the goal heading [deg] | always `NaN`: the task has no heading goal |
     | `kpi_track_distance_km` | distance flown [km] | never |
+    | `kpi_fuel_kg` | fuel burned by the ownship [kg]: its fuel flow (BlueSky's OpenAP model) summed over the physics steps | never |
     | `kpi_episode_time_s` | simulated time of the episode [s] | never |
 
     ## Arguments

@@ -88,6 +88,7 @@ class MultiAgentStats:
     drift_n: IntArray = field(init=False)  # agent-steps
     intrusions: IntArray = field(init=False)  # sum over agents of their intrusion counts (pairs count twice)
     track_m: Array = field(init=False)  # m flown, summed over the agents that left
+    fuel_kg: Array = field(init=False)  # kg of fuel burned, summed over the agents that left
     in_los: BoolArray = field(init=False)  # (n_envs, n_agents) aircraft in LoS now
     los_pairs: BoolArray = field(init=False)  # (n_envs, n_agents, n_agents) pairs i < j in LoS now
 
@@ -95,7 +96,7 @@ class MultiAgentStats:
         n, m = self.n_envs, self.n_agents
         for name in ("steps", "n_start", "completed", "timed_out", "los_count", "los_steps", "drift_n", "intrusions"):
             setattr(self, name, np.zeros(n, np.int64))
-        for name in ("total_reward", "completion_time", "drift_sum", "track_m"):
+        for name in ("total_reward", "completion_time", "drift_sum", "track_m", "fuel_kg"):
             setattr(self, name, np.zeros(n))
         self.min_separation = np.full(n, np.inf)
         self.in_los = np.zeros((n, m), bool)
@@ -105,7 +106,7 @@ class MultiAgentStats:
         """Start new episodes in ``envs``."""
         for name in ("steps", "n_start", "completed", "timed_out", "los_count", "los_steps", "drift_n", "intrusions"):
             getattr(self, name)[envs] = 0
-        for name in ("total_reward", "completion_time", "drift_sum", "track_m"):
+        for name in ("total_reward", "completion_time", "drift_sum", "track_m", "fuel_kg"):
             getattr(self, name)[envs] = 0.0
         self.min_separation[envs] = np.inf
         self.in_los[envs] = False
@@ -480,6 +481,7 @@ class MultiAgentTask(Task):
         st.completion_time += completed.sum(axis=1) * st.steps * self.dt * self.action_frequency
         st.timed_out += (done & ~completed).sum(axis=1)
         st.track_m += np.where(done, self.sim.distflown, 0.0).sum(axis=1)
+        st.fuel_kg += np.where(done, self.sim.fuelburn, 0.0).sum(axis=1)
         self.agent_outcome[completed] = 1
         self.agent_outcome[done & ~completed] = 2
         env_idx, slot_idx = np.nonzero(done)
@@ -534,7 +536,7 @@ class MultiAgentTask(Task):
         over agent-steps; ``kpi_completion_rate``: fraction of the agents that reached their goal
         (exit / arrival) before the time limit; ``kpi_mean_time_to_complete_s`` over those (NaN if
         none); ``kpi_mean_agent_return``; ``kpi_mean_track_km`` flown per agent (agents that left);
-        ``kpi_episode_time_s``; ``kpi_agents``.
+        ``kpi_fuel_kg``: fuel burned by all agents together [kg]; ``kpi_episode_time_s``; ``kpi_agents``.
         """
         st = self.stats
         n = np.maximum(st.n_start, 1)
@@ -549,6 +551,7 @@ class MultiAgentTask(Task):
                 "kpi_mean_time_to_complete_s": np.where(st.completed > 0, st.completion_time / np.maximum(st.completed, 1), np.nan),
                 "kpi_mean_agent_return": st.total_reward / n,
                 "kpi_mean_track_km": st.track_m / n / 1000.0,
+                "kpi_fuel_kg": st.fuel_kg.copy(),
                 "kpi_episode_time_s": st.steps * self.dt * self.action_frequency,
                 "kpi_agents": st.n_start.astype(np.float64),
             }

@@ -30,6 +30,7 @@ KPI_COLUMNS: tuple[tuple[str, str], ...] = (
     ("kpi_mean_abs_drift_deg", "drift [deg]"),
     ("kpi_completion_rate", "completed"),
     ("kpi_mean_agent_return", "return/agent"),
+    ("kpi_fuel_kg", "fuel [kg]"),
 )
 
 

@@ -3,7 +3,7 @@
 Horizontal environments are drawn as a north-up map (north up, east right, with a scale bar);
 vertical ones (Descent, VerticalCR) as a side view of altitude against distance to the runway.
 Aircraft point along their heading and leave short trails; protected zones turn red during a loss
-of separation; a text panel shows time, step, reward, intrusions and key numbers.
+of separation; a text panel shows time, step, reward, intrusions, the ownship's fuel and key numbers.
 
 pygame (and, for videos, imageio/pillow) come with the ``render`` extra:
 ``pip install -e ".[render]"``. Nothing here imports pygame until a renderer is created.

@@ -245,6 +245,7 @@ class Renderer:
             ("step", f"{steps} / {task.time_limit}"),
             ("reward", "-" if reward is None else f"{reward:+.3f}"),
             ("return", f"{float(st.total_reward[i]):+.2f}"),
+            ("fuel", _fuel(float(task.sim.fuelburn[i, 0]), float(task.sim.fuelflow[i, 0]))),
         ]
         has_traffic = task.sim.max_aircraft > 1
         if has_traffic:
@@ -277,6 +278,13 @@ def _clock(seconds: float) -> str:
     if s >= 3600:
         return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
     return f"{s // 60}:{s % 60:02d}"
+
+
+def _fuel(burned: float, flow: float) -> str:
+    """The ownship's fuel burned so far [kg] and its fuel flow now [kg/s], as the panel shows them."""
+    if not (math.isfinite(burned) and math.isfinite(flow)):
+        return "-"
+    return f"{burned:.0f} kg, {flow:.2f} kg/s"
 
 
 def _panel_lines(frame: pygame.Surface, lines: list[tuple[str, str]], x0: int, x1: int, y: int, los_row: int = 0) -> int:

@@ -86,6 +86,9 @@ TRAJECTORY_COLUMNS = (
     "iactwp",
     "windnorth",
     "windeast",
+    "thrust",
+    "drag",
+    "fuelflow",
 )
 #: Physics attribute of each numeric column (``t`` and ``acid`` are not state).
 COLUMN_FIELDS = {c: {"vmin_cas": "vmin", "vmax_cas": "vmax"}.get(c, c) for c in TRAJECTORY_COLUMNS[2:]}

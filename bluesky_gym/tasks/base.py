@@ -738,6 +738,7 @@ class Task(abc.ABC):
             "kpi_min_separation_nm": st.min_separation.copy(),
             "kpi_mean_abs_drift_deg": avg_drift,
             "kpi_track_distance_km": self.sim.distflown[:, 0] / 1000.0,
+            "kpi_fuel_kg": self.sim.fuelburn[:, 0].copy(),
             "kpi_episode_time_s": st.steps * self.dt * self.action_frequency,
         }
         if self.has_goal:

@@ -41,6 +41,7 @@ KPI_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("min_sep_nm", "kpi_min_separation_nm", "min sep [NM]"),
     ("drift_deg", "kpi_mean_abs_drift_deg", "drift [deg]"),
     ("time_to_goal_s", "kpi_time_to_goal_s", "time to goal [s]"),
+    ("fuel_kg", "kpi_fuel_kg", "fuel [kg]"),
     ("length", "length", "length"),
 )
 DEFAULT_BATCH = 64

@@ -110,3 +110,23 @@ def test_run_with_stop_keeps_types() -> None:
     sim.create([0, 1], 0, 52.0, 4.0, 0.0, 3000.0, 150.0, actype=["B744", "E190"])
     sim.run(10, stop=lambda track: np.array([3, 0]))
     assert sim.aircraft_type([0, 1], 0) == ["B744", "E190"]
+
+
+@pytest.mark.parametrize("dt", [1.0, 0.5, 5.0])
+def test_fuel_burned_is_the_fuel_flow_summed_over_the_steps(dt: float) -> None:
+    """``fuelburn`` adds each step's ``fuelflow`` (of that step's performance update) times dt, whether stepped or run."""
+    types = ["A320", "B744", "C550", "E145"]
+    stepped, ran = (Simulator(1, 4, dt=dt) for _ in range(2))
+    for sim in (stepped, ran):
+        sim.create(0, np.arange(4), 52.0, 4.0, 90.0, [3000.0, 9000.0, 6000.0, 1000.0], 150.0, actype=types)
+        sim.cmd_speed(0, [0, 1], [200.0, 120.0])
+        sim.cmd_altitude(0, [2, 3], [9000.0, 3000.0])
+    n = int(round(120 / dt))
+    want = np.zeros(4)
+    for _ in range(n):
+        stepped.step()
+        want = want + stepped.fuelflow[0] * dt
+    np.testing.assert_array_equal(stepped.fuelburn[0], want)
+    ran.run(n)
+    np.testing.assert_array_equal(ran.fuelburn[0], want)
+    assert np.all(want > 0.0)

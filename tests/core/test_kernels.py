@@ -93,12 +93,33 @@ def test_performance_kernel_equals_the_oracle() -> None:
     phase = o_perf.flight_phase(tas, vs, alt)
     vmin, vmax = o_perf.speed_envelope(phase)
     axmax = o_perf.max_acceleration(phase, tas, alt, vs)
+    drag = o_perf.drag(phase, tas, alt)
     args = performance.perf_tuple(aircraft_performance("A320"))
     for k in range(n):
-        ph, vn, vx, ax = performance.performance(tas[k], vs[k], alt[k], args)
+        ph, vn, vx, ax, d = performance.performance(tas[k], vs[k], alt[k], args)
         assert ph == phase[k], k
-        _same_bits([vn, vx, ax], [vmin[k], vmax[k], axmax[k]])
+        _same_bits([vn, vx, ax, d], [vmin[k], vmax[k], axmax[k], drag[k]])
     assert set(np.unique(phase)) >= {performance.PHASE_GD, performance.PHASE_CL, performance.PHASE_CR, performance.PHASE_DE}
+
+
+@pytest.mark.parametrize("actype", ["A320", "B744", "E145", "C550", "A388"])
+def test_fuel_flow_kernel_equals_the_oracle(actype: str) -> None:
+    """Net thrust and fuel flow from drag and the last step's acceleration, every bit, for several types."""
+    perf = aircraft_performance(actype)
+    rng = np.random.default_rng(11)
+    n = 2000
+    tas = rng.uniform(30, 280, n)
+    alt = rng.uniform(0, 13000, n)
+    vs = rng.choice([0.0, 5.0, -12.0], n)
+    ax = rng.choice([0.0, 0.5, -0.5, 1.1, 2.0], n) * rng.uniform(0.2, 1.0, n)
+    phase = o_perf.flight_phase(tas, vs, alt)
+    thrust, fuel = o_perf.thrust_and_fuel_flow(o_perf.drag(phase, tas, alt, perf), ax, perf)
+    args = performance.perf_tuple(perf)
+    for k in range(n):
+        d = performance.performance(tas[k], vs[k], alt[k], args)[4]
+        got = performance.fuel_flow(d, ax[k], perf.mass, float(perf.engine_count), perf.engine_max_thrust, perf.fuel_a, perf.fuel_b, perf.fuel_c)
+        _same_bits(list(got), [thrust[k], fuel[k]])
+    assert np.all(np.isfinite(fuel)) and np.all(np.isfinite(thrust))
 
 
 @pytest.mark.parametrize("wind", [False, True])

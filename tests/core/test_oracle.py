@@ -46,6 +46,10 @@ FIELDS = [
     "vmin",
     "vmax",
     "axmax",
+    "thrust",
+    "drag",
+    "fuelflow",
+    "fuelburn",
     "swlnav",
 ]
 

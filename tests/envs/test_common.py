@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -165,6 +167,8 @@ def test_step_after_episode_end_raises(env_id: str) -> None:
             break
     assert te or tr, "episode did not end within max_episode_steps"
     assert any(k.startswith("kpi_") for k in info), "KPIs missing at the end of the episode"
+    fuel = float(info["kpi_fuel_kg"])
+    assert math.isfinite(fuel) and fuel > 0.0, f"kpi_fuel_kg {fuel!r}"
     with pytest.raises(RuntimeError, match="ended"):
         env.step(env.action_space.sample())
 

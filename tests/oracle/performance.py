@@ -90,8 +90,8 @@ def max_thrust_ratio(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array
     return np.where(phase == PHASE_GD, ratio_to, ratio_inflight)
 
 
-def max_acceleration(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array, perf: AircraftPerformance = A320) -> Array:
-    """Maximum longitudinal acceleration ``axmax`` [m/s^2] = (Tmax - D) / m [docs/dynamics.md §1.4]."""
+def drag(phase: NDArray[np.int64], tas: Array, alt: Array, perf: AircraftPerformance = A320) -> Array:
+    """Drag [N] = qS (cd0 + k CL^2), with the polar of the phase [docs/dynamics.md §1.4]."""
     gd = phase == PHASE_GD
     ap = phase == PHASE_AP
     ic = phase == PHASE_IC
@@ -100,9 +100,22 @@ def max_acceleration(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array
     rho = isa.vdensity(alt)
     rhovs = 0.5 * rho * tas**2 * perf.wing_area
     cl = perf.mass * G0 / rhovs
-    drag = rhovs * (cd0 + k * cl**2)
+    return rhovs * (cd0 + k * cl**2)
+
+
+def thrust_and_fuel_flow(drag: Array, ax: Array, perf: AircraftPerformance = A320) -> tuple[Array, Array]:
+    """Net thrust [N] = D + m ax and fuel flow [kg/s] = n (a r^2 + b r + c), r = T / (n Tmax0) [docs/dynamics.md §1.4a]."""
+    thrust = drag + perf.mass * ax
+    ratio = thrust / (perf.engine_count * perf.engine_max_thrust)
+    return thrust, perf.engine_count * (perf.fuel_a * ratio**2 + perf.fuel_b * ratio + perf.fuel_c)
+
+
+def max_acceleration(phase: NDArray[np.int64], tas: Array, alt: Array, vs: Array, perf: AircraftPerformance = A320) -> Array:
+    """Maximum longitudinal acceleration ``axmax`` [m/s^2] = (Tmax - D) / m [docs/dynamics.md §1.4]."""
+    gd = phase == PHASE_GD
+    d = drag(phase, tas, alt, perf)
     max_thrust = max_thrust_ratio(phase, tas, alt, vs, perf) * perf.engine_count * perf.engine_max_thrust
-    axmax = (max_thrust - drag) / perf.mass
+    axmax = (max_thrust - d) / perf.mass
     axmax = np.where(gd, perf.axmax_ground, axmax)
     return np.where(axmax < perf.axmax_floor, perf.axmax_floor, axmax)
 

@@ -101,6 +101,8 @@ class OracleSimulator(Simulator):
         perf = self._perf_of_every_aircraft()
         self.vmin, self.vmax = pf.speed_envelope(self.phase, perf)
         self.axmax = pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, perf)
+        self.drag = pf.drag(self.phase, self.tas, self.alt, perf)  # outputs [docs/dynamics.md §1.4a]
+        self.thrust, self.fuelflow = pf.thrust_and_fuel_flow(self.drag, self.ax, perf)
 
     def _update_autopilot(self) -> None:
         """Autopilot targets [docs/dynamics.md §2.3]; LNAV waypoint logic [docs/dynamics.md §2.6]."""
@@ -221,3 +223,4 @@ class OracleSimulator(Simulator):
         coslat = np.cos(np.deg2rad(self.lat))
         self.lon = self.lon + np.degrees(dt * self.gseast / coslat / R_EARTH)
         self.distflown = self.distflown + self.gs * dt
+        self.fuelburn = self.fuelburn + self.fuelflow * dt

@@ -23,7 +23,7 @@ from bluesky_gym.scenarios import TRAJECTORY_COLUMNS, ScenarioError, ScenarioPla
 from bluesky_gym.scenarios.export import ScenarioRecorder, unique_callsigns
 from bluesky_gym.scenarios.geometries import shipped_scenario, shipped_scenarios, sphere_conflict, super_conflict, wall_conflict, write_shipped
 from bluesky_gym.scenarios.player import UnknownAircraftTypeWarning, common_dt, slots_needed, unknown_types, waypoints_needed
-from tests.core.reference_scenarios import DATA
+from tests.core.reference_scenarios import DATA, open_recording
 
 TIMED = """00:00:00.00>CRE AC1 A320 52 4 0 FL100 250
 00:00:02.50>HDG AC1 90
@@ -134,9 +134,10 @@ def test_replay_cli_writes_the_reference_columns(tmp_path: Path, capsys: pytest.
     out = tmp_path / "t.csv"
     assert main(["replay", str(DATA / "scn" / "route.scn"), "--duration", "20", "--out", str(out), "--quiet"]) == 0
     rows = _rows(out)
-    with open(DATA / "pcall_route.csv", newline="") as fh:
+    with open_recording("pcall_fuel_types") as fh:  # recorded with every column, thrust, drag and fuelflow too
         header = next(csv.reader(fh))
     assert list(rows[0]) == header == list(TRAJECTORY_COLUMNS)
+    assert list(TRAJECTORY_COLUMNS[-3:]) == ["thrust", "drag", "fuelflow"]
     assert len(rows) == 2 * 21 and rows[0]["t"] == "0" and rows[-1]["t"] == "20"
     ref = _rows(DATA / "pcall_route.csv")[: len(rows)]
     assert [r["lat"] for r in rows] == [r["lat"] for r in ref]

@@ -32,8 +32,14 @@ SCN = {
     "pcall_reso_methods": ("reso_methods.scn", 1.0, 400),
     "pcall_reso_route": ("reso_route.scn", 1.0, 400),
     "pcall_reso_wall": ("reso_wall.scn", 1.0, 400),
+    "pcall_fuel_types": ("fuel_types.scn", 1.0, 400),
+    "pcall_fuel_types_dt05": ("fuel_types.scn", 0.5, 150),
+    "pcall_fuel_reso": ("fuel_reso.scn", 1.0, 300),
 }
 ANGLES = ("hdg", "trk", "ap_trk")
+#: The recordings with BlueSky's performance outputs (columns thrust, drag, fuelflow).
+FUEL = ("pcall_fuel_types", "pcall_fuel_types_dt05", "pcall_fuel_reso")
+PERF_OUTPUTS = ("thrust", "drag", "fuelflow")
 
 
 def load(name: str) -> list[dict[str, str]]:
@@ -69,6 +75,34 @@ def test_scenario_file_matches_bluesky(name: str) -> None:
             worst[col] = max(worst.get(col, 0.0), err)
             assert err <= tol, f"{name} {want['acid']} {col}: t={want['t']} got {values[col]!r} want {want[col]!r} (|d|={err:.3g} > {tol})"
     assert set(worst) == set(TOL)
+
+
+def _bits(x: object) -> int:
+    """The float's bit pattern (one pattern for every NaN)."""
+    v = float(x)  # type: ignore[arg-type]
+    return -1 if v != v else int(np.float64(v).view(np.int64))
+
+
+@pytest.mark.parametrize("name", FUEL)
+def test_performance_outputs_match_bluesky_bit_for_bit(name: str) -> None:
+    """Mixed types: every column of every row, thrust, drag and fuel flow included, equals BlueSky's to the last bit.
+
+    These recordings were made by BlueSky 1.1.1 on the machine type the tests run on (same libm),
+    so nothing is left to a tolerance: not the outputs, and not the state they are computed from.
+    """
+    ref = load(name)
+    got = replay(name)
+    assert len(got) == len(ref), f"{name}: {len(got)} rows, BlueSky recorded {len(ref)}"
+    assert set(PERF_OUTPUTS) <= set(ref[0])
+    moved = {c: 0 for c in PERF_OUTPUTS}
+    for row, want in zip(got, ref):
+        values = dict(zip(TRAJECTORY_COLUMNS, row))
+        assert values["acid"] == want["acid"]
+        for col in TRAJECTORY_COLUMNS[2:]:
+            assert _bits(values[col]) == _bits(want[col]), f"{name} {want['acid']} {col}: t={want['t']} got {values[col]!r} want {want[col]!r}"
+        for col in PERF_OUTPUTS:
+            moved[col] += float(want[col]) != 0.0
+    assert min(moved.values()) > len(ref) // 2, moved  # the outputs are computed, not left at 0
 
 
 def test_copies_in_a_batch_equal_the_single_replay() -> None:
@@ -117,7 +151,10 @@ def test_recordings_cover_the_scenario_commands() -> None:
 
 
 @pytest.mark.bluesky
-@pytest.mark.parametrize("name", ["pcall_commands", "pcall_direct_lnav", "pcall_reso_methods", "pcall_reso_route", "pcall_reso_super8"])
+@pytest.mark.parametrize(
+    "name",
+    ["pcall_commands", "pcall_direct_lnav", "pcall_reso_methods", "pcall_reso_route", "pcall_reso_super8", "pcall_fuel_types", "pcall_fuel_reso"],
+)
 def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
     """The same player on the BlueSky backend reproduces the PCALL recording (same commands, BlueSky's own physics)."""
     from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
@@ -149,6 +186,9 @@ def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
             if col in ANGLES:
                 err = min(err, 360.0 - err)
             assert err <= tol, f"{name} {want['acid']} {col}: t={want['t']} got {values[col]!r} want {want[col]!r}"
+        if name in FUEL:  # the backend reports BlueSky's performance outputs
+            for col in PERF_OUTPUTS:
+                assert _bits(values[col]) == _bits(want[col]), f"{name} {want['acid']} {col}: t={want['t']} got {values[col]!r} want {want[col]!r}"
 
 
 #: Values BlueSky reads and flies in its own way: an aircraft created below sea level (the ground
