@@ -35,11 +35,12 @@ def test_fuel_kpi_is_the_sum_over_the_agents() -> None:
 
     task.sim.delete = spy  # type: ignore[method-assign]
     policy = RandomPolicy(seed=2)
+    policy.bind(task)
     policy.reset()
     obs = task.observation()
     res = None
     while not task.finished.all():
-        res = task.step(policy.act(task, obs))
+        res = task.step(policy.act(obs))
         obs = res.observation
     assert res is not None and res.episode_done.all()
     assert len(left) == int(res.info["kpi_agents"][0]) >= 2
