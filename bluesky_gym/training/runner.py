@@ -54,6 +54,7 @@ import sys
 import time
 import zipfile
 import zlib
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -1053,6 +1054,21 @@ def _fast_trainer(spec: RunSpec, model: Any, venv: Any, tensorboard_log: str | N
     return trainer
 
 
+def recorded_command(argv: Sequence[str]) -> list[str]:
+    """The command line as a user types it: the program by its name, not by the path it was run from.
+
+    ``python -m bluesky_gym`` (whose ``argv[0]`` is the path of ``__main__.py``) and the
+    ``bluesky-gym`` script both read ``bluesky-gym``, so ``run.json`` names no directory of the
+    machine that made the run.
+    """
+    if not argv:
+        return []
+    program = Path(argv[0]).name
+    if program in ("__main__.py", "bluesky-gym"):
+        program = "bluesky-gym"
+    return [program, *argv[1:]]
+
+
 def _start_process(d: Path, timesteps: int, resumed_from: int | None, note: dict[str, Any] | None = None) -> int:
     path = d / "run.json"
     data = read_json(path) if path.exists() else {"processes": []}
@@ -1063,7 +1079,7 @@ def _start_process(d: Path, timesteps: int, resumed_from: int | None, note: dict
         "start_timesteps": timesteps,
         "resumed_from_checkpoint": resumed_from,
         "versions": package_versions(),
-        "command": sys.argv,
+        "command": recorded_command(sys.argv),
     }
     if note:
         entry["repair"] = note

@@ -194,3 +194,17 @@ def test_lock_refuses_a_live_owner_and_takes_over_a_dead_one(tmp_path: Path) -> 
     with RunLock(tmp_path):
         assert lock.read_text().split()[1] == str(os.getpid())
     assert not lock.exists()
+
+
+def test_run_json_records_the_command_by_the_program_name_not_its_path() -> None:
+    from bluesky_gym.training.runner import recorded_command
+
+    assert recorded_command(["/some/dir/bluesky_gym/__main__.py", "train", "--env", "DescentEnv-v0"]) == [
+        "bluesky-gym",
+        "train",
+        "--env",
+        "DescentEnv-v0",
+    ]
+    assert recorded_command(["/opt/venv/bin/bluesky-gym", "sweep"]) == ["bluesky-gym", "sweep"]
+    assert recorded_command(["/x/y/train_script.py", "--seed", "1"]) == ["train_script.py", "--seed", "1"]
+    assert recorded_command([]) == []
