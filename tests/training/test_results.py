@@ -165,13 +165,20 @@ def _configured_run(
     return d
 
 
-def test_runs_of_one_algorithm_at_other_budgets_and_trainers_are_rows_of_their_own(tmp_path: Path) -> None:
+def _merge_sweep_with_both_trainers(tmp_path: Path) -> Path:
+    """A sweep of MergeEnv-v0 with its random (0) and classical (10) references and PPO, 2 seeds, on each trainer at 1,000 steps."""
     root = _sweep(tmp_path / "sweep", {})
     for name, value in (("random", 0), ("classical", 10)):
         save_result(EvalResult("MergeEnv-v0", name, _episodes([value] * 4), 0.1), reference_episode_dir(root), stem=f"MergeEnv-v0_{name}")
     for s in range(2):
         _configured_run(root, "MergeEnv-v0", "PPO", s, [5.0, 5.0, 6.0, 6.0], 1000, trainer="fast", curve=np.linspace(0, 6, 20))
         _configured_run(root, "MergeEnv-v0", "PPO", s + 10, [5.5, 5.5, 5.5, 5.5], 1000, curve=np.linspace(0, 6, 20))  # SB3
+    return root
+
+
+def test_runs_of_one_algorithm_at_other_budgets_and_trainers_are_rows_of_their_own(tmp_path: Path) -> None:
+    root = _merge_sweep_with_both_trainers(tmp_path)
+    for s in range(2):
         _configured_run(root, "MergeEnv-v0", "PPO", s + 20, [9.0] * 4, 8000, trainer="fast", n_envs=64)
     # TD3 learns fast and then falls back; SAC does not: the observations' figures say so.
     _configured_run(root, "MergeEnv-v0", "TD3", 0, [1.0] * 4, 400, curve=[2, 6, 8, 8, 3, 1, 1, 1])
@@ -202,12 +209,7 @@ def test_runs_of_one_algorithm_at_other_budgets_and_trainers_are_rows_of_their_o
 
 
 def test_runs_that_differ_in_their_trainer_alone_are_compared_as_trainers_not_as_budgets(tmp_path: Path) -> None:
-    root = _sweep(tmp_path / "sweep", {})
-    for name, value in (("random", 0), ("classical", 10)):
-        save_result(EvalResult("MergeEnv-v0", name, _episodes([value] * 4), 0.1), reference_episode_dir(root), stem=f"MergeEnv-v0_{name}")
-    for s in range(2):
-        _configured_run(root, "MergeEnv-v0", "PPO", s, [5.0, 5.0, 6.0, 6.0], 1000, trainer="fast", curve=np.linspace(0, 6, 20))
-        _configured_run(root, "MergeEnv-v0", "PPO", s + 10, [5.5, 5.5, 5.5, 5.5], 1000, curve=np.linspace(0, 6, 20))  # SB3
+    root = _merge_sweep_with_both_trainers(tmp_path)
     out = tmp_path / "page.md"
     build_results([root], out, ["bluesky-gym", "results", str(root), "--out", str(out)], reps=200)
     text = out.read_text()
