@@ -152,3 +152,12 @@ def test_env_episodes_with_a_type_mix_match(env_id: str) -> None:
     dev, steps = run_env_episodes(env_id, episodes, 15, ENV_TOL, options=options)
     assert steps >= len(episodes)
     print(f"{env_id} with a type mix: {steps} steps; largest scaled deviation {dev.max:.2e}: {dev.summary()}")
+
+
+def test_horizontal_cr_episodes_with_rotorcraft_match() -> None:
+    """HorizontalCREnv with a rotorcraft ownship and rotor and fixed-wing intruders, on both backends side by side."""
+    options = {"intruder_types": {"A320": 0.4, "EC35": 0.2, "M600": 0.2, "MAVIC": 0.2}, "ownship_types": ("EC35", "AMZN")}
+    episodes = [(400 + k, 15 if k == 0 else 5) for k in range(3)]
+    dev, steps = run_env_episodes("HorizontalCREnv-v0", episodes, 15, ENV_TOL, options=options)
+    assert steps >= len(episodes)
+    print(f"HorizontalCREnv-v0 with rotorcraft: {steps} steps; largest scaled deviation {dev.max:.2e}: {dev.summary()}")
