@@ -98,7 +98,11 @@ def perf_tuple(perf: AircraftPerformance) -> tuple[float, ...]:
 
 
 def limit_tuple(perf: AircraftPerformance) -> tuple[float, float, float, float, float, float, float, float, float]:
-    """The envelope limits (hmax, vsmax, mmo, v_rotate), the fuel-flow coefficients (a, b, c), vsmin and the rotor flag (1.0 or 0.0) as the step kernel takes them (columns 19-27)."""
+    """The step kernel's limits (columns 19-27 of a table row).
+
+    In order: hmax, vsmax, mmo, v_rotate, the fuel-flow coefficients (a, b, c), vsmin and the
+    rotor flag (1.0 for BlueSky's rotor model, else 0.0).
+    """
     return (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate, perf.fuel_a, perf.fuel_b, perf.fuel_c, perf.vsmin, 1.0 if perf.rotor else 0.0)
 
 

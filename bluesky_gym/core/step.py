@@ -205,7 +205,9 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         if not same(alt_t, mm[M_HT]):
             mm[M_HT] = alt_t
             mm[M_P_T], mm[M_RHO_T], mm[M_T_T] = isa(alt_t)
-        if not (same(aptas, mm[M_LIM_TAS]) and same(alt_t, mm[M_LIM_HT]) and same(F[I_VMIN, i], mm[M_LIM_VMIN]) and same(F[I_VMAX, i], mm[M_LIM_VMAX])):
+        if not (
+            same(aptas, mm[M_LIM_TAS]) and same(alt_t, mm[M_LIM_HT]) and same(F[I_VMIN, i], mm[M_LIM_VMIN]) and same(F[I_VMAX, i], mm[M_LIM_VMAX])
+        ):
             p_t, rho_t = mm[M_P_T], mm[M_RHO_T]
             intent_cas = tas2cas_at(aptas, p_t, rho_t)
             allow_cas = F[I_VMIN, i] if intent_cas < F[I_VMIN, i] else intent_cas

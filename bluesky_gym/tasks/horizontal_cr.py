@@ -108,7 +108,9 @@ class HorizontalCRConfig(TaskConfig):
             low = [(t, aircraft_performance(t).hmax) for t in names if self.airborne_start and is_rotorcraft(t)]
             for t, ceiling in low:
                 if ceiling < AIRBORNE_ALT:
-                    raise ValueError(f"{option}: rotorcraft {t} cannot fly the airborne start at FL100 ({AIRBORNE_ALT:g} m): its ceiling is {ceiling:g} m")
+                    raise ValueError(
+                        f"{option}: rotorcraft {t} cannot fly the airborne start at FL100 ({AIRBORNE_ALT:g} m): its ceiling is {ceiling:g} m"
+                    )
 
 
 # --- the step's geometry, observation and reward, for a set of ownship slots ----------------------

@@ -393,7 +393,9 @@ def test_replay_cli_flies_rotorcraft_as_bluesky(tmp_path: Path) -> None:
     assert len(rows) == len(ref) == 12 * 301
     assert {r["acid"] for r in rows} >= {"R01", "R09", "F01", "F03"}
     for got, want in zip(rows, ref):
-        assert [float(got[c]) for c in TRAJECTORY_COLUMNS[2:]] == pytest.approx([float(want[c]) for c in TRAJECTORY_COLUMNS[2:]], rel=0, abs=0, nan_ok=True), (
+        assert [float(got[c]) for c in TRAJECTORY_COLUMNS[2:]] == pytest.approx(
+            [float(want[c]) for c in TRAJECTORY_COLUMNS[2:]], rel=0, abs=0, nan_ok=True
+        ), (
             want["t"],
             want["acid"],
         )

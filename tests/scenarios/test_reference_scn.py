@@ -113,7 +113,10 @@ def test_performance_outputs_match_bluesky_bit_for_bit(name: str) -> None:
         assert min(moved.values()) > len(ref) // 10, moved  # the fixed-wing aircraft's outputs are computed
 
 
-ROTOR_IDS = {"pcall_rotor_mixed": ("R01", "R02", "R03", "R04", "R05", "R06", "R07", "R08", "R09"), "pcall_rotor_reso": ("OWN1", "INT1", "INT2", "INT3", "INT4", "OWN3", "INT6")}
+ROTOR_IDS = {
+    "pcall_rotor_mixed": ("R01", "R02", "R03", "R04", "R05", "R06", "R07", "R08", "R09"),
+    "pcall_rotor_reso": ("OWN1", "INT1", "INT2", "INT3", "INT4", "OWN3", "INT6"),
+}
 
 
 @pytest.mark.parametrize("name", sorted(ROTOR_IDS))

@@ -107,7 +107,9 @@ def test_horizontal_cr_flies_rotorcraft() -> None:
 @pytest.mark.parametrize("env_id", ["VerticalCREnv-v0", "SectorCREnv-v0", "MergeEnv-v0"])
 @pytest.mark.parametrize("option", ["intruder_types", "ownship_types"])
 def test_rotorcraft_are_refused_where_the_task_does_not_suit_them(env_id: str, option: str) -> None:
-    with pytest.raises(ValueError, match=f"{option}: aircraft type 'EC35' is a rotorcraft, which this option does not accept; fixed-wing types: A124"):
+    with pytest.raises(
+        ValueError, match=f"{option}: aircraft type 'EC35' is a rotorcraft, which this option does not accept; fixed-wing types: A124"
+    ):
         gym.make(env_id, **{option: ("A320", "EC35")})
 
 
