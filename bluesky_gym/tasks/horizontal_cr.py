@@ -105,8 +105,8 @@ class HorizontalCRConfig(TaskConfig):
         check_int("waypoint_distance_max", self.waypoint_distance_max, self.waypoint_distance_min + 1, 5000)
         for option, mix in (("intruder_types", self.intruder_types), ("ownship_types", self.ownship_types)):
             names, _ = check_type_mix(option, mix, rotorcraft=True)
-            low = [(t, aircraft_performance(t).hmax) for t in names if self.airborne_start and is_rotorcraft(t)]
-            for t, ceiling in low:
+            rotors = [(t, aircraft_performance(t).hmax) for t in names if self.airborne_start and is_rotorcraft(t)]
+            for t, ceiling in rotors:
                 if ceiling < AIRBORNE_ALT:
                     raise ValueError(
                         f"{option}: rotorcraft {t} cannot fly the airborne start at FL100 ({AIRBORNE_ALT:g} m): its ceiling is {ceiling:g} m"
