@@ -586,6 +586,15 @@ def _max_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.nanmax(np.where(np.isnan(diff), np.inf, diff))) if diff.size else 0.0
 
 
+def _torch_device() -> tuple[Any, str]:
+    """PyTorch and the device of the device vector environments' tensors (the CPU under numba-cuda's simulator)."""
+    import torch
+
+    from bluesky_gym.core import cuda_target
+
+    return torch, "cpu" if cuda_target.SIMULATOR else "cuda"
+
+
 def env_sample(env_id: str, n_envs: int, steps: int, say: Say = None) -> dict[str, Any]:
     """One id's device vector environment against its CPU one: same seeds, same actions (as device tensors), ``steps`` steps.
 
@@ -603,7 +612,7 @@ def env_sample(env_id: str, n_envs: int, steps: int, say: Say = None) -> dict[st
         say(f"envs: {env_id}, {n_envs} episodes x {steps} steps, device against CPU")
     cpu = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point")
     dev = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", device="cuda")
-    io = dev.unwrapped._io
+    torch, on = _torch_device()
     obs_c, _ = cpu.reset(seed=0)
     obs_d, _ = dev.reset(seed=0)
     cpu.action_space.seed(0)
@@ -612,7 +621,7 @@ def env_sample(env_id: str, n_envs: int, steps: int, say: Say = None) -> dict[st
         if step > 0:
             a = cpu.action_space.sample()
             obs_c, r_c, t_c, u_c, _ = cpu.step(a)
-            obs_d, r_d, t_d, u_d, _ = dev.step(io.torch.as_tensor(a, device=io.device))
+            obs_d, r_d, t_d, u_d, _ = dev.step(torch.as_tensor(a, device=on))
             worst_reward = max(worst_reward, _max_diff(r_d.cpu().numpy(), r_c))
             ended_differ += int(((t_d | u_d).cpu().numpy() != (t_c | u_c)).sum())
         for k, v in obs_c.items():
@@ -641,8 +650,8 @@ def env_rate(env_id: str, device: str, n_envs: int, say: Say = None) -> dict[str
     env.reset(seed=0)
     a = env.action_space.sample()
     if device == "cuda":
-        io = env.unwrapped._io
-        a = io.torch.as_tensor(a, device=io.device)
+        torch, on = _torch_device()
+        a = torch.as_tensor(a, device=on)
     env.step(a)
     t0 = time.perf_counter()
     for _ in range(ENV_STEPS):

@@ -150,7 +150,7 @@ def add_parser(subparsers: Any) -> None:
     gpu.add_argument("--compile-only", action="store_true", help="compile to PTX only (no GPU needed; the gpu extra)")
     gpu.add_argument("--cc", type=_compute_capability, default=None, metavar="M.N", help="compute capability (default: 9.0, Hopper)")
     gpu.add_argument("--kernel", action="append", metavar="NAME", help="with --compile-only: only this kernel (repeatable)")
-    gpu.add_argument("--envs", action="store_true", help="on a CUDA GPU: every id's make_vec(..., device='cuda') against the CPU (episodes, env-steps/s)")
+    gpu.add_argument("--envs", action="store_true", help="on a CUDA GPU: every id's make_vec(..., device='cuda') against the CPU (episodes, steps/s)")
     _add_common(gpu)
     gpu.set_defaults(func=run_gpu_command)
 

@@ -494,10 +494,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         """The batched observation space."""
         return self._spaces()[1]
 
-    def reset(
-        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Reset every episode. ``seed`` int s seeds episode i with s + i; a list seeds each."""
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Reset every episode. ``seed`` int s seeds episode i with s + i; a list seeds each (numpy arrays, or tensors with ``device="cuda"``)."""
         with self._errors:
             check_reset_options(options, "gym.make_vec")
             seeds = episode_seeds(seed, self.num_envs)
@@ -513,8 +511,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             obs = _typed(self.task, self.task.observation())
             return (obs if self._io is None else self._io.upload_all(obs)), info
 
-    def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Step every episode; ended episodes are reset in the same call (SAME_STEP)."""
+    def step(self, actions: Any) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
+        """Step every episode; ended episodes are reset in the same call (SAME_STEP). numpy arrays, or tensors with ``device="cuda"``."""
         with self._errors:
             if not self._reset_once:
                 raise RuntimeError("step() called before reset(); call reset() first")
@@ -548,7 +546,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
                 return self._on_device(obs, res, info)
             return obs, res.reward, res.terminated, res.truncated, info
 
-    def _on_device(self, obs: dict[str, np.ndarray], res: StepResult, info: dict[str, Any]) -> Any:
+    def _on_device(self, obs: dict[str, np.ndarray], res: StepResult, info: dict[str, Any]) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
         """A step's outputs as tensors on the device (``device="cuda"``): one upload per array."""
         io = self._io
         assert io is not None
