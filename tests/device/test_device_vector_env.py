@@ -25,8 +25,8 @@ bluesky_gym.register_envs()
 
 #: Outputs of the environments (observations are normalised: no unit) compared on a GPU.
 RTOL, ATOL = 1e-7, 1e-9
-#: The recorded-traffic ids need their sample data; their episodes run like the others'.
-IDS = [i for i in env_ids() if not i.startswith("RealTraffic")]
+#: Every single-agent id (the recorded-traffic ones play the tests' stand-in collections, tests/conftest.py).
+IDS = env_ids()
 
 
 def _host(value: Any) -> np.ndarray:
@@ -90,10 +90,23 @@ def test_device_episodes_equal_the_cpu_vector_envs_with_autoreset(env_id: str) -
     dev.close()
 
 
-def test_actions_as_device_arrays_numpy_or_lists_give_the_same_step() -> None:
-    envs = [gym.make_vec("HorizontalCREnv-v0", num_envs=2, device="cuda") for _ in range(3)]
+class _DLPackOnly:
+    """An array that only speaks DLPack (as JAX's do)."""
+
+    def __init__(self, tensor: Any) -> None:
+        self.tensor = tensor
+
+    def __dlpack__(self, **kwargs: Any) -> Any:
+        return self.tensor.__dlpack__(**kwargs)
+
+    def __dlpack_device__(self) -> Any:
+        return self.tensor.__dlpack_device__()
+
+
+def test_actions_as_device_arrays_dlpack_numpy_or_lists_give_the_same_step() -> None:
+    envs = [gym.make_vec("HorizontalCREnv-v0", num_envs=2, device="cuda") for _ in range(4)]
     a = np.array([[0.3], [-0.8]])
-    given = [cuda_target.to_device(a), a, a.tolist()]
+    given = [cuda_target.to_device(a), _DLPackOnly(torch.as_tensor(a)), a, a.tolist()]
     results = []
     for env, action in zip(envs, given):
         env.reset(seed=1)
