@@ -129,10 +129,3 @@ def test_state_tensors_are_the_device_state() -> None:
     cpu = gym.make_vec("HorizontalCREnv-v0", num_envs=3)
     with pytest.raises(RuntimeError, match="device='cuda'"):
         cpu.unwrapped.state_tensors("lat")
-
-
-def test_bad_device_arguments_are_refused_in_one_line() -> None:
-    with pytest.raises(ValueError, match=r"device must be one of \('cpu', 'cuda'\), got 'gpu'"):
-        gym.make_vec("DescentEnv-v0", num_envs=2, device="gpu")
-    with pytest.raises(ValueError, match="backend must be 'native', got 'bluesky'"):
-        gym.make_vec("DescentEnv-v0", num_envs=1, device="cuda", backend="bluesky")
