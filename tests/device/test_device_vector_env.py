@@ -40,8 +40,9 @@ def _agree(device: Any, cpu: np.ndarray, what: str) -> None:
     assert got.dtype == cpu.dtype and got.shape == cpu.shape, what
     if cuda_target.SIMULATOR or cpu.dtype == np.bool_:
         np.testing.assert_array_equal(got, cpu, err_msg=what)
-    else:
-        np.testing.assert_allclose(got, cpu, rtol=RTOL, atol=ATOL, err_msg=what)
+    else:  # a -v1 observation is float32: the GPU's last-bit differences may move its last float32 bit
+        rtol = max(RTOL, 4 * float(np.finfo(cpu.dtype).eps))
+        np.testing.assert_allclose(got, cpu, rtol=rtol, atol=ATOL, err_msg=what)
 
 
 def _same_host(device: np.ndarray, cpu: np.ndarray, what: str) -> None:
