@@ -122,9 +122,13 @@ def test_state_tensors_are_the_device_state() -> None:
     env = gym.make_vec("HorizontalCREnv-v0", num_envs=3, device="cuda")
     env.reset(seed=2)
     env.step(np.zeros((3, 1)))
-    lat, active = env.unwrapped.state_tensors("lat", "active")
     sim = env.unwrapped.task.sim
+    lat, active = env.unwrapped.state_tensors("lat", "active")
     assert sim.on_device
+    if not cuda_target.SIMULATOR:  # on a GPU: the tensors are the simulator's device memory, not copies (before any host read)
+        lat_d, active_d = sim.device_arrays("lat", "active")
+        assert lat.data_ptr() == lat_d.device_ctypes_pointer.value
+        assert active.data_ptr() == active_d.device_ctypes_pointer.value
     np.testing.assert_array_equal(_host(active), sim.active)
     assert np.array_equal(_host(lat)[sim.active], sim.lat[sim.active])
     cpu = gym.make_vec("HorizontalCREnv-v0", num_envs=3)
