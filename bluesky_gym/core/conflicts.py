@@ -321,6 +321,308 @@ def detect_loop(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, conflic
                 tin[e, i, j] = ti
 
 
+# --- Which pairs are evaluated: all of them, or those a grid of latitude bands finds ---------------
+#: The simulator's choices of pair search (``Simulator(pair_search=...)``).
+PAIR_SEARCHES = ("auto", "all-pairs", "grid")
+#: Aircraft slots per airspace from which ``pair_search="auto"`` searches the grid (below it: all pairs).
+GRID_MIN_AIRCRAFT = 256
+GRID_MARGIN_REL = 1e-6  # -, relative margin of the grid's reach (far above the rounding of detect_pair)
+GRID_MARGIN_M = 1.0  # m, absolute margin of the grid's reach and of its vertical bound
+
+
+def resolve_pair_search(pair_search: str, max_aircraft: int) -> str:
+    """``"all-pairs"`` or ``"grid"``: ``pair_search`` itself, or what ``"auto"`` picks for ``max_aircraft`` slots per airspace.
+
+    Raises:
+        ValueError: A name not in :data:`PAIR_SEARCHES`.
+    """
+    if pair_search not in PAIR_SEARCHES:
+        raise ValueError(f"pair_search {pair_search!r} not known; choose one of {', '.join(PAIR_SEARCHES)}")
+    if pair_search == "auto":
+        return "grid" if max_aircraft >= GRID_MIN_AIRCRAFT else "all-pairs"
+    return pair_search
+
+
+@dataclass(frozen=True)
+class ConflictPairs:
+    """The conflicts of every airspace as a list of ordered pairs, sorted by (airspace, ownship, intruder).
+
+    The entries are those of :class:`Conflicts` where ``conflict`` is True (a loss of separation
+    is always a conflict), for airspaces of ``n_aircraft`` slots.
+    """
+
+    n_aircraft: int  # slots per airspace
+    env: NDArray[np.int64]  # airspace of each pair
+    own: NDArray[np.int64]  # ownship slot
+    intruder: NDArray[np.int64]  # intruder slot
+    los: NDArray[np.bool_]  # loss of separation now
+    qdr: Array  # deg, bearing ownship -> intruder
+    dist: Array  # m, horizontal distance
+    tcpa: Array  # s, time to closest point of approach
+    dcpa: Array  # m, distance at closest point of approach (NaN when it is exactly 0)
+    tlos: Array  # s, time to loss of separation
+
+    @classmethod
+    def from_dense(cls, c: Conflicts) -> ConflictPairs:
+        """The conflict pairs of a :class:`Conflicts` picture."""
+        env, own, intruder = np.nonzero(c.conflict)  # C order: sorted by (airspace, ownship, intruder)
+        at = (env, own, intruder)
+        return cls(int(c.conflict.shape[-1]), env, own, intruder, c.los[at], c.qdr[at], c.dist[at], c.tcpa[at], c.dcpa[at], c.tlos[at])
+
+    @property
+    def flat_own(self) -> NDArray[np.int64]:
+        """The ownship as a flat aircraft index ``env * n_aircraft + own``."""
+        return self.env * self.n_aircraft + self.own
+
+
+@jit
+def may_conflict(
+    lat_i: float,
+    lon_i: float,
+    alt_i: float,
+    vs_i: float,
+    u_i: float,
+    v_i: float,
+    cos_i: float,
+    lat_j: float,
+    lon_j: float,
+    alt_j: float,
+    vs_j: float,
+    u_j: float,
+    v_j: float,
+    cos_j: float,
+    rpz: float,
+    hpz: float,
+    lookahead: float,
+) -> bool:
+    """False only for a pair that :func:`detect_pair` cannot find in conflict (finite states, ``|lat| <= 90``).
+
+    A conflict needs a moment ``t`` in ``[0, lookahead]`` at which the pair is inside the
+    protected zone horizontally, so its distance now is at most ``rpz + vrel * lookahead``; and
+    its altitude difference at most ``hpz + |dvs| * lookahead``. :func:`detect_pair` measures the
+    distance on a flat earth at the mean latitude, whose cosine is at least the smaller of the
+    two aircraft's (``cos_i``, ``cos_j``, clipped at 0), without wrapping the longitude. The bounds
+    have margins (:data:`GRID_MARGIN_REL`, :data:`GRID_MARGIN_M`) far above rounding.
+
+    Args:
+        lat_i: Ownship latitude [deg] (and so on for the intruder ``j``).
+        lon_i: Longitude [deg].
+        alt_i: Altitude [m].
+        vs_i: Vertical speed [m/s].
+        u_i: Ground speed east [m/s] (``gs * sin(trk)``).
+        v_i: Ground speed north [m/s].
+        cos_i: Cosine of the latitude, clipped at 0.
+        lat_j: Intruder latitude [deg].
+        lon_j: Intruder longitude [deg].
+        alt_j: Intruder altitude [m].
+        vs_j: Intruder vertical speed [m/s].
+        u_j: Intruder ground speed east [m/s].
+        v_j: Intruder ground speed north [m/s].
+        cos_j: Cosine of the intruder's latitude, clipped at 0.
+        rpz: Protected-zone radius [m].
+        hpz: Protected-zone half height [m].
+        lookahead: Look-ahead time [s] (negative counts as 0).
+    """
+    look = maximum(lookahead, 0.0)
+    dvs = abs(vs_i - vs_j)
+    if abs(alt_i - alt_j) > (hpz + dvs * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M:
+        return False
+    du = u_i - u_j
+    dv = v_i - v_j
+    reach = (rpz + math.sqrt(du * du + dv * dv) * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M
+    dy = abs(lat_j - lat_i) * DEG2RAD * R_EARTH
+    dx = abs(lon_j - lon_i) * DEG2RAD * R_EARTH * minimum(cos_i, cos_j)
+    return dx * dx + dy * dy <= reach * reach
+
+
+@jit
+def grid_scan_loop(  # type: ignore[no-untyped-def]
+    good, m, band, env_band0, env_nb, exhaustive, reach_deg, band_start, band_cos, order, slon,
+    lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, offset, counts, out,
+):  # fmt: skip
+    """The candidate intruders of every aircraft (flat index ``k = env * m + slot``) from the latitude bands.
+
+    Each airspace's aircraft lie in bands of latitude at least one reach (the largest distance
+    a pair in conflict can have) high; within a band they are sorted by longitude (``order``,
+    ``slon``). Aircraft ``k`` looks at its band and the two beside it, in the window of
+    longitude its reach spans at the band's smallest cosine of latitude, and keeps the intruders
+    :func:`may_conflict` allows. An airspace marked ``exhaustive`` (non-finite or out-of-range
+    states) has one band and every pair is a candidate. With ``out`` empty the counts go to
+    ``counts``; otherwise the candidates go to ``out[offset[k]:]``.
+    """
+    fill = out.shape[0] > 0
+    for k in grid_range(good.shape[0]):
+        n = 0
+        if good[k]:
+            e = k // m
+            b = band[k]
+            lo_band = env_band0[e]
+            hi_band = lo_band + env_nb[e]
+            for bb in range(max(b - 1, lo_band), min(b + 2, hi_band)):
+                s = band_start[bb]
+                t = band_start[bb + 1]
+                hi = math.inf
+                if not exhaustive[e]:
+                    c = minimum(cosl[k], band_cos[bb])
+                    if c > 0.0 and reach_deg[e] < 180.0 * c:
+                        w = reach_deg[e] / c
+                        hi = lon[k] + w
+                        lo_lon = lon[k] - w
+                        a = s
+                        z = t
+                        while a < z:  # first position with slon >= lo_lon
+                            mid = (a + z) // 2
+                            if slon[mid] < lo_lon:
+                                a = mid + 1
+                            else:
+                                z = mid
+                        s = a
+                for p in range(s, t):
+                    if slon[p] > hi:
+                        break
+                    j = order[p]
+                    if j == k:
+                        continue
+                    if not exhaustive[e]:
+                        if not may_conflict(lat[k], lon[k], alt[k], vs[k], u[k], v[k], cosl[k],
+                                            lat[j], lon[j], alt[j], vs[j], u[j], v[j], cosl[j], rpz, hpz, lookahead):  # fmt: skip
+                            continue
+                    if fill:
+                        out[offset[k] + n] = j
+                    n += 1
+        if not fill:
+            counts[k] = n
+
+
+@jit
+def detect_pairs_loop(own, intruder, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin):  # type: ignore[no-untyped-def]
+    """:func:`detect_pair` of listed ordered pairs (flat aircraft indices); outputs one per pair."""
+    for p in grid_range(own.shape[0]):
+        i = own[p]
+        j = intruder[p]
+        c, lo, q, d, t, dc, ti = detect_pair(
+            lat[i], lon[i], alt[i], gs[i], trk[i], vs[i],
+            lat[j], lon[j], alt[j], gs[j], trk[j], vs[j],
+            rpz, hpz, lookahead,
+        )  # fmt: skip
+        conflict[p] = c
+        los[p] = lo
+        qdr[p] = q
+        dist[p] = d
+        tcpa[p] = t
+        dcpa[p] = dc
+        tin[p] = ti
+
+
+@jit
+def velocity_loop(gs, trk, lat, u, v, cosl):  # type: ignore[no-untyped-def]
+    """Ground velocity east and north [m/s] (as :func:`detect_pair` computes them) and the cosine of latitude clipped at 0."""
+    for k in grid_range(gs.shape[0]):
+        u[k] = gs[k] * math.sin(trk[k] * DEG2RAD)
+        v[k] = gs[k] * math.cos(trk[k] * DEG2RAD)
+        cosl[k] = maximum(math.cos(lat[k] * DEG2RAD), 0.0)
+
+
+def detect_grid(
+    lat: Array,
+    lon: Array,
+    alt: Array,
+    gs: Array,
+    trk: Array,
+    vs: Array,
+    active: NDArray[np.bool_],
+    rpz: float = PZ_RADIUS,
+    hpz: float = PZ_HEIGHT,
+    lookahead: float = LOOKAHEAD,
+) -> ConflictPairs:
+    """The conflicts of :func:`detect`, as pairs, evaluating only the pairs that a grid of latitude bands finds.
+
+    The same :func:`detect_pair` evaluates each pair, so the conflicts and their quantities are
+    those of :func:`detect` to the bit; the grid (:func:`grid_scan_loop`, :func:`may_conflict`)
+    only leaves out pairs that cannot be in conflict, so the work grows about linearly with the
+    number of aircraft at a given traffic density. All inputs are shaped (n_envs, n_aircraft).
+    """
+    active = np.ascontiguousarray(active, dtype=np.bool_)
+    n_envs, m = active.shape
+    lat, lon, alt, gs, trk, vs = (
+        np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), active.shape)).reshape(-1) for x in (lat, lon, alt, gs, trk, vs)
+    )
+    good = active.reshape(-1)
+    n = good.shape[0]
+    u, v, cosl = np.empty(n), np.empty(n), np.empty(n)
+    velocity_loop(gs, trk, lat, u, v, cosl)
+    # Per airspace: the reach (largest distance of a pair in conflict), the band height, the bands.
+    env_of = np.repeat(np.arange(n_envs), m)
+    with np.errstate(invalid="ignore"):
+        finite = np.isfinite(lat) & np.isfinite(lon) & np.isfinite(alt) & np.isfinite(gs) & np.isfinite(trk) & np.isfinite(vs) & (np.abs(lat) <= 90.0)
+    exhaustive = np.zeros(n_envs, np.bool_)
+    np.logical_or.at(exhaustive, env_of[good & ~finite], True)
+    ok = good & ~exhaustive[env_of]
+    gsmax = np.zeros(n_envs)
+    np.maximum.at(gsmax, env_of[ok], np.abs(gs[ok]))
+    lat0 = np.full(n_envs, np.inf)
+    np.minimum.at(lat0, env_of[ok], lat[ok])
+    lat0[~np.isfinite(lat0)] = 0.0
+    reach = (float(rpz) + 2.0 * gsmax * max(float(lookahead), 0.0)) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M
+    reach_deg = reach / R_EARTH * RAD2DEG
+    band_local = np.zeros(n, np.int64)
+    band_local[ok] = np.floor((lat[ok] - lat0[env_of[ok]]) / reach_deg[env_of[ok]]).astype(np.int64)
+    env_nb = np.ones(n_envs, np.int64)
+    np.maximum.at(env_nb, env_of[ok], band_local[ok] + 1)
+    env_band0 = np.concatenate(([0], np.cumsum(env_nb)[:-1])).astype(np.int64)
+    band = env_band0[env_of] + band_local
+    # The smallest cosine of latitude over each band (its edge farthest from the equator).
+    band_env = np.repeat(np.arange(n_envs), env_nb)
+    edge_lo = lat0[band_env] + (np.arange(band_env.size) - env_band0[band_env]) * reach_deg[band_env]
+    edge = np.minimum(np.maximum(np.abs(edge_lo), np.abs(edge_lo + reach_deg[band_env])), 90.0)
+    band_cos = np.maximum(np.cos(edge * DEG2RAD), 0.0)
+    members = np.flatnonzero(good)
+    order = members[np.lexsort((lon[members], band[members]))]
+    band_start = np.searchsorted(band[order], np.arange(band_env.size + 1)).astype(np.int64)
+    slon = np.ascontiguousarray(lon[order])
+    rpz, hpz, lookahead = float(rpz), float(hpz), float(lookahead)
+    counts = np.zeros(n, np.int64)
+    args = (good, m, band, env_band0, env_nb, exhaustive, reach_deg, band_start, band_cos, order, slon, lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead)
+    grid_scan_loop(*args, counts, counts, np.zeros(0, np.int64))
+    offset = np.concatenate(([0], np.cumsum(counts)[:-1])).astype(np.int64)
+    intruder = np.empty(int(counts.sum()), np.int64)
+    grid_scan_loop(*args, offset, counts, intruder)
+    own = np.repeat(np.arange(n, dtype=np.int64), counts)
+    p = own.size
+    conflict, los = np.empty(p, np.bool_), np.empty(p, np.bool_)
+    qdr, dist, tcpa, dcpa, tin = (np.empty(p) for _ in range(5))
+    detect_pairs_loop(own, intruder, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin)
+    own, intruder = own[conflict], intruder[conflict]
+    sort = np.lexsort((intruder, own))
+    own, j = own[sort], intruder[sort] % m
+    sel = np.flatnonzero(conflict)[sort]
+    return ConflictPairs(m, own // m, own % m, j, los[sel], qdr[sel], dist[sel], tcpa[sel], dcpa[sel], tin[sel])
+
+
+def detect_pairs(
+    lat: Array,
+    lon: Array,
+    alt: Array,
+    gs: Array,
+    trk: Array,
+    vs: Array,
+    active: NDArray[np.bool_],
+    rpz: float = PZ_RADIUS,
+    hpz: float = PZ_HEIGHT,
+    lookahead: float = LOOKAHEAD,
+    detector: str = "CSTATEBASED",
+    python_geo: bool = False,
+) -> ConflictPairs:
+    """The conflict pairs of ``detector``: CSTATEBASED by :func:`detect_grid`, STATEBASED by :func:`detect_statebased` (all pairs).
+
+    Raises:
+        ValueError: Another detector name.
+    """
+    if detector == "CSTATEBASED":
+        return detect_grid(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead)
+    return ConflictPairs.from_dense(detect_with(detector, lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, python_geo))
+
+
 #: Conflict detectors by BlueSky name (``ASAS <name>``): the compiled CSTATEBASED and the Python STATEBASED.
 DETECTORS = ("CSTATEBASED", "STATEBASED")
 NO_CONFLICT_TIME = 1e8  # s, STATEBASED's entry/exit time of a pair without horizontal conflict
@@ -427,10 +729,15 @@ def horizontal_distance_nm(lat: Array, lon: Array) -> Array:
 
 
 __all__ = [
+    "ConflictPairs",
     "Conflicts",
+    "GRID_MIN_AIRCRAFT",
+    "PAIR_SEARCHES",
     "DETECTORS",
     "create_conflicts",
     "detect",
+    "detect_grid",
+    "detect_pairs",
     "detect_statebased",
     "detect_with",
     "horizontal_distance_nm",
