@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from bluesky_gym.core import geo
 from bluesky_gym.core.atmosphere import casormach2tas, isa_layered, tas2cas_at
 from bluesky_gym.core.geo import kwikpos_s
-from bluesky_gym.core.jit import fmod, grid_range, jit
+from bluesky_gym.core.jit import fmod, grid_range, jit, jit_inline
 from bluesky_gym.core.scalar import DEG, RAD, divide, maximum, minimum, sign
 from bluesky_gym.core.state import aircraft_index
 from bluesky_gym.core.units import DEG2RAD, FT, M2NM, NM, R_EARTH, RAD2DEG
@@ -328,6 +328,7 @@ PAIR_SEARCHES = ("auto", "all-pairs", "grid")
 GRID_MIN_AIRCRAFT = 256
 GRID_MARGIN_REL = 1e-6  # -, relative margin of the grid's reach (far above the rounding of detect_pair)
 GRID_MARGIN_M = 1.0  # m, absolute margin of the grid's reach and of its vertical bound
+GRID_PARTNERS = 8  # candidate partners per aircraft the grid's scan makes room for at first
 
 
 def resolve_pair_search(pair_search: str, max_aircraft: int) -> str:
@@ -375,7 +376,7 @@ class ConflictPairs:
         return self.env * self.n_aircraft + self.own
 
 
-@jit
+@jit_inline
 def may_conflict(
     lat_i: float,
     lon_i: float,
@@ -395,14 +396,18 @@ def may_conflict(
     hpz: float,
     lookahead: float,
 ) -> bool:
-    """False only for a pair that :func:`detect_pair` cannot find in conflict (finite states, ``|lat| <= 90``).
+    """False only for a pair that :func:`detect_pair` cannot find in conflict (finite states, ``|lat| <= 90``); symmetric in i and j.
 
     A conflict needs a moment ``t`` in ``[0, lookahead]`` at which the pair is inside the
-    protected zone horizontally, so its distance now is at most ``rpz + vrel * lookahead``; and
-    its altitude difference at most ``hpz + |dvs| * lookahead``. :func:`detect_pair` measures the
-    distance on a flat earth at the mean latitude, whose cosine is at least the smaller of the
-    two aircraft's (``cos_i``, ``cos_j``, clipped at 0), without wrapping the longitude. The bounds
-    have margins (:data:`GRID_MARGIN_REL`, :data:`GRID_MARGIN_M`) far above rounding.
+    protected zone: horizontally, the relative position ``r - w t`` (``r`` the intruder's
+    position relative to the ownship on :func:`detect_pair`'s flat earth, ``w`` the ownship's
+    velocity relative to the intruder's) is then within ``rpz`` of the origin, so the segment
+    ``{w t}`` passes within ``rpz`` of ``r``; vertically, the altitude difference now is at most
+    ``hpz + |dvs| * lookahead``. :func:`detect_pair` scales the longitude difference by the
+    cosine of the mean latitude (without wrapping the longitude), which lies between the
+    cosines of the two latitudes and 1 where they straddle the equator: ``r`` is known to within
+    half that spread, which widens the zone. The bounds have margins (:data:`GRID_MARGIN_REL`,
+    :data:`GRID_MARGIN_M`) far above rounding.
 
     Args:
         lat_i: Ownship latitude [deg] (and so on for the intruder ``j``).
@@ -424,74 +429,102 @@ def may_conflict(
         lookahead: Look-ahead time [s] (negative counts as 0).
     """
     look = maximum(lookahead, 0.0)
-    dvs = abs(vs_i - vs_j)
-    if abs(alt_i - alt_j) > (hpz + dvs * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M:
+    if abs(alt_i - alt_j) > (hpz + abs(vs_i - vs_j) * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M:
         return False
-    du = u_i - u_j
-    dv = v_i - v_j
-    reach = (rpz + math.sqrt(du * du + dv * dv) * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M
-    dy = abs(lat_j - lat_i) * DEG2RAD * R_EARTH
-    dx = abs(lon_j - lon_i) * DEG2RAD * R_EARTH * minimum(cos_i, cos_j)
-    return dx * dx + dy * dy <= reach * reach
+    c_lo = minimum(cos_i, cos_j)
+    c_hi = 1.0 if (lat_i <= 0.0) != (lat_j <= 0.0) else maximum(cos_i, cos_j)
+    dlon = (lon_j - lon_i) * DEG2RAD * R_EARTH
+    rx = dlon * (0.5 * (c_lo + c_hi))
+    ry = (lat_j - lat_i) * DEG2RAD * R_EARTH
+    spread = 0.5 * abs(dlon) * (c_hi - c_lo)
+    wx = u_i - u_j
+    wy = v_i - v_j
+    w2 = wx * wx + wy * wy
+    t = 0.0
+    if w2 > 0.0:
+        t = minimum(maximum((rx * wx + ry * wy) / w2, 0.0), look)
+    ex = rx - wx * t
+    ey = ry - wy * t
+    zone = (rpz + spread) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M
+    return ex * ex + ey * ey <= zone * zone
+
+
+@jit_inline
+def scan_band(p, s, t, exhaustive, reach_deg, band_cos, lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, out, n):  # type: ignore[no-untyped-def]
+    """The partners of the aircraft at position ``p`` among positions ``s .. t-1`` (of one band, by longitude), after ``n`` found; returns the new count.
+
+    See :func:`grid_scan_loop`; the partners go to ``out[p, n:]`` as far as it has room.
+    """
+    hi = math.inf
+    if not exhaustive:
+        c = minimum(cosl[p], band_cos)
+        if c > 0.0 and reach_deg < 180.0 * c:
+            w = reach_deg / c
+            hi = lon[p] + w
+            lo_lon = lon[p] - w
+            a = s
+            z = t
+            while a < z:  # the first position with lon >= lo_lon
+                mid = (a + z) // 2
+                if lon[mid] < lo_lon:
+                    a = mid + 1
+                else:
+                    z = mid
+            s = a
+    for q in range(s, t):
+        if lon[q] > hi:
+            break
+        if not exhaustive:
+            if not may_conflict(lat[p], lon[p], alt[p], vs[p], u[p], v[p], cosl[p],
+                                lat[q], lon[q], alt[q], vs[q], u[q], v[q], cosl[q], rpz, hpz, lookahead):  # fmt: skip
+                continue
+        if n < out.shape[1]:
+            out[p, n] = q
+        n += 1
+    return n
 
 
 @jit
 def grid_scan_loop(  # type: ignore[no-untyped-def]
-    good, m, band, env_band0, env_nb, exhaustive, reach_deg, band_start, band_cos, order, slon,
-    lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, offset, counts, out,
+    m, order, band, env_band0, env_nb, exhaustive, reach_deg, band_start, band_cos,
+    lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, counts, out,
 ):  # fmt: skip
-    """The candidate intruders of every aircraft (flat index ``k = env * m + slot``) from the latitude bands.
+    """The candidate pairs of every airspace from the grid of latitude bands; all arrays by position in the grid's order.
 
-    Each airspace's aircraft lie in bands of latitude at least one reach (the largest distance
-    a pair in conflict can have) high; within a band they are sorted by longitude (``order``,
-    ``slon``). Aircraft ``k`` looks at its band and the two beside it, in the window of
-    longitude its reach spans at the band's smallest cosine of latitude, and keeps the intruders
-    :func:`may_conflict` allows. An airspace marked ``exhaustive`` (non-finite or out-of-range
-    states) has one band and every pair is a candidate. With ``out`` empty the counts go to
-    ``counts``; otherwise the candidates go to ``out[offset[k]:]``.
+    Each airspace's aircraft lie in bands of latitude at least one reach (the largest distance a
+    pair in conflict can have) high, counted from ``env_band0[e]``. Position ``p`` holds aircraft
+    ``order[p]`` (flat index ``env * m + slot``) of band ``band[p]``, by band and then by
+    longitude, and the state arrays are in that order. The aircraft at ``p`` pairs with the later
+    positions of its band and those of the next band, in the window of longitude its reach spans
+    at the smallest cosine of latitude, where :func:`may_conflict` (symmetric) allows: each
+    unordered pair once. An airspace marked ``exhaustive`` (non-finite or out-of-range states) has
+    one band and every pair is a candidate. The partners' positions go to ``out[p, :]`` (as many
+    as it holds) and their number to ``counts[p]``.
     """
-    fill = out.shape[0] > 0
-    for k in grid_range(good.shape[0]):
-        n = 0
-        if good[k]:
-            e = k // m
-            b = band[k]
-            lo_band = env_band0[e]
-            hi_band = lo_band + env_nb[e]
-            for bb in range(max(b - 1, lo_band), min(b + 2, hi_band)):
-                s = band_start[bb]
-                t = band_start[bb + 1]
-                hi = math.inf
-                if not exhaustive[e]:
-                    c = minimum(cosl[k], band_cos[bb])
-                    if c > 0.0 and reach_deg[e] < 180.0 * c:
-                        w = reach_deg[e] / c
-                        hi = lon[k] + w
-                        lo_lon = lon[k] - w
-                        a = s
-                        z = t
-                        while a < z:  # first position with slon >= lo_lon
-                            mid = (a + z) // 2
-                            if slon[mid] < lo_lon:
-                                a = mid + 1
-                            else:
-                                z = mid
-                        s = a
-                for p in range(s, t):
-                    if slon[p] > hi:
-                        break
-                    j = order[p]
-                    if j == k:
-                        continue
-                    if not exhaustive[e]:
-                        if not may_conflict(lat[k], lon[k], alt[k], vs[k], u[k], v[k], cosl[k],
-                                            lat[j], lon[j], alt[j], vs[j], u[j], v[j], cosl[j], rpz, hpz, lookahead):  # fmt: skip
-                            continue
-                    if fill:
-                        out[offset[k] + n] = j
-                    n += 1
-        if not fill:
-            counts[k] = n
+    for p in grid_range(order.shape[0]):
+        e = order[p] // m
+        b = band[p]
+        x = exhaustive[e]
+        r = reach_deg[e]
+        n = scan_band(p, p + 1, band_start[b + 1], x, r, band_cos[b], lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, out, 0)
+        if b + 1 < env_band0[e] + env_nb[e]:
+            c = b + 1
+            n = scan_band(p, band_start[c], band_start[c + 1], x, r, band_cos[c], lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, out, n)
+        counts[p] = n
+
+
+@jit
+def sort_bands(order, band, lon):  # type: ignore[no-untyped-def]
+    """Insertion sort of ``order`` by (``band``, ``lon``) of its aircraft, in place; fast on a nearly sorted ``order``."""
+    for k in range(1, order.shape[0]):
+        x = order[k]
+        bk = band[x]
+        lk = lon[x]
+        j = k - 1
+        while j >= 0 and (band[order[j]] > bk or (band[order[j]] == bk and lon[order[j]] > lk)):
+            order[j + 1] = order[j]
+            j -= 1
+        order[j + 1] = x
 
 
 @jit
@@ -549,54 +582,70 @@ def detect_grid(
     )
     good = active.reshape(-1)
     n = good.shape[0]
-    u, v, cosl = np.empty(n), np.empty(n), np.empty(n)
-    velocity_loop(gs, trk, lat, u, v, cosl)
     # Per airspace: the reach (largest distance of a pair in conflict), the band height, the bands.
     env_of = np.repeat(np.arange(n_envs), m)
     with np.errstate(invalid="ignore"):
         finite = np.isfinite(lat) & np.isfinite(lon) & np.isfinite(alt) & np.isfinite(gs) & np.isfinite(trk) & np.isfinite(vs) & (np.abs(lat) <= 90.0)
     exhaustive = np.zeros(n_envs, np.bool_)
-    np.logical_or.at(exhaustive, env_of[good & ~finite], True)
+    exhaustive[env_of[good & ~finite]] = True
     ok = good & ~exhaustive[env_of]
-    gsmax = np.zeros(n_envs)
-    np.maximum.at(gsmax, env_of[ok], np.abs(gs[ok]))
-    lat0 = np.full(n_envs, np.inf)
-    np.minimum.at(lat0, env_of[ok], lat[ok])
-    lat0[~np.isfinite(lat0)] = 0.0
-    reach = (float(rpz) + 2.0 * gsmax * max(float(lookahead), 0.0)) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M
-    reach_deg = reach / R_EARTH * RAD2DEG
-    band_local = np.zeros(n, np.int64)
-    band_local[ok] = np.floor((lat[ok] - lat0[env_of[ok]]) / reach_deg[env_of[ok]]).astype(np.int64)
-    env_nb = np.ones(n_envs, np.int64)
-    np.maximum.at(env_nb, env_of[ok], band_local[ok] + 1)
-    env_band0 = np.concatenate(([0], np.cumsum(env_nb)[:-1])).astype(np.int64)
-    band = env_band0[env_of] + band_local
+    env_ok = env_of[ok]
+    gs_max, lat0, lat1 = (np.zeros(n_envs) for _ in range(3))
+    for out, x, fn in ((gs_max, np.abs(gs), np.maximum), (lat0, lat, np.minimum), (lat1, lat, np.maximum)):
+        if n_envs == 1:  # the common case of the grid: one large airspace
+            out[0] = fn.reduce(x[ok]) if ok.any() else 0.0
+        else:
+            out[...] = np.inf if fn is np.minimum else -np.inf
+            fn.at(out, env_ok, x[ok])
+            out[~np.isfinite(out)] = 0.0
+    reach_deg = ((float(rpz) + 2.0 * gs_max * max(float(lookahead), 0.0)) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) / R_EARTH * RAD2DEG
+    band_h = np.maximum(reach_deg, (lat1 - lat0) / (4 * m + 64))  # no smaller than the reach, nor many more bands than aircraft
+    env_nb = np.floor((lat1 - lat0) / band_h).astype(np.int64) + 1
+    env_nb[exhaustive] = 1
+    env_band0 = np.zeros(n_envs, np.int64)
+    np.cumsum(env_nb[:-1], out=env_band0[1:])
+    band = env_band0[env_of]
+    band[ok] += np.minimum(np.floor((lat[ok] - lat0[env_ok]) / band_h[env_ok]).astype(np.int64), env_nb[env_ok] - 1)
     # The smallest cosine of latitude over each band (its edge farthest from the equator).
+    n_bands = int(env_nb.sum())
     band_env = np.repeat(np.arange(n_envs), env_nb)
-    edge_lo = lat0[band_env] + (np.arange(band_env.size) - env_band0[band_env]) * reach_deg[band_env]
-    edge = np.minimum(np.maximum(np.abs(edge_lo), np.abs(edge_lo + reach_deg[band_env])), 90.0)
+    edge_lo = lat0[band_env] + (np.arange(n_bands) - env_band0[band_env]) * band_h[band_env]
+    edge = np.minimum(np.maximum(np.abs(edge_lo), np.abs(edge_lo + band_h[band_env])), 90.0)
     band_cos = np.maximum(np.cos(edge * DEG2RAD), 0.0)
+    # The aircraft by band, then longitude: a quick sort of a key close to that order, made exact by an insertion sort.
     members = np.flatnonzero(good)
-    order = members[np.lexsort((lon[members], band[members]))]
-    band_start = np.searchsorted(band[order], np.arange(band_env.size + 1)).astype(np.int64)
-    slon = np.ascontiguousarray(lon[order])
+    sort_lon = np.where(ok, lon, 0.0)
+    key = band[members] * 1024.0 + (sort_lon[members] - sort_lon[members].min(initial=0.0)) / 360.0
+    order = members[np.argsort(key)]
+    sort_bands(order, band, sort_lon)
+    s_band = np.ascontiguousarray(band[order])
+    band_start = np.searchsorted(s_band, np.arange(n_bands + 1)).astype(np.int64)
+    # The state in the grid's order, so that the scans read memory in sequence.
+    s_lat, s_lon, s_alt, s_gs, s_trk, s_vs = (x[order] for x in (lat, lon, alt, gs, trk, vs))
+    p_all = order.size
+    u, v, cosl = np.empty(p_all), np.empty(p_all), np.empty(p_all)
+    velocity_loop(s_gs, s_trk, s_lat, u, v, cosl)
     rpz, hpz, lookahead = float(rpz), float(hpz), float(lookahead)
-    counts = np.zeros(n, np.int64)
-    args = (good, m, band, env_band0, env_nb, exhaustive, reach_deg, band_start, band_cos, order, slon, lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead)
-    grid_scan_loop(*args, counts, counts, np.zeros(0, np.int64))
-    offset = np.concatenate(([0], np.cumsum(counts)[:-1])).astype(np.int64)
-    intruder = np.empty(int(counts.sum()), np.int64)
-    grid_scan_loop(*args, offset, counts, intruder)
-    own = np.repeat(np.arange(n, dtype=np.int64), counts)
+    counts = np.zeros(p_all, np.int64)
+    args = (m, order, s_band, env_band0, env_nb, exhaustive, reach_deg, band_start, band_cos, s_lat, s_lon, s_alt, s_vs, u, v, cosl, rpz, hpz, lookahead)
+    partners = np.empty((p_all, GRID_PARTNERS), np.int64)
+    grid_scan_loop(*args, counts, partners)
+    most = int(counts.max(initial=0))
+    if most > GRID_PARTNERS:  # a crowded airspace: scan again with room for all
+        partners = np.empty((p_all, most), np.int64)
+        grid_scan_loop(*args, counts, partners)
+    intruder = partners[np.arange(partners.shape[1]) < counts[:, None]]
+    first = np.repeat(np.arange(p_all, dtype=np.int64), counts)
+    own, intruder = np.concatenate((first, intruder)), np.concatenate((intruder, first))  # both orders of each pair
     p = own.size
     conflict, los = np.empty(p, np.bool_), np.empty(p, np.bool_)
     qdr, dist, tcpa, dcpa, tin = (np.empty(p) for _ in range(5))
-    detect_pairs_loop(own, intruder, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin)
-    own, intruder = own[conflict], intruder[conflict]
+    detect_pairs_loop(own, intruder, s_lat, s_lon, s_alt, s_gs, s_trk, s_vs, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin)
+    sel = np.flatnonzero(conflict)
+    own, intruder = order[own[sel]], order[intruder[sel]]
     sort = np.lexsort((intruder, own))
-    own, j = own[sort], intruder[sort] % m
-    sel = np.flatnonzero(conflict)[sort]
-    return ConflictPairs(m, own // m, own % m, j, los[sel], qdr[sel], dist[sel], tcpa[sel], dcpa[sel], tin[sel])
+    own, sel = own[sort], sel[sort]
+    return ConflictPairs(m, own // m, own % m, intruder[sort] % m, los[sel], qdr[sel], dist[sel], tcpa[sel], dcpa[sel], tin[sel])
 
 
 def detect_pairs(

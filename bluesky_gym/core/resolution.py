@@ -951,9 +951,17 @@ class MVPResolver:
 
     def update(self, state: TypedResolutionState) -> ResolutionCommand:
         """Detect, resolve and decide who follows a resolution, from the current state (a :class:`~bluesky_gym.core.physics.Physics`)."""
+        follow, ended = self.advance(state)
+        return self._command(state, follow, ended)
+
+    def advance(self, state: TypedResolutionState) -> tuple[BoolArray, BoolArray]:
+        """:meth:`update`, giving only who follows its resolution and whose resolution ended (:class:`ResolutionCommand`'s ``follow``, ``ended``).
+
+        The resolution itself is :attr:`held` (track, ground speed, vertical speed, altitude).
+        """
         shape = state.active.shape
         if self.pair_search == "grid":
-            return self._update_pairs(state)
+            return self._advance_pairs(state)
         if self.pairs.shape != shape + (shape[1],):
             self.pairs = np.zeros(shape + (shape[1],), np.bool_)
             self.held = np.full((4, *shape), np.nan)
@@ -980,7 +988,7 @@ class MVPResolver:
         self.pairs, follow = resume(state, candidates, rpz=self.rpz, resofach=self.settings.resofach)
         ended = np.empty(shape, np.bool_)
         ended_loop(candidates, follow, np.ascontiguousarray(state.active, dtype=np.bool_), ended, np.zeros(1, np.bool_))
-        return self._command(state, follow, ended)
+        return follow, ended
 
     def _limits(self, state: TypedResolutionState) -> tuple[ArrayLike, ArrayLike]:
         vsmin, vsmax = self.vsmin, self.vsmax
@@ -990,8 +998,8 @@ class MVPResolver:
             vsmax = own_max if vsmax is None else vsmax
         return vsmin, vsmax
 
-    def _update_pairs(self, state: TypedResolutionState) -> ResolutionCommand:
-        """:meth:`update` with the conflicts and the pairs being resolved as lists (``pair_search="grid"``)."""
+    def _advance_pairs(self, state: TypedResolutionState) -> tuple[BoolArray, BoolArray]:
+        """:meth:`advance` with the conflicts and the pairs being resolved as lists (``pair_search="grid"``)."""
         active = np.ascontiguousarray(state.active, dtype=np.bool_)
         n_envs, m = active.shape
         if self.held.shape != (4, n_envs, m):
@@ -1024,7 +1032,7 @@ class MVPResolver:
         had = np.zeros(n_envs * m, np.bool_)
         had[cand_own] = True
         ended = (had & ~follow & active.reshape(-1)).reshape(n_envs, m)
-        return self._command(state, follow.reshape(n_envs, m), ended)
+        return follow.reshape(n_envs, m), ended
 
     def _command(self, state: TypedResolutionState, follow: BoolArray, ended: BoolArray) -> ResolutionCommand:
         """The :class:`ResolutionCommand` of the held resolution."""

@@ -666,14 +666,14 @@ class Simulator(AircraftState):
             resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
             if self.pair_search == "grid":
                 resolver.pair_keys = self._group_keys(envs)
-            cmd = resolver.update(view)
+            group_follow, group_ended = resolver.advance(view)
             self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
             if self.pair_search == "grid":
                 self._store_group_keys(envs, resolver.pair_keys)
-            follow[envs] = cmd.follow
+            follow[envs] = group_follow
             targets[:, envs] = resolution_targets(resolver.held)
             # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
-            for k, s in zip(*np.nonzero(cmd.ended & (self.nwp[envs] > 0))):
+            for k, s in zip(*np.nonzero(group_ended & (self.nwp[envs] > 0))):
                 e = int(envs[k])
                 self.iactwp[e, s] = self._find_active(e, int(s))
                 self._direct(np.array([e]), np.array([s]))
