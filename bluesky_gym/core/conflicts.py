@@ -428,11 +428,11 @@ def may_conflict(
         hpz: Protected-zone half height [m].
         lookahead: Look-ahead time [s] (negative counts as 0).
     """
-    look = maximum(lookahead, 0.0)
+    look = lookahead if lookahead > 0.0 else 0.0
     if abs(alt_i - alt_j) > (hpz + abs(vs_i - vs_j) * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M:
         return False
-    c_lo = minimum(cos_i, cos_j)
-    c_hi = 1.0 if (lat_i <= 0.0) != (lat_j <= 0.0) else maximum(cos_i, cos_j)
+    c_lo = cos_i if cos_i < cos_j else cos_j
+    c_hi = 1.0 if (lat_i <= 0.0) != (lat_j <= 0.0) else (cos_j if cos_i < cos_j else cos_i)
     dlon = (lon_j - lon_i) * DEG2RAD * R_EARTH
     rx = dlon * (0.5 * (c_lo + c_hi))
     ry = (lat_j - lat_i) * DEG2RAD * R_EARTH
@@ -442,7 +442,8 @@ def may_conflict(
     w2 = wx * wx + wy * wy
     t = 0.0
     if w2 > 0.0:
-        t = minimum(maximum((rx * wx + ry * wy) / w2, 0.0), look)
+        t = (rx * wx + ry * wy) / w2
+        t = 0.0 if t < 0.0 else (look if t > look else t)
     ex = rx - wx * t
     ey = ry - wy * t
     zone = (rpz + spread) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M
@@ -514,14 +515,69 @@ def grid_scan_loop(  # type: ignore[no-untyped-def]
 
 
 @jit
-def sort_bands(order, band, lon):  # type: ignore[no-untyped-def]
-    """Insertion sort of ``order`` by (``band``, ``lon``) of its aircraft, in place; fast on a nearly sorted ``order``."""
+def grid_bounds_loop(m, good, lat, lon, alt, gs, trk, vs, exhaustive, bounds):  # type: ignore[no-untyped-def]
+    """Per airspace: whether its grid must be ``exhaustive`` (an active aircraft with a non-finite state or ``|lat| > 90``), and ``bounds``.
+
+    ``bounds`` (4, n_envs): the largest ground speed [m/s], the smallest and the largest latitude
+    and the smallest longitude [deg] of the active aircraft (0 where none).
+    """
+    for e in grid_range(exhaustive.shape[0]):
+        x = False
+        g = 0.0
+        lo = math.inf
+        hi = -math.inf
+        west = math.inf
+        for k in range(e * m, (e + 1) * m):
+            if not good[k]:
+                continue
+            s = lat[k] + lon[k] + alt[k] + gs[k] + trk[k] + vs[k]
+            if not (s - s == 0.0) or abs(lat[k]) > 90.0:  # a NaN or an infinity
+                x = True
+            else:
+                g = maximum(g, abs(gs[k]))
+                lo = minimum(lo, lat[k])
+                hi = maximum(hi, lat[k])
+                west = minimum(west, lon[k])
+        exhaustive[e] = x
+        bounds[0, e] = g
+        bounds[1, e] = lo if lo <= hi else 0.0
+        bounds[2, e] = hi if lo <= hi else 0.0
+        bounds[3, e] = west if lo <= hi else 0.0
+
+
+@jit
+def grid_band_loop(m, good, lat, lon, exhaustive, lat0, lon0, band_h, env_nb, env_band0, band, within, key):  # type: ignore[no-untyped-def]
+    """Every active aircraft's band (counted over all airspaces), its place ``within`` the band, and a sort ``key``.
+
+    Within a band the aircraft go by longitude; in an exhaustive airspace (one band) by slot.
+    The key orders them by band and nearly by ``within`` (:func:`sort_bands` makes it exact).
+    """
+    for k in grid_range(good.shape[0]):
+        if not good[k]:
+            continue
+        e = k // m
+        if exhaustive[e]:
+            band[k] = env_band0[e]
+            within[k] = k - e * m
+            key[k] = env_band0[e] * 1024.0 + within[k] / m
+            continue
+        b = int(math.floor((lat[k] - lat0[e]) / band_h[e]))
+        if b > env_nb[e] - 1:
+            b = env_nb[e] - 1
+        band[k] = env_band0[e] + b
+        within[k] = lon[k]
+        key[k] = band[k] * 1024.0 + (lon[k] - lon0[e]) / 360.0
+
+
+@jit
+def sort_bands(order, band, within):  # type: ignore[no-untyped-def]
+    """Insertion sort of ``order`` by (``band``, ``within``) of its aircraft, in place; fast on a nearly sorted ``order``."""
     for k in range(1, order.shape[0]):
         x = order[k]
         bk = band[x]
-        lk = lon[x]
+        lk = within[x]
         j = k - 1
-        while j >= 0 and (band[order[j]] > bk or (band[order[j]] == bk and lon[order[j]] > lk)):
+        while j >= 0 and (band[order[j]] > bk or (band[order[j]] == bk and within[order[j]] > lk)):
             order[j + 1] = order[j]
             j -= 1
         order[j + 1] = x
@@ -577,35 +633,21 @@ def detect_grid(
     """
     active = np.ascontiguousarray(active, dtype=np.bool_)
     n_envs, m = active.shape
-    lat, lon, alt, gs, trk, vs = (
-        np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), active.shape)).reshape(-1) for x in (lat, lon, alt, gs, trk, vs)
-    )
+    lat, lon, alt, gs, trk, vs = (float_array(x, active.shape).reshape(-1) for x in (lat, lon, alt, gs, trk, vs))
     good = active.reshape(-1)
     n = good.shape[0]
-    # Per airspace: the reach (largest distance of a pair in conflict), the band height, the bands.
-    env_of = np.repeat(np.arange(n_envs), m)
-    with np.errstate(invalid="ignore"):
-        finite = np.isfinite(lat) & np.isfinite(lon) & np.isfinite(alt) & np.isfinite(gs) & np.isfinite(trk) & np.isfinite(vs) & (np.abs(lat) <= 90.0)
-    exhaustive = np.zeros(n_envs, np.bool_)
-    exhaustive[env_of[good & ~finite]] = True
-    ok = good & ~exhaustive[env_of]
-    env_ok = env_of[ok]
-    gs_max, lat0, lat1 = (np.zeros(n_envs) for _ in range(3))
-    for out, x, fn in ((gs_max, np.abs(gs), np.maximum), (lat0, lat, np.minimum), (lat1, lat, np.maximum)):
-        if n_envs == 1:  # the common case of the grid: one large airspace
-            out[0] = fn.reduce(x[ok]) if ok.any() else 0.0
-        else:
-            out[...] = np.inf if fn is np.minimum else -np.inf
-            fn.at(out, env_ok, x[ok])
-            out[~np.isfinite(out)] = 0.0
+    # Per airspace: the reach (largest distance of a pair in conflict), the bands of latitude.
+    exhaustive = np.empty(n_envs, np.bool_)
+    bounds = np.empty((4, n_envs))  # largest ground speed, smallest and largest latitude, smallest longitude
+    grid_bounds_loop(m, good, lat, lon, alt, gs, trk, vs, exhaustive, bounds)
+    gs_max, lat0, lat1, lon0 = bounds
     reach_deg = ((float(rpz) + 2.0 * gs_max * max(float(lookahead), 0.0)) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) / R_EARTH * RAD2DEG
     band_h = np.maximum(reach_deg, (lat1 - lat0) / (4 * m + 64))  # no smaller than the reach, nor many more bands than aircraft
-    env_nb = np.floor((lat1 - lat0) / band_h).astype(np.int64) + 1
-    env_nb[exhaustive] = 1
+    env_nb = np.where(exhaustive, 1, np.floor((lat1 - lat0) / band_h).astype(np.int64) + 1)
     env_band0 = np.zeros(n_envs, np.int64)
     np.cumsum(env_nb[:-1], out=env_band0[1:])
-    band = env_band0[env_of]
-    band[ok] += np.minimum(np.floor((lat[ok] - lat0[env_ok]) / band_h[env_ok]).astype(np.int64), env_nb[env_ok] - 1)
+    band, within, key = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    grid_band_loop(m, good, lat, lon, exhaustive, lat0, lon0, band_h, env_nb, env_band0, band, within, key)
     # The smallest cosine of latitude over each band (its edge farthest from the equator).
     n_bands = int(env_nb.sum())
     band_env = np.repeat(np.arange(n_envs), env_nb)
@@ -614,10 +656,8 @@ def detect_grid(
     band_cos = np.maximum(np.cos(edge * DEG2RAD), 0.0)
     # The aircraft by band, then longitude: a quick sort of a key close to that order, made exact by an insertion sort.
     members = np.flatnonzero(good)
-    sort_lon = np.where(ok, lon, 0.0)
-    key = band[members] * 1024.0 + (sort_lon[members] - sort_lon[members].min(initial=0.0)) / 360.0
-    order = members[np.argsort(key)]
-    sort_bands(order, band, sort_lon)
+    order = members[np.argsort(key[members])]
+    sort_bands(order, band, within)
     s_band = np.ascontiguousarray(band[order])
     band_start = np.searchsorted(s_band, np.arange(n_bands + 1)).astype(np.int64)
     # The state in the grid's order, so that the scans read memory in sequence.
@@ -670,6 +710,13 @@ def detect_pairs(
     if detector == "CSTATEBASED":
         return detect_grid(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead)
     return ConflictPairs.from_dense(detect_with(detector, lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, python_geo))
+
+
+def float_array(x: ArrayLike, shape: tuple[int, ...]) -> Array:
+    """``x`` as a C-contiguous float64 array of ``shape`` (broadcast; no copy where it already is one)."""
+    if isinstance(x, np.ndarray) and x.dtype == np.float64 and x.shape == shape and x.flags.c_contiguous:
+        return x
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), shape))
 
 
 #: Conflict detectors by BlueSky name (``ASAS <name>``): the compiled CSTATEBASED and the Python STATEBASED.

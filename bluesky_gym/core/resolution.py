@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
-from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, ConflictPairs, Conflicts, detect_pairs, detect_with
+from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, ConflictPairs, Conflicts, detect_pairs, detect_with, float_array
 from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
@@ -614,11 +614,8 @@ def _mvp_inputs(
     vsmax = default.vsmax if vsmax is None else vsmax
     active = np.ascontiguousarray(state.active, dtype=np.bool_)
 
-    def f(x: ArrayLike) -> Array:
-        return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), active.shape))
-
     floats = (state.alt, state.gseast, state.gsnorth, state.vs, state.trk, state.gs, state.selalt, state.ap_vs, state.vmin, state.vmax, vsmin, vsmax)
-    return settings or ResolutionSettings(), (active, *(f(x) for x in floats))
+    return settings or ResolutionSettings(), (active, *(float_array(x, active.shape) for x in floats))
 
 
 def mvp_pairs(
