@@ -65,7 +65,8 @@ class ScaleScenario:
 
     def rows(self) -> list[list[float]]:
         """The aircraft as ``[lat, lon, hdg, alt, cas]`` lists (what the BlueSky worker creates)."""
-        return np.stack((self.lat, self.lon, self.hdg, self.alt, self.cas), axis=1).tolist()  # type: ignore[no-any-return]
+        rows: list[list[float]] = np.stack((self.lat, self.lon, self.hdg, self.alt, self.cas), axis=1).tolist()
+        return rows
 
 
 def scale_scenario(n_aircraft: int, seed: int = SEED) -> ScaleScenario:

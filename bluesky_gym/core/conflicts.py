@@ -452,7 +452,7 @@ def may_conflict(
 
 @jit_inline
 def scan_band(p, s, t, exhaustive, reach_deg, band_cos, lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, out, n):  # type: ignore[no-untyped-def]
-    """The partners of the aircraft at position ``p`` among positions ``s .. t-1`` (of one band, by longitude), after ``n`` found; returns the new count.
+    """The partners of the aircraft at position ``p`` among positions ``s .. t-1`` (one band's, by longitude), after ``n``; returns the new count.
 
     See :func:`grid_scan_loop`; the partners go to ``out[p, n:]`` as far as it has room.
     """
@@ -667,7 +667,27 @@ def detect_grid(
     velocity_loop(s_gs, s_trk, s_lat, u, v, cosl)
     rpz, hpz, lookahead = float(rpz), float(hpz), float(lookahead)
     counts = np.zeros(p_all, np.int64)
-    args = (m, order, s_band, env_band0, env_nb, exhaustive, reach_deg, band_start, band_cos, s_lat, s_lon, s_alt, s_vs, u, v, cosl, rpz, hpz, lookahead)
+    args = (
+        m,
+        order,
+        s_band,
+        env_band0,
+        env_nb,
+        exhaustive,
+        reach_deg,
+        band_start,
+        band_cos,
+        s_lat,
+        s_lon,
+        s_alt,
+        s_vs,
+        u,
+        v,
+        cosl,
+        rpz,
+        hpz,
+        lookahead,
+    )
     partners = np.empty((p_all, GRID_PARTNERS), np.int64)
     grid_scan_loop(*args, counts, partners)
     most = int(counts.max(initial=0))

@@ -284,9 +284,7 @@ def mvp_add_pair(
         hpz_m: Resolution zone half height [m].
         dtlook: Look-ahead time [s].
     """
-    d1, d2, d3, tv = mvp_pair(
-        qdr_deg, dist, tcpa, tlos, alt_j - alt_i, gseast_j - gseast_i, gsnorth_j - gsnorth_i, vs_j - vs_i, rpz_m, hpz_m, dtlook
-    )
+    d1, d2, d3, tv = mvp_pair(qdr_deg, dist, tcpa, tlos, alt_j - alt_i, gseast_j - gseast_i, gsnorth_j - gsnorth_i, vs_j - vs_i, rpz_m, hpz_m, dtlook)
     if tv < tsol:
         tsol = tv
     # Cooperative: the ownship moves away by the whole horizontal and half the vertical change.
@@ -574,8 +572,8 @@ def mvp(
     Returns:
         The resolution of every active aircraft.
     """
-    s, args = _mvp_inputs(state, settings, vsmin, vsmax)
-    shape = args[0].shape
+    s, active, floats = _mvp_inputs(state, settings, vsmin, vsmax)
+    shape = active.shape
     pairs = shape + (shape[1],)
     if conflicts.conflict.shape != pairs:
         raise ValueError(f"conflicts are shaped {conflicts.conflict.shape}, the state needs {pairs}")
@@ -583,39 +581,23 @@ def mvp(
     dv = np.full((*shape, 3), np.nan)
     tsolv = np.full(shape, np.nan)
     conflict = np.ascontiguousarray(conflicts.conflict, dtype=np.bool_)
-    mvp_loop(
-        conflict,
-        np.ascontiguousarray(conflicts.qdr, dtype=np.float64),
-        np.ascontiguousarray(conflicts.dist, dtype=np.float64),
-        np.ascontiguousarray(conflicts.tcpa, dtype=np.float64),
-        np.ascontiguousarray(conflicts.tlos, dtype=np.float64),
-        *args,
-        float(rpz) * s.resofach,
-        float(hpz) * s.resofacv,
-        float(lookahead),
-        s.mode,
-        1.0 if s.swresohoriz else 0.0,
-        trk,
-        gs,
-        vs,
-        alt_out,
-        dv,
-        tsolv,
-    )
-    return Resolution(trk, gs, vs, alt_out, dv, tsolv, conflict.any(axis=-1) & args[0])
+    pictures = [np.ascontiguousarray(x, dtype=np.float64) for x in (conflicts.qdr, conflicts.dist, conflicts.tcpa, conflicts.tlos)]
+    zone = [float(rpz) * s.resofach, float(hpz) * s.resofacv, float(lookahead), s.mode, 1.0 if s.swresohoriz else 0.0]
+    mvp_loop(*[conflict, *pictures, active, *floats, *zone, trk, gs, vs, alt_out, dv, tsolv])
+    return Resolution(trk, gs, vs, alt_out, dv, tsolv, conflict.any(axis=-1) & active)
 
 
 def _mvp_inputs(
     state: ResolutionState, settings: ResolutionSettings | None, vsmin: ArrayLike | None, vsmax: ArrayLike | None
-) -> tuple[ResolutionSettings, tuple[NDArray[np.generic], ...]]:
-    """The settings and the per-aircraft arrays :func:`mvp_loop` reads: ``active``, then ``alt`` .. ``vsmax`` (n_envs, n_aircraft)."""
+) -> tuple[ResolutionSettings, BoolArray, list[Array]]:
+    """The settings, ``active`` and the per-aircraft arrays :func:`mvp_loop` reads after it, ``alt`` .. ``vsmax`` (n_envs, n_aircraft)."""
     default = aircraft_performance(DEFAULT_TYPE)
     vsmin = default.vsmin if vsmin is None else vsmin
     vsmax = default.vsmax if vsmax is None else vsmax
     active = np.ascontiguousarray(state.active, dtype=np.bool_)
 
     floats = (state.alt, state.gseast, state.gsnorth, state.vs, state.trk, state.gs, state.selalt, state.ap_vs, state.vmin, state.vmax, vsmin, vsmax)
-    return settings or ResolutionSettings(), (active, *(float_array(x, active.shape) for x in floats))
+    return settings or ResolutionSettings(), active, [float_array(x, active.shape) for x in floats]
 
 
 def mvp_pairs(
@@ -633,39 +615,23 @@ def mvp_pairs(
 
     The arguments are :func:`mvp`'s; ``conflicts`` lists the pairs of the same state.
     """
-    s, args = _mvp_inputs(state, settings, vsmin, vsmax)
-    shape = args[0].shape
+    s, active, floats = _mvp_inputs(state, settings, vsmin, vsmax)
+    shape = active.shape
     if conflicts.n_aircraft != shape[1]:
         raise ValueError(f"conflicts are of airspaces of {conflicts.n_aircraft} aircraft, the state has {shape[1]}")
     n = shape[0] * shape[1]
-    own = conflicts.flat_own
     row = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(own, minlength=n), out=row[1:])
+    np.cumsum(np.bincount(conflicts.flat_own, minlength=n), out=row[1:])
     intruder = conflicts.env * shape[1] + conflicts.intruder
     trk, gs, vs, alt_out, tsolv = (np.full(n, np.nan) for _ in range(5))
     dv = np.full((n, 3), np.nan)
-    mvp_pairs_loop(
-        row,
-        intruder,
-        np.ascontiguousarray(conflicts.qdr, dtype=np.float64),
-        np.ascontiguousarray(conflicts.dist, dtype=np.float64),
-        np.ascontiguousarray(conflicts.tcpa, dtype=np.float64),
-        np.ascontiguousarray(conflicts.tlos, dtype=np.float64),
-        *(a.reshape(-1) for a in args),
-        float(rpz) * s.resofach,
-        float(hpz) * s.resofacv,
-        float(lookahead),
-        s.mode,
-        1.0 if s.swresohoriz else 0.0,
-        trk,
-        gs,
-        vs,
-        alt_out,
-        dv,
-        tsolv,
+    pictures = [np.ascontiguousarray(x, dtype=np.float64) for x in (conflicts.qdr, conflicts.dist, conflicts.tcpa, conflicts.tlos)]
+    zone = [float(rpz) * s.resofach, float(hpz) * s.resofacv, float(lookahead), s.mode, 1.0 if s.swresohoriz else 0.0]
+    mvp_pairs_loop(*[row, intruder, *pictures, active.reshape(-1), *(x.reshape(-1) for x in floats), *zone, trk, gs, vs, alt_out, dv, tsolv])
+    in_conflict = (np.diff(row) > 0).reshape(shape) & active
+    return Resolution(
+        trk.reshape(shape), gs.reshape(shape), vs.reshape(shape), alt_out.reshape(shape), dv.reshape(*shape, 3), tsolv.reshape(shape), in_conflict
     )
-    in_conflict = (np.diff(row) > 0).reshape(shape) & args[0]
-    return Resolution(trk.reshape(shape), gs.reshape(shape), vs.reshape(shape), alt_out.reshape(shape), dv.reshape(*shape, 3), tsolv.reshape(shape), in_conflict)
 
 
 @jit
@@ -1019,7 +985,9 @@ class MVPResolver:
         candidates = np.union1d(self.pair_keys, own * m + c.intruder)
         cand_own = candidates // m
         cand_intruder = (cand_own // m) * m + candidates % m
-        lat, lon, ve, vn, trk = (np.ascontiguousarray(x, dtype=np.float64).reshape(-1) for x in (state.lat, state.lon, state.gseast, state.gsnorth, state.trk))
+        lat, lon, ve, vn, trk = (
+            np.ascontiguousarray(x, dtype=np.float64).reshape(-1) for x in (state.lat, state.lon, state.gseast, state.gsnorth, state.trk)
+        )
         keep = np.empty(candidates.size, np.bool_)
         resolution = self.settings.resofach
         resume_pairs_loop(cand_own, cand_intruder, lat, lon, ve, vn, trk, active.reshape(-1), self.rpz, self.rpz * resolution, keep)

@@ -699,10 +699,11 @@ class Simulator(AircraftState):
         mm = self.max_aircraft * self.max_aircraft
         if envs.size == self.n_envs:
             return self._reso_keys
-        env = self._reso_keys // mm
+        env: IntArray = self._reso_keys // mm
         pos = np.minimum(np.searchsorted(envs, env), envs.size - 1)
         mine = envs[pos] == env
-        return self._reso_keys[mine] - (env[mine] - pos[mine]) * mm
+        keys: IntArray = self._reso_keys[mine] - (env[mine] - pos[mine]) * mm
+        return keys
 
     def _store_group_keys(self, envs: IntArray, keys: NDArray[np.int64]) -> None:
         """Put back the pair keys of airspaces ``envs`` from a resolver of those airspaces."""
