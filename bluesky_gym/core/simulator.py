@@ -883,10 +883,13 @@ class Simulator(AircraftState):
 
 
 class _AirspaceView:
-    """The state arrays MVP reads of some airspaces of a :class:`Simulator`, shaped (len(envs), max_aircraft)."""
+    """The state arrays MVP reads of some airspaces of a :class:`Simulator`, shaped (len(envs), max_aircraft).
+
+    Copies, or views of the simulator's arrays where ``envs`` are all its airspaces (``envs`` is sorted); read only.
+    """
 
     def __init__(self, sim: Simulator, envs: IntArray) -> None:
-        k = envs
+        k: slice | IntArray = slice(None) if envs.size == sim.n_envs else envs
         self.active = sim.active[k]
         self.type_index = sim.type_index[k]
         self.lat, self.lon, self.alt, self.tas = sim.lat[k], sim.lon[k], sim.alt[k], sim.tas[k]
