@@ -10,8 +10,7 @@ kernels are not timed), on one core.
 The traffic has the same density whatever N: A320s at random positions spread evenly over an area of
 :data:`AREA_PER_AIRCRAFT` per aircraft (a band of latitude around the equator, as square as it
 can be within :data:`MAX_LATITUDE`), random headings, cruising level at random altitudes between
-:data:`ALT_RANGE` and random CAS in :data:`CAS_RANGE`. At this density an aircraft meets about one
-conflict per hour.
+:data:`ALT_RANGE` and random CAS in :data:`CAS_RANGE`.
 """
 
 from __future__ import annotations
@@ -227,4 +226,26 @@ def format_scale(result: dict[str, Any]) -> str:
         f"targets: core >= {TARGET_VS_BLUESKY:.0f}x BlueSky at 1000 aircraft with CD&R; "
         f"100,000 aircraft, 1 h with CD&R < {TARGET_100K_HOUR_S / 60:.0f} min (one core; 'pairs': pairs being resolved at the end)"
     )
+    return "\n".join(lines)
+
+
+def _seconds(x: float) -> str:
+    if x < 1.0:
+        return f"{x:.2f} s"
+    if x < 100.0:
+        return f"{x:.1f} s"
+    return f"{x:.0f} s ({x / 60.0:.1f} min)"
+
+
+def format_scale_markdown(results: Sequence[dict[str, Any]]) -> str:
+    """The rows of one or more scale benchmark results as one Markdown table (docs/backends.md)."""
+    lines = ["| aircraft | CD&R | simulated time | core wall | BlueSky wall | core / BlueSky |", "|---:|:---:|---:|---:|---:|---:|"]
+    for result in results:
+        for r in result["rows"]:
+            t = float(r["sim_time_s"])
+            sim = f"{t / 3600.0:g} h" if t % 3600.0 == 0.0 else f"{t:g} s"
+            bs = r["bluesky_wall_s"]
+            ratio = f"{bs / r['core_wall_s']:.0f}x" if bs is not None else ""
+            cells = [f"{r['aircraft']:,}", "on" if r["cdr"] else "off", sim, _seconds(r["core_wall_s"]), "-" if bs is None else _seconds(bs), ratio]
+            lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)

@@ -67,3 +67,20 @@ def test_bench_scale_flies_bluesky_side_by_side(bluesky_interpreter: str, tmp_pa
     assert all(r["bluesky_wall_s"] > 0.0 for r in rows[:2]) and all(r["bluesky_wall_s"] is None for r in rows[2:])
     assert all(r["bluesky_error"] is None for r in rows)
     assert "30" in capsys.readouterr().out
+
+
+def test_the_scale_table_of_the_docs_is_the_committed_measurement() -> None:
+    from bluesky_gym.benchmarks.scale_bench import format_scale_markdown
+    from bluesky_gym.cli import build_parser
+
+    root = Path(__file__).resolve().parents[2]
+    page = (root / "docs" / "backends.md").read_text(encoding="utf-8")
+    measured = [json.loads((root / "results" / "bench" / name).read_text(encoding="utf-8")) for name in ("scale-1000.json", "scale.json")]
+    assert format_scale_markdown(measured) in page
+    rows = [r for m in measured for r in m["rows"]]
+    assert {(r["aircraft"], r["sim_time_s"]) for r in rows if r["cdr"]} >= {(1000, 600.0), (10000, 3600.0), (100_000, 3600.0)}
+    assert all(r["bluesky_wall_s"] for r in measured[0]["rows"])
+    for out in ("results/bench/scale-1000.json", "results/bench/scale.json"):
+        line = next(line for line in page.splitlines() if line.startswith("bluesky-gym bench scale") and line.endswith(out))
+        args = build_parser().parse_args(line.replace("<python with the bluesky extra>", "PY").split()[1:])
+        assert args.func.__name__ == "run_scale_command"
