@@ -472,12 +472,12 @@ def scan_band(p, s, t, exhaustive, reach_deg, band_cos, lat, lon, alt, vs, u, v,
                 else:
                     z = mid
             s = a
+    lat_p, lon_p, alt_p, vs_p, u_p, v_p, cos_p = lat[p], lon[p], alt[p], vs[p], u[p], v[p], cosl[p]
     for q in range(s, t):
         if lon[q] > hi:
             break
         if not exhaustive:
-            if not may_conflict(lat[p], lon[p], alt[p], vs[p], u[p], v[p], cosl[p],
-                                lat[q], lon[q], alt[q], vs[q], u[q], v[q], cosl[q], rpz, hpz, lookahead):  # fmt: skip
+            if not may_conflict(lat_p, lon_p, alt_p, vs_p, u_p, v_p, cos_p, lat[q], lon[q], alt[q], vs[q], u[q], v[q], cosl[q], rpz, hpz, lookahead):
                 continue
         if n < out.shape[1]:
             out[p, n] = q
