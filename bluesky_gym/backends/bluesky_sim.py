@@ -78,12 +78,12 @@ _owner: weakref.ReferenceType[BlueSkyPhysics] | None = None
 
 
 def _type_list(actype: str | Sequence[str] | NDArray[np.str_] | None, n: int) -> list[str]:
-    """``n`` type names from one name, one per aircraft, or None (A320); rotorcraft are refused."""
+    """``n`` type names from one name, one per aircraft, or None (A320); a non-string is refused."""
     names = [ACTYPE] * n if actype is None else [actype] * n if isinstance(actype, str) else [str(a) for a in actype]
     if len(names) != n:
         raise ValueError(f"actype: expected one type or {n} types (one per aircraft), got {len(names)}")
     for name in set(names):
-        resolve_type(name)  # refuses rotorcraft and non-strings
+        resolve_type(name)  # refuses non-strings
     return names
 
 
@@ -367,7 +367,7 @@ class BlueSkyPhysics(AircraftState):
             alt: Altitude [m].
             spd: CAS [m/s], or Mach when 0.1 < spd < 2.
             actype: Aircraft type, one for all or one per aircraft (None: A320). Unknown types fly
-                as BlueSky's B744; rotorcraft are refused (the core has no rotor model).
+                as BlueSky's B744; rotorcraft fly BlueSky's rotor model.
         """
         env, slot = self._begin(env, slot)
         if np.any(self.active[env, slot]) or np.unique(slot).size != slot.size:

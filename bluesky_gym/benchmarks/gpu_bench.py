@@ -12,6 +12,9 @@ Two parts:
   (:class:`bluesky_gym.core.DeviceSimulator`) against the CPU core of the same machine, in at
   most :data:`DEVICE_CHECK_BUDGET` seconds: agreement of the two over a sample of airspaces
   (against the project's tolerances) and aircraft-sub-steps per second side by side.
+* :func:`device_envs` (``--envs``): on a machine with a CUDA GPU, every id's vector
+  environment made with ``device="cuda"`` against its CPU one: the same seeded episodes compared,
+  and environment steps per second side by side.
 """
 
 from __future__ import annotations
@@ -551,7 +554,7 @@ def format_device_check(result: dict[str, Any]) -> str:
             lines.append(f"{t['target']:<14}  {t['rows']:>9}  {'skipped: ' + t['skipped']:>15}")
             continue
         lines.append(f"{t['target']:<14}  {t['rows']:>9}  {_rate(t['sector_observe']):>15}  {_rate(t['merge_observe']):>15}")
-    lines.append("Not measured here: environment steps on the device and PPO end to end (no device environments yet).")
+    lines.append("Environment steps on the device: bluesky-gym bench gpu --envs. Not measured: PPO end to end (no trainer takes device tensors yet).")
     return "\n".join(lines)
 
 
@@ -562,3 +565,155 @@ def _rate(x: float) -> str:
         if x >= div:
             return f"{x / div:.3g}{suffix}"
     return f"{x:.3g}"
+
+
+# --- the vector environments on the device (``bench gpu --envs``) ------------------------------
+#: Episodes and steps of the comparison of each id's device vector environment with its CPU one.
+ENV_SAMPLE = (256, 30)
+#: Batch sizes at which each id's device vector environment is timed, and the CPU one's.
+ENV_BATCHES = (2**10, 2**14)
+ENV_CPU_BATCH = 2**10
+#: Timed steps per measurement.
+ENV_STEPS = 5
+#: Wall-clock budget of ``bench gpu --envs`` [s].
+ENV_CHECK_BUDGET = 240.0
+
+
+def env_check_ids() -> list[str]:
+    """The ids the device vector environments are checked with: every single-agent id whose data are in place."""
+    from bluesky_gym.envs.registry import entry, env_ids
+
+    return [i for i in env_ids() if entry(i).data_status() is None]
+
+
+def _max_diff(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest absolute difference of two arrays (NaN where both are NaN counts as equal; NaN against a number as inf)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    both = np.isnan(a) & np.isnan(b)
+    diff = np.where(both, 0.0, np.abs(a - b))
+    return float(np.nanmax(np.where(np.isnan(diff), np.inf, diff))) if diff.size else 0.0
+
+
+def _torch_device() -> tuple[Any, str]:
+    """PyTorch and the device of the device vector environments' tensors (the CPU under numba-cuda's simulator)."""
+    import torch
+
+    from bluesky_gym.core import cuda_target
+
+    return torch, "cpu" if cuda_target.SIMULATOR else "cuda"
+
+
+def env_sample(env_id: str, n_envs: int, steps: int, say: Say = None) -> dict[str, Any]:
+    """One id's device vector environment against its CPU one: same seeds, same actions (as device tensors), ``steps`` steps.
+
+    Returns:
+        The largest differences of the observations and rewards over every step and row, the
+        fraction of bit-identical observation values, and the rows x steps whose end
+        (``terminated | truncated``) differs (a threshold crossed on the last bit).
+    """
+    import gymnasium as gym
+
+    from bluesky_gym.registration import register_envs
+
+    register_envs()
+    if say is not None:
+        say(f"envs: {env_id}, {n_envs} episodes x {steps} steps, device against CPU")
+    cpu = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point")
+    dev = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", device="cuda")
+    torch, on = _torch_device()
+    obs_c, _ = cpu.reset(seed=0)
+    obs_d, _ = dev.reset(seed=0)
+    cpu.action_space.seed(0)
+    worst_obs, worst_reward, same, total, ended_differ = 0.0, 0.0, 0, 0, 0
+    for step in range(steps + 1):
+        if step > 0:
+            a = cpu.action_space.sample()
+            obs_c, r_c, t_c, u_c, _ = cpu.step(a)
+            obs_d, r_d, t_d, u_d, _ = dev.step(torch.as_tensor(a, device=on))
+            worst_reward = max(worst_reward, _max_diff(r_d.cpu().numpy(), r_c))
+            ended_differ += int(((t_d | u_d).cpu().numpy() != (t_c | u_c)).sum())
+        for k, v in obs_c.items():
+            d = obs_d[k].cpu().numpy()
+            worst_obs = max(worst_obs, _max_diff(d, v))
+            same += int(np.sum((d == v) | (np.isnan(d) & np.isnan(v))))
+            total += v.size
+    cpu.close()
+    dev.close()
+    return {"id": env_id, "episodes": n_envs, "steps": steps, "obs_max_diff": worst_obs, "reward_max_diff": worst_reward,
+            "obs_bit_identical": same / max(total, 1), "ended_differ": ended_differ}  # fmt: skip
+
+
+def env_rate(env_id: str, device: str, n_envs: int, say: Say = None) -> dict[str, Any]:
+    """Environment steps per second of one id's vector environment on ``device`` (``"cpu"``: one process; ``"cuda"``), resets included."""
+    import gymnasium as gym
+
+    from bluesky_gym.core import cuda_target
+    from bluesky_gym.registration import register_envs
+
+    register_envs()
+    if say is not None:
+        say(f"envs: {env_id} on {device}, {n_envs} episodes")
+    env = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", device=device)
+    env.action_space.seed(0)
+    env.reset(seed=0)
+    a = env.action_space.sample()
+    if device == "cuda":
+        torch, on = _torch_device()
+        a = torch.as_tensor(a, device=on)
+    env.step(a)
+    t0 = time.perf_counter()
+    for _ in range(ENV_STEPS):
+        env.step(a)
+    if device == "cuda":
+        cuda_target.synchronize()
+    rate = n_envs * ENV_STEPS / (time.perf_counter() - t0)
+    env.close()
+    return {"id": env_id, "target": "cpu (1 process)" if device == "cpu" else "cuda", "episodes": n_envs, "rate": rate}
+
+
+def device_envs(budget: float = ENV_CHECK_BUDGET, say: Say = None) -> dict[str, Any]:
+    """Every id's device vector environment (``make_vec(..., device="cuda")``) against its CPU one: episodes and env-steps/s.
+
+    Raises:
+        RuntimeError: No CUDA device (or numba-cuda's simulator instead of one).
+    """
+    refusal = device_refusal()
+    if refusal is not None:
+        raise RuntimeError(refusal)
+    start = time.perf_counter()
+    device = _device_name()
+    samples: list[dict[str, Any]] = []
+    rates: list[dict[str, Any]] = []
+    for env_id in env_check_ids():
+        if time.perf_counter() - start > 0.9 * budget:
+            samples.append({"id": env_id, "skipped": "time budget"})
+            continue
+        samples.append(env_sample(env_id, *ENV_SAMPLE, say=say))
+        for device_kind, n in (("cpu", ENV_CPU_BATCH), *(("cuda", n) for n in ENV_BATCHES)):
+            if time.perf_counter() - start > 0.9 * budget:
+                rates.append({"id": env_id, "target": device_kind, "episodes": n, "skipped": "time budget"})
+                continue
+            rates.append(env_rate(env_id, device_kind, n, say))
+    return {"device": device, "seconds": time.perf_counter() - start, "samples": samples, "rates": rates}
+
+
+def format_device_envs(result: dict[str, Any]) -> str:
+    """``bench gpu --envs``'s tables: the device vector environments against the CPU ones, then env-steps/s side by side."""
+    n, steps = ENV_SAMPLE
+    lines = [f"Vector environments on {result['device']} ({result['seconds']:.0f} s)", ""]
+    lines.append(f"Episodes: {n} per id, {steps} steps of seeded random actions, device (make_vec(..., device='cuda')) against CPU")
+    lines.append(f"{'id':<22}  {'obs max |diff|':>14}  {'obs bit-identical':>17}  {'reward max |diff|':>17}  {'ends differ (rows x steps)':>26}")
+    for s in result["samples"]:
+        if "skipped" in s:
+            lines.append(f"{s['id']:<22}  skipped: {s['skipped']}")
+            continue
+        lines.append(
+            f"{s['id']:<22}  {s['obs_max_diff']:>14.3g}  {s['obs_bit_identical']:>16.2%}  {s['reward_max_diff']:>17.3g}  {s['ended_differ']:>26}"
+        )
+    lines.append("")
+    lines.append(f"Environment steps per second (random actions, resets included, {ENV_STEPS} timed steps)")
+    lines.append(f"{'id':<22}  {'target':<16}  {'episodes':>9}  {'env-steps/s':>12}")
+    for r in result["rates"]:
+        rate = "skipped: " + r["skipped"] if "skipped" in r else _rate(r["rate"])
+        lines.append(f"{r['id']:<22}  {r['target']:<16}  {r['episodes']:>9}  {rate:>12}")
+    return "\n".join(lines)

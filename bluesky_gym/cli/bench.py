@@ -11,6 +11,7 @@ Examples::
     bluesky-gym bench train --repeat 3              # training throughput: SB3 and the fast trainer
     bluesky-gym bench gpu --compile-only            # every CUDA kernel to PTX, no GPU needed (the gpu extra)
     bluesky-gym bench gpu                           # the device check, on a machine with a CUDA GPU
+    bluesky-gym bench gpu --envs                    # the device vector environments against the CPU ones (a CUDA GPU)
 
 The interpreters can also be given by the environment variables ``BLUESKY_PYTHON`` and
 ``BLUESKY_GYM_REFERENCE_PYTHON``.
@@ -150,6 +151,7 @@ def add_parser(subparsers: Any) -> None:
     gpu.add_argument("--compile-only", action="store_true", help="compile to PTX only (no GPU needed; the gpu extra)")
     gpu.add_argument("--cc", type=_compute_capability, default=None, metavar="M.N", help="compute capability (default: 9.0, Hopper)")
     gpu.add_argument("--kernel", action="append", metavar="NAME", help="with --compile-only: only this kernel (repeatable)")
+    gpu.add_argument("--envs", action="store_true", help="on a CUDA GPU: every id's make_vec(..., device='cuda') against the CPU (episodes, steps/s)")
     _add_common(gpu)
     gpu.set_defaults(func=run_gpu_command)
 
@@ -372,6 +374,8 @@ def run_gpu_command(args: argparse.Namespace) -> int:
         raise SystemExit(f"bluesky-gym bench gpu: {gpu_bench.device_refusal()}")
     say = _progress(args)
     if args.compile_only:
+        if args.envs:
+            raise SystemExit("bluesky-gym bench gpu: --envs runs environments on a GPU; it does not go with --compile-only")
         if cuda_target.SIMULATOR:
             raise SystemExit("bluesky-gym bench gpu: --compile-only compiles with NVVM; unset NUMBA_ENABLE_CUDASIM (the simulator compiles nothing)")
         cc = args.cc or cuda_target.DEFAULT_CC
@@ -390,6 +394,10 @@ def run_gpu_command(args: argparse.Namespace) -> int:
     refusal = gpu_bench.device_refusal()
     if refusal is not None:
         raise SystemExit(f"bluesky-gym bench gpu: {refusal}")
+    if args.envs:
+        envs = gpu_bench.device_envs(say=say)
+        print(gpu_bench.format_device_envs(envs))
+        return _finish(args, {"gpu_envs": envs}, False)
     result = gpu_bench.device_check(say=say)
     print(gpu_bench.format_device_check(result))
     return _finish(args, {"gpu": result}, not result["fidelity"]["within_tolerances"])

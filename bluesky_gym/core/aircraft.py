@@ -1,4 +1,4 @@
-"""Aircraft types: the OpenAP data of every fixed-wing type, read as BlueSky 1.1.1 reads it [docs/dynamics.md §1.2].
+"""Aircraft types: the OpenAP data of every type, read as BlueSky 1.1.1 reads it [docs/dynamics.md §1.2, §1.2b].
 
 BlueSky's default performance model (OpenAP) takes its numbers from the ``openap`` package
 (version 2.6.2): the aircraft files (mass, wing, engine count and default engine), the engine
@@ -9,10 +9,14 @@ take-off acceleration) and the engine's ICAO fuel flows (fitted as BlueSky fits 
 same arithmetic, once per process (cached). The step kernel reads these numbers as rows of a
 ``(types, N_COEFFICIENTS)`` table (:func:`~bluesky_gym.core.performance.table_row`).
 
+Rotorcraft (helicopters and drones) come from BlueSky's own OpenAP rotor table
+(:data:`ROTOR_TABLE`, BlueSky 1.1.1's ``performance/OpenAP/rotor/aircraft.json``, not part of the
+``openap`` package); BlueSky flies them with its rotor model: a fixed envelope in TAS, a fixed
+maximum acceleration and no drag, thrust or fuel flow [docs/dynamics.md §1.2b].
+
 Type names resolve as in BlueSky (:func:`resolve_type`): case-insensitive; OpenAP's synonyms
-(e.g. ``AT72`` flies with the E145 data) are types of their own; any other name falls back to
-the B744 without a warning; BlueSky's rotorcraft types are refused here (BlueSky flies them with
-a different model that the core does not implement).
+(e.g. ``AT72`` flies with the E145 data) are types of their own; a rotorcraft is a type of its
+own; any other name falls back to the B744 without a warning.
 """
 
 from __future__ import annotations
@@ -21,14 +25,29 @@ import functools
 import warnings
 from typing import Any
 
-from bluesky_gym.core.performance import AircraftPerformance
+from bluesky_gym.core.performance import AXMAX_CREATED, AircraftPerformance
 
 #: The type of every aircraft unless another is asked for.
 DEFAULT_TYPE = "A320"
 #: What BlueSky 1.1.1's OpenAP model flies for a type it does not know.
 FALLBACK_TYPE = "B744"
+#: BlueSky 1.1.1's OpenAP rotor table (``performance/OpenAP/rotor/aircraft.json``), per type:
+#: OEW [kg], MTOW [kg], number of engines, and the envelope: minimum and maximum TAS [m/s], minimum
+#: (descent, negative) and maximum vertical speed [m/s], ceiling [m]. Every type has all five
+#: envelope values, so BlueSky's defaults for missing ones (-20, 20, -5, 5, 2500) never apply.
+ROTOR_TABLE: dict[str, tuple[float, float, int, float, float, float, float, float]] = {
+    "EC35": (1490.0, 2835.0, 2, -20.0, 71.95, -7.62, 7.62, 6096.0),  # Eurocopter EC135
+    "M600": (9.1, 15.1, 6, -18.0, 18.0, -5.0, 5.0, 2500.0),  # DJI Matrice 600
+    "AMZN": (9.1, 20.0, 8, -44.0, 44.0, -8.0, 8.0, 2500.0),  # Amazon octocopter
+    "MNET": (9.1, 15.1, 4, -11.0, 11.0, -5.0, 5.0, 2500.0),  # Matternet quadrocopter
+    "PHAN4": (0.92, 1.4, 4, -20.0, 20.0, -4.0, 6.0, 6000.0),  # DJI Phantom 4
+    "M100": (1.8, 3.6, 4, -22.0, 22.0, -4.0, 5.0, 3000.0),  # DJI Matrice 100
+    "M200": (3.645, 6.14, 4, -23.0, 23.0, -3.0, 5.0, 3000.0),  # DJI Matrice 200
+    "MAVIC": (0.494, 0.734, 4, -18.0, 18.0, -3.0, 5.0, 5000.0),  # DJI Mavic Pro
+    "HORSEFLY": (4.3, 8.8, 8, -22.3, 22.3, -8.0, 8.0, 2500.0),  # Horsefly Gen 5.3
+}
 #: The rotorcraft of BlueSky 1.1.1's OpenAP rotor table: BlueSky flies them with its rotor model.
-ROTORCRAFT_TYPES: tuple[str, ...] = ("EC35", "M600", "AMZN", "MNET", "PHAN4", "M100", "M200", "MAVIC", "HORSEFLY")
+ROTORCRAFT_TYPES: tuple[str, ...] = tuple(ROTOR_TABLE)
 #: Flap deflections BlueSky assumes for the take-off and landing drag polars [deg].
 FLAP_TAKEOFF = 15.0
 FLAP_LANDING = 40.0
@@ -64,23 +83,70 @@ def resolve_type(name: str) -> str:
         name: Type designator, any case (e.g. ``"b738"``).
 
     Returns:
-        ``name`` in upper case when OpenAP has it (directly or as a synonym), else ``"B744"``.
+        ``name`` in upper case when OpenAP has it (directly or as a synonym) or it is one of
+        BlueSky's rotorcraft, else ``"B744"``.
 
     Raises:
         TypeError: ``name`` is not a string.
-        ValueError: ``name`` is one of BlueSky's rotorcraft.
     """
     if not isinstance(name, str):
         raise TypeError(f"aircraft type must be a string, got {type(name).__name__} {name!r}")
     upper = name.upper()
-    if upper in ROTORCRAFT_TYPES:
-        raise ValueError(f"aircraft type {name!r} is a rotorcraft: BlueSky flies it with its rotor model, which the core does not implement")
+    if upper in ROTOR_TABLE:
+        return upper
     return upper if upper in supported_types() else FALLBACK_TYPE
+
+
+def is_rotorcraft(name: str) -> bool:
+    """Whether an aircraft of type ``name`` (any case) flies with BlueSky's rotor model."""
+    return isinstance(name, str) and name.upper() in ROTOR_TABLE
+
+
+def _load_rotor(resolved: str) -> AircraftPerformance:
+    """The performance data of a rotorcraft, as BlueSky's OpenAP model loads it (``perfoap.create``).
+
+    The fixed-wing quantities BlueSky does not have for a rotorcraft (wing, engine thrust, drag
+    polars, phase envelopes, Mach limit, fuel-flow fit) are NaN; the step kernel does not read them.
+    """
+    oew, mtow, engines, vmin, vmax, vsmin, vsmax, hmax = ROTOR_TABLE[resolved]
+    nan = float("nan")
+    return AircraftPerformance(
+        name=resolved,
+        mass=0.5 * (oew + mtow),
+        wing_area=nan,
+        engine_count=engines,
+        engine_max_thrust=nan,
+        bypass_ratio=nan,
+        cd0_clean=nan,
+        k_clean=nan,
+        cd0_takeoff=nan,
+        k_takeoff=nan,
+        cd0_gear=nan,
+        cd0_landing=nan,
+        k_landing=nan,
+        vmin_enroute=vmin,
+        vmax_enroute=vmax,
+        vmin_approach=nan,
+        vmax_approach=nan,
+        vmax_ground=nan,
+        v_rotate=nan,
+        hmax=hmax,
+        vsmax=vsmax,
+        vsmin=vsmin,
+        mmo=nan,
+        axmax_initial=AXMAX_CREATED,
+        fuel_a=nan,
+        fuel_b=nan,
+        fuel_c=nan,
+        rotor=True,
+    )
 
 
 @functools.cache
 def _load(resolved: str) -> AircraftPerformance:
     """Build the performance data of an OpenAP type (upper case), as BlueSky's OpenAP coefficient loader does."""
+    if resolved in ROTOR_TABLE:
+        return _load_rotor(resolved)
     import numpy as np
 
     oa = _openap()
@@ -146,31 +212,32 @@ def aircraft_performance(name: str) -> AircraftPerformance:
 
     Args:
         name: Type designator, any case; unknown types give the B744 (BlueSky's fallback).
-
-    Raises:
-        ValueError: ``name`` is a rotorcraft.
     """
     return _load(resolve_type(name))
 
 
-def check_types(names: Any, what: str = "aircraft type") -> tuple[str, ...]:
+def check_types(names: Any, what: str = "aircraft type", rotorcraft: bool = False) -> tuple[str, ...]:
     """Validate type names for an option that accepts only types with their own data (no fallback).
 
     Args:
         names: One name or an iterable of names.
         what: How the error message calls the value.
+        rotorcraft: Whether BlueSky's rotorcraft (:data:`ROTORCRAFT_TYPES`) are accepted too.
 
     Returns:
         The names in upper case.
 
     Raises:
-        ValueError: A name that BlueSky would replace by the B744, or a rotorcraft; the message
-            lists the supported types.
+        ValueError: A name that BlueSky would replace by the B744, or a rotorcraft where they are
+            not accepted; the message lists the accepted types.
     """
     items = (names,) if isinstance(names, str) else tuple(names)
     out = []
     for n in items:
-        if not isinstance(n, str) or n.upper() not in supported_types():
-            raise ValueError(f"{what} {n!r} is not supported; supported types: {', '.join(supported_types())}")
+        if isinstance(n, str) and n.upper() in ROTOR_TABLE and not rotorcraft:
+            raise ValueError(f"{what} {n!r} is a rotorcraft, which this option does not accept; fixed-wing types: {', '.join(supported_types())}")
+        if not isinstance(n, str) or n.upper() not in supported_types() + (ROTORCRAFT_TYPES if rotorcraft else ()):
+            also = f"; rotorcraft: {', '.join(ROTORCRAFT_TYPES)}" if rotorcraft else ""
+            raise ValueError(f"{what} {n!r} is not supported; supported types: {', '.join(supported_types())}{also}")
         out.append(n.upper())
     return tuple(out)

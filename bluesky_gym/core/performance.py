@@ -1,11 +1,13 @@
-"""OpenAP performance as BlueSky 1.1.1 applies it, for every fixed-wing type [docs/dynamics.md §1.2-1.5].
+"""OpenAP performance as BlueSky 1.1.1 applies it, for every type [docs/dynamics.md §1.2-1.5].
 
 The model supplies three things to the kinematics: the flight phase, the speed envelope of that
 phase, and the maximum longitudinal acceleration ``axmax`` from maximum thrust and drag. It is
 evaluated from the state at the *start* of a simulation step, before the autopilot runs
 (:func:`performance`, a scalar kernel called by the step kernel). The same update gives the
 aircraft's drag, net thrust and fuel flow (:func:`fuel_flow`), outputs that nothing in the
-kinematics reads [docs/dynamics.md §1.4a].
+kinematics reads [docs/dynamics.md §1.4a]. A rotorcraft (``AircraftPerformance.rotor``) has none
+of this: BlueSky's rotor model keeps its envelope fixed, its phase NA and its ``axmax`` at
+:data:`AXMAX_ROTOR`, and computes no drag, thrust or fuel flow [docs/dynamics.md §1.2b].
 """
 
 from __future__ import annotations
@@ -21,6 +23,8 @@ from bluesky_gym.core.units import FPM, FT, G0, P0
 PHASE_NA, PHASE_GD, PHASE_IC, PHASE_CL, PHASE_CR, PHASE_DE, PHASE_AP = range(7)
 AXMAX_GROUND = 2.0  # m/s^2, BlueSky's fixed-wing maximum acceleration on the ground
 AXMAX_FLOOR = 0.5  # m/s^2, BlueSky's global minimum of axmax
+AXMAX_ROTOR = 3.5  # m/s^2, BlueSky's axmax of every rotorcraft (from its first performance update on)
+AXMAX_CREATED = 2.0  # m/s^2, BlueSky's axmax of a new aircraft whose model sets none (a rotorcraft), until the first update
 
 
 @dataclass(frozen=True)
@@ -44,15 +48,15 @@ class AircraftPerformance:
     cd0_gear: float
     cd0_landing: float
     k_landing: float
-    vmin_enroute: float  # m/s CAS
-    vmax_enroute: float  # m/s CAS
+    vmin_enroute: float  # m/s CAS; a rotorcraft's whole envelope is in TAS (BlueSky's perf.vmin/vmax of its rotor model)
+    vmax_enroute: float  # m/s CAS (a rotorcraft: TAS)
     vmin_approach: float  # m/s CAS
     vmax_approach: float  # m/s CAS
     vmax_ground: float  # m/s CAS (OpenAP's initial-climb maximum, used on the ground)
     v_rotate: float  # m/s TAS (OpenAP's minimum take-off speed); on the ground vs is forced to 0 below it
     hmax: float  # m, ceiling
     vsmax: float  # m/s
-    vsmin: float  # m/s: OpenAP's smallest climb rate, BlueSky's perf.vsmin (used by conflict resolution)
+    vsmin: float  # m/s: OpenAP's smallest climb rate, BlueSky's perf.vsmin (used by conflict resolution); a rotorcraft's fastest descent (< 0)
     mmo: float  # maximum Mach number
     axmax_initial: float  # m/s^2 until the first performance update (WRAP's maximum take-off acceleration)
     fuel_a: float  # kg/s per engine: quadratic coefficient of the fuel flow in the thrust ratio (ICAO fit)
@@ -60,6 +64,7 @@ class AircraftPerformance:
     fuel_c: float  # kg/s per engine: constant term
     axmax_ground: float = AXMAX_GROUND  # m/s^2
     axmax_floor: float = AXMAX_FLOOR  # m/s^2
+    rotor: bool = False  # BlueSky's rotor model (lift type "rotor"): the fixed-wing quantities above are NaN
 
     @property
     def static_thrust(self) -> float:
@@ -92,15 +97,19 @@ def perf_tuple(perf: AircraftPerformance) -> tuple[float, ...]:
     )
 
 
-def limit_tuple(perf: AircraftPerformance) -> tuple[float, float, float, float, float, float, float]:
-    """The envelope limits (hmax, vsmax, mmo, v_rotate) and the fuel-flow coefficients (a, b, c) as the step kernel takes them (columns 19-25)."""
-    return (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate, perf.fuel_a, perf.fuel_b, perf.fuel_c)
+def limit_tuple(perf: AircraftPerformance) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """The step kernel's limits (columns 19-27 of a table row).
+
+    In order: hmax, vsmax, mmo, v_rotate, the fuel-flow coefficients (a, b, c), vsmin and the
+    rotor flag (1.0 for BlueSky's rotor model, else 0.0).
+    """
+    return (perf.hmax, perf.vsmax, perf.mmo, perf.v_rotate, perf.fuel_a, perf.fuel_b, perf.fuel_c, perf.vsmin, 1.0 if perf.rotor else 0.0)
 
 
 #: Columns of a row of the performance table: :func:`perf_tuple` then :func:`limit_tuple`.
 N_PERF = 19
-C_HMAX, C_VSMAX, C_MMO, C_V_ROTATE, C_FUEL_A, C_FUEL_B, C_FUEL_C = range(N_PERF, N_PERF + 7)
-N_COEFFICIENTS = N_PERF + 7
+C_HMAX, C_VSMAX, C_MMO, C_V_ROTATE, C_FUEL_A, C_FUEL_B, C_FUEL_C, C_VSMIN, C_ROTOR = range(N_PERF, N_PERF + 9)
+N_COEFFICIENTS = N_PERF + 9
 
 
 def table_row(perf: AircraftPerformance) -> tuple[float, ...]:

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
-from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance, resolve_type
+from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
@@ -235,7 +235,7 @@ class Simulator(AircraftState):
             spd: CAS [m/s], or Mach when 0.1 < spd < 2.
             actype: Aircraft type, one name for all or one per aircraft, any case (None: the
                 default type, the A320). Unknown types fly as the B744, as in BlueSky;
-                rotorcraft are refused.
+                rotorcraft fly BlueSky's rotor model [docs/dynamics.md §1.2b].
         """
         env, slot = self._index(env, slot)
         if np.any(self.active[env, slot]):
@@ -252,7 +252,8 @@ class Simulator(AircraftState):
         self._memo.reshape(self.n_envs, self.max_aircraft, -1)[env, slot] = np.nan  # the slot's cached values were another aircraft's
         self.type_index[env, slot] = rows
         # BlueSky's performance defaults of a new aircraft: phase NA, whose envelope (through the
-        # always-true en-route clause) is the en-route one, and WRAP's take-off acceleration.
+        # always-true en-route clause) is the en-route one, and WRAP's take-off acceleration (a
+        # rotorcraft: its own envelope and BlueSky's default of 2 m/s^2).
         initial = np.array([(p.vmin_enroute, p.vmax_enroute, p.axmax_initial) for p in self._type_perf])[rows]
         self.vmin[env, slot] = initial[:, 0]
         self.vmax[env, slot] = initial[:, 1]
@@ -306,7 +307,6 @@ class Simulator(AircraftState):
             key = name.upper()
             row = self._type_rows.get(key)
             if row is None:
-                resolve_type(key)  # refuses rotorcraft before anything is added
                 perf = aircraft_performance(key)
                 row = len(self._type_names)
                 self._type_names.append(key)

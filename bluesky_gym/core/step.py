@@ -21,7 +21,22 @@ import numpy as np
 from bluesky_gym.core.atmosphere import GAMMA_R, cas2tas_at, is_mach, isa, tas2cas_at
 from bluesky_gym.core.jit import grid_range, jit, jit_inline, rint, scratch
 from bluesky_gym.core.lnav import lnav_one
-from bluesky_gym.core.performance import C_FUEL_A, C_FUEL_B, C_FUEL_C, C_HMAX, C_MMO, C_V_ROTATE, C_VSMAX, PHASE_GD, fuel_flow, performance
+from bluesky_gym.core.performance import (
+    AXMAX_ROTOR,
+    C_FUEL_A,
+    C_FUEL_B,
+    C_FUEL_C,
+    C_HMAX,
+    C_MMO,
+    C_ROTOR,
+    C_V_ROTATE,
+    C_VSMAX,
+    C_VSMIN,
+    PHASE_GD,
+    PHASE_NA,
+    fuel_flow,
+    performance,
+)
 from bluesky_gym.core.scalar import DEG, RAD
 from bluesky_gym.core.scalar import maximum as _maximum
 from bluesky_gym.core.scalar import mod as _mod
@@ -90,7 +105,7 @@ def perf_row(table, t):  # type: ignore[no-untyped-def]
     """Row ``t`` of the performance table as the tuples :func:`step_one` takes: (perf_tuple, limit_tuple)."""
     r = table[t]
     perf = (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11], r[12], r[13], r[14], r[15], r[16], r[17], r[18])
-    return perf, (r[C_HMAX], r[C_VSMAX], r[C_MMO], r[C_V_ROTATE], r[C_FUEL_A], r[C_FUEL_B], r[C_FUEL_C])
+    return perf, (r[C_HMAX], r[C_VSMAX], r[C_MMO], r[C_V_ROTATE], r[C_FUEL_A], r[C_FUEL_B], r[C_FUEL_C], r[C_VSMIN], r[C_ROTOR])
 
 
 @jit_inline
@@ -98,7 +113,8 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
     """Advance aircraft ``i`` by one step (the body of :func:`step_kernel`), or by one of its two parts.
 
     ``perf`` and ``limits`` are the aircraft's type's :func:`perf_row` tuples (``limits`` carries
-    the fuel-flow coefficients too). ``part`` 0 is the
+    the fuel-flow coefficients, vsmin and the rotor flag too; a rotorcraft flies BlueSky's rotor
+    model [docs/dynamics.md §1.2b]). ``part`` 0 is the
     whole step. With conflict resolution BlueSky's ASAS runs between the autopilot and the
     kinematics, so the step runs in two parts: ``part`` 1 is the performance update and the
     autopilot, ``part`` 2 the rest, which flies, where ``follow``, the resolution's track [deg],
@@ -106,11 +122,18 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
     vertical speed [m/s] instead of the autopilot's. One function serves the whole step and both
     parts, so the plain step compiles to the same code as an undivided one (and runs as fast).
     """
-    hmax, vsmax, mmo, v_rotate, fuel_a, fuel_b, fuel_c = limits
+    hmax, vsmax, mmo, v_rotate, fuel_a, fuel_b, fuel_c, vsmin, rotor_flag = limits
+    rotor = rotor_flag != 0.0
     mm = memo[i]
     if part != 2:
         # Performance update from the start-of-step state [docs/dynamics.md §2.1].
-        if do_perf:
+        if do_perf and rotor:
+            # BlueSky's rotor model: phase NA, its fixed envelope and axmax; no drag, thrust or fuel flow [§1.2b].
+            phase[i] = PHASE_NA
+            F[I_VMIN, i] = perf[12]
+            F[I_VMAX, i] = perf[13]
+            F[I_AXMAX, i] = AXMAX_ROTOR
+        elif do_perf:
             if not (same(F[I_TAS, i], mm[M_PERF_TAS]) and same(F[I_VS, i], mm[M_PERF_VS]) and same(F[I_ALT, i], mm[M_PERF_ALT])):
                 ph, vmn, vmx, axm, drag = performance(F[I_TAS, i], F[I_VS, i], F[I_ALT, i], perf)
                 mm[M_PERF_TAS], mm[M_PERF_VS], mm[M_PERF_ALT] = F[I_TAS, i], F[I_VS, i], F[I_ALT, i]
@@ -169,26 +192,38 @@ def step_one(F, i, phase, wn, we, haswind, any_wind, do_perf, dt, perf, limits, 
         hdg_t = _mod(trk_t, 360.0)
     # Performance limits at the target altitude [docs/dynamics.md §1.5].
     alt_t = hmax if apalt > hmax else apalt
-    if not same(alt_t, mm[M_HT]):
-        mm[M_HT] = alt_t
-        mm[M_P_T], mm[M_RHO_T], mm[M_T_T] = isa(alt_t)
-    if not (same(aptas, mm[M_LIM_TAS]) and same(alt_t, mm[M_LIM_HT]) and same(F[I_VMIN, i], mm[M_LIM_VMIN]) and same(F[I_VMAX, i], mm[M_LIM_VMAX])):
-        p_t, rho_t = mm[M_P_T], mm[M_RHO_T]
-        intent_cas = tas2cas_at(aptas, p_t, rho_t)
-        allow_cas = F[I_VMIN, i] if intent_cas < F[I_VMIN, i] else intent_cas
-        if intent_cas > F[I_VMAX, i]:
-            allow_cas = F[I_VMAX, i]
-        lim = cas2tas_at(allow_cas, p_t, rho_t)
-        sound_t = math.sqrt(GAMMA_R * mm[M_T_T])
-        if lim / sound_t > mmo:
-            lim = mmo * sound_t
-        mm[M_LIM_OUT] = lim
-        mm[M_LIM_TAS], mm[M_LIM_HT], mm[M_LIM_VMIN], mm[M_LIM_VMAX] = aptas, alt_t, F[I_VMIN, i], F[I_VMAX, i]
-    tas_t = mm[M_LIM_OUT]
-    if vs_t > 0 and vs_t > vsmax:
-        vs_t = (1 - F[I_AX, i] / F[I_AXMAX, i]) * vsmax
-    if phase[i] == PHASE_GD and F[I_TAS, i] < v_rotate:
-        vs_t = 0.0
+    if rotor:
+        # A rotorcraft's TAS and vertical speed are clipped to its envelope as they are [§1.2b].
+        tas_t = F[I_VMIN, i] if aptas < F[I_VMIN, i] else aptas
+        if aptas > F[I_VMAX, i]:
+            tas_t = F[I_VMAX, i]
+        vs_r = vsmin if vs_t < vsmin else vs_t
+        if vs_t > vsmax:
+            vs_r = vsmax
+        vs_t = vs_r
+    else:
+        if not same(alt_t, mm[M_HT]):
+            mm[M_HT] = alt_t
+            mm[M_P_T], mm[M_RHO_T], mm[M_T_T] = isa(alt_t)
+        if not (
+            same(aptas, mm[M_LIM_TAS]) and same(alt_t, mm[M_LIM_HT]) and same(F[I_VMIN, i], mm[M_LIM_VMIN]) and same(F[I_VMAX, i], mm[M_LIM_VMAX])
+        ):
+            p_t, rho_t = mm[M_P_T], mm[M_RHO_T]
+            intent_cas = tas2cas_at(aptas, p_t, rho_t)
+            allow_cas = F[I_VMIN, i] if intent_cas < F[I_VMIN, i] else intent_cas
+            if intent_cas > F[I_VMAX, i]:
+                allow_cas = F[I_VMAX, i]
+            lim = cas2tas_at(allow_cas, p_t, rho_t)
+            sound_t = math.sqrt(GAMMA_R * mm[M_T_T])
+            if lim / sound_t > mmo:
+                lim = mmo * sound_t
+            mm[M_LIM_OUT] = lim
+            mm[M_LIM_TAS], mm[M_LIM_HT], mm[M_LIM_VMIN], mm[M_LIM_VMAX] = aptas, alt_t, F[I_VMIN, i], F[I_VMAX, i]
+        tas_t = mm[M_LIM_OUT]
+        if vs_t > 0 and vs_t > vsmax:
+            vs_t = (1 - F[I_AX, i] / F[I_AXMAX, i]) * vsmax
+        if phase[i] == PHASE_GD and F[I_TAS, i] < v_rotate:
+            vs_t = 0.0
     # Speed [docs/dynamics.md §2.2 step 6].
     delta_spd = tas_t - F[I_TAS, i]
     if abs(delta_spd) > abs(dt * F[I_AXMAX, i]):

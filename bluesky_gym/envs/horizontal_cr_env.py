@@ -103,7 +103,13 @@ class HorizontalCREnv(BlueSkyEnv):
     (`bluesky_gym.core.aircraft.supported_types()`); another name is refused with the list. Types
     are drawn from the episode's generator after all other draws of the scenario, so a seed gives
     the same geometry whatever the mix; a one-type mix draws nothing, so the default episodes are
-    the `-v0` ones.
+    the `-v0` ones. This environment also accepts BlueSky's rotorcraft (helicopters and drones,
+    `bluesky_gym.core.aircraft.ROTORCRAFT_TYPES`, e.g. `intruder_types={"A320": 0.7, "EC35": 0.3}`),
+    which fly BlueSky's rotor model (a fixed TAS envelope, e.g. at most 71.95 m/s for the EC35 and
+    18 m/s for the M600); it is the one paper task whose actions (headings) and traffic (at the
+    ownship's altitude) suit them. They burn no fuel in BlueSky's model, so a rotorcraft ownship
+    ends its episodes with `kpi_fuel_kg` 0. With `airborne_start` (`-v1`) a rotorcraft must reach
+    FL100 (the M100, M200 and the drones with a 2500 m ceiling are refused).
 
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0). Fixed software defects: seeded generator,

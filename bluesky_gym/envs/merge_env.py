@@ -100,7 +100,9 @@ class MergeEnv(BlueSkyEnv):
     (`bluesky_gym.core.aircraft.supported_types()`); another name is refused with the list. Types
     are drawn from the episode's generator after the spawn points, so a seed gives the same geometry
     whatever the mix (the speed and altitude normalisation stays the A320's); a one-type mix draws
-    nothing, so the default episodes are the `-v0` ones.
+    nothing, so the default episodes are the `-v0` ones. BlueSky's rotorcraft are refused with a
+    one-line error: the traffic flies at 10,000 m by default, above their ceilings, with fixed-wing
+    speed actions (HorizontalCREnv accepts them).
 
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0). Fixed software defects: the scenario draws come from

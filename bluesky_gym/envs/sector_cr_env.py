@@ -101,7 +101,8 @@ class SectorCREnv(BlueSkyEnv):
     data is accepted (`bluesky_gym.core.aircraft.supported_types()`); another name is refused with
     the list. Types are drawn from the episode's generator after the start points, so a seed gives
     the same geometry whatever the mix; a one-type mix draws nothing, so the default episodes are
-    the `-v0` ones.
+    the `-v0` ones. BlueSky's rotorcraft are refused with a one-line error: the speed actions and the
+    airspeed observation are scaled for fixed-wing speeds (HorizontalCREnv accepts them).
 
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0, after its 2025-01 fixes of the drift computation,

@@ -26,6 +26,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from bluesky_gym.envs.device import TensorIO, check_device
 from bluesky_gym.envs.registry import scene_builder
 from bluesky_gym.tasks.base import BoxSpec, StepResult, Task, check_int, numeric_action
 
@@ -389,6 +390,14 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     Episode ``i`` after ``reset(seed=s)`` is identical to a single environment reset with seed
     ``s + i``.
 
+    With ``device="cuda"`` the physics runs on a CUDA GPU (:class:`~bluesky_gym.core.DeviceSimulator`)
+    and the batches are torch tensors on it: observations, rewards, ``terminated``, ``truncated``
+    and ``info["final_obs"]``; actions may be tensors on the device. The other info entries stay
+    numpy arrays on the host. The task's own side (actions to commands, resets with their random
+    draws, observation, reward) runs on the host as with ``device="cpu"``, so episode ``i`` draws
+    the same scenarios as a single environment with seed ``s + i``; its physics agrees with the
+    CPU's within the GPU's rounding (docs/backends.md).
+
     Args:
         num_envs: Number of episodes simulated together.
         render_mode: ``None``, ``"rgb_array"`` (frame of ``render_env``, or a grid of the first
@@ -398,6 +407,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         backend: ``"native"`` only (BlueSky has one simulator per process).
         max_episode_steps: Truncation limit in decision steps (default: the reference's).
         env_id: The id the environment is made as (see :class:`BlueSkyEnv`).
+        device: ``"cpu"`` (numpy arrays) or ``"cuda"`` (the physics on a CUDA GPU, torch tensors on
+            it; needs the ``gpu`` and ``train`` extras).
         **options: Scenario options of the task.
     """
 
@@ -417,6 +428,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         backend: str = "native",
         max_episode_steps: int | None = None,
         env_id: str | None = None,
+        device: str = "cpu",
         **options: Any,
     ) -> None:
         env_id = made_as(env_id, self.task_class)
@@ -424,6 +436,12 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         with self._errors:
             _check_render_mode(render_mode)
             check_int("num_envs", num_envs, 1)
+            self.device = check_device(device)
+            self._io: TensorIO | None = None
+            if self.device == "cuda":
+                if backend != "native":
+                    raise ValueError(f"device='cuda' runs the native core on the GPU; backend must be 'native', got {backend!r}")
+                self._io, backend = TensorIO(), "cuda"
             check_int("render_env", render_env, 0)
             check_int("render_grid", render_grid, 1)
             self.num_envs = int(num_envs)
@@ -476,10 +494,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         """The batched observation space."""
         return self._spaces()[1]
 
-    def reset(
-        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Reset every episode. ``seed`` int s seeds episode i with s + i; a list seeds each."""
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Reset every episode. ``seed`` int s seeds episode i with s + i; a list seeds each (numpy arrays, or tensors with ``device="cuda"``)."""
         with self._errors:
             check_reset_options(options, "gym.make_vec")
             seeds = episode_seeds(seed, self.num_envs)
@@ -492,13 +508,16 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             self._last_info = info
             if self.render_mode == "human":
                 self.render()
-            return _typed(self.task, self.task.observation()), info
+            obs = _typed(self.task, self.task.observation())
+            return (obs if self._io is None else self._io.upload_all(obs)), info
 
-    def step(self, actions: Any) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Step every episode; ended episodes are reset in the same call (SAME_STEP)."""
+    def step(self, actions: Any) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
+        """Step every episode; ended episodes are reset in the same call (SAME_STEP). numpy arrays, or tensors with ``device="cuda"``."""
         with self._errors:
             if not self._reset_once:
                 raise RuntimeError("step() called before reset(); call reset() first")
+            if self._io is not None:
+                actions = self._io.to_host(actions)
             res: StepResult = self.task.step(actions)
             done = res.terminated | res.truncated
             info: dict[str, Any] = dict(res.info)
@@ -523,7 +542,33 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             self._last_info = res.info
             if self.render_mode == "human":
                 self.render()
+            if self._io is not None:
+                return self._on_device(obs, res, info)
             return obs, res.reward, res.terminated, res.truncated, info
+
+    def _on_device(self, obs: dict[str, np.ndarray], res: StepResult, info: dict[str, Any]) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
+        """A step's outputs as tensors on the device (``device="cuda"``): one upload per array."""
+        io = self._io
+        assert io is not None
+        if "final_obs" in info:
+            info["final_obs"] = io.upload_all(info["final_obs"])
+        return io.upload_all(obs), io.upload(res.reward), io.upload(res.terminated), io.upload(res.truncated), info
+
+    def state_tensors(self, *names: str) -> tuple[Any, ...]:
+        """The simulator's state arrays ``names`` (``lat``, ``tas``, ..., ``active``) as tensors on the device, (num_envs, max_aircraft) each.
+
+        Only with ``device="cuda"``. The tensors share the device memory of the simulator's state
+        (no copy; the state first goes to the device if the host holds it, and the next step
+        starts from there). They show the state of this moment: the next step or command
+        leaves them behind.
+
+        Raises:
+            RuntimeError: The environment was made with ``device="cpu"``.
+        """
+        with self._errors:
+            if self._io is None:
+                raise RuntimeError("state_tensors() needs an environment made with device='cuda'")
+            return tuple(self._io.tensor(a) for a in self.task.sim.device_arrays(*names))
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]  # one frame, not Gymnasium's tuple of sub-environment frames
         """A frame of episode ``render_env`` (or a grid of the first ``render_grid`` episodes)."""

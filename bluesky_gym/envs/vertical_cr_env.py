@@ -107,6 +107,9 @@ class VerticalCREnv(BlueSkyEnv):
     (`bluesky_gym.core.aircraft.supported_types()`); another name is refused with the list. Types
     are drawn from the episode's generator (the ownship's after the altitudes, the intruders' after
     their conflict draws); a one-type mix draws nothing, so the default episodes are the `-v0` ones.
+    BlueSky's rotorcraft are refused with a one-line error: the task's start altitudes (2000-4000 m),
+    speeds (CAS 150 m/s) and vertical-speed actions are beyond their envelopes (HorizontalCREnv
+    accepts them).
 
     ## Version History
     * v0: the paper's MDP (bluesky-gym 0.2.0, where `NUM_INTRUDERS` is defined twice and the

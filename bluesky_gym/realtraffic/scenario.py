@@ -137,8 +137,9 @@ def create_recorded(
 
     ``typecode`` is the recorded ICAO type code. A type BlueSky flies with OpenAP flies with its
     own data (synonyms included); a missing code, a type BlueSky does not know and a rotorcraft
-    (which BlueSky flies with a rotor model the core does not have) fly with BlueSky's fallback
-    for an unknown type, the B744.
+    fly with BlueSky's fallback for an unknown type, the B744. (The core flies rotorcraft with
+    BlueSky's rotor model since RealTrafficCREnv-v0 was defined; its recorded flights keep the
+    fallback, so that its episodes stay as they were.)
     """
     actype = [simulator_type(str(t)) for t in np.atleast_1d(typecode)]
     sim.create(env, slot, lat=lat, lon=lon, hdg=hdg, alt=alt, spd=cas, actype=actype)

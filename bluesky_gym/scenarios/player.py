@@ -105,7 +105,7 @@ def unknown_types(scenarios: Sequence[ScenarioFile]) -> dict[str, Source]:
 
     BlueSky 1.1.1 flies such an aircraft with the B744's performance data, without a word; the
     player and ``bluesky-gym replay`` keep that fallback and warn once per type. Rotorcraft are
-    left out (creating one is an error).
+    types of their own (BlueSky's rotor model), not unknown ones.
 
     Args:
         scenarios: Parsed scenarios, searched in order.
@@ -119,11 +119,8 @@ def unknown_types(scenarios: Sequence[ScenarioFile]) -> dict[str, Source]:
         for c in s.commands:
             if isinstance(c, (Create, CreateConflict)) and c.actype not in checked:
                 checked.add(c.actype)
-                try:
-                    if resolve_type(c.actype) == FALLBACK_TYPE:
-                        found[c.actype] = c.source
-                except ValueError:  # a rotorcraft: refused when it is created
-                    pass
+                if resolve_type(c.actype) == FALLBACK_TYPE:
+                    found[c.actype] = c.source
     return found
 
 

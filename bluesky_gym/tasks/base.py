@@ -185,7 +185,7 @@ def freeze_type_mix(value: Any) -> Any:
     return value
 
 
-def check_type_mix(name: str, value: Any) -> tuple[tuple[str, ...], Array]:
+def check_type_mix(name: str, value: Any, rotorcraft: bool = False) -> tuple[tuple[str, ...], Array]:
     """Validate an aircraft-type mix option and give its types (upper case) and their probabilities.
 
     Args:
@@ -194,6 +194,8 @@ def check_type_mix(name: str, value: Any) -> tuple[tuple[str, ...], Array]:
             (weights >= 0 with a positive sum), also as a sequence of (name, weight) pairs. Only
             types BlueSky flies with their own data (:func:`bluesky_gym.core.aircraft.supported_types`)
             are accepted.
+        rotorcraft: Whether the task accepts BlueSky's rotorcraft too
+            (:data:`bluesky_gym.core.aircraft.ROTORCRAFT_TYPES`).
 
     Raises:
         ValueError: Naming the option and the bad value (an unknown type lists the supported ones).
@@ -214,7 +216,7 @@ def check_type_mix(name: str, value: Any) -> tuple[tuple[str, ...], Array]:
     upper = (
         tuple(t.upper() for t in names)
         if plain and [t.upper() for t in names] == [DEFAULT_TYPE]
-        else check_types(names, what=f"{name}: aircraft type")
+        else check_types(names, what=f"{name}: aircraft type", rotorcraft=rotorcraft)
     )
     if len(set(upper)) != len(upper):
         raise ValueError(f"{name} names a type twice: {value!r}")

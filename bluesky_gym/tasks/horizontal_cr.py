@@ -8,6 +8,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.core.aircraft import aircraft_performance, is_rotorcraft
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FL, NM2KM
 from bluesky_gym.tasks import compiled
@@ -70,7 +71,9 @@ class HorizontalCRConfig(TaskConfig):
             of the scenario; ``-v0``: at altitude 0, in BlueSky's ground phase, capped at 89 m/s.
         intruder_types: Aircraft types of the intruders: a type name, names drawn with equal
             probability (e.g. ``("A320", "B744")``) or ``{name: weight}``. Default A320 only (the
-            paper's fleet, no random draw). Types are BlueSky's OpenAP types (``bluesky_gym.core.aircraft.supported_types()``).
+            paper's fleet, no random draw). Types are BlueSky's OpenAP types (``bluesky_gym.core.aircraft.supported_types()``)
+            and its rotorcraft (``bluesky_gym.core.aircraft.ROTORCRAFT_TYPES``), which fly BlueSky's
+            rotor model; with ``airborne_start`` only rotorcraft whose ceiling is at least FL100.
         ownship_types: Aircraft type(s) of the ownship, in the same form (default A320).
 
     """
@@ -100,8 +103,14 @@ class HorizontalCRConfig(TaskConfig):
         # The waypoint must start outside its capture radius, or the episode would end at once.
         check_int("waypoint_distance_min", self.waypoint_distance_min, int(DISTANCE_MARGIN) + 1, 5000)
         check_int("waypoint_distance_max", self.waypoint_distance_max, self.waypoint_distance_min + 1, 5000)
-        check_type_mix("intruder_types", self.intruder_types)
-        check_type_mix("ownship_types", self.ownship_types)
+        for option, mix in (("intruder_types", self.intruder_types), ("ownship_types", self.ownship_types)):
+            names, _ = check_type_mix(option, mix, rotorcraft=True)
+            rotors = [(t, aircraft_performance(t).hmax) for t in names if self.airborne_start and is_rotorcraft(t)]
+            for t, ceiling in rotors:
+                if ceiling < AIRBORNE_ALT:
+                    raise ValueError(
+                        f"{option}: rotorcraft {t} cannot fly the airborne start at FL100 ({AIRBORNE_ALT:g} m): its ceiling is {ceiling:g} m"
+                    )
 
 
 # --- the step's geometry, observation and reward, for a set of ownship slots ----------------------
@@ -258,7 +267,8 @@ class HorizontalCRTask(Task):
         """Create the scenarios of the episodes ``envs``, drawing from their generators only."""
         c = self.config
         n = c.num_intruders
-        imix, omix = check_type_mix("intruder_types", c.intruder_types), check_type_mix("ownship_types", c.ownship_types)
+        imix = check_type_mix("intruder_types", c.intruder_types, rotorcraft=True)
+        omix = check_type_mix("ownship_types", c.ownship_types, rotorcraft=True)
         own_types: list[str] = []
         intruder_types: list[str] = []
         dpsi = np.empty((envs.size, n))

@@ -20,6 +20,7 @@ from .parity import CORE_TOL, ENV_TOL, compare_states, random_core_scenario, run
 pytestmark = pytest.mark.bluesky
 
 MIXED = ["A320", "B744", "E190", "C550", "A388", "CRJ9", "AT72", "ZZZZ"]
+ROTORS = ["EC35", "M600", "MAVIC", "AMZN"]
 
 
 def test_every_type_has_the_coefficients_bluesky_loads() -> None:
@@ -59,7 +60,33 @@ def test_every_type_has_the_coefficients_bluesky_loads() -> None:
             assert getattr(p, field) == value, (name, field, getattr(p, field), value)
 
 
-def test_unknown_type_is_a_b744_and_rotorcraft_are_refused() -> None:
+def test_every_rotorcraft_has_the_data_bluesky_loads() -> None:
+    """BlueSky's rotor table, every number the rotor model uses equal to the last bit, and what BlueSky sets at creation."""
+    coeff = load_bluesky().traf.perf.coeff
+    for name in ROTORCRAFT_TYPES:
+        p, ac, lim = aircraft_performance(name), coeff.acs_rotor[name], coeff.limits_rotor[name]
+        want = {
+            "mass": 0.5 * (ac["oew"] + ac["mtow"]),
+            "engine_count": int(ac["n_engines"]),
+            "vmin_enroute": lim["vmin"],
+            "vmax_enroute": lim["vmax"],
+            "vsmin": lim["vsmin"],
+            "vsmax": lim["vsmax"],
+            "hmax": lim["hmax"],
+        }
+        for field, value in want.items():
+            assert getattr(p, field) == value, (name, field, getattr(p, field), value)
+    bs = BlueSkyPhysics(2, dt=1.0)
+    try:
+        bs.create(0, [0, 1], 52.0, [4.0, 5.0], 0.0, 300.0, 20.0, actype=["Mavic", "A320"])
+        perf = bs._bs.traf.perf
+        assert list(perf.lifttype) == [2, 1] and list(perf.actype) == ["MAVIC", "A320"]
+        assert (perf.vmin[0], perf.vmax[0], perf.axmax[0]) == (-18.0, 18.0, aircraft_performance("MAVIC").axmax_initial)
+    finally:
+        bs.close()
+
+
+def test_unknown_type_is_a_b744() -> None:
     bs = BlueSkyPhysics(3, dt=1.0)
     try:
         bs.create(0, [0, 1], 52.0, [4.0, 5.0], 0.0, 3000.0, 150.0, actype=["zzzz", "B744"])
@@ -67,9 +94,6 @@ def test_unknown_type_is_a_b744_and_rotorcraft_are_refused() -> None:
         assert list(perf.actype) == ["B744", "B744"]
         assert perf.mass[0] == perf.mass[1] == aircraft_performance("ZZZZ").mass
         assert bs.aircraft_type(0, [0, 1]) == ["ZZZZ", "B744"]
-        with pytest.raises(ValueError, match="rotorcraft"):
-            bs.create(0, 2, actype="EC35")
-        assert not bs.active[0, 2]
     finally:
         bs.close()
 
@@ -106,10 +130,10 @@ def test_mixed_creation_in_one_call_gives_each_aircraft_its_type() -> None:
     _replay_side_by_side(Scenario(sc.name, sc.dt, sc.duration, sc.aircraft, _types_one_call(own), sc.events, sc.max_aircraft))
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_random_mixed_fleet_scenario(seed: int) -> None:
-    """The random parity scenarios with every created aircraft of a random type."""
-    sc = random_core_scenario(seed, types=MIXED)
+@pytest.mark.parametrize(("seed", "types"), [(0, MIXED), (1, MIXED), (2, MIXED), (3, MIXED), (4, MIXED + ROTORS), (5, MIXED + ROTORS)])
+def test_random_mixed_fleet_scenario(seed: int, types: list[str]) -> None:
+    """The random parity scenarios with every created aircraft of a random type (rotorcraft among them in the last two)."""
+    sc = random_core_scenario(seed, types=types)
     bs = BlueSkyPhysics(sc.max_aircraft, dt=sc.dt, max_waypoints=4)
     try:
         nat = Simulator(1, sc.max_aircraft, dt=sc.dt, max_waypoints=4, geo=bs.geo)
@@ -128,3 +152,12 @@ def test_env_episodes_with_a_type_mix_match(env_id: str) -> None:
     dev, steps = run_env_episodes(env_id, episodes, 15, ENV_TOL, options=options)
     assert steps >= len(episodes)
     print(f"{env_id} with a type mix: {steps} steps; largest scaled deviation {dev.max:.2e}: {dev.summary()}")
+
+
+def test_horizontal_cr_episodes_with_rotorcraft_match() -> None:
+    """HorizontalCREnv with a rotorcraft ownship and rotor and fixed-wing intruders, on both backends side by side."""
+    options = {"intruder_types": {"A320": 0.4, "EC35": 0.2, "M600": 0.2, "MAVIC": 0.2}, "ownship_types": ("EC35", "AMZN")}
+    episodes = [(400 + k, 15 if k == 0 else 5) for k in range(3)]
+    dev, steps = run_env_episodes("HorizontalCREnv-v0", episodes, 15, ENV_TOL, options=options)
+    assert steps >= len(episodes)
+    print(f"HorizontalCREnv-v0 with rotorcraft: {steps} steps; largest scaled deviation {dev.max:.2e}: {dev.summary()}")

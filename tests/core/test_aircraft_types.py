@@ -6,7 +6,16 @@ import numpy as np
 import pytest
 
 from bluesky_gym.core import Simulator
-from bluesky_gym.core.aircraft import FALLBACK_TYPE, aircraft_performance, check_types, resolve_type, supported_types
+from bluesky_gym.core.aircraft import (
+    FALLBACK_TYPE,
+    ROTOR_TABLE,
+    ROTORCRAFT_TYPES,
+    aircraft_performance,
+    check_types,
+    is_rotorcraft,
+    resolve_type,
+    supported_types,
+)
 from bluesky_gym.core.units import FT, KTS
 
 STATE = ("lat", "lon", "alt", "hdg", "tas", "cas", "vs", "ax", "axmax", "vmin", "vmax", "phase")
@@ -24,14 +33,56 @@ def test_type_names_resolve_as_in_bluesky() -> None:
     assert resolve_type("b738") == "B738"
     assert resolve_type("AT72") == "AT72"  # a synonym is a type of its own (with the E145's data)
     assert resolve_type("XX99") == FALLBACK_TYPE == "B744"
-    with pytest.raises(ValueError, match="rotorcraft"):
-        resolve_type("EC35")
+    assert resolve_type("ec35") == "EC35" and resolve_type("Phan4") == "PHAN4"  # rotorcraft: types of their own
     with pytest.raises(TypeError, match="string"):
         resolve_type(320)  # type: ignore[arg-type]
     assert aircraft_performance("AT72").mass == aircraft_performance("E145").mass
     assert aircraft_performance("xx99") is aircraft_performance("B744")
     with pytest.raises(ValueError, match="'XX99' is not supported; supported types: A124, .*B744"):
         check_types(["A320", "XX99"])
+
+
+def test_rotorcraft_have_bluesky_rotor_data_and_are_accepted_where_asked() -> None:
+    assert set(ROTORCRAFT_TYPES) == set(ROTOR_TABLE) and len(ROTORCRAFT_TYPES) == 9
+    assert not set(ROTORCRAFT_TYPES) & set(supported_types())
+    ec35 = aircraft_performance("EC35")
+    assert ec35.rotor and not aircraft_performance("A320").rotor and is_rotorcraft("ec35") and not is_rotorcraft("A320")
+    assert (ec35.mass, ec35.engine_count, ec35.vmin_enroute, ec35.vmax_enroute, ec35.vsmin, ec35.vsmax, ec35.hmax) == (
+        2162.5,
+        2,
+        -20.0,
+        71.95,
+        -7.62,
+        7.62,
+        6096.0,
+    )
+    assert ec35.axmax_initial == 2.0 and np.isnan(ec35.wing_area) and np.isnan(ec35.fuel_a)
+    for name in ROTORCRAFT_TYPES:
+        p = aircraft_performance(name)
+        assert p.vmin_enroute < 0 < p.vmax_enroute and p.vsmin < 0 < p.vsmax and p.hmax >= 2500 and p.mass > 0, name
+    assert check_types(["mavic", "A320"], rotorcraft=True) == ("MAVIC", "A320")
+    with pytest.raises(ValueError, match="aircraft type 'EC35' is a rotorcraft, which this option does not accept; fixed-wing types: A124"):
+        check_types(["A320", "EC35"])
+    with pytest.raises(ValueError, match="'XX99' is not supported; supported types: A124, .*; rotorcraft: EC35, M600"):
+        check_types("XX99", rotorcraft=True)
+
+
+def test_rotorcraft_fly_the_rotor_model() -> None:
+    """Creation defaults, the first performance update, the TAS envelope and the vertical-rate clip, beside a fixed-wing aircraft."""
+    sim = Simulator(1, 3)
+    sim.create(0, [0, 1, 2], 52.0, [4.0, 4.1, 4.2], 90.0, 300.0, [30.0, 5.0, 100.0], actype=["EC35", "M600", "A320"])
+    assert (sim.vmin[0, 0], sim.vmax[0, 0], sim.axmax[0, 0]) == (-20.0, 71.95, 2.0)
+    sim.cmd_speed(0, [0, 1], 300 * KTS)
+    sim.cmd_altitude(0, [0, 1], 20000 * FT)
+    sim.step()
+    assert sim.phase[0, 0] == sim.phase[0, 1] == 0 and sim.axmax[0, 0] == sim.axmax[0, 1] == 3.5
+    assert sim.thrust[0, 0] == sim.drag[0, 0] == sim.fuelflow[0, 0] == 0.0 and sim.fuelflow[0, 2] > 0
+    sim.run(120)
+    assert sim.tas[0, 0] == 71.95 and sim.tas[0, 1] == 18.0  # the TAS bound, at any altitude
+    assert sim.vs[0, 0] == 7.62 and sim.vs[0, 1] == 5.0  # the default 7.62 m/s clipped to vsmax
+    assert sim.fuelburn[0, 0] == sim.fuelburn[0, 1] == 0.0 and sim.fuelburn[0, 2] > 0
+    sim.run(600)
+    assert sim.alt[0, 1] == 2500.0  # the M600's ceiling
 
 
 def test_every_type_has_a_plausible_envelope() -> None:
@@ -56,8 +107,6 @@ def test_create_with_types() -> None:
     assert (sim.vmax[1, 0], sim.axmax[1, 0]) == (c550.vmax_enroute, c550.axmax_initial)
     with pytest.raises(ValueError, match="expected one type or 2 types"):
         sim.create(1, [2, 3], actype=["A320"])
-    with pytest.raises(ValueError, match="rotorcraft"):
-        sim.create(1, 2, actype="MAVIC")
     with pytest.raises(TypeError, match="type name"):
         sim.create(1, 2, actype=[7])  # type: ignore[list-item]
     assert not sim.active[1, 2:].any()

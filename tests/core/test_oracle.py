@@ -91,6 +91,43 @@ def test_random_traffic_bitwise(dt: float) -> None:
             np.testing.assert_array_equal(bits(getattr(sims["oracle"], f), act), bits(getattr(sims["kernel"], f), act), err_msg=f"step {k}: {f}")
 
 
+@pytest.mark.parametrize("dt", [1.0, 0.5])
+def test_rotorcraft_beside_fixed_wing_bitwise(dt: float) -> None:
+    """BlueSky's rotor model: rotorcraft and fixed-wing aircraft climbing, descending, turning, speeding up, hovering, with wind."""
+    types = ["EC35", "M600", "MAVIC", "A320", "PHAN4", "B738"]
+    sims = {}
+    for kind, cls in KINDS.items():
+        sim = cls(30, 6, dt=dt)
+        rng = np.random.default_rng(8)
+        e, s = np.repeat(np.arange(30), 6), np.tile(np.arange(6), 30)
+        sim.create(
+            e,
+            s,
+            rng.uniform(50, 54, 180),
+            rng.uniform(2, 6, 180),
+            rng.uniform(0, 360, 180),
+            rng.choice([0.0, 300.0, 2000.0], 180),
+            rng.uniform(0, 150, 180),
+            actype=types * 30,
+        )
+        sim.cmd_speed(e, s, rng.choice([0.0, 10.0, 30.0, 120.0], 180))
+        sim.set_autopilot(e[::2], s[::2], selalt=rng.choice([0.0, 1e6, 2400.0], 90), selvs=rng.uniform(-12, 12, 90))
+        sim.cmd_heading(e[1::3], s[1::3], rng.uniform(0, 360, 60))
+        for env in range(0, 30, 4):
+            sim.wind.add_points(env, [52.0], [4.0], [rng.normal(0, 8)], [rng.normal(0, 8)])
+        sims[kind] = sim
+    for k in range(int(200 / dt)):
+        for sim in sims.values():
+            sim.step()
+        for f in FIELDS:
+            act = sims["oracle"].active
+            np.testing.assert_array_equal(bits(getattr(sims["oracle"], f), act), bits(getattr(sims["kernel"], f), act), err_msg=f"step {k}: {f}")
+    rotor = np.array(types * 30).reshape(30, 6) != "A320"
+    rotor &= np.array(types * 30).reshape(30, 6) != "B738"
+    assert np.all(sims["kernel"].axmax[rotor] == 3.5) and np.all(sims["kernel"].fuelflow[rotor] == 0.0)
+    assert np.all(sims["kernel"].fuelflow[~rotor] != 0.0)
+
+
 @pytest.mark.parametrize(("wind", "geo"), [(False, "compiled"), (True, "compiled"), (False, "python")])
 def test_run_many_steps_equals_stepping(wind: bool, geo: str) -> None:
     """Simulator.run(n) (aircraft-major loop, LNAV included) is bit-identical to n oracle steps."""

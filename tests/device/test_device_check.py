@@ -36,3 +36,24 @@ def test_a_device_check_out_of_budget_skips_the_rest(monkeypatch: pytest.MonkeyP
     result = gpu_bench.device_check(budget=0.0)
     assert [p.get("skipped") for p in result["physics"][1:]] == ["time budget", "time budget"]
     assert "skipped: time budget" in gpu_bench.format_device_check(result)
+
+
+def test_the_vector_env_check_compares_and_times_every_id(monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("torch")
+    for name, value in {"ENV_SAMPLE": (2, 2), "ENV_BATCHES": (2,), "ENV_CPU_BATCH": 2, "ENV_STEPS": 1}.items():
+        monkeypatch.setattr(gpu_bench, name, value)
+    monkeypatch.setattr(gpu_bench, "env_check_ids", lambda: ["HorizontalCREnv-v0", "DescentEnv-v1"])
+    monkeypatch.setattr(gpu_bench, "device_refusal", lambda: None)
+    monkeypatch.setattr(gpu_bench, "_device_name", lambda: "numba-cuda simulator")
+    result = gpu_bench.device_envs(budget=600.0)
+    assert [s["id"] for s in result["samples"]] == ["HorizontalCREnv-v0", "DescentEnv-v1"]
+    for s in result["samples"]:  # the simulator runs the CPU's arithmetic: the same episodes, bit for bit
+        assert s["obs_max_diff"] == 0.0 and s["reward_max_diff"] == 0.0 and s["obs_bit_identical"] == 1.0 and s["ended_differ"] == 0
+    assert [(r["id"], r["target"]) for r in result["rates"]] == [
+        (i, t) for i in ("HorizontalCREnv-v0", "DescentEnv-v1") for t in ("cpu (1 process)", "cuda")
+    ]
+    assert all(r["rate"] > 0 for r in result["rates"])
+    text = gpu_bench.format_device_envs(result)
+    assert "Vector environments on numba-cuda simulator" in text and "DescentEnv-v1" in text and "env-steps/s" in text
+    skipped = gpu_bench.device_envs(budget=0.0)
+    assert [s.get("skipped") for s in skipped["samples"]] == ["time budget", "time budget"]

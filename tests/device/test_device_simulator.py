@@ -27,10 +27,12 @@ FIELDS = {
 }
 
 
-def _traffic(cls: type[Simulator], seed: int = 3, n_envs: int = 3, m: int = 4, n_aircraft: int | None = None) -> Simulator:
+def _traffic(
+    cls: type[Simulator], seed: int = 3, n_envs: int = 3, m: int = 4, n_aircraft: int | None = None, types: tuple[str, ...] = ("A320", "B738", "E190")
+) -> Simulator:
     """Mixed types, climbs and descents, turns, LNAV routes on half the aircraft, uniform wind in one airspace.
 
-    ``n_aircraft`` (default ``m - 1``) aircraft per airspace fill the first slots.
+    ``n_aircraft`` (default ``m - 1``) aircraft per airspace fill the first slots, of types drawn from ``types``.
     """
     rng = np.random.default_rng(seed)
     sim = cls(n_envs, m, dt=1.0)
@@ -38,7 +40,7 @@ def _traffic(cls: type[Simulator], seed: int = 3, n_envs: int = 3, m: int = 4, n
     env, slot = np.repeat(np.arange(n_envs), n_aircraft), np.tile(np.arange(n_aircraft), n_envs)
     k = env.size
     sim.create(env, slot, 52 + rng.uniform(-0.3, 0.3, k), 4 + rng.uniform(-0.3, 0.3, k), rng.uniform(0, 360, k),
-               rng.uniform(1000, 9000, k), rng.choice([130.0, 150.0, 0.7], k), actype=list(rng.choice(["A320", "B738", "E190"], k)))  # fmt: skip
+               rng.uniform(1000, 9000, k), rng.choice([130.0, 150.0, 0.7], k), actype=list(rng.choice(list(types), k)))  # fmt: skip
     sim.cmd_altitude(env[::2], slot[::2], rng.uniform(1000, 9000, k)[::2])
     sim.cmd_heading(env[1::3], slot[1::3], rng.uniform(0, 360, k)[1::3])
     routed = np.arange(k) % 2 == 0
@@ -67,6 +69,19 @@ def test_steps_on_the_device_give_the_cpu_core_results() -> None:
     assert dev.simt == cpu.simt
     _assert_same_state(dev, cpu)
     assert not dev.on_device  # reading brought it back
+
+
+def test_rotorcraft_on_the_device_give_the_cpu_core_results() -> None:
+    """BlueSky's rotor model on the device: rotorcraft beside fixed-wing aircraft, climbs to their ceilings, turns, routes."""
+    types = ("A320", "EC35", "M600", "MAVIC")
+    cpu, dev = _traffic(Simulator, seed=4, m=6, types=types), _traffic(DeviceSimulator, seed=4, m=6, types=types)
+    assert {"EC35", "M600", "MAVIC"} <= set(cpu.aircraft_types)
+    for _ in range(12):
+        cpu.step()
+        dev.step()
+    _assert_same_state(dev, cpu)
+    rotor = np.array([[cpu.aircraft_performance(e, s).rotor if cpu.active[e, s] else False for s in range(6)] for e in range(3)])
+    assert rotor.any() and np.all(dev.axmax[rotor] == 3.5) and np.all(dev.fuelflow[rotor] == 0.0)
 
 
 def test_commands_between_device_steps_reach_the_device() -> None:

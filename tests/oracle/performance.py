@@ -148,4 +148,11 @@ def apply_limits(
     vs_max_with_acc = (1 - ax / axmax) * perf.vsmax
     allow_vs = np.where((vs_target > 0) & (vs_target > perf.vsmax), vs_max_with_acc, vs_target)
     allow_vs = np.where((phase == PHASE_GD) & (tas < perf.v_rotate), 0, allow_vs)
+    # Rotorcraft: TAS and vertical speed clipped to the rotor envelope as they are [docs/dynamics.md §1.2b].
+    rotor_tas = np.where(tas_target < vmin, vmin, tas_target)
+    rotor_tas = np.where(tas_target > vmax, vmax, rotor_tas)
+    rotor_vs = np.where(vs_target < perf.vsmin, perf.vsmin, vs_target)
+    rotor_vs = np.where(vs_target > perf.vsmax, perf.vsmax, rotor_vs)
+    allow_tas = np.where(perf.rotor, rotor_tas, allow_tas)
+    allow_vs = np.where(perf.rotor, rotor_vs, allow_vs)
     return allow_tas, allow_vs, allow_h

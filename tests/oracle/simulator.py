@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import Simulator
 from bluesky_gym.core.aircraft import aircraft_performance
-from bluesky_gym.core.performance import AircraftPerformance
+from bluesky_gym.core.performance import AXMAX_ROTOR, PHASE_NA, AircraftPerformance
 from bluesky_gym.core.units import (
     BANK_DEFAULT,
     G0,
@@ -97,12 +97,17 @@ class OracleSimulator(Simulator):
 
     def _update_performance(self) -> None:
         """OpenAP update from the start-of-step state [docs/dynamics.md §1.3-1.4]."""
-        self.phase[...] = pf.flight_phase(self.tas, self.vs, self.alt)
         perf = self._perf_of_every_aircraft()
-        self.vmin, self.vmax = pf.speed_envelope(self.phase, perf)
-        self.axmax = pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, perf)
-        self.drag = pf.drag(self.phase, self.tas, self.alt, perf)  # outputs [docs/dynamics.md §1.4a]
-        self.thrust, self.fuelflow = pf.thrust_and_fuel_flow(self.drag, self.ax, perf)
+        rotor = perf.rotor  # BlueSky's rotor model: phase NA, a fixed envelope, axmax 3.5, no outputs [§1.2b]
+        self.phase[...] = np.where(rotor, PHASE_NA, pf.flight_phase(self.tas, self.vs, self.alt))
+        vmin, vmax = pf.speed_envelope(self.phase, perf)
+        self.vmin, self.vmax = np.where(rotor, perf.vmin_enroute, vmin), np.where(rotor, perf.vmax_enroute, vmax)
+        self.axmax = np.where(rotor, AXMAX_ROTOR, pf.max_acceleration(self.phase, self.tas, self.alt, self.vs, perf))
+        drag = pf.drag(self.phase, self.tas, self.alt, perf)  # outputs [docs/dynamics.md §1.4a]
+        thrust, fuelflow = pf.thrust_and_fuel_flow(drag, self.ax, perf)
+        self.drag = np.where(rotor, self.drag, drag)
+        self.thrust = np.where(rotor, self.thrust, thrust)
+        self.fuelflow = np.where(rotor, self.fuelflow, fuelflow)
 
     def _update_autopilot(self) -> None:
         """Autopilot targets [docs/dynamics.md §2.3]; LNAV waypoint logic [docs/dynamics.md §2.6]."""

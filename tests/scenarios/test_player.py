@@ -7,6 +7,7 @@ import math
 import os
 import re
 import time
+import warnings
 from pathlib import Path
 
 import gymnasium as gym
@@ -64,9 +65,11 @@ def test_player_errors() -> None:
         ScenarioPlayer([sc], sim)
     assert sim.aircraft_type([0, 0], [0, 1]) == ["B744", "ZZZZ"]
     assert sim.aircraft_performance(0, 1).name == "B744"  # BlueSky's fallback for an unknown type
-    rotor = parse_scenario("00:00:00.00>CRE AC1 EC35 52 4\n", "rotor.scn")
-    with pytest.raises(ScenarioError, match="rotor.scn:1: 'CRE AC1 EC35 52 4' failed: aircraft type 'EC35' is a rotorcraft"):
-        ScenarioPlayer([rotor], Simulator(1, 1))
+    rotor = parse_scenario("00:00:00.00>CRE AC1 ec35 52 4 90 1000 100\n", "rotor.scn")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a rotorcraft is no unknown type
+        ScenarioPlayer([rotor], sim := Simulator(1, 1))
+    assert sim.aircraft_type(0, 0) == ["EC35"] and sim.aircraft_performance(0, 0).rotor
     two = parse_scenario("00:00:00.00>CRE AC1 A320 52 4\n00:00:00.00>CRE AC2 A320 52 5\n", "two.scn")
     with pytest.raises(ScenarioError, match="creates 2 aircraft, the physics has 1 slots"):
         ScenarioPlayer([two], Simulator(1, 1))
@@ -378,6 +381,24 @@ def test_unknown_aircraft_types_warn_once_per_type() -> None:
     player.advance(30)
     assert player.physics.aircraft_performance(0, 2).name == "B744"  # type: ignore[attr-defined]  # BlueSky's fallback is kept
     assert unknown_types([parse_scenario("00:00:00.00>CRE AC1 B738 52 4\n00:00:00.00>CRE AC2 A320 52 4\n00:00:00.00>CRE AC3 EC35 52 4\n")]) == {}
+
+
+def test_replay_cli_flies_rotorcraft_as_bluesky(tmp_path: Path) -> None:
+    """``bluesky-gym replay`` of rotorcraft beside fixed-wing aircraft writes BlueSky's recording, every column to the last digit."""
+    out = tmp_path / "rotor.csv"
+    assert main(["replay", str(DATA / "scn" / "rotor_mixed.scn"), "--duration", "300", "--out", str(out), "--quiet"]) == 0
+    rows = _rows(out)
+    with open_recording("pcall_rotor_mixed") as fh:
+        ref = list(csv.DictReader(fh))
+    assert len(rows) == len(ref) == 12 * 301
+    assert {r["acid"] for r in rows} >= {"R01", "R09", "F01", "F03"}
+    for got, want in zip(rows, ref):
+        assert [float(got[c]) for c in TRAJECTORY_COLUMNS[2:]] == pytest.approx(
+            [float(want[c]) for c in TRAJECTORY_COLUMNS[2:]], rel=0, abs=0, nan_ok=True
+        ), (
+            want["t"],
+            want["acid"],
+        )
 
 
 def _replay_err(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str]:

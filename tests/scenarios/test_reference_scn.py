@@ -35,10 +35,15 @@ SCN = {
     "pcall_fuel_types": ("fuel_types.scn", 1.0, 400),
     "pcall_fuel_types_dt05": ("fuel_types.scn", 0.5, 150),
     "pcall_fuel_reso": ("fuel_reso.scn", 1.0, 300),
+    "pcall_rotor_mixed": ("rotor_mixed.scn", 1.0, 300),
+    "pcall_rotor_mixed_dt05": ("rotor_mixed.scn", 0.5, 120),
+    "pcall_rotor_reso": ("rotor_reso.scn", 1.0, 300),
 }
 ANGLES = ("hdg", "trk", "ap_trk")
 #: The recordings with BlueSky's performance outputs (columns thrust, drag, fuelflow).
 FUEL = ("pcall_fuel_types", "pcall_fuel_types_dt05", "pcall_fuel_reso")
+#: The recordings of rotorcraft beside fixed-wing aircraft (also with the performance outputs).
+ROTOR = ("pcall_rotor_mixed", "pcall_rotor_mixed_dt05", "pcall_rotor_reso")
 PERF_OUTPUTS = ("thrust", "drag", "fuelflow")
 
 
@@ -83,7 +88,7 @@ def _bits(x: object) -> int:
     return -1 if v != v else int(np.float64(v).view(np.int64))
 
 
-@pytest.mark.parametrize("name", FUEL)
+@pytest.mark.parametrize("name", FUEL + ROTOR)
 def test_performance_outputs_match_bluesky_bit_for_bit(name: str) -> None:
     """Mixed types: every column of every row, thrust, drag and fuel flow included, equals BlueSky's to the last bit.
 
@@ -102,7 +107,53 @@ def test_performance_outputs_match_bluesky_bit_for_bit(name: str) -> None:
             assert _bits(values[col]) == _bits(want[col]), f"{name} {want['acid']} {col}: t={want['t']} got {values[col]!r} want {want[col]!r}"
         for col in PERF_OUTPUTS:
             moved[col] += float(want[col]) != 0.0
-    assert min(moved.values()) > len(ref) // 2, moved  # the outputs are computed, not left at 0
+    if name in FUEL:
+        assert min(moved.values()) > len(ref) // 2, moved  # the outputs are computed, not left at 0
+    else:
+        assert min(moved.values()) > len(ref) // 10, moved  # the fixed-wing aircraft's outputs are computed
+
+
+ROTOR_IDS = {
+    "pcall_rotor_mixed": ("R01", "R02", "R03", "R04", "R05", "R06", "R07", "R08", "R09"),
+    "pcall_rotor_reso": ("OWN1", "INT1", "INT2", "INT3", "INT4", "OWN3", "INT6"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(ROTOR_IDS))
+def test_rotorcraft_fly_the_rotor_model_in_the_recordings(name: str) -> None:
+    """What the bit-for-bit replay of the rotor recordings covers: BlueSky's rotor model, in flight.
+
+    Every rotor type of the table flies; the envelope is the type's TAS range, the phase NA, axmax
+    3.5 m/s^2 (2 at creation), no drag, thrust or fuel flow; the speeds reach the envelope's bounds,
+    vertical rates are clipped to vsmax (climbs and descents alike: the autopilot's rate is a
+    magnitude) without the fixed-wing acceleration factor, ceilings hold.
+    """
+    from bluesky_gym.core.aircraft import ROTOR_TABLE
+
+    rows = [r for r in load(name) if r["acid"] in ROTOR_IDS[name]]
+    scn = (DATA / "scn" / SCN[name][0]).read_text().upper()
+    for r in rows:
+        assert r["phase"] == "0" and float(r["axmax"]) == (2.0 if r["t"] == "0" else 3.5), r
+        assert float(r["thrust"]) == float(r["drag"]) == float(r["fuelflow"]) == 0.0, r
+    types = {line.split()[1]: line.split()[2] for line in scn.splitlines() if ">CRE" in line}
+    for acid in ROTOR_IDS[name]:
+        mine = [r for r in rows if r["acid"] == acid]
+        _, _, _, vmin, vmax, _, vsmax, hmax = ROTOR_TABLE[types[acid]]
+        assert {(float(r["vmin_cas"]), float(r["vmax_cas"])) for r in mine} == {(vmin, vmax)}
+        assert max(float(r["tas"]) for r in mine[1:]) <= max(vmax, float(mine[0]["tas"])), acid
+        assert all(abs(float(r["vs"])) <= vsmax for r in mine), acid  # a magnitude: vsmax bounds descents too
+        assert max(float(r["alt"]) for r in mine) <= hmax, acid
+    if name == "pcall_rotor_mixed":
+        assert set(types.values()) >= set(ROTOR_TABLE)
+        final = {r["acid"]: r for r in rows if r["t"] == "300"}
+        assert float(final["R01"]["alt"]) == 500 * 0.3048  # EC35: climbed at 7.62 m/s towards its 6096 m ceiling, then down
+        peak = {a: max(float(r["tas"]) for r in rows if r["acid"] == a) for a in ("R01", "R02", "R09")}
+        assert peak == {"R01": 71.95, "R02": 18.0, "R09": 22.3}  # SPD beyond vmax: held at the TAS bound
+        assert max(float(r["vs"]) for r in rows if r["acid"] == "R02") == 5.0  # M600: 7.62 m/s default clipped to vsmax
+        # M200 (vsmin -3, vsmax 5): VS -1000 fpm is a rate of 5.08 m/s, clipped to 5, and it descends at 5 m/s
+        assert min(float(r["vs"]) for r in rows if r["acid"] == "R07") == -5.0
+        hover = [r for r in rows if r["acid"] == "R02" and 130 <= float(r["t"]) <= 180]
+        assert min(float(r["tas"]) for r in hover) == 0.0  # SPD 0: it hovers (vmin < 0)
 
 
 def test_copies_in_a_batch_equal_the_single_replay() -> None:
@@ -153,7 +204,17 @@ def test_recordings_cover_the_scenario_commands() -> None:
 @pytest.mark.bluesky
 @pytest.mark.parametrize(
     "name",
-    ["pcall_commands", "pcall_direct_lnav", "pcall_reso_methods", "pcall_reso_route", "pcall_reso_super8", "pcall_fuel_types", "pcall_fuel_reso"],
+    [
+        "pcall_commands",
+        "pcall_direct_lnav",
+        "pcall_reso_methods",
+        "pcall_reso_route",
+        "pcall_reso_super8",
+        "pcall_fuel_types",
+        "pcall_fuel_reso",
+        "pcall_rotor_mixed",
+        "pcall_rotor_reso",
+    ],
 )
 def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
     """The same player on the BlueSky backend reproduces the PCALL recording (same commands, BlueSky's own physics)."""
@@ -186,7 +247,7 @@ def test_bluesky_backend_plays_the_files_like_bluesky(name: str) -> None:
             if col in ANGLES:
                 err = min(err, 360.0 - err)
             assert err <= tol, f"{name} {want['acid']} {col}: t={want['t']} got {values[col]!r} want {want[col]!r}"
-        if name in FUEL:  # the backend reports BlueSky's performance outputs
+        if name in FUEL + ROTOR:  # the backend reports BlueSky's performance outputs
             for col in PERF_OUTPUTS:
                 assert _bits(values[col]) == _bits(want[col]), f"{name} {want['acid']} {col}: t={want['t']} got {values[col]!r} want {want[col]!r}"
 

@@ -72,7 +72,7 @@ def test_batched_episode_has_the_single_episode_fleet() -> None:
     ("value", "message"),
     [
         (("A320", "XX99"), r"intruder_types: aircraft type 'XX99' is not supported; supported types: A124, .*B744"),
-        ("EC35", "'EC35' is not supported"),
+        ("XX35", "'XX35' is not supported; supported types: .*; rotorcraft: EC35, M600"),
         ((), "at least one aircraft type"),
         ({"A320": -1.0}, "intruder_types weight must be >= 0.0"),
         ({"A320": 0.0}, "positive sum"),
@@ -83,3 +83,37 @@ def test_batched_episode_has_the_single_episode_fleet() -> None:
 def test_bad_type_mix_is_refused(value: object, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         gym.make("HorizontalCREnv-v0", intruder_types=value)
+
+
+def test_horizontal_cr_flies_rotorcraft() -> None:
+    """HorizontalCREnv takes rotorcraft ownships and intruders; they fly BlueSky's rotor model and burn no fuel."""
+    env = gym.make("HorizontalCREnv-v0", intruder_types={"A320": 0.5, "EC35": 0.25, "M600": 0.25}, ownship_types="EC35")
+    env.reset(seed=3)
+    fleet = _fleet(env)
+    assert fleet[0] == "EC35" and {"EC35", "M600"} & set(fleet[1:]) and "A320" in fleet[1:]
+    sim = env.unwrapped.task.sim
+    for _ in range(5):
+        obs, _, terminated, truncated, info = env.step(env.action_space.sample())
+        assert all(np.isfinite(v).all() for v in obs.values())
+    act = np.flatnonzero(sim.active[0])
+    rotor = np.array([sim.aircraft_performance(0, int(s)).rotor for s in act])
+    assert np.all(sim.axmax[0, act][rotor] == 3.5) and np.all(sim.fuelflow[0, act][rotor] == 0.0)
+    assert sim.tas[0, 0] < 150.0  # the EC35 slows from the scenario's 150 m/s towards its 71.95 m/s bound
+    while not (terminated or truncated):
+        _, _, terminated, truncated, info = env.step(env.action_space.sample())
+    assert info["kpi_fuel_kg"] == 0.0  # BlueSky's rotor model has no fuel flow
+
+
+@pytest.mark.parametrize("env_id", ["VerticalCREnv-v0", "SectorCREnv-v0", "MergeEnv-v0"])
+@pytest.mark.parametrize("option", ["intruder_types", "ownship_types"])
+def test_rotorcraft_are_refused_where_the_task_does_not_suit_them(env_id: str, option: str) -> None:
+    with pytest.raises(
+        ValueError, match=f"{option}: aircraft type 'EC35' is a rotorcraft, which this option does not accept; fixed-wing types: A124"
+    ):
+        gym.make(env_id, **{option: ("A320", "EC35")})
+
+
+def test_airborne_start_needs_a_rotorcraft_ceiling_above_fl100() -> None:
+    gym.make("HorizontalCREnv-v1", ownship_types="EC35", intruder_types="MAVIC")
+    with pytest.raises(ValueError, match="intruder_types: rotorcraft M600 cannot fly the airborne start at FL100 .*its ceiling is 2500 m"):
+        gym.make("HorizontalCREnv-v1", intruder_types=("A320", "M600"))
