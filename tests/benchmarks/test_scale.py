@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import shlex
 from pathlib import Path
 
 import numpy as np
@@ -82,5 +83,5 @@ def test_the_scale_table_of_the_docs_is_the_committed_measurement() -> None:
     assert all(r["bluesky_wall_s"] for r in measured[0]["rows"])
     for out in ("results/bench/scale-1000.json", "results/bench/scale.json"):
         line = next(line for line in page.splitlines() if line.startswith("bluesky-gym bench scale") and line.endswith(out))
-        args = build_parser().parse_args(line.replace("<python with the bluesky extra>", "PY").split()[1:])
+        args = build_parser().parse_args(shlex.split(line)[1:])
         assert args.func.__name__ == "run_scale_command"
