@@ -142,6 +142,8 @@ def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None =
     their per-episode records (for its intervals) and every reference policy that applies (one
     added after the sweep too). Those missing are evaluated on the first held-out episodes, as
     many as the runs' evaluations (or ``episodes``), and written to ``references/episodes/``.
+    A record another of the sweeps already keeps (with at least as many episodes) is not evaluated
+    again: the page reads the first sweep's that has it.
 
     Returns:
         One line per evaluation made, for the user.
@@ -151,15 +153,17 @@ def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None =
     from bluesky_gym.training.policies import reference_names
 
     done = []
-    for d in map(Path, sweep_dirs):
+    dirs = [Path(d) for d in sweep_dirs]
+    for d in dirs:
         runs = [load_run(r) for r in find_runs([d])]
         for env_id in sorted({r.env_id for r in runs}):
             n = episodes
             if n is None:
                 n = max(int(read_json(r.path / "config.json").get("eval_episodes", 0)) for r in runs if r.env_id == env_id) or 50
             for name in reference_names(env_id):
-                if (reference_episode_dir(d) / f"{env_id}_{name}_episodes.csv").exists():
-                    continue
+                kept = _reference_table(dirs, env_id, name)
+                if kept is not None and len(next(iter(kept.values()), ())) >= n:
+                    continue  # this sweep's or an earlier one's: the same first held-out episodes
                 result = evaluate(env_id, make_policy(name, env_id), n)
                 save_result(result, reference_episode_dir(d), stem=f"{env_id}_{name}")
                 done.append(f"{env_id}: evaluated {name} on {n} held-out episodes -> {reference_episode_dir(d)}")
@@ -228,11 +232,13 @@ def _steps(n: int) -> str:
 
 
 def page_labels(runs: Sequence[Run]) -> dict[Path, str]:
-    """The name of each run's algorithm on the page: the algorithm, plus its budget where one algorithm ran with several.
+    """The name of each run's algorithm on the page: the algorithm, plus its budget where the page has several.
 
     Runs of one algorithm that differ in trainer, step budget or number of batched environments
-    are different rows, named by what differs, e.g. ``PPO (2e7 steps, 1024 envs)``; other
-    differences (a per-environment learning rate) do not split a row.
+    are different rows, named by what differs, e.g. ``PPO (2e7 steps, 1024 envs)``; where the
+    page's runs have different step budgets, every row names its own (``SAC (20,000 steps)``
+    beside ``PPO (2e6 steps, 16 envs)``). Other differences (a per-environment learning rate) do
+    not split a row.
     """
 
     def budget(r: Run) -> tuple[str, int, int]:
@@ -240,6 +246,7 @@ def page_labels(runs: Sequence[Run]) -> dict[Path, str]:
         return (str(identity.get("trainer", "sb3")), int(r.total_timesteps), int(identity.get("n_envs", r.config.get("n_envs", 1))))
 
     out = {}
+    budgets_differ = len({budget(r)[1] for r in runs}) > 1  # then every row says its budget
     for algo in {r.algo for r in runs}:
         mine = [r for r in runs if r.algo == algo]
         kinds = {budget(r) for r in mine}
@@ -248,7 +255,7 @@ def page_labels(runs: Sequence[Run]) -> dict[Path, str]:
             parts = []
             if len({k[0] for k in kinds}) > 1:
                 parts.append(f"{trainer} trainer")
-            if len({k[1] for k in kinds}) > 1:
+            if budgets_differ:
                 parts.append(f"{_steps(steps)} steps")
             if len({k[2] for k in kinds}) > 1:
                 parts.append(f"{n_envs} env{'s' if n_envs != 1 else ''}")
@@ -420,8 +427,22 @@ def _plot_aggregate(agg: dict[str, Any], version: str, path: Path) -> None:
 
 
 def _training_return(runs: Sequence[Run], at: float, window: float) -> float:
-    """Mean over runs of the training return of the episodes that ended in ``(at - window, at]``."""
-    values = [float(smoothed(r.timesteps, r.metric("return"), np.array([at]), window)[0]) for r in runs if r.timesteps.size]
+    """Mean over runs of the training return of the episodes that ended in ``(at - window, at]``.
+
+    A run whose learning curve is kept in spans longer than ``window`` (a summarised run: a curve
+    of 200 spans of a 2e6-step run has spans of 1e4 steps) gives the mean of the first span that
+    ends at or after ``at`` instead, the span holding that step.
+    """
+    values = []
+    for r in runs:
+        t, y = r.timesteps, r.metric("return")
+        if not t.size:
+            continue
+        if t.size > 1 and float(np.median(np.diff(t))) > window:
+            i = int(np.searchsorted(t, at, side="left"))
+            values.append(float(y[i]) if i < t.size else float("nan"))
+        else:
+            values.append(float(smoothed(t, y, np.array([at]), window)[0]))
     values = [v for v in values if np.isfinite(v)]
     return float(np.mean(values)) if values else float("nan")
 
@@ -513,7 +534,8 @@ def observations_section(results: Sequence[EnvResults]) -> list[str]:
     main_ppo = ppo[0]
     lines += [
         f"**PPO needs more samples.** Training return at each off-policy algorithm's budget, {main_ppo} over the same span of steps"
-        " (episodes ending in the last tenth of the budget, mean over seeds):",
+        " (episodes ending in the last tenth of the budget, mean over seeds; a run summarised into a coarser learning curve gives"
+        " the span of its curve that holds the budget):",
         "",
         "| environment | algorithm | budget | its return | " + main_ppo + " at that budget | PPO behind |",
         "|---|---|---:|---:|---:|---|",
@@ -543,11 +565,13 @@ def observations_section(results: Sequence[EnvResults]) -> list[str]:
         "| environment | " + " | ".join(sorted({r.algo for er in results for r in er.runs})) + " |",
         "|---|" + "---:|" * len({r.algo for er in results for r in er.runs}),
     ]
+    verdicts = []
     for er in results:
         if "random" not in er.references or "classical" not in er.references or not er.env_id.startswith("Merge"):
             continue
         scale = er.references["classical"] - er.references["random"]
         cells = []
+        drop_of: dict[str, float] = {}
         for label in sorted({r.algo for e in results for r in e.runs}):
             drops = []
             for r in (r for r in er.runs if r.algo == label and r.timesteps.size):
@@ -556,9 +580,28 @@ def observations_section(results: Sequence[EnvResults]) -> list[str]:
                 if np.isfinite(curve).any():
                     drops.append((np.nanmax(curve) - curve[np.isfinite(curve)][-1]) / abs(scale) if scale else float("nan"))
             cells.append(f"{np.mean(drops):.2f}" if drops else "–")
+            if drops and np.isfinite(np.mean(drops)):
+                drop_of[label] = float(np.mean(drops))
         lines.append(f"| {er.env_id} | " + " | ".join(cells) + " |")
-    lines.append("")
+        verdicts.append(_instability_verdict(er.env_id, drop_of))
+    lines += ["", *[v for v in verdicts if v], ""]
     return lines
+
+
+def _instability_verdict(env_id: str, drop_of: dict[str, float]) -> str:
+    """One sentence: whether TD3 and DDPG drop more than every other algorithm on ``env_id`` (the paper's observation)."""
+    unstable = {k: v for k, v in drop_of.items() if algorithm_of(k) in ("TD3", "DDPG")}
+    others = {k: v for k, v in drop_of.items() if algorithm_of(k) not in ("TD3", "DDPG")}
+    if not unstable or not others:
+        return ""
+    worst = max(drop_of, key=lambda k: drop_of[k])
+    if min(unstable.values()) > max(others.values()):
+        verdict = "holds: TD3 and DDPG drop more than every other algorithm"
+    elif max(unstable.values()) > max(others.values()):
+        verdict = "holds in part: one of TD3 and DDPG drops more than every other algorithm, the other does not"
+    else:
+        verdict = "does not hold here: another algorithm drops at least as much as TD3 and DDPG"
+    return f"On {env_id} the observation {verdict} (largest drop: {worst}, {drop_of[worst]:.2f})."
 
 
 def build_results(

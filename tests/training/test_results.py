@@ -150,6 +150,19 @@ def test_missing_reference_episodes_are_evaluated_once_and_kept(tmp_path):
     assert [r.policy for r in rows] == ["random", "classical", "PPO"] and rows[0].episodes == 2
 
 
+def test_references_kept_by_another_sweep_are_not_evaluated_again(tmp_path):
+    from bluesky_gym.training.results import complete_references
+
+    first, second = tmp_path / "a", tmp_path / "b"
+    _run(first, "DescentEnv-v0", "PPO", 0, [1.0, 2.0])
+    _run(second, "DescentEnv-v0", "SAC", 0, [1.0, 2.0])
+    assert len(complete_references([first], episodes=2)) == 2
+    assert complete_references([first, second], episodes=2) == []
+    assert not reference_episode_dir(second).exists()
+    # more episodes than the kept record: evaluated for the sweep that lacks them
+    assert [line.split(" -> ")[1] for line in complete_references([first, second], episodes=3)] == [str(reference_episode_dir(first))] * 2
+
+
 def _configured_run(
     root: Path, env_id: str, algo: str, seed: int, eval_returns, steps: int, trainer: str = "sb3", n_envs: int = 1, curve=None
 ) -> Path:
@@ -191,8 +204,8 @@ def test_runs_of_one_algorithm_at_other_budgets_and_trainers_are_rows_of_their_o
         "PPO (fast trainer, 1,000 steps, 1 env)",
         "PPO (sb3 trainer, 1,000 steps, 1 env)",
         "PPO (fast trainer, 8,000 steps, 64 envs)",
-        "SAC",
-        "TD3",
+        "SAC (400 steps)",
+        "TD3 (400 steps)",
     } <= labels
     trainers = text.split("## Trainers compared")[1].split("##")[0]
     assert (
@@ -201,11 +214,36 @@ def test_runs_of_one_algorithm_at_other_budgets_and_trainers_are_rows_of_their_o
     scale = text.split("## Scale: the same algorithm at other budgets")[1].split("## ")[0]
     assert "0.90 (2 seeds)" in scale  # the 8e3-step runs: (9 - 0) / (10 - 0)
     observed = text.split("## The paper's observations, checked")[1].split("## Per environment")[0]
-    assert "| MergeEnv-v0 | TD3 | 400 |" in observed
+    assert "| MergeEnv-v0 | TD3 (400 steps) | 400 |" in observed
+    assert "On MergeEnv-v0 the observation holds: TD3 and DDPG drop more than every other algorithm (largest drop: TD3 (400 steps)" in observed
     drops = [line for line in observed.splitlines() if line.startswith("| MergeEnv-v0 |") and line.count("|") > 6]
     header = [line for line in observed.splitlines() if line.startswith("| environment | PPO")][0]
     cells = dict(zip((c.strip() for c in header.strip("|").split("|")), (c.strip() for c in drops[-1].strip("|").split("|")), strict=True))
-    assert float(cells["TD3"]) > 0.5 and float(cells["SAC"]) == 0.0
+    assert float(cells["TD3 (400 steps)"]) > 0.5 and float(cells["SAC (400 steps)"]) == 0.0
+
+
+def test_the_training_return_of_a_coarse_curve_is_the_span_that_holds_the_step() -> None:
+    from bluesky_gym.training.plotting import Run
+    from bluesky_gym.training.results import _training_return
+
+    def run(t, y):
+        return Run(Path("x"), "MergeEnv-v0", "PPO", 0, 2_000_000, {"timesteps": np.asarray(t, float), "return": np.asarray(y, float)}, None, {}, True)
+
+    # a summarised 2e6-step run: spans of 1e4 steps whose points lie just after the span ends
+    coarse = run([10_004, 20_008, 30_013], [-10.0, -9.0, -8.0])
+    assert _training_return([coarse], 20_000, 2_000) == -9.0
+    assert np.isnan(_training_return([coarse], 40_000, 2_000))  # past its curve
+    fine = run(np.arange(1, 101) * 200, np.arange(1, 101, dtype=float))
+    assert _training_return([fine], 20_000, 2_000) == pytest.approx(np.mean(np.arange(91, 101)))  # episodes in (18000, 20000]
+
+
+def test_the_instability_verdict_says_where_the_observation_does_not_hold() -> None:
+    from bluesky_gym.training.results import _instability_verdict
+
+    assert "does not hold here" in _instability_verdict("MergeEnv-v0", {"TD3": 0.1, "DDPG": 0.2, "SAC (2e4 steps)": 0.5})
+    assert "holds in part" in _instability_verdict("MergeEnv-v0", {"TD3": 0.6, "DDPG": 0.2, "SAC": 0.5})
+    assert "holds: TD3 and DDPG" in _instability_verdict("MergeEnv-v0", {"TD3": 0.6, "DDPG": 0.7, "PPO": 0.5})
+    assert _instability_verdict("MergeEnv-v0", {"SAC": 0.5}) == ""
 
 
 def test_runs_that_differ_in_their_trainer_alone_are_compared_as_trainers_not_as_budgets(tmp_path: Path) -> None:
