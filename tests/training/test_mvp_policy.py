@@ -159,7 +159,7 @@ def test_mvp_caps_the_ownship_vertical_speed_with_its_own_type() -> None:
     assert followed > 0 and differ > 0
 
 
-@pytest.mark.parametrize("env_id", sorted(MVP))
+@pytest.mark.parametrize("env_id", sorted(e.id for e in ENVIRONMENTS if e.mvp))
 def test_render_and_eval_commands_fly_mvp(env_id: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``render --policy mvp`` (single and batched) and ``eval --model mvp`` work for every environment with MVP."""
     pytest.importorskip("pygame")
