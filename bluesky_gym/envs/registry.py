@@ -149,7 +149,7 @@ class EnvEntry:
 
     @property
     def reference_policies(self) -> tuple[str, ...]:
-        """The reference policies of this environment, in the order of :data:`REFERENCE_POLICIES`: ``random`` always, ``classical`` and ``mvp`` where the row names them."""
+        """The reference policies of this environment, in :data:`REFERENCE_POLICIES` order: ``random``, and ``classical``, ``mvp`` where named."""
         has = {"random": True, "classical": self.classical is not None, "mvp": self.mvp is not None}
         return tuple(name for name in REFERENCE_POLICIES if has[name])
 

@@ -52,6 +52,7 @@ MIN_ACTION = 0.01  # -: |a| <= VS_SELECT_EPS / ACTION_2_MS (0.008) selects BlueS
 DEFAULT_LOOKAHEAD = 120.0  # s: conflict look-ahead of the classical rule
 DEFAULT_MARGIN = 1.2  # detection radius / intrusion distance of the classical rule
 
+
 def bound_task(env: Any) -> Any:
     """The task an environment (a Gymnasium or PettingZoo shell, wrapped or not) runs, or ``env`` itself when it is a task."""
     base = getattr(env, "unwrapped", env)
@@ -207,7 +208,9 @@ def multiagent_mvp_mapping(task: MultiAgentTask) -> MVPMapping:
     speed_step = task.speed_step
     if speed_step is not None and getattr(task.config, "speed_step_in_knots", False):
         speed_step *= KTS
-    return MVPMapping(rmethh="BOTH" if speed_step is not None else "HDG", rpz_nm=task.intrusion_distance, heading_step=task.heading_step, speed_step=speed_step)
+    return MVPMapping(
+        rmethh="BOTH" if speed_step is not None else "HDG", rpz_nm=task.intrusion_distance, heading_step=task.heading_step, speed_step=speed_step
+    )
 
 
 def vertical_speed_action(v_cmd: Array) -> Array:

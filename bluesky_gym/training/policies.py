@@ -424,9 +424,7 @@ HORIZONTAL_CR_MVP = MVPMapping(
     rpz_nm=horizontal_cr.INTRUSION_DISTANCE,
     heading_step=horizontal_cr.D_HEADING,
 )
-VERTICAL_CR_MVP = MVPMapping(
-    DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, hpz_m=vertical_cr.VERTICAL_MARGIN, vertical=True
-)
+VERTICAL_CR_MVP = MVPMapping(DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, hpz_m=vertical_cr.VERTICAL_MARGIN, vertical=True)
 SECTOR_CR_MVP = MVPMapping(
     lambda: SteerToGoal("sin(drift)", "cos(drift)", sector_cr.D_HEADING, 2),
     rmethh="BOTH",

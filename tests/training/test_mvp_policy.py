@@ -13,9 +13,9 @@ import bluesky_gym  # noqa: F401  (registers the environments)
 from bluesky_gym.cli import main
 from bluesky_gym.core.conflicts import PZ_HEIGHT
 from bluesky_gym.core.geo import kwikdist
-from bluesky_gym.training.evaluation import evaluate, make_policy, reference_scores
-from bluesky_gym.envs.registry import ENVIRONMENTS
 from bluesky_gym.core.units import KTS
+from bluesky_gym.envs.registry import ENVIRONMENTS
+from bluesky_gym.training.evaluation import evaluate, make_policy, reference_scores
 from bluesky_gym.training.policies import SECTOR_CR_MVP, mvp_mapping, mvp_policy, reference_names, reference_policy
 
 #: Env -> (decision steps flown, time to loss of separation of the head-on intruder [s]).
