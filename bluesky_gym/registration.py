@@ -22,9 +22,8 @@ def available_envs() -> list[str]:
 def register_envs() -> None:
     """Register every BlueSky-Gym id with Gymnasium (idempotent).
 
-    The seven paper environments (with their native vector environments as vector entry points),
-    and the centralised multi-agent environments (``SectorCRCentralised-v0``,
-    ``MergeCentralised-v0``, ``HorizontalCRCentralised-v0``).
+    Every row of the environment table (with its native vector environment as vector entry
+    point), and the centralised id of every multi-agent form that has one.
 
     The ids are registered without Gymnasium's time limit: each environment's task owns its limit
     (``gym.make(id, max_episode_steps=N)`` and ``gym.make_vec(..., max_episode_steps=N)`` set it,

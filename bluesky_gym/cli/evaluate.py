@@ -37,6 +37,7 @@ from typing import Any
 from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int
 from bluesky_gym.cli.train import algorithm
 from bluesky_gym.core.extras import MissingDependencyError
+from bluesky_gym.tasks import REFERENCE_POLICIES
 
 
 def add_parser(subparsers: Any) -> None:
@@ -60,7 +61,7 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _stem(spec: str) -> str:
-    if spec in ("random", "classical", "mvp"):
+    if spec in REFERENCE_POLICIES:
         return f"eval_{spec}"
     p = Path(spec)
     parts = [x for x in (p.parent.parent.name, p.parent.name, p.stem) if x] if p.suffix == ".zip" else [p.parent.name, p.name]

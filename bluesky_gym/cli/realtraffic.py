@@ -262,6 +262,7 @@ def run_stats(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import bluesky_gym
+    from bluesky_gym.envs.registry import entry
     from bluesky_gym.realtraffic.report import clean_path, command_line, stats_document, stats_lines
     from bluesky_gym.training.evaluation import evaluate, load_policy
     from bluesky_gym.training.policies import Policy, reference_policy
@@ -277,7 +278,9 @@ def run_stats(args: argparse.Namespace) -> int:
             # fresh per collection: the random policy's generator restarts
             low, high = np.asarray(getattr(space, "low")), np.asarray(getattr(space, "high"))  # noqa: B009 - a Box
             # rows: random, classical, then one per algorithm of the models (its seeds averaged)
-            acting: dict[str, list[Policy]] = {p: [reference_policy(p, "RealTrafficCREnv-v0", low, high)] for p in ("random", "classical")}
+            acting: dict[str, list[Policy]] = {
+                p: [reference_policy(p, "RealTrafficCREnv-v0", low, high)] for p in entry("RealTrafficCREnv-v0").reference_policies
+            }
             trained: dict[str, list[Policy]] = {}
             for path in models:
                 loaded = load_policy(path)

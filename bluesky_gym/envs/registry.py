@@ -1,24 +1,32 @@
 """The table of environments: one row per environment, read by every part of the package.
 
-Registration with Gymnasium, rendering, the CLI, the benchmarks and the multi-agent package all
-look environments up here; no other module keeps a list of ids, classes or scenes. A row names its task, its
-single and vector environment classes, its render scene and its multi-agent form (if any) by
+Registration with Gymnasium, rendering, the documentation pages, the CLI, the reference policies,
+the result plots, the benchmarks and the multi-agent package all look environments up here; no
+other module keeps a table keyed by environment id. A row holds everything that is one
+environment's: its task, its single and vector environment classes (the environment class's
+docstring is its documentation page), its render scene, its classical controller, its MVP mapping,
+its KPI panels, its ``-v1`` configuration and its multi-agent form (if any). Code is named by
 import path (``"module:attribute"``), resolved on first use: reading the table imports no
-environment, so ``import bluesky_gym`` stays cheap and the table sits below every reader.
+environment, so ``import bluesky_gym`` stays cheap and the table sits below every reader (a
+controller in :mod:`bluesky_gym.training` is named here and looked up there).
 
 The episode limit is the task's (:attr:`bluesky_gym.tasks.base.Task.max_episode_steps`): the
 task owns the limit, the table reports it.
 
-Adding an environment is adding a row to :data:`ENVIRONMENTS`.
+Adding an environment is adding a row to :data:`PAPER_ENVIRONMENTS` (its ``-v1`` row follows
+from the row's ``v1`` field).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import importlib.util
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
+
+from bluesky_gym.tasks import REFERENCE_POLICIES
 
 #: The plan view drawn for a task without a scene of its own (every aircraft around the ownship).
 GENERIC_SCENE = "bluesky_gym.render.scenes.generic:generic_scene"
@@ -47,6 +55,10 @@ class MultiAgentEntry:
         options: Configuration values of this name, ``(name, value)`` pairs of the task's config
             (a ``_v1`` name: float32 spaces with finite bounds and the ``-v1`` fixes the
             multi-agent form has).
+        v1: The ``-v1`` fixes of the single-agent row that this multi-agent form has (its
+            ``_v1`` name sets them, with float32 spaces); the others change functions of the
+            single-agent step that the multi-agent task does not share (docs/multiagent.md lists
+            them).
     """
 
     name: str
@@ -56,6 +68,7 @@ class MultiAgentEntry:
     centralised_env: str
     scene: str
     options: tuple[tuple[str, Any], ...] = ()
+    v1: tuple[tuple[str, Any], ...] = ()
 
     def task_class(self) -> type[Any]:
         """The batched multi-agent task class."""
@@ -87,6 +100,17 @@ class EnvEntry:
             is registered, listed and described either way; its first reset prepares the data.
         data_note: Import path of a no-argument callable saying, when the data are not prepared,
             where they would go and how to prepare them (None when they are).
+        classical: Import path of the classical controller (a no-argument factory of a
+            :class:`bluesky_gym.training.policies.Policy`), the ``classical`` reference policy;
+            None: the environment has none.
+        mvp: Import path of the :class:`bluesky_gym.multiagent.policies.MVPMapping` of the
+            ``mvp`` reference policy; None for an environment without traffic (nothing to
+            resolve). A ``-v1`` configuration with ``speed_step_in_knots`` scales its speed step.
+        kpis: The panels of the environment's KPI figure, ``(episode-log column, axis label)``
+            pairs (``kpis_<env>.png``); empty: every KPI that varies.
+        v1: The configuration of the ``-v1`` id made from this row: the fields that fix the
+            ``-v0`` defects of its task (float32 spaces with finite bounds are added;
+            docs/environments-v1.md lists them with reasons); None: no ``-v1`` id.
     """
 
     id: str
@@ -98,6 +122,10 @@ class EnvEntry:
     options: tuple[tuple[str, Any], ...] = ()
     data: str | None = None
     data_note: str | None = None
+    classical: str | None = None
+    mvp: str | None = None
+    kpis: tuple[tuple[str, str], ...] = ()
+    v1: tuple[tuple[str, Any], ...] | None = None
 
     def task_class(self) -> type[Any]:
         """The batched task class."""
@@ -120,6 +148,12 @@ class EnvEntry:
         return builder
 
     @property
+    def reference_policies(self) -> tuple[str, ...]:
+        """The reference policies of this environment, in :data:`REFERENCE_POLICIES` order: ``random``, and ``classical``, ``mvp`` where named."""
+        has = {"random": True, "classical": self.classical is not None, "mvp": self.mvp is not None}
+        return tuple(name for name in REFERENCE_POLICIES if has[name])
+
+    @property
     def max_episode_steps(self) -> int:
         """Default episode limit in decision steps (the task's, for this id's configuration)."""
         cls = self.task_class()
@@ -140,14 +174,27 @@ class EnvEntry:
         return str(resolve(self.data_note)()) if self.data_note else "not prepared"
 
 
-#: Every environment, in the order of the paper.
-ENVIRONMENTS: tuple[EnvEntry, ...] = (
+#: Import path of the module holding the classical controllers and MVP mappings the rows name.
+_POLICIES = "bluesky_gym.training.policies"
+#: Episode-log column of the mean |altitude - target| [m] while flying (derived by the plots from the altitude reward).
+ALTITUDE_ERROR = "altitude_error_m"
+
+#: The paper's environments (``-v0``) and the recorded-traffic one, in the order of the paper.
+PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     EnvEntry(
         id="DescentEnv-v0",
         task="bluesky_gym.tasks.descent:DescentTask",
         env="bluesky_gym.envs.descent_env:DescentEnv",
         vector_env="bluesky_gym.envs.descent_env:DescentVectorEnv",
         scene="bluesky_gym.render.scenes.descent:descent_scene",
+        classical=f"{_POLICIES}:DescentController",
+        kpis=(
+            ("return", "episode return"),
+            (ALTITUDE_ERROR, "mean altitude error [m]"),
+            ("final_altitude", "final altitude [m] (-100: crashed)"),
+            ("length", "episode length [steps]"),
+        ),
+        v1=(("hold_altitude_at_zero", True),),
     ),
     EnvEntry(
         id="VerticalCREnv-v0",
@@ -155,6 +202,16 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.envs.vertical_cr_env:VerticalCREnv",
         vector_env="bluesky_gym.envs.vertical_cr_env:VerticalCRVectorEnv",
         scene="bluesky_gym.render.scenes.vertical_cr:vertical_cr_scene",
+        classical=f"{_POLICIES}:VerticalCRController",
+        mvp=f"{_POLICIES}:VERTICAL_CR_MVP",
+        kpis=(
+            ("return", "episode return"),
+            (ALTITUDE_ERROR, "mean altitude error [m]"),
+            ("final_altitude", "final altitude [m] (-100: crashed)"),
+            ("kpi_los_count", "losses of separation / episode"),
+            ("kpi_min_separation_nm", "minimum separation [NM]"),
+        ),
+        v1=(("hold_altitude_at_zero", True), ("normalise_vertical_speed", True)),
     ),
     EnvEntry(
         id="PlanWaypointEnv-v0",
@@ -162,6 +219,14 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.envs.plan_waypoint_env:PlanWaypointEnv",
         vector_env="bluesky_gym.envs.plan_waypoint_env:PlanWaypointVectorEnv",
         scene="bluesky_gym.render.scenes.plan_waypoint:plan_waypoint_scene",
+        classical=f"{_POLICIES}:PlanWaypointController",
+        kpis=(
+            ("return", "episode return"),
+            ("waypoints_completed", "waypoints completed"),
+            ("kpi_track_distance_km", "track distance [km]"),
+            ("length", "episode length [steps]"),
+        ),
+        v1=(("airborne_start", True), ("reach_same_step", True)),
     ),
     EnvEntry(
         id="HorizontalCREnv-v0",
@@ -176,7 +241,19 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
             centralised_id="HorizontalCRCentralised-v0",
             centralised_env="bluesky_gym.multiagent.centralised:HorizontalCRCentralisedEnv",
             scene="bluesky_gym.multiagent.render:horizontal_cr_scene",
+            v1=(("airborne_start", True),),
         ),
+        classical=f"{_POLICIES}:HorizontalCRController",
+        mvp=f"{_POLICIES}:HORIZONTAL_CR_MVP",
+        kpis=(
+            ("return", "episode return"),
+            ("kpi_success", "success rate"),
+            ("kpi_los_count", "losses of separation / episode"),
+            ("kpi_min_separation_nm", "minimum separation [NM]"),
+            ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+            ("kpi_extra_track_km", "extra track [km]"),
+        ),
+        v1=(("airborne_start", True),),
     ),
     EnvEntry(
         id="SectorCREnv-v0",
@@ -191,7 +268,18 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
             centralised_id="SectorCRCentralised-v0",
             centralised_env="bluesky_gym.multiagent.centralised:SectorCRCentralisedEnv",
             scene="bluesky_gym.multiagent.render:sector_cr_scene",
+            v1=(("flight_level_altitude", True), ("speed_step_in_knots", True)),
         ),
+        classical=f"{_POLICIES}:SectorCRController",
+        mvp=f"{_POLICIES}:SECTOR_CR_MVP",
+        kpis=(
+            ("return", "episode return"),
+            ("kpi_los_count", "losses of separation / episode"),
+            ("kpi_min_separation_nm", "minimum separation [NM]"),
+            ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+            ("kpi_extra_track_km", "extra track [km]"),
+        ),
+        v1=(("flight_level_altitude", True), ("speed_step_in_knots", True), ("exit_ends_episode", True)),
     ),
     EnvEntry(
         id="StaticObstacleEnv-v0",
@@ -199,6 +287,15 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.envs.static_obstacle_env:StaticObstacleEnv",
         vector_env="bluesky_gym.envs.static_obstacle_env:StaticObstacleVectorEnv",
         scene="bluesky_gym.render.scenes.static_obstacle:static_obstacle_scene",
+        classical=f"{_POLICIES}:StaticObstacleController",
+        kpis=(
+            ("return", "episode return"),
+            ("kpi_success", "success rate"),
+            ("crashed", "restricted-area entries"),
+            ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+            ("kpi_time_to_goal_s", "time to goal [s]"),
+        ),
+        v1=(("flight_level_altitude", True), ("speed_step_in_knots", True), ("step_reward", True), ("clear_start", True)),
     ),
     EnvEntry(
         id="MergeEnv-v0",
@@ -214,6 +311,16 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
             centralised_env="bluesky_gym.multiagent.centralised:MergeCentralisedEnv",
             scene="bluesky_gym.multiagent.render:merge_scene",
         ),
+        classical=f"{_POLICIES}:MergeController",
+        mvp=f"{_POLICIES}:MERGE_MVP",
+        kpis=(
+            ("return", "episode return"),
+            ("faf_reach", "reached the FAF"),
+            ("kpi_los_count", "losses of separation / episode"),
+            ("kpi_min_separation_nm", "minimum separation [NM]"),
+            ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
+        ),
+        v1=(("faf_same_step", True), ("faf_distance_in_nm", True), ("margins_in_km", True), ("normalise_airspeed", True)),
     ),
     EnvEntry(
         id="RealTrafficCREnv-v0",
@@ -223,68 +330,30 @@ ENVIRONMENTS: tuple[EnvEntry, ...] = (
         scene="bluesky_gym.render.scenes.real_traffic:real_traffic_scene",
         data="bluesky_gym.realtraffic.cache:default_data_ready",
         data_note="bluesky_gym.realtraffic.cache:default_data_note",
+        classical=f"{_POLICIES}:RealTrafficController",
+        v1=(),
     ),
 )
 
 
-#: The configuration of every ``-v1`` id: float32 spaces with finite bounds that hold, and the
-#: fields that fix the ``-v0`` defects of its task (docs/environments-v1.md lists them with reasons).
-V1_OPTIONS: dict[str, tuple[tuple[str, Any], ...]] = {
-    "DescentEnv-v0": (("hold_altitude_at_zero", True),),
-    "VerticalCREnv-v0": (("hold_altitude_at_zero", True), ("normalise_vertical_speed", True)),
-    "PlanWaypointEnv-v0": (("airborne_start", True), ("reach_same_step", True)),
-    "HorizontalCREnv-v0": (("airborne_start", True),),
-    "SectorCREnv-v0": (("flight_level_altitude", True), ("speed_step_in_knots", True), ("exit_ends_episode", True)),
-    "StaticObstacleEnv-v0": (("flight_level_altitude", True), ("speed_step_in_knots", True), ("step_reward", True), ("clear_start", True)),
-    "MergeEnv-v0": (("faf_same_step", True), ("faf_distance_in_nm", True), ("margins_in_km", True), ("normalise_airspeed", True)),
-    "RealTrafficCREnv-v0": (),
-}
-
-
-#: The ``-v1`` fixes of :data:`V1_OPTIONS` that the multi-agent form of a problem has (its ``_v1``
-#: name): the others change functions of the single-agent step that the multi-agent task does not
-#: share (docs/multiagent.md lists them).
-MULTIAGENT_V1_OPTIONS: dict[str, tuple[tuple[str, Any], ...]] = {
-    "HorizontalCREnv-v0": (("airborne_start", True),),
-    "SectorCREnv-v0": (("flight_level_altitude", True), ("speed_step_in_knots", True)),
-    "MergeEnv-v0": (),
-}
-
-
-def _v1_multiagent(row: EnvEntry) -> MultiAgentEntry | None:
-    """The ``_v1`` multi-agent form of a ``-v0`` row's (None without one)."""
-    m = row.multiagent
+def _v1_multiagent(m: MultiAgentEntry | None) -> MultiAgentEntry | None:
+    """The ``_v1`` multi-agent form of a ``_v0`` one (None without one)."""
     if m is None:
         return None
-    return MultiAgentEntry(
-        name=m.name.replace("_v0", "_v1"),
-        task=m.task,
-        parallel_env=m.parallel_env,
-        centralised_id=None,
-        centralised_env=m.centralised_env,
-        scene=m.scene,
-        options=(("float32_spaces", True), *MULTIAGENT_V1_OPTIONS[row.id]),
-    )
+    return dataclasses.replace(m, name=m.name.replace("_v0", "_v1"), centralised_id=None, options=(("float32_spaces", True), *m.v1))
 
 
 def _v1(row: EnvEntry) -> EnvEntry:
-    """The ``-v1`` row of a ``-v0`` row: the same classes and scene, the ``-v1`` configuration."""
-    return EnvEntry(
-        id=row.id.replace("-v0", "-v1"),
-        task=row.task,
-        env=row.env,
-        vector_env=row.vector_env,
-        scene=row.scene,
-        multiagent=_v1_multiagent(row),
-        options=(("float32_spaces", True), *V1_OPTIONS[row.id]),
-        data=row.data,
-        data_note=row.data_note,
+    """The ``-v1`` row of a ``-v0`` row: the same classes, scene, policies and panels, the ``-v1`` configuration."""
+    assert row.v1 is not None
+    return dataclasses.replace(
+        row, id=row.id.replace("-v0", "-v1"), multiagent=_v1_multiagent(row.multiagent), options=(("float32_spaces", True), *row.v1), v1=None
     )
 
 
 #: Every environment: the paper's seven (``-v0``) and the recorded-traffic one, then their ``-v1``
 #: versions.
-ENVIRONMENTS = (*ENVIRONMENTS, *(_v1(row) for row in ENVIRONMENTS if row.id in V1_OPTIONS))
+ENVIRONMENTS: tuple[EnvEntry, ...] = (*PAPER_ENVIRONMENTS, *(_v1(row) for row in PAPER_ENVIRONMENTS if row.v1 is not None))
 
 
 def env_ids() -> list[str]:

@@ -30,33 +30,25 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
-from bluesky_gym.envs.registry import multiagent_entries, multiagent_entry
+from bluesky_gym.envs.registry import multiagent_entries, multiagent_entry, resolve
 from bluesky_gym.multiagent.registration import centralised_ids, register_envs
 
-_PARALLEL_NAMES = (
-    "parallel_env",
-    "BlueSkyParallelEnv",
-    "SectorCRParallelEnv",
-    "MergeParallelEnv",
-    "HorizontalCRParallelEnv",
-)
-_TASK_NAMES = {
-    "MultiAgentTask": "base",
-    "SectorCRMultiAgentTask": "sector_cr",
-    "MergeMultiAgentTask": "merge",
-    "HorizontalCRMultiAgentTask": "horizontal_cr",
-}
 
-__all__ = [
-    "centralised_ids",
-    "make_task",
-    "names",
-    "register_envs",
-    "require_pettingzoo",
-    "task_class",
-    *_PARALLEL_NAMES,
-    *_TASK_NAMES,
-]
+def _lazy_exports() -> dict[str, str]:
+    """The names imported on first use, with their import paths: the generic ones, and each table row's parallel environment and task."""
+    out = {
+        "parallel_env": "bluesky_gym.multiagent.parallel:parallel_env",
+        "BlueSkyParallelEnv": "bluesky_gym.multiagent.parallel:BlueSkyParallelEnv",
+        "MultiAgentTask": "bluesky_gym.multiagent.base:MultiAgentTask",
+    }
+    for m in multiagent_entries():
+        out.update({path.rpartition(":")[2]: path for path in (m.parallel_env, m.task)})
+    return out
+
+
+_LAZY = _lazy_exports()
+
+__all__ = ["centralised_ids", "make_task", "names", "register_envs", "require_pettingzoo", "task_class", *_LAZY]
 
 
 def names() -> list[str]:
@@ -97,10 +89,6 @@ def task_class(name: str) -> type[Any]:
 
 
 def __getattr__(name: str) -> Any:
-    import importlib
-
-    if name in _PARALLEL_NAMES:
-        return getattr(importlib.import_module("bluesky_gym.multiagent.parallel"), name)
-    if name in _TASK_NAMES:
-        return getattr(importlib.import_module(f"bluesky_gym.multiagent.{_TASK_NAMES[name]}"), name)
+    if name in _LAZY:
+        return resolve(_LAZY[name])
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -215,6 +215,11 @@ class MultiAgentTask(Task):
     #: Configuration switches of the single-agent step that this multi-agent form does not have
     #: (setting one raises ``ValueError`` instead of being ignored).
     unsupported_options: ClassVar[tuple[str, ...]] = ()
+    #: Heading change [deg] of a full heading action (action 0); the classical rule and MVP steer with it.
+    heading_step: ClassVar[float]
+    #: CAS change [m/s] of a full speed action (action 1), or None without a speed action (a
+    #: configuration with ``speed_step_in_knots`` makes the step this many knots).
+    speed_step: ClassVar[float | None] = None
     stats: MultiAgentStats  # type: ignore[assignment]
 
     def __init_subclass__(cls, **kwargs: Any) -> None:

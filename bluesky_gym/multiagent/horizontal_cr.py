@@ -105,6 +105,7 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
     state_origin: ClassVar[tuple[float, float]] = (hc.START_LAT, hc.START_LON)
     state_scale_nm: ClassVar[float] = hc.DISTANCE_SCALE / NM2KM
     completion: ClassVar[str] = "arrival"
+    heading_step: ClassVar[float] = hc.D_HEADING
     scenario: hc.HorizontalCRTask
 
     @property

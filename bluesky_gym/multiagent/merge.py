@@ -55,6 +55,8 @@ class MergeMultiAgentTask(MultiAgentTask):
     completion: ClassVar[str] = "arrival"
     unsupported_options: ClassVar[tuple[str, ...]] = ("faf_same_step", "faf_distance_in_nm", "margins_in_km", "normalise_airspeed")
     num_neighbours: ClassVar[int] = mg.NUM_AC_STATE
+    heading_step: ClassVar[float] = mg.D_HEADING
+    speed_step: ClassVar[float | None] = mg.D_SPEED
     scenario: mg.MergeTask
 
     def build_observation_spec(self) -> dict[str, BoxSpec]:

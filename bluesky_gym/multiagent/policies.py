@@ -14,7 +14,7 @@ slots are ignored by the task). The single-agent reference policies
   :class:`MVPMapping`: for a multi-agent task, RMETHH ``BOTH`` (heading and speed actions) or
   ``HDG`` (heading only) with the task's intrusion distance as protected zone, every agent
   without an active resolution steering to its goal; for a single-agent environment, the
-  environment's mapping (:data:`bluesky_gym.training.policies.MVP`) with its nominal policy
+  environment's mapping (named by its registry row, :func:`bluesky_gym.training.policies.mvp_mapping`) with its nominal policy
   (docs/baselines.md).
 * :class:`SB3Policy`: a Stable-Baselines3 model, shared by every agent of a multi-agent task
   (parameter sharing), optionally with the observation normalisation it was trained with.
@@ -44,7 +44,6 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
 from bluesky_gym.core.units import KTS, NM
 from bluesky_gym.multiagent.base import Array, MultiAgentTask
-from bluesky_gym.tasks import horizontal_cr, merge, sector_cr
 from bluesky_gym.tasks.descent import ACTION_2_MS
 
 Obs = dict[str, Array]
@@ -52,20 +51,6 @@ MIN_ACTION = 0.01  # -: |a| <= VS_SELECT_EPS / ACTION_2_MS (0.008) selects BlueS
 
 DEFAULT_LOOKAHEAD = 120.0  # s: conflict look-ahead of the classical rule
 DEFAULT_MARGIN = 1.2  # detection radius / intrusion distance of the classical rule
-
-#: Heading change [deg] of a full heading action, per multi-agent environment.
-D_HEADING: dict[str, float] = {
-    "sector_cr_v0": sector_cr.D_HEADING,
-    "merge_v0": merge.D_HEADING,
-    "horizontal_cr_v0": horizontal_cr.D_HEADING,
-}
-
-
-#: CAS change [m/s] of a full speed action, per multi-agent environment with a speed action.
-D_SPEED: dict[str, float] = {
-    "sector_cr_v0": sector_cr.D_VELOCITY,
-    "merge_v0": merge.D_SPEED,
-}
 
 
 def bound_task(env: Any) -> Any:
@@ -183,7 +168,7 @@ class GeometricCRPolicy(Policy):
         north = d * np.cos(q) + dv * tcpa
         side = (np.degrees(np.arctan2(east, north)) - s.hdg + 180.0) % 360.0 - 180.0
         turn = np.where(side > 0.0, -1.0, 1.0)  # passes on the right: turn left, and vice versa
-        steer = np.clip(-task.agent_drift() / D_HEADING[type(task).name], -1.0, 1.0)
+        steer = np.clip(-task.agent_drift() / task.heading_step, -1.0, 1.0)
         heading = np.where(has_conflict, turn, steer)
         out = np.zeros((task.n_envs, task.n_agents, *task.action_spec.shape))
         out[..., 0] = heading
@@ -217,15 +202,14 @@ class MVPMapping:
 
 
 def multiagent_mvp_mapping(task: MultiAgentTask) -> MVPMapping:
-    """MVP's mapping of a multi-agent task: RMETHH ``BOTH`` with a speed action, else ``HDG``; the task's intrusion distance."""
-    problem = type(task).name  # the _v0 name: a _v1 name has the same steps, the speed step in knots where configured
-    if problem not in D_HEADING:
-        raise ValueError(f"no MVP mapping for {task.name}; available: {', '.join(D_HEADING)}")
-    speed_step = D_SPEED.get(problem)
+    """MVP's mapping of a multi-agent task: RMETHH ``BOTH`` with a speed action, else ``HDG``; the task's action steps and intrusion distance."""
+    if getattr(task, "heading_step", None) is None:
+        raise ValueError(f"no MVP mapping for {task.name}: it has no heading action step (heading_step)")
+    speed_step = task.speed_step
     if speed_step is not None and getattr(task.config, "speed_step_in_knots", False):
         speed_step *= KTS
     return MVPMapping(
-        rmethh="BOTH" if speed_step is not None else "HDG", rpz_nm=task.intrusion_distance, heading_step=D_HEADING[problem], speed_step=speed_step
+        rmethh="BOTH" if speed_step is not None else "HDG", rpz_nm=task.intrusion_distance, heading_step=task.heading_step, speed_step=speed_step
     )
 
 

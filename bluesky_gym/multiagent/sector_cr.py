@@ -57,6 +57,8 @@ class SectorCRMultiAgentTask(MultiAgentTask):
     state_scale_nm: ClassVar[float] = STATE_SCALE_NM
     completion: ClassVar[str] = "exit"
     unsupported_options: ClassVar[tuple[str, ...]] = ("exit_ends_episode",)
+    heading_step: ClassVar[float] = sc.D_HEADING
+    speed_step: ClassVar[float | None] = sc.D_VELOCITY
     config: sc.SectorCRConfig
     num_neighbours: ClassVar[int] = sc.NUM_AC_STATE
     scenario: sc.SectorCRTask

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from bluesky_gym.realtraffic.fidelity import summary_table
+from bluesky_gym.tasks import REFERENCE_POLICIES  # reference policies first, in this order; trained models after them
 
 #: ``kind`` of the two documents, and the version of their layout.
 FIDELITY_KIND = "realtraffic-fidelity"
@@ -40,8 +41,6 @@ STATS_HEADER = (
     "| collection | flights | aircraft-hours | LoS per flight-hour (nobody acts) | policy | return | LoS / episode | min sep [NM] | route dev [NM] |"
 )
 STATS_RULE = "|---|---:|---:|---:|---|---:|---:|---:|---:|"
-#: Reference policies first, in this order; trained models after them.
-REFERENCE_POLICIES = ("random", "classical")
 MARKER = re.compile(r"^<!-- (/?)realtraffic:([A-Za-z0-9_.-]+) -->$")
 
 

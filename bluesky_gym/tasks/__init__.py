@@ -1,1 +1,7 @@
 """The MDPs as batched tasks: one task per module, the step pipeline in :mod:`bluesky_gym.tasks.base`."""
+
+#: The reference policies a task is scored against, in table order: uniform random actions, the
+#: task's hand-written classical controller, and BlueSky's MVP conflict resolution where the task
+#: has traffic. Each environment's registry row (:class:`bluesky_gym.envs.registry.EnvEntry`)
+#: names its own controller and MVP mapping; this tuple is the one spelling of the names.
+REFERENCE_POLICIES: tuple[str, ...] = ("random", "classical", "mvp")

@@ -4,8 +4,8 @@
   one line per algorithm: the mean over seeds of each run's smoothed curve, with a 95%
   bootstrap confidence band over seeds (like the paper's figure).
 * ``kpis_<env>.png``: the same for return and the KPIs that matter for the environment
-  (:data:`ENV_KPIS`; e.g. altitude error and final altitude for Descent, losses of separation and
-  drift for SectorCR).
+  (the ``kpis`` of its registry row, :class:`bluesky_gym.envs.registry.EnvEntry`; e.g. altitude
+  error and final altitude for Descent, losses of separation and drift for SectorCR).
 * Reference policies (``random``, ``classical``, and ``mvp`` where computed) are horizontal lines
   on the return panels. Runs are grouped by configuration: two configurations of an algorithm
   are two lines, each labelled by what differs, with their own seed count. Runs that have not
@@ -37,6 +37,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.envs.registry import ALTITUDE_ERROR, ENVIRONMENTS
+from bluesky_gym.tasks import REFERENCE_POLICIES
 from bluesky_gym.training.io import DamagedFileError, atomic_path, atomic_write_json, read_csv_rows, read_csv_text, read_json
 
 if TYPE_CHECKING:
@@ -54,60 +56,8 @@ CURVE_METRICS: tuple[tuple[str, str], ...] = (
     ("kpi_time_to_goal_s", "time to goal [s]"),
     ("length", "episode length [steps]"),
 )
-#: Derived episode metric: mean |altitude - target| [m] while flying (Descent, VerticalCR), from the altitude reward.
-ALTITUDE_ERROR = "altitude_error_m"
-#: The panels of ``kpis_<env>.png`` per environment: the quantities that vary and matter there.
-ENV_KPIS: dict[str, tuple[tuple[str, str], ...]] = {
-    "DescentEnv-v0": (
-        ("return", "episode return"),
-        (ALTITUDE_ERROR, "mean altitude error [m]"),
-        ("final_altitude", "final altitude [m] (-100: crashed)"),
-        ("length", "episode length [steps]"),
-    ),
-    "VerticalCREnv-v0": (
-        ("return", "episode return"),
-        (ALTITUDE_ERROR, "mean altitude error [m]"),
-        ("final_altitude", "final altitude [m] (-100: crashed)"),
-        ("kpi_los_count", "losses of separation / episode"),
-        ("kpi_min_separation_nm", "minimum separation [NM]"),
-    ),
-    "PlanWaypointEnv-v0": (
-        ("return", "episode return"),
-        ("waypoints_completed", "waypoints completed"),
-        ("kpi_track_distance_km", "track distance [km]"),
-        ("length", "episode length [steps]"),
-    ),
-    "HorizontalCREnv-v0": (
-        ("return", "episode return"),
-        ("kpi_success", "success rate"),
-        ("kpi_los_count", "losses of separation / episode"),
-        ("kpi_min_separation_nm", "minimum separation [NM]"),
-        ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
-        ("kpi_extra_track_km", "extra track [km]"),
-    ),
-    "SectorCREnv-v0": (
-        ("return", "episode return"),
-        ("kpi_los_count", "losses of separation / episode"),
-        ("kpi_min_separation_nm", "minimum separation [NM]"),
-        ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
-        ("kpi_extra_track_km", "extra track [km]"),
-    ),
-    "StaticObstacleEnv-v0": (
-        ("return", "episode return"),
-        ("kpi_success", "success rate"),
-        ("crashed", "restricted-area entries"),
-        ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
-        ("kpi_time_to_goal_s", "time to goal [s]"),
-    ),
-    "MergeEnv-v0": (
-        ("return", "episode return"),
-        ("faf_reach", "reached the FAF"),
-        ("kpi_los_count", "losses of separation / episode"),
-        ("kpi_min_separation_nm", "minimum separation [NM]"),
-        ("kpi_mean_abs_drift_deg", "mean |drift| [deg]"),
-    ),
-}
-REFERENCE_STYLES = {"random": ("grey", ":"), "classical": ("black", "--"), "mvp": ("tab:purple", "-.")}
+#: Colour and line style of each reference policy's line.
+REFERENCE_STYLES = dict(zip(REFERENCE_POLICIES, (("grey", ":"), ("black", "--"), ("tab:purple", "-.")), strict=True))
 GRID_POINTS = 100
 WINDOW_FRACTION = 0.05
 BOOTSTRAP = 2000
@@ -343,11 +293,11 @@ def _fill_gaps(curve: Array) -> Array:
 
 
 def kpi_panels(env_id: str, runs: Sequence[Run]) -> list[tuple[str, str]]:
-    """The (metric, label) panels of an environment's KPI figure: its :data:`ENV_KPIS` entry, else every KPI that varies.
+    """The (metric, label) panels of an environment's KPI figure: its registry row's ``kpis``, else every KPI that varies.
 
     Metrics without a finite value in any run are left out.
     """
-    table = ENV_KPIS.get(env_id, ENV_KPIS.get(env_id.rsplit("-v", 1)[0] + "-v0"))  # later versions: the same quantities
+    table = next((e.kpis for e in ENVIRONMENTS if e.id == env_id and e.kpis), None)  # a -v1 row has its -v0 row's
     candidates = table if table is not None else CURVE_METRICS
     out = []
     for metric, label in candidates:
@@ -592,7 +542,7 @@ def find_references(run_dirs: Sequence[Path], env_ids: Sequence[str]) -> dict[st
                 if env_id not in found and p.exists():
                     try:
                         data = read_json(p)
-                        found[env_id] = reference_returns({k: data[k] for k in ("random", "classical", "mvp") if k in data})
+                        found[env_id] = reference_returns({k: data[k] for k in REFERENCE_POLICIES if k in data})
                     except (DamagedFileError, KeyError, TypeError):
                         continue  # a damaged cache: the scores are computed again
     return found

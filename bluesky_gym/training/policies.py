@@ -30,7 +30,8 @@ Two reference policies exist for every environment, so that scores can be normal
 
 These controllers are baselines, not optimised solutions: they show what an agent has to beat.
 
-A third reference exists for the environments with traffic (:data:`MVP`):
+A third reference exists for the environments with traffic (those whose registry row names an
+MVP mapping, ``EnvEntry.mvp``):
 
 * ``mvp``: BlueSky's Modified Voltage Potential conflict resolution
   (:class:`~bluesky_gym.core.resolution.MVPResolver`, the field's classical baseline), with the
@@ -51,6 +52,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.units import FT, KTS, NM, NM2KM
+from bluesky_gym.envs.registry import ENVIRONMENTS, entry, resolve
 from bluesky_gym.multiagent.policies import MIN_ACTION as MIN_ACTION  # the one policy module of every agent layout
 from bluesky_gym.multiagent.policies import MVPMapping as MVPMapping
 from bluesky_gym.multiagent.policies import MVPPolicy as MVPPolicy
@@ -59,6 +61,7 @@ from bluesky_gym.multiagent.policies import Policy as Policy
 from bluesky_gym.multiagent.policies import RandomPolicy as RandomPolicy
 from bluesky_gym.multiagent.policies import SB3Policy as SB3Policy
 from bluesky_gym.multiagent.policies import vertical_speed_action
+from bluesky_gym.tasks import REFERENCE_POLICIES as REFERENCE_POLICIES
 from bluesky_gym.tasks import horizontal_cr, merge, plan_waypoint, sector_cr, static_obstacle, vertical_cr
 from bluesky_gym.tasks import real_traffic as rt
 from bluesky_gym.tasks.descent import ALT_MEAN, ALT_STD, RWY_DIS_MEAN, RWY_DIS_STD, DescentTask
@@ -413,42 +416,28 @@ class SteerToGoal(Policy):
         return out
 
 
-#: MVP's mapping per environment id (environments with traffic). A new environment with the same
-#: action semantics needs only an entry here.
-MVP: dict[str, MVPMapping] = {
-    "HorizontalCREnv-v0": MVPMapping(
-        lambda: SteerToGoal("sin_drift", "cos_drift", horizontal_cr.D_HEADING, 1),
-        rmethh="HDG",
-        rpz_nm=horizontal_cr.INTRUSION_DISTANCE,
-        heading_step=horizontal_cr.D_HEADING,
-    ),
-    "VerticalCREnv-v0": MVPMapping(
-        DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, hpz_m=vertical_cr.VERTICAL_MARGIN, vertical=True
-    ),
-    "SectorCREnv-v0": MVPMapping(
-        lambda: SteerToGoal("sin(drift)", "cos(drift)", sector_cr.D_HEADING, 2),
-        rmethh="BOTH",
-        rpz_nm=sector_cr.INTRUSION_DISTANCE,
-        heading_step=sector_cr.D_HEADING,
-        speed_step=sector_cr.D_VELOCITY,
-    ),
-    "MergeEnv-v0": MVPMapping(
-        lambda: SteerToGoal("sin(drift)", "cos(drift)", merge.D_HEADING, 2),
-        rmethh="BOTH",
-        rpz_nm=merge.INTRUSION_DISTANCE,
-        heading_step=merge.D_HEADING,
-        speed_step=merge.D_SPEED,
-    ),
-}
-
-# The -v1 ids: the same mappings; SectorCR-v1's speed action is in knots (speed_step_in_knots).
-MVP.update(
-    {
-        "HorizontalCREnv-v1": MVP["HorizontalCREnv-v0"],
-        "VerticalCREnv-v1": MVP["VerticalCREnv-v0"],
-        "SectorCREnv-v1": dataclasses.replace(MVP["SectorCREnv-v0"], speed_step=sector_cr.D_VELOCITY * KTS),
-        "MergeEnv-v1": MVP["MergeEnv-v0"],
-    }
+# MVP's mapping of each environment with traffic, named by its registry row (``EnvEntry.mvp``).
+# A -v1 id uses its -v0 mapping; with ``speed_step_in_knots`` (SectorCR-v1) the speed step is in knots.
+HORIZONTAL_CR_MVP = MVPMapping(
+    lambda: SteerToGoal("sin_drift", "cos_drift", horizontal_cr.D_HEADING, 1),
+    rmethh="HDG",
+    rpz_nm=horizontal_cr.INTRUSION_DISTANCE,
+    heading_step=horizontal_cr.D_HEADING,
+)
+VERTICAL_CR_MVP = MVPMapping(DescentController, rmethv="V/S", rpz_nm=vertical_cr.INTRUSION_DISTANCE, hpz_m=vertical_cr.VERTICAL_MARGIN, vertical=True)
+SECTOR_CR_MVP = MVPMapping(
+    lambda: SteerToGoal("sin(drift)", "cos(drift)", sector_cr.D_HEADING, 2),
+    rmethh="BOTH",
+    rpz_nm=sector_cr.INTRUSION_DISTANCE,
+    heading_step=sector_cr.D_HEADING,
+    speed_step=sector_cr.D_VELOCITY,
+)
+MERGE_MVP = MVPMapping(
+    lambda: SteerToGoal("sin(drift)", "cos(drift)", merge.D_HEADING, 2),
+    rmethh="BOTH",
+    rpz_nm=merge.INTRUSION_DISTANCE,
+    heading_step=merge.D_HEADING,
+    speed_step=merge.D_SPEED,
 )
 
 
@@ -476,27 +465,12 @@ class RealTrafficController(Policy):
         return np.stack([heading, np.zeros_like(heading)], axis=1)
 
 
-#: Classical controller factory per environment id.
-CLASSICAL: dict[str, Callable[[], Policy]] = {
-    "DescentEnv-v0": DescentController,
-    "VerticalCREnv-v0": VerticalCRController,
-    "HorizontalCREnv-v0": HorizontalCRController,
-    "PlanWaypointEnv-v0": PlanWaypointController,
-    "SectorCREnv-v0": SectorCRController,
-    "StaticObstacleEnv-v0": StaticObstacleController,
-    "MergeEnv-v0": MergeController,
-    "RealTrafficCREnv-v0": RealTrafficController,
-}
-# The -v1 ids keep the observation scales these controllers read (docs/environments-v1.md).
-CLASSICAL.update({env_id.replace("-v0", "-v1"): controller for env_id, controller in list(CLASSICAL.items())})
-
-REFERENCE_POLICIES = ("random", "classical", "mvp")
 RANDOM_POLICY_SEED = 0
 
 
 def reference_names(env_id: str) -> tuple[str, ...]:
-    """The reference policies that exist for an environment: ``random``, ``classical``, and ``mvp`` where it has traffic."""
-    return tuple(name for name in REFERENCE_POLICIES if name != "mvp" or env_id in MVP)
+    """The reference policies that exist for an environment (its registry row's): ``random``, ``classical``, and ``mvp`` where it has traffic."""
+    return entry(env_id).reference_policies
 
 
 def reference_policy(name: str, env_id: str, action_low: Array, action_high: Array) -> Policy:
@@ -513,16 +487,33 @@ def reference_policy(name: str, env_id: str, action_low: Array, action_high: Arr
     if name == "random":
         return RandomPolicy(action_low, action_high, seed=RANDOM_POLICY_SEED)
     if name == "classical":
-        if env_id not in CLASSICAL:
-            raise ValueError(f"no classical controller for {env_id}; available: {', '.join(CLASSICAL)}")
-        return CLASSICAL[env_id]()
+        return classical_policy(env_id)
     if name == "mvp":
         return mvp_policy(env_id)
     raise ValueError(f"unknown reference policy {name!r}; choose one of {', '.join(REFERENCE_POLICIES)}")
 
 
+def classical_policy(env_id: str) -> Policy:
+    """The ``classical`` reference policy of an environment: the controller its registry row names."""
+    row = entry(env_id)
+    if row.classical is None:
+        raise ValueError(f"no classical controller for {env_id}; available: {', '.join(e.id for e in ENVIRONMENTS if e.classical)}")
+    policy: Policy = resolve(row.classical)()
+    return policy
+
+
+def mvp_mapping(env_id: str) -> MVPMapping:
+    """MVP's mapping of an environment with traffic: its registry row's, the speed step in knots where its configuration says so."""
+    row = entry(env_id)
+    if row.mvp is None:
+        available = ", ".join(e.id for e in ENVIRONMENTS if e.mvp)
+        raise ValueError(f"no MVP mapping for {env_id} (environments without traffic have nothing to resolve); available: {available}")
+    mapping: MVPMapping = resolve(row.mvp)
+    if mapping.speed_step is not None and dict(row.options).get("speed_step_in_knots", False):
+        mapping = dataclasses.replace(mapping, speed_step=mapping.speed_step * KTS)
+    return mapping
+
+
 def mvp_policy(env_id: str) -> MVPPolicy:
     """The ``mvp`` reference policy of an environment with traffic (bind it to that environment before acting)."""
-    if env_id not in MVP:
-        raise ValueError(f"no MVP mapping for {env_id} (environments without traffic have nothing to resolve); available: {', '.join(MVP)}")
-    return MVPPolicy(MVP[env_id], env_id)
+    return MVPPolicy(mvp_mapping(env_id), env_id)

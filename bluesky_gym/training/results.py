@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bluesky_gym.core.extras import require_rliable
+from bluesky_gym.tasks import REFERENCE_POLICIES
 from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.training.evaluation import KPI_COLUMNS, format_number, normalised_score
 from bluesky_gym.training.io import atomic_path, read_csv_rows, read_json
@@ -43,8 +44,6 @@ if TYPE_CHECKING:
 
 #: Bootstrap resamples of every confidence interval on the page.
 BOOTSTRAP = 2000
-#: Reference policies, in the order of the tables (those present in a sweep's references).
-REFERENCE_ORDER = ("random", "classical", "mvp")
 #: The command that reproduces the paper's full grid on a Ray cluster.
 PAPER_GRID_COMMAND = "bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6 --address ray://HEAD:10001 --out sweeps/paper"
 
@@ -195,7 +194,7 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
     for env_id in sorted(by_env):
         rows = []
         ref_returns = {}
-        for name in REFERENCE_ORDER:
+        for name in REFERENCE_POLICIES:
             table = _reference_table(dirs, env_id, name)
             if table is None:
                 continue
@@ -374,7 +373,7 @@ def kpi_table(er: EnvResults) -> list[str]:
     lines = ["| policy | seeds | episodes | " + " | ".join(label for _, label in cols) + " |"]
     lines.append("|---|---:|---:|" + "---:|" * len(cols))
     for r in er.rows:
-        seeds = "–" if r.policy in REFERENCE_ORDER else str(r.runs)
+        seeds = "–" if r.policy in REFERENCE_POLICIES else str(r.runs)
         lines.append(f"| {r.policy} | {seeds} | {r.episodes} | " + " | ".join(_cell(r.kpis.get(c)) for c, _ in cols) + " |")
     return lines
 
@@ -479,7 +478,7 @@ def budgets_section(results: Sequence[EnvResults]) -> list[str]:
                     if r.algo == label and r.final_return is not None
                 ]
                 cells.append(f"{np.mean(scores):.2f} ({len(scores)} seed{'s' if len(scores) != 1 else ''})" if scores else "–")
-            refs = [format_number(er.references[n]) if n in er.references else "–" for n in REFERENCE_ORDER]
+            refs = [format_number(er.references[n]) if n in er.references else "–" for n in REFERENCE_POLICIES]
             lines.append(f"| {er.env_id} | " + " | ".join(cells) + " | " + " | ".join(refs) + " |")
         lines.append("")
     return lines

@@ -72,3 +72,22 @@ def test_the_example_stages_are_plain_functions(guide: types.ModuleType) -> None
     assert set(parts) == {"error", "on_target"}
     rows = task.measure(np.array([1]))
     np.testing.assert_array_equal(task.observe(rows)["speed_error"], obs["speed_error"][1:])
+
+
+def test_the_rows_classical_controller_reaches_the_target(guide: types.ModuleType) -> None:
+    """The guide's row names its pieces by import path; its classical controller flies the example to the target."""
+    from bluesky_gym.envs.registry import resolve
+
+    row = guide.HOLD_ROW
+    assert row.reference_policies == ("random", "classical") and row.vector_env_class() is guide.HoldVectorEnv
+    controller = resolve(row.classical)()
+    env = gym.make(row.id)
+    obs, _ = env.reset(seed=1)
+    for _ in range(guide.HoldTask.max_episode_steps):
+        action = controller.act({k: v[None] for k, v in obs.items()})[0]
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    assert terminated and not truncated and info["kpi_success"] == 1.0
+    v1 = guide.HoldTask.make_config(dict(row.v1))
+    assert v1.float32_spaces

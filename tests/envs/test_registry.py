@@ -76,3 +76,67 @@ def test_making_a_paper_v0_id_gives_no_out_of_date_warning() -> None:
         warnings.simplefilter("error", DeprecationWarning)
         bluesky_gym.register_envs()  # installs the filter for the paper's -v0 ids after the "error" one
         gym.make("DescentEnv-v0").close()
+
+
+def test_rows_name_their_reference_policies_and_kpi_panels() -> None:
+    from bluesky_gym.multiagent.policies import MVPMapping, Policy
+    from bluesky_gym.tasks import REFERENCE_POLICIES
+    from bluesky_gym.training.plotting import CURVE_METRICS
+
+    for e in registry.ENVIRONMENTS:
+        assert e.reference_policies[0] == "random" and set(e.reference_policies) <= set(REFERENCE_POLICIES)
+        assert ("classical" in e.reference_policies) == (e.classical is not None)
+        assert ("mvp" in e.reference_policies) == (e.mvp is not None)
+        if e.classical is not None:
+            assert isinstance(registry.resolve(e.classical)(), Policy)
+        if e.mvp is not None:
+            assert isinstance(registry.resolve(e.mvp), MVPMapping)
+        known = {m for m, _ in CURVE_METRICS} | {registry.ALTITUDE_ERROR, "final_altitude", "waypoints_completed", "kpi_track_distance_km"}
+        known |= {"kpi_extra_track_km", "crashed", "faf_reach"}
+        assert all(metric in known and label for metric, label in e.kpis), e.id
+    for row in registry.PAPER_ENVIRONMENTS:  # a -v1 row: its -v0 row with the -v1 configuration
+        if row.v1 is not None:
+            v1 = registry.entry(row.id.replace("-v0", "-v1"))
+            assert (v1.classical, v1.mvp, v1.kpis, v1.scene) == (row.classical, row.mvp, row.kpis, row.scene)
+            assert v1.options == (("float32_spaces", True), *row.v1)
+
+
+def _string_keyed_tables(tree: object, keys: set[str]) -> list[int]:
+    """Line numbers of dict literals with a key in ``keys``, and of comparisons and subscripts with such a string."""
+    import ast
+
+    assert isinstance(tree, ast.AST)
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Dict) and any(isinstance(k, ast.Constant) and k.value in keys for k in node.keys):
+            lines.append(node.lineno)
+        elif isinstance(node, ast.Subscript) and isinstance(node.slice, ast.Constant) and node.slice.value in keys:
+            lines.append(node.lineno)
+    return lines
+
+
+def test_no_table_keyed_by_environment_outside_the_registry() -> None:
+    """Every per-environment table is a field of the environment's row: no other module keys a dict by an id or multi-agent name."""
+    import ast
+    from pathlib import Path
+
+    keys = {e.id for e in registry.ENVIRONMENTS} | {m.name for m in registry.multiagent_entries()}
+    package = Path(registry.__file__).resolve().parents[1]
+    # The run configuration addresses environments by id, as the config files users write do
+    # (hyperparams.PAPER is configs/paper.toml): an experiment's setting, not the environment's.
+    exempt = {package / "envs" / "registry.py", package / "training" / "hyperparams.py"}
+    found = {}
+    for path in sorted(package.rglob("*.py")):
+        if path in exempt:
+            continue
+        lines = _string_keyed_tables(ast.parse(path.read_text(encoding="utf-8")), keys)
+        if lines:
+            found[str(path.relative_to(package))] = lines
+    assert not found, f"tables keyed by environment outside the registry: {found}"
+
+
+def test_the_table_check_finds_a_table() -> None:
+    import ast
+
+    tree = ast.parse('A = {"MergeEnv-v0": 1}\nB = c["sector_cr_v0"]\nC = {"other": 2}\n')
+    assert _string_keyed_tables(tree, {"MergeEnv-v0", "sector_cr_v0"}) == [1, 2]

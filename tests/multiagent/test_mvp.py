@@ -11,7 +11,7 @@ from bluesky_gym.multiagent.base import Array, MultiAgentTask
 from bluesky_gym.multiagent.evaluation import evaluate
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
-from bluesky_gym.multiagent.policies import D_HEADING, MVPPolicy, Policy
+from bluesky_gym.multiagent.policies import MVPPolicy, Policy
 from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
 
 #: Task -> (decision steps flown, time to loss of separation of the head-on pair [s]).
@@ -28,7 +28,7 @@ class NoAction(Policy):
 
     def act(self, obs: dict[str, Array]) -> Array:
         task = self.task
-        assert task.name in D_HEADING
+        assert task.heading_step > 0.0
         return np.zeros((task.n_envs, task.n_agents, *task.action_spec.shape))
 
 

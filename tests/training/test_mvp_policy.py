@@ -13,8 +13,10 @@ import bluesky_gym  # noqa: F401  (registers the environments)
 from bluesky_gym.cli import main
 from bluesky_gym.core.conflicts import PZ_HEIGHT
 from bluesky_gym.core.geo import kwikdist
+from bluesky_gym.core.units import KTS
+from bluesky_gym.envs.registry import ENVIRONMENTS
 from bluesky_gym.training.evaluation import evaluate, make_policy, reference_scores
-from bluesky_gym.training.policies import MVP, mvp_policy, reference_names, reference_policy
+from bluesky_gym.training.policies import SECTOR_CR_MVP, mvp_mapping, mvp_policy, reference_names, reference_policy
 
 #: Env -> (decision steps flown, time to loss of separation of the head-on intruder [s]).
 HEAD_ON = {
@@ -45,7 +47,7 @@ def _head_on_separation(env_id: str, resolve: bool, n: int = 3) -> np.ndarray:
         sim.delete(e, np.flatnonzero(sim.active[e, 1:]) + 1)
         sim.creconfs(e, 0, 1, 180.0, 0.0, tlosh)
     obs = venv.unwrapped.task.observation()
-    rpz_nm = MVP[env_id].rpz_nm
+    rpz_nm = mvp_mapping(env_id).rpz_nm
     worst = np.full(n, np.inf)
     done = np.zeros(n, bool)
     for _ in range(steps):
@@ -71,7 +73,10 @@ def test_mvp_resolves_a_head_on_conflict(env_id: str) -> None:
 
 def test_mvp_exists_for_the_envs_with_traffic_only() -> None:
     traffic = {"HorizontalCREnv", "VerticalCREnv", "SectorCREnv", "MergeEnv"}
-    assert set(MVP) == {f"{name}-{v}" for name in traffic for v in ("v0", "v1")}
+    assert {e.id for e in ENVIRONMENTS if e.mvp} == {f"{name}-{v}" for name in traffic for v in ("v0", "v1")}
+    # A -v1 id has its -v0 mapping; SectorCR-v1's speed action is in knots (speed_step_in_knots).
+    assert mvp_mapping("SectorCREnv-v1").speed_step == SECTOR_CR_MVP.speed_step * KTS
+    assert mvp_mapping("SectorCREnv-v0") is SECTOR_CR_MVP and mvp_mapping("MergeEnv-v1") is mvp_mapping("MergeEnv-v0")
     assert reference_names("MergeEnv-v0") == reference_names("MergeEnv-v1") == ("random", "classical", "mvp")
     assert reference_names("DescentEnv-v0") == reference_names("DescentEnv-v1") == ("random", "classical")
     with pytest.raises(ValueError, match="no MVP mapping for DescentEnv-v0"):
@@ -154,7 +159,7 @@ def test_mvp_caps_the_ownship_vertical_speed_with_its_own_type() -> None:
     assert followed > 0 and differ > 0
 
 
-@pytest.mark.parametrize("env_id", sorted(MVP))
+@pytest.mark.parametrize("env_id", sorted(e.id for e in ENVIRONMENTS if e.mvp))
 def test_render_and_eval_commands_fly_mvp(env_id: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``render --policy mvp`` (single and batched) and ``eval --model mvp`` work for every environment with MVP."""
     pytest.importorskip("pygame")

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bluesky_gym.envs.registry import ENVIRONMENTS, entry
 from bluesky_gym.registration import available_envs
 from bluesky_gym.training.evaluation import evaluate, make_policy
 from bluesky_gym.training.policies import (
-    CLASSICAL,
     DescentController,
     HorizontalCRController,
     MergeController,
@@ -44,9 +44,11 @@ def test_every_paper_env_has_a_classical_controller() -> None:
         "MergeEnv-v0",
         "RealTrafficCREnv-v0",
     }
-    # The -v1 ids (same observation scales where the controllers read them) use the same controllers.
-    assert set(CLASSICAL) == paper | {e.replace("-v0", "-v1") for e in paper}
-    assert all(CLASSICAL[e] is CLASSICAL[e.replace("-v0", "-v1")] for e in paper)
+    # Every row names its controller; the -v1 ids (same observation scales where the controllers
+    # read them) use their -v0 row's.
+    assert {e.id for e in ENVIRONMENTS if e.classical} == paper | {e.replace("-v0", "-v1") for e in paper}
+    assert all(entry(e).classical == entry(e.replace("-v0", "-v1")).classical for e in paper)
+    assert all(type(reference_policy("classical", e.id, np.zeros(1), np.ones(1))).__name__ == e.classical.rpartition(":")[2] for e in ENVIRONMENTS)
     with pytest.raises(ValueError):
         reference_policy("greedy", "DescentEnv-v0", np.array([-1.0]), np.array([1.0]))
 
