@@ -63,7 +63,7 @@ def run_worker(python: str, mode: str, config: dict[str, Any], timeout: float) -
     """Run one worker measurement in ``python`` and return its result.
 
     Args:
-        python: Path of the interpreter.
+        python: Path of the interpreter (relative to the current directory), or its name on ``PATH``.
         mode: ``"bluesky-core"``, ``"backend-env"`` or ``"reference-env"``.
         config: The mode's configuration (see :mod:`bluesky_gym.benchmarks.worker`).
         timeout: Seconds after which the process is killed.
@@ -73,6 +73,8 @@ def run_worker(python: str, mode: str, config: dict[str, Any], timeout: float) -
         be started.
 
     """
+    found = shutil.which(python)  # a relative path names a file from here, not from the worker's directory
+    python = str(Path(found).absolute()) if found else python
     with tempfile.TemporaryDirectory(prefix="bluesky-gym-bench-") as tmp_name:
         tmp = Path(tmp_name)
         for name in ("worker.py", "timing.py"):

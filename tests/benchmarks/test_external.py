@@ -27,6 +27,16 @@ def test_unknown_mode_is_an_error() -> None:
     assert "exited with code 2" in out["error"]
 
 
+def test_an_interpreter_path_relative_to_the_current_directory_is_found(monkeypatch) -> None:
+    here = Path(sys.executable).parent.parent  # the environment's root: bin/python below it
+    monkeypatch.chdir(here)
+    relative = os.path.relpath(sys.executable, here)
+    assert not Path(relative).is_absolute()
+    out = run_worker(relative, "no-such-mode", {}, timeout=60)
+    assert "exited with code 2" in out["error"]  # it started; not "interpreter not found"
+    assert "interpreter not found: no/such/python" in run_worker("no/such/python", "no-such-mode", {}, timeout=60)["error"]
+
+
 def test_timeout_is_reported(tmp_path: Path) -> None:
     # No interpreter starts within a millisecond, so the timeout always expires.
     out = run_worker(sys.executable, "bluesky-core", {"sets": [], "seconds": 0.01, "dt": 1.0}, timeout=1e-3)
