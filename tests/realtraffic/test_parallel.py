@@ -91,7 +91,7 @@ def test_a_joined_agent_observes_its_aircraft_as_it_appeared(options) -> None:
         obs, *_ = env.step({a: np.zeros(2) for a in env.agents})
         new = [a for a in env.agents if a not in before]
     assert new, "no aircraft appeared in the episode"
-    task = env.task
+    task = env.task.scenario  # the real-traffic task the multi-agent layout steps
     slot_of = {str(task.flights.flight_id[task.player.flight[0, s]]): s for s in np.flatnonzero(task.sim.active[0])}
     slots = np.array([slot_of[a] for a in new])
     expected = rt.observation(task, rt.measure(task, np.zeros(len(slots), np.int64), slots))
