@@ -281,6 +281,13 @@ class MultiAgentTask(Task):
             raise ValueError(f"{self.name}: float32_spaces needs finite bounds; {unbounded} have none")
         return out
 
+    def add_wind(self, wind: Any) -> None:
+        """Nothing more to do: the scenario task installs the wind in every new episode (:meth:`generate` runs its effects).
+
+        The per-agent observations do not carry ``wind.observe``'s entries (those are the
+        single-agent ownship's, slot 0).
+        """
+
     def max_aircraft(self) -> int:
         """Aircraft slots per airspace: the scenario's (one agent per slot)."""
         return int(self.scenario.max_aircraft())

@@ -89,8 +89,8 @@ class RealTrafficMultiAgentTask(MultiAgentTask):
     _route_nm: Array  # (n_envs, n_agents) route deviation [NM] of the rows measured in the step
 
     def build_observation_spec(self) -> dict[str, BoxSpec]:
-        """RealTrafficCREnv-v0's observation (-v1's with ``float32_spaces``)."""
-        return dict(self.scenario.observation_spec)
+        """RealTrafficCREnv-v0's observation (-v1's with ``float32_spaces``), without the wind's entries (see :meth:`add_wind`)."""
+        return self.scenario.build_observation_spec()
 
     def build_action_spec(self) -> BoxSpec:
         """RealTrafficCREnv-v0's action."""

@@ -149,3 +149,14 @@ def test_bad_action_of_an_agent(options, action, message) -> None:
     env.reset(seed=0)
     with pytest.raises(ValueError, match=message):
         env.step({env.agents[0]: action})
+
+
+@pytest.mark.parametrize("observe", [False, True])
+def test_wind_is_flown_and_not_observed_per_agent(options, observe) -> None:
+    """The wind option blows in every episode; its observed entries (the single-agent ownship's) are not in the per-agent observations."""
+    env = RealTrafficParallelEnv(wind={"lat": 52.0, "lon": 4.0, "vnorth": 5.0, "veast": 3.0, "observe": observe}, **options)
+    obs, _ = env.reset(seed=0)
+    assert env.task.sim.wind.any
+    assert all(set(o) == {"ownship", "intruders"} for o in obs.values())
+    obs = env.step({})[0]
+    assert all(env.observation_space(a).contains(o) for a, o in obs.items())
