@@ -62,7 +62,7 @@ def agent_observation_space(task: MultiAgentTask) -> spaces.Dict:
 
 
 def state_box(task: MultiAgentTask) -> spaces.Box:
-    """Return the Box of the global state: per aircraft slot, the task's state features (:data:`~bluesky_gym.multiagent.base.STATE_FEATURES` by default)."""
+    """Return the Box of the global state: per aircraft slot, the task's state features (``base.STATE_FEATURES`` by default)."""
     return spaces.Box(-np.inf, np.inf, (task.state_size,), np.float64)
 
 
