@@ -82,6 +82,8 @@ class BlueSkyParallelEnv(ParallelEnv):
     metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS, "is_parallelizable": True}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
     #: Whether the infos of the step that ends the episode carry its KPIs ``kpi_*``.
     kpis_in_infos: ClassVar[bool] = True
+    #: The task's per-agent infos shown in the agents' infos (None: all).
+    agent_info_keys: ClassVar[tuple[str, ...] | None] = None
 
     def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, name: str | None = None, **options: Any) -> None:
         modes = self.metadata["render_modes"]
@@ -188,10 +190,11 @@ class BlueSkyParallelEnv(ParallelEnv):
         kpis = {}
         if res.episode_done[0] and self.kpis_in_infos:
             kpis = {key: float(v[0]) for key, v in res.info.items() if key.startswith("kpi_") and np.isfinite(v[0])}
+        agent_info = res.agent_info if self.agent_info_keys is None else {k: res.agent_info[k] for k in self.agent_info_keys}
         infos: dict[str, dict[str, Any]] = {a: {} for a, _ in rows}
         for name, slot in rows:
             if informed[slot]:
-                infos[name] = {key: v[0, slot].item() for key, v in res.agent_info.items()}
+                infos[name] = {key: v[0, slot].item() for key, v in agent_info.items()}
                 infos[name].update(kpis)
         self.agents = [a for a in names if not (terminations[a] or truncations[a])]
         self._last_reward = float(res.reward[0].sum())

@@ -76,8 +76,9 @@ class RealTrafficMultiAgentTask(MultiAgentTask):
     every agent is truncated, the aircraft that appeared in that step are not agents, and the
     aircraft stay where the window left them (:meth:`state`).
 
-    Per-agent infos: ``route_deviation_nm`` and ``intrusions`` (aircraft within 5 NM and 1000 ft
-    after the step).
+    Per-agent infos: the common ones (``return``, ``completed``, ``reward_route``,
+    ``reward_intrusion``), ``route_deviation_nm`` and ``intrusions`` (aircraft within 5 NM and
+    1000 ft after the step); the PettingZoo environment shows the last two.
     """
 
     name: ClassVar[str] = "real_traffic_cr_v0"
@@ -153,9 +154,10 @@ class RealTrafficMultiAgentTask(MultiAgentTask):
             first = self.with_observation_terms(self.observe_rows(self.measure_rows(e, k)))
             for key, v in first.items():
                 obs[key][e, k] = v
-        agent_info = {"route_deviation_nm": self._route_nm, "intrusions": self.intrusion_counts.copy()}
+        agent_info: dict[str, Any] = dict(super().step_result(obs, reward, terminated, truncated, ended, info).agent_info)
+        agent_info.update(route_deviation_nm=self._route_nm, intrusions=self.intrusion_counts.copy())  # intrusions of this step
         measured = self.acting & self.sim.active
-        return MultiAgentStepResult(obs, reward, terminated, truncated, self.acting, ended, info, agent_info, appeared, measured)  # type: ignore[arg-type]  # float64 arrays
+        return MultiAgentStepResult(obs, reward, terminated, truncated, self.acting, ended, info, agent_info, appeared, measured)
 
     def state_rows(self) -> Array:
         """Per aircraft slot :data:`STATE_COLUMNS`: active, lat, lon [deg], altitude [m], heading [deg], ground speed [m/s]; (n_envs, n_agents, 6)."""
@@ -181,6 +183,7 @@ class RealTrafficParallelEnv(BlueSkyParallelEnv):
     task_class = RealTrafficMultiAgentTask
     metadata: dict[str, Any] = {"name": "real_traffic_cr_v0", "render_modes": [], "is_parallelizable": True}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
     kpis_in_infos: ClassVar[bool] = False
+    agent_info_keys: ClassVar[tuple[str, ...] | None] = ("route_deviation_nm", "intrusions")
     task: RealTrafficMultiAgentTask
 
     def __init__(self, max_episode_steps: int | None = None, name: str = "real_traffic_cr_v0", **options: Any) -> None:
