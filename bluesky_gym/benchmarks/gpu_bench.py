@@ -124,7 +124,10 @@ def _exercise_env(gym: Any, env_id: str) -> None:
 
 
 def _exercise_core() -> None:
-    """The simulator's own paths: creation (mixed types), routes and LNAV, wind, runs with traces and stops, creconfs, ASAS with MVP, geometry."""
+    """The simulator's own paths: creation (mixed types), routes and LNAV, wind, runs with traces and stops, creconfs, ASAS with MVP, geometry.
+
+    ASAS runs with both pair searches (all pairs and the grid).
+    """
     from bluesky_gym.core import Simulator, atmosphere, geo, lnav
     from bluesky_gym.core.resolution import AsasConfig
 
@@ -143,6 +146,11 @@ def _exercise_core() -> None:
     sim.run(2)
     sim.set_conflict_resolution([0, 1, 2], AsasConfig(detector="CSTATEBASED", resolution=True))
     sim.run(3)
+    grid = Simulator(2, 4, dt=1.0, pair_search="grid")  # the grid's pair search (CPU only; its kernels must compile all the same)
+    grid.create([0, 0, 1, 1], [0, 1, 0, 1], [52.0, 52.1, 52.0, 52.0], [4.0, 4.0, 4.0, 4.1], [0.0, 180.0, 90.0, 270.0], 3000.0, 140.0)
+    grid.alt[1, 1] = np.nan  # an airspace searched exhaustively
+    grid.set_conflict_resolution([0, 1], AsasConfig(detector="CSTATEBASED", resolution=True))
+    grid.run(2)
     ones = np.ones(3)
     geo.qdrdist(52.0 * ones, 4.0, 52.1, 4.1)
     geo.qdrdist_python(52.0 * ones, 4.0, 52.1, 4.1)

@@ -10,6 +10,8 @@ are measured in a separate interpreter, one process per measurement, by this scr
 Modes:
 
 * ``bluesky-core``: ``bs.sim.step()`` of one airspace with the aircraft given in the config.
+* ``bluesky-scale``: ``bs.sim.step()`` flying the aircraft of a file for a simulated time, with and
+  without conflict detection and resolution.
 * ``backend-env``: ``gym.make(env_id, backend="bluesky")`` of this project, single environment.
   The config's ``package_root`` is a folder holding only this project's ``bluesky_gym`` package;
   it is put first on ``sys.path``.
@@ -97,6 +99,43 @@ def bluesky_core(config: dict[str, Any]) -> dict[str, Any]:
     return {"versions": _versions("bluesky-simulator", "numpy"), "results": results}
 
 
+def bluesky_scale(config: dict[str, Any]) -> dict[str, Any]:
+    """Wall-clock time of ``bs.sim.step()`` flying the given aircraft for a simulated time, per CD&R setting.
+
+    Config keys: ``aircraft_file`` (a JSON list of ``[lat, lon, hdg, alt, cas]``: deg, deg, deg,
+    m, m/s CAS), ``sim_time`` [s], ``dt`` [s], ``cdr``: a list of booleans, one flight each (with
+    CD&R: ``ASAS CSTATEBASED`` and ``RESO MVP``). Only the steps are timed.
+    """
+    import time
+
+    bs = _init_bluesky()
+    with open(config["aircraft_file"], encoding="utf-8") as fh:
+        aircraft = json.load(fh)
+    steps = round(float(config["sim_time"]) / float(config["dt"]))
+    results = []
+    for cdr in config["cdr"]:
+        bs.traf.reset()
+        setup = f"DT {config['dt']};FF" + (";ASAS CSTATEBASED;RESO MVP" if cdr else ";ASAS OFF;RESO OFF")
+        bs.stack.stack(setup)
+        bs.sim.step()  # processes the commands
+        for i, (lat, lon, hdg, alt, cas) in enumerate(aircraft):
+            ok = bs.traf.cre(f"AC{i:06d}", "A320", float(lat), float(lon), float(hdg), float(alt), float(cas))
+            if ok is not True:
+                raise RuntimeError(f"BlueSky refused to create aircraft {i}: {ok}")
+        t0 = bs.sim.simt
+        start = time.perf_counter()
+        for _ in range(steps):
+            bs.sim.step()
+        wall = time.perf_counter() - start
+        if bs.traf.ntraf != len(aircraft):
+            raise RuntimeError(f"expected {len(aircraft)} aircraft after the flight, BlueSky has {bs.traf.ntraf}")
+        if abs(bs.sim.simt - t0 - steps * float(config["dt"])) > 1e-6:
+            raise RuntimeError(f"BlueSky flew {bs.sim.simt - t0} s instead of {steps * float(config['dt'])} s")
+        methods = (bs.traf.cd.selected().__name__, bs.traf.cr.selected().__name__)
+        results.append({"cdr": bool(cdr), "wall_s": wall, "steps": steps, "detection": methods[0], "resolution": methods[1]})
+    return {"versions": _versions("bluesky-simulator", "numpy"), "results": results}
+
+
 def backend_env(config: dict[str, Any]) -> dict[str, Any]:
     """Single-environment steps per second of this project's BlueSky backend.
 
@@ -145,7 +184,7 @@ def reference_env(config: dict[str, Any]) -> dict[str, Any]:
     return {"versions": versions, "result": res}
 
 
-MODES = {"bluesky-core": bluesky_core, "backend-env": backend_env, "reference-env": reference_env}
+MODES = {"bluesky-core": bluesky_core, "bluesky-scale": bluesky_scale, "backend-env": backend_env, "reference-env": reference_env}
 
 
 def main(argv: list[str]) -> int:

@@ -7,6 +7,7 @@ Examples::
     bluesky-gym bench envs --env DescentEnv-v0 --num-envs 1 64 --reference-python /path/to/python
     bluesky-gym bench all --bluesky-python P --reference-python P --json results.json
     bluesky-gym bench profile                       # where the core's step time goes
+    bluesky-gym bench scale --aircraft 1000 10000 --sim-time 600 --bluesky-python P --json scale.json
     bluesky-gym bench train --repeat 3              # training throughput: SB3 and the fast trainer
     bluesky-gym bench gpu --compile-only            # every CUDA kernel to PTX, no GPU needed (the gpu extra)
     bluesky-gym bench gpu                           # the device check, on a machine with a CUDA GPU
@@ -93,7 +94,7 @@ def _add_envs(p: argparse.ArgumentParser, seconds_flag: str = "--seconds", num_e
 
 
 def add_parser(subparsers: Any) -> None:
-    """Register ``bench`` and its ``core``, ``envs``, ``all``, ``train`` and ``profile`` subcommands."""
+    """Register ``bench`` and its ``core``, ``envs``, ``all``, ``train``, ``gpu``, ``profile`` and ``scale`` subcommands."""
     bench = subparsers.add_parser(
         "bench",
         help="measure simulation and environment throughput",
@@ -153,6 +154,28 @@ def add_parser(subparsers: Any) -> None:
     gpu.add_argument("--envs", action="store_true", help="on a CUDA GPU: every id's make_vec(..., device='cuda') against the CPU (episodes, steps/s)")
     _add_common(gpu)
     gpu.set_defaults(func=run_gpu_command)
+
+    scale = sub.add_parser(
+        "scale",
+        help="N aircraft for a simulated time, with and without CD&R, on the core and BlueSky side by side",
+        description="Flies the same seeded random traffic of N aircraft (one airspace) for a simulated time, without and with\n"
+        "conflict detection (CSTATEBASED) and MVP resolution, on the native core and, up to --bluesky-max-aircraft, on\n"
+        "BlueSky 1.1.1 in its own interpreter; prints the wall-clock times (docs/backends.md).",
+    )
+    from bluesky_gym.benchmarks.scale_bench import AIRCRAFT_COUNTS, BLUESKY_MAX_AIRCRAFT, DEFAULT_SIM_TIME
+
+    scale.add_argument("--aircraft", nargs="+", type=positive_int, default=list(AIRCRAFT_COUNTS), metavar="N", help="aircraft counts")
+    scale.add_argument("--sim-time", type=positive_float, default=DEFAULT_SIM_TIME, metavar="S", help="simulated seconds of each flight")
+    scale.add_argument(
+        "--bluesky-max-aircraft",
+        type=positive_int,
+        default=BLUESKY_MAX_AIRCRAFT,
+        metavar="N",
+        help=f"largest aircraft count flown on BlueSky (default: {BLUESKY_MAX_AIRCRAFT})",
+    )
+    _add_bluesky(scale)
+    _add_common(scale)
+    scale.set_defaults(func=run_scale_command)
 
     prof = sub.add_parser("profile", help="cProfile of the core step: where the time goes")
     prof.add_argument("--num-envs", type=positive_int, default=4096, metavar="N", help="airspaces (batch size)")
@@ -291,6 +314,15 @@ def run_train_command(args: argparse.Namespace) -> int:
     result = run(args.env, args.setting or list(SETTINGS), args.trainer or list(TRAINERS), args.repeat, args.device, args.threads, _progress(args))
     print(format_table(result))
     return _finish(args, {"train": result}, False)
+
+
+def run_scale_command(args: argparse.Namespace) -> int:
+    """``bench scale``."""
+    from bluesky_gym.benchmarks.scale_bench import format_scale, run_scale
+
+    result = run_scale(args.aircraft, args.sim_time, _bluesky_python(args), args.bluesky_max_aircraft, _progress(args))
+    print(format_scale(result))
+    return _finish(args, result, any(r["bluesky_error"] for r in result["rows"]))
 
 
 def run_profile_command(args: argparse.Namespace) -> int:

@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
-from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect_with
+from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, ConflictPairs, Conflicts, detect_pairs, detect_with, float_array
 from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
@@ -239,6 +239,116 @@ def mvp_pair(
 
 
 @jit
+def mvp_add_pair(
+    dve: float,
+    dvn: float,
+    dvz: float,
+    tsol: float,
+    qdr_deg: float,
+    dist: float,
+    tcpa: float,
+    tlos: float,
+    alt_i: float,
+    alt_j: float,
+    gseast_i: float,
+    gseast_j: float,
+    gsnorth_i: float,
+    gsnorth_j: float,
+    vs_i: float,
+    vs_j: float,
+    rpz_m: float,
+    hpz_m: float,
+    dtlook: float,
+) -> tuple[float, float, float, float]:
+    """Ownship ``i``'s summed velocity change and shortest vertical solving time after adding its conflict with ``j``.
+
+    Args:
+        dve: Summed velocity change east so far [m/s] (``dvn`` north, ``dvz`` up).
+        dvn: Summed change north [m/s].
+        dvz: Summed change up [m/s].
+        tsol: Shortest time to solve vertically so far [s].
+        qdr_deg: Bearing i -> j [deg] (the detection's; ``dist``, ``tcpa``, ``tlos`` likewise).
+        dist: Horizontal distance [m].
+        tcpa: Time to CPA [s].
+        tlos: Time to loss of separation [s].
+        alt_i: Ownship altitude [m] (``_j``: the intruder's; ground speeds east, north and
+            vertical speeds likewise).
+        alt_j: Intruder altitude [m].
+        gseast_i: Ownship ground speed east [m/s].
+        gseast_j: Intruder ground speed east [m/s].
+        gsnorth_i: Ownship ground speed north [m/s].
+        gsnorth_j: Intruder ground speed north [m/s].
+        vs_i: Ownship vertical speed [m/s].
+        vs_j: Intruder vertical speed [m/s].
+        rpz_m: Resolution zone radius [m].
+        hpz_m: Resolution zone half height [m].
+        dtlook: Look-ahead time [s].
+    """
+    d1, d2, d3, tv = mvp_pair(qdr_deg, dist, tcpa, tlos, alt_j - alt_i, gseast_j - gseast_i, gsnorth_j - gsnorth_i, vs_j - vs_i, rpz_m, hpz_m, dtlook)
+    if tv < tsol:
+        tsol = tv
+    # Cooperative: the ownship moves away by the whole horizontal and half the vertical change.
+    return dve - d1, dvn - d2, dvz - 0.5 * d3, tsol
+
+
+@jit
+def mvp_aircraft(
+    dve: float,
+    dvn: float,
+    dvz: float,
+    tsol: float,
+    alt: float,
+    gseast: float,
+    gsnorth: float,
+    vs: float,
+    trk: float,
+    gs: float,
+    selalt: float,
+    ap_vs: float,
+    vmin: float,
+    vmax: float,
+    vsmin: float,
+    vsmax: float,
+    dtlook: float,
+    mode: int,
+    horizontal: float,
+) -> tuple[float, float, float, float]:
+    """One aircraft's resolution track [deg], ground speed [m/s], vertical speed [m/s] and altitude [m] from its summed change.
+
+    ``dve``, ``dvn``, ``dvz`` and ``tsol`` are what :func:`mvp_add_pair` summed over the
+    aircraft's conflicts (0, 0, 0 and :data:`NO_VERTICAL_SOLUTION` without any); the others are
+    the aircraft's state, envelope and the settings (:func:`mvp_loop`).
+    """
+    ve = gseast + dve
+    vn = gsnorth + dvn
+    vz = vs + dvz
+    new_trk = mod(math.atan2(ve, vn) * 180.0 / math.pi, 360.0)
+    new_gs = math.sqrt(ve * ve + vn * vn)
+    new_vs = vs
+    if mode == 1:  # speed only
+        new_trk = trk
+    elif mode == 2:  # track only
+        new_gs = gs
+    elif mode == 3:  # vertical only
+        new_trk = trk
+        new_gs = gs
+        new_vs = vz
+    elif mode == 4:  # all three
+        new_vs = vz
+    gs_capped = maximum(vmin, minimum(vmax, new_gs))
+    vs_capped = maximum(vsmin, minimum(vsmax, new_vs))
+    # The altitude to level off at (BlueSky: follow the autopilot's altitude when it also solves).
+    alt_temp = vs_capped * tsol + alt
+    sign_dvs = sign(vs_capped - ap_vs * sign(selalt - alt))
+    sign_alt = sign(alt_temp - selalt)
+    new_alt = alt_temp if (sign_dvs == 0.0 or sign_dvs == sign_alt) else selalt
+    if tsol < dtlook and abs(dvz) > 0.0:
+        new_alt = alt_temp
+    new_alt = new_alt * (1.0 - horizontal) + selalt * horizontal
+    return new_trk, gs_capped, vs_capped, new_alt
+
+
+@jit
 def mvp_loop(  # type: ignore[no-untyped-def]
     conflict,
     qdr,
@@ -282,59 +392,88 @@ def mvp_loop(  # type: ignore[no-untyped-def]
             for j in range(m):
                 if not conflict[e, i, j]:
                     continue
-                d1, d2, d3, tv = mvp_pair(
-                    qdr[e, i, j],
-                    dist[e, i, j],
-                    tcpa[e, i, j],
-                    tlos[e, i, j],
-                    alt[e, j] - alt[e, i],
-                    gseast[e, j] - gseast[e, i],
-                    gsnorth[e, j] - gsnorth[e, i],
-                    vs[e, j] - vs[e, i],
-                    rpz_m,
-                    hpz_m,
-                    dtlook,
-                )
-                if tv < tsol:
-                    tsol = tv
-                # Cooperative: the ownship moves away by the whole horizontal and half the vertical change.
-                dve = dve - d1
-                dvn = dvn - d2
-                dvz = dvz - 0.5 * d3
-            ve = gseast[e, i] + dve
-            vn = gsnorth[e, i] + dvn
-            vz = vs[e, i] + dvz
-            new_trk = mod(math.atan2(ve, vn) * 180.0 / math.pi, 360.0)
-            new_gs = math.sqrt(ve * ve + vn * vn)
-            new_vs = vs[e, i]
-            if mode == 1:  # speed only
-                new_trk = trk[e, i]
-            elif mode == 2:  # track only
-                new_gs = gs[e, i]
-            elif mode == 3:  # vertical only
-                new_trk = trk[e, i]
-                new_gs = gs[e, i]
-                new_vs = vz
-            elif mode == 4:  # all three
-                new_vs = vz
-            gs_capped = maximum(vmin[e, i], minimum(vmax[e, i], new_gs))
-            vs_capped = maximum(vsmin[e, i], minimum(vsmax[e, i], new_vs))
-            # The altitude to level off at (BlueSky: follow the autopilot's altitude when it also solves).
-            alt_temp = vs_capped * tsol + alt[e, i]
-            sign_dvs = sign(vs_capped - ap_vs[e, i] * sign(selalt[e, i] - alt[e, i]))
-            sign_alt = sign(alt_temp - selalt[e, i])
-            new_alt = alt_temp if (sign_dvs == 0.0 or sign_dvs == sign_alt) else selalt[e, i]
-            if tsol < dtlook and abs(dvz) > 0.0:
-                new_alt = alt_temp
-            new_alt = new_alt * (1.0 - horizontal) + selalt[e, i] * horizontal
-            out_trk[e, i] = new_trk
-            out_gs[e, i] = gs_capped
-            out_vs[e, i] = vs_capped
-            out_alt[e, i] = new_alt
+                dve, dvn, dvz, tsol = mvp_add_pair(
+                    dve, dvn, dvz, tsol, qdr[e, i, j], dist[e, i, j], tcpa[e, i, j], tlos[e, i, j],
+                    alt[e, i], alt[e, j], gseast[e, i], gseast[e, j], gsnorth[e, i], gsnorth[e, j], vs[e, i], vs[e, j],
+                    rpz_m, hpz_m, dtlook,
+                )  # fmt: skip
+            t, g, v, a = mvp_aircraft(
+                dve, dvn, dvz, tsol, alt[e, i], gseast[e, i], gsnorth[e, i], vs[e, i], trk[e, i], gs[e, i], selalt[e, i], ap_vs[e, i],
+                vmin[e, i], vmax[e, i], vsmin[e, i], vsmax[e, i], dtlook, mode, horizontal,
+            )  # fmt: skip
+            out_trk[e, i] = t
+            out_gs[e, i] = g
+            out_vs[e, i] = v
+            out_alt[e, i] = a
             out_dv[e, i, 0] = dve
             out_dv[e, i, 1] = dvn
             out_dv[e, i, 2] = dvz
             out_tsolv[e, i] = tsol
+
+
+@jit
+def mvp_pairs_loop(  # type: ignore[no-untyped-def]
+    row,
+    intruder,
+    qdr,
+    dist,
+    tcpa,
+    tlos,
+    active,
+    alt,
+    gseast,
+    gsnorth,
+    vs,
+    trk,
+    gs,
+    selalt,
+    ap_vs,
+    vmin,
+    vmax,
+    vsmin,
+    vsmax,
+    rpz_m,
+    hpz_m,
+    dtlook,
+    mode,
+    horizontal,
+    out_trk,
+    out_gs,
+    out_vs,
+    out_alt,
+    out_dv,
+    out_tsolv,
+):
+    """:func:`mvp_loop` from a list of conflict pairs: aircraft ``k``'s (flat index) are ``row[k]:row[k + 1]``, by rising intruder.
+
+    The state and the outputs are flat (one entry per aircraft; ``out_dv`` (aircraft, 3)); the
+    sums run in the order of :func:`mvp_loop`, so the results are the same to the bit.
+    """
+    for i in grid_range(active.shape[0]):
+        if not active[i]:
+            continue
+        dve = 0.0
+        dvn = 0.0
+        dvz = 0.0
+        tsol = NO_VERTICAL_SOLUTION
+        for p in range(row[i], row[i + 1]):
+            j = intruder[p]
+            dve, dvn, dvz, tsol = mvp_add_pair(
+                dve, dvn, dvz, tsol, qdr[p], dist[p], tcpa[p], tlos[p],
+                alt[i], alt[j], gseast[i], gseast[j], gsnorth[i], gsnorth[j], vs[i], vs[j], rpz_m, hpz_m, dtlook,
+            )  # fmt: skip
+        t, g, v, a = mvp_aircraft(
+            dve, dvn, dvz, tsol, alt[i], gseast[i], gsnorth[i], vs[i], trk[i], gs[i], selalt[i], ap_vs[i],
+            vmin[i], vmax[i], vsmin[i], vsmax[i], dtlook, mode, horizontal,
+        )  # fmt: skip
+        out_trk[i] = t
+        out_gs[i] = g
+        out_vs[i] = v
+        out_alt[i] = a
+        out_dv[i, 0] = dve
+        out_dv[i, 1] = dvn
+        out_dv[i, 2] = dvz
+        out_tsolv[i] = tsol
 
 
 class ResolutionState(Protocol):
@@ -433,16 +572,8 @@ def mvp(
     Returns:
         The resolution of every active aircraft.
     """
-    s = settings or ResolutionSettings()
-    default = aircraft_performance(DEFAULT_TYPE)
-    vsmin = default.vsmin if vsmin is None else vsmin
-    vsmax = default.vsmax if vsmax is None else vsmax
-    active = np.ascontiguousarray(state.active, dtype=np.bool_)
+    s, active, floats = _mvp_inputs(state, settings, vsmin, vsmax)
     shape = active.shape
-
-    def f(x: ArrayLike) -> Array:
-        return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), shape))
-
     pairs = shape + (shape[1],)
     if conflicts.conflict.shape != pairs:
         raise ValueError(f"conflicts are shaped {conflicts.conflict.shape}, the state needs {pairs}")
@@ -450,39 +581,103 @@ def mvp(
     dv = np.full((*shape, 3), np.nan)
     tsolv = np.full(shape, np.nan)
     conflict = np.ascontiguousarray(conflicts.conflict, dtype=np.bool_)
-    alt = f(state.alt)
-    mvp_loop(
-        conflict,
-        np.ascontiguousarray(conflicts.qdr, dtype=np.float64),
-        np.ascontiguousarray(conflicts.dist, dtype=np.float64),
-        np.ascontiguousarray(conflicts.tcpa, dtype=np.float64),
-        np.ascontiguousarray(conflicts.tlos, dtype=np.float64),
-        active,
-        alt,
-        f(state.gseast),
-        f(state.gsnorth),
-        f(state.vs),
-        f(state.trk),
-        f(state.gs),
-        f(state.selalt),
-        f(state.ap_vs),
-        f(state.vmin),
-        f(state.vmax),
-        f(vsmin),
-        f(vsmax),
-        float(rpz) * s.resofach,
-        float(hpz) * s.resofacv,
-        float(lookahead),
-        s.mode,
-        1.0 if s.swresohoriz else 0.0,
-        trk,
-        gs,
-        vs,
-        alt_out,
-        dv,
-        tsolv,
-    )
+    pictures = [np.ascontiguousarray(x, dtype=np.float64) for x in (conflicts.qdr, conflicts.dist, conflicts.tcpa, conflicts.tlos)]
+    zone = [float(rpz) * s.resofach, float(hpz) * s.resofacv, float(lookahead), s.mode, 1.0 if s.swresohoriz else 0.0]
+    mvp_loop(*[conflict, *pictures, active, *floats, *zone, trk, gs, vs, alt_out, dv, tsolv])
     return Resolution(trk, gs, vs, alt_out, dv, tsolv, conflict.any(axis=-1) & active)
+
+
+def _mvp_inputs(
+    state: ResolutionState, settings: ResolutionSettings | None, vsmin: ArrayLike | None, vsmax: ArrayLike | None
+) -> tuple[ResolutionSettings, BoolArray, list[Array]]:
+    """The settings, ``active`` and the per-aircraft arrays :func:`mvp_loop` reads after it, ``alt`` .. ``vsmax`` (n_envs, n_aircraft)."""
+    default = aircraft_performance(DEFAULT_TYPE)
+    vsmin = default.vsmin if vsmin is None else vsmin
+    vsmax = default.vsmax if vsmax is None else vsmax
+    active = np.ascontiguousarray(state.active, dtype=np.bool_)
+
+    floats = (state.alt, state.gseast, state.gsnorth, state.vs, state.trk, state.gs, state.selalt, state.ap_vs, state.vmin, state.vmax, vsmin, vsmax)
+    return settings or ResolutionSettings(), active, [float_array(x, active.shape) for x in floats]
+
+
+def mvp_pairs(
+    state: ResolutionState,
+    conflicts: ConflictPairs,
+    settings: ResolutionSettings | None = None,
+    *,
+    rpz: float = PZ_RADIUS,
+    hpz: float = PZ_HEIGHT,
+    lookahead: float = LOOKAHEAD,
+    vsmin: ArrayLike | None = None,
+    vsmax: ArrayLike | None = None,
+) -> Resolution:
+    """:func:`mvp` from the conflicts as pairs (:func:`bluesky_gym.core.conflicts.detect_pairs`); the same results to the bit.
+
+    The arguments are :func:`mvp`'s; ``conflicts`` lists the pairs of the same state.
+    """
+    s, active, floats = _mvp_inputs(state, settings, vsmin, vsmax)
+    shape = active.shape
+    if conflicts.n_aircraft != shape[1]:
+        raise ValueError(f"conflicts are of airspaces of {conflicts.n_aircraft} aircraft, the state has {shape[1]}")
+    n = shape[0] * shape[1]
+    row = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(conflicts.flat_own, minlength=n), out=row[1:])
+    intruder = conflicts.env * shape[1] + conflicts.intruder
+    trk, gs, vs, alt_out, tsolv = (np.full(n, np.nan) for _ in range(5))
+    dv = np.full((n, 3), np.nan)
+    pictures = [np.ascontiguousarray(x, dtype=np.float64) for x in (conflicts.qdr, conflicts.dist, conflicts.tcpa, conflicts.tlos)]
+    zone = [float(rpz) * s.resofach, float(hpz) * s.resofacv, float(lookahead), s.mode, 1.0 if s.swresohoriz else 0.0]
+    mvp_pairs_loop(*[row, intruder, *pictures, active.reshape(-1), *(x.reshape(-1) for x in floats), *zone, trk, gs, vs, alt_out, dv, tsolv])
+    in_conflict = (np.diff(row) > 0).reshape(shape) & active
+    return Resolution(
+        trk.reshape(shape), gs.reshape(shape), vs.reshape(shape), alt_out.reshape(shape), dv.reshape(*shape, 3), tsolv.reshape(shape), in_conflict
+    )
+
+
+@jit
+def resume_pair(
+    lat_i: float,
+    lon_i: float,
+    lat_j: float,
+    lon_j: float,
+    gseast_i: float,
+    gseast_j: float,
+    gsnorth_i: float,
+    gsnorth_j: float,
+    trk_i: float,
+    trk_j: float,
+    rpz: float,
+    bounce_dist: float,
+) -> bool:
+    """Whether the resolution pair (ownship i, intruder j) goes on (BlueSky ``resumenav``; see :func:`resume`).
+
+    Args:
+        lat_i: Ownship latitude [deg] (``_j``: the intruder's; longitudes, ground speeds east and
+            north and tracks likewise).
+        lon_i: Ownship longitude [deg].
+        lat_j: Intruder latitude [deg].
+        lon_j: Intruder longitude [deg].
+        gseast_i: Ownship ground speed east [m/s].
+        gseast_j: Intruder ground speed east [m/s].
+        gsnorth_i: Ownship ground speed north [m/s].
+        gsnorth_j: Intruder ground speed north [m/s].
+        trk_i: Ownship track [deg].
+        trk_j: Intruder track [deg].
+        rpz: Protected-zone radius [m].
+        bounce_dist: Distance under which pairs on near tracks keep resolving [m].
+    """
+    # Flat-earth relative position and velocity of the intruder.
+    de = R_EARTH * (((lon_j - lon_i) * RAD) * math.cos(0.5 * ((lat_j + lat_i) * RAD)))
+    dn = R_EARTH * ((lat_j - lat_i) * RAD)
+    ve = gseast_j - gseast_i
+    vn = gsnorth_j - gsnorth_i
+    past_cpa = de * ve + dn * vn > 0.0
+    hdist = math.sqrt(de * de + dn * dn)
+    d = trk_i - trk_j
+    while d > 180.0 or d < -180.0:  # BlueSky's anglediff
+        d = d - 360.0 if d > 180.0 else d + 360.0
+    bouncing = abs(d) < BOUNCING_TRACK_DIFF and hdist < bounce_dist
+    return not past_cpa or hdist < rpz or bouncing
 
 
 @jit
@@ -495,20 +690,23 @@ def resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist,
                 keep[e, i, j] = False
                 if not pairs[e, i, j] or not active[e, i] or not active[e, j]:
                     continue
-                # Flat-earth relative position and velocity of the intruder.
-                de = R_EARTH * (((lon[e, j] - lon[e, i]) * RAD) * math.cos(0.5 * ((lat[e, j] + lat[e, i]) * RAD)))
-                dn = R_EARTH * ((lat[e, j] - lat[e, i]) * RAD)
-                ve = gseast[e, j] - gseast[e, i]
-                vn = gsnorth[e, j] - gsnorth[e, i]
-                past_cpa = de * ve + dn * vn > 0.0
-                hdist = math.sqrt(de * de + dn * dn)
-                d = trk[e, i] - trk[e, j]
-                while d > 180.0 or d < -180.0:  # BlueSky's anglediff
-                    d = d - 360.0 if d > 180.0 else d + 360.0
-                bouncing = abs(d) < BOUNCING_TRACK_DIFF and hdist < bounce_dist
-                if not past_cpa or hdist < rpz or bouncing:
+                if resume_pair(lat[e, i], lon[e, i], lat[e, j], lon[e, j], gseast[e, i], gseast[e, j], gsnorth[e, i], gsnorth[e, j],
+                               trk[e, i], trk[e, j], rpz, bounce_dist):  # fmt: skip
                     keep[e, i, j] = True
                     asas[e, i] = True
+
+
+@jit
+def resume_pairs_loop(own, intruder, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist, keep):  # type: ignore[no-untyped-def]
+    """:func:`resume_loop` of listed pairs (flat aircraft indices; the state flat): ``keep[p]`` of each pair."""
+    for p in grid_range(own.shape[0]):
+        i = own[p]
+        j = intruder[p]
+        keep[p] = (
+            active[i]
+            and active[j]
+            and resume_pair(lat[i], lon[i], lat[j], lon[j], gseast[i], gseast[j], gsnorth[i], gsnorth[j], trk[i], trk[j], rpz, bounce_dist)
+        )
 
 
 @jit
@@ -661,6 +859,13 @@ class MVPResolver:
         detector: The conflict detection, by BlueSky name: ``"CSTATEBASED"`` (:func:`~bluesky_gym.core.conflicts.detect`,
             the default) or ``"STATEBASED"`` (:func:`~bluesky_gym.core.conflicts.detect_statebased`, what ``ASAS ON`` selects).
         python_geo: STATEBASED with BlueSky's Python geo functions instead of its compiled ones.
+        pair_search: ``"all-pairs"`` (the default): the conflict picture of every pair
+            (:func:`~bluesky_gym.core.conflicts.detect`) and the pairs being resolved as an
+            (n_envs, n_aircraft, n_aircraft) array (:attr:`pairs`); ``"grid"``: the conflicts as a
+            list of pairs (:func:`~bluesky_gym.core.conflicts.detect_pairs`, CSTATEBASED searched
+            on a grid) and the pairs being resolved as sorted keys ``(env * n + own) * n + intruder``
+            (:attr:`pair_keys`), so that memory and time grow about linearly with the number of
+            aircraft. Both give the same resolutions to the bit.
     """
 
     def __init__(
@@ -674,9 +879,14 @@ class MVPResolver:
         vsmax: ArrayLike | None = None,
         detector: str = "CSTATEBASED",
         python_geo: bool = False,
+        pair_search: str = "all-pairs",
     ) -> None:
         if detector not in DETECTORS:
             raise ValueError(f"conflict detector {detector!r} not known; choose one of {', '.join(DETECTORS)}")
+        if pair_search not in ("all-pairs", "grid"):
+            raise ValueError(f"pair_search {pair_search!r} not known; choose 'all-pairs' or 'grid'")
+        self.pair_search = pair_search
+        self.pair_keys = np.zeros(0, np.int64)
         self.detector = detector
         self.python_geo = python_geo
         self.settings = settings or ResolutionSettings()
@@ -690,14 +900,31 @@ class MVPResolver:
         if envs is None:
             self.pairs = np.zeros((0, 0, 0), np.bool_)
             self.held = np.zeros((4, 0, 0))
+            self.pair_keys = np.zeros(0, np.int64)
             return
+        if self.pair_keys.size:
+            m = self.held.shape[2]
+            forget = np.zeros(self.held.shape[1], np.bool_)
+            forget[envs] = True
+            self.pair_keys = self.pair_keys[~forget[self.pair_keys // (m * m)]]
+        if self.held.size:
+            self.held[:, envs] = np.nan
         if self.pairs.size:
             self.pairs[envs] = False
-            self.held[:, envs] = np.nan
 
     def update(self, state: TypedResolutionState) -> ResolutionCommand:
         """Detect, resolve and decide who follows a resolution, from the current state (a :class:`~bluesky_gym.core.physics.Physics`)."""
+        follow, ended = self.advance(state)
+        return self._command(state, follow, ended)
+
+    def advance(self, state: TypedResolutionState) -> tuple[BoolArray, BoolArray]:
+        """:meth:`update`, giving only who follows its resolution and whose resolution ended (:class:`ResolutionCommand`'s ``follow``, ``ended``).
+
+        The resolution itself is :attr:`held` (track, ground speed, vertical speed, altitude).
+        """
         shape = state.active.shape
+        if self.pair_search == "grid":
+            return self._advance_pairs(state)
         if self.pairs.shape != shape + (shape[1],):
             self.pairs = np.zeros(shape + (shape[1],), np.bool_)
             self.held = np.full((4, *shape), np.nan)
@@ -715,11 +942,7 @@ class MVPResolver:
             self.lookahead,
             self.python_geo,
         )
-        vsmin, vsmax = self.vsmin, self.vsmax
-        if vsmin is None or vsmax is None:
-            own_min, own_max = vertical_speed_limits(state)
-            vsmin = own_min if vsmin is None else vsmin
-            vsmax = own_max if vsmax is None else vsmax
+        vsmin, vsmax = self._limits(state)
         res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
         candidates = np.array(self.pairs, dtype=np.bool_, order="C")
         held = np.array(self.held, dtype=np.float64, order="C")
@@ -728,6 +951,56 @@ class MVPResolver:
         self.pairs, follow = resume(state, candidates, rpz=self.rpz, resofach=self.settings.resofach)
         ended = np.empty(shape, np.bool_)
         ended_loop(candidates, follow, np.ascontiguousarray(state.active, dtype=np.bool_), ended, np.zeros(1, np.bool_))
+        return follow, ended
+
+    def _limits(self, state: TypedResolutionState) -> tuple[ArrayLike, ArrayLike]:
+        vsmin, vsmax = self.vsmin, self.vsmax
+        if vsmin is None or vsmax is None:
+            own_min, own_max = vertical_speed_limits(state)
+            vsmin = own_min if vsmin is None else vsmin
+            vsmax = own_max if vsmax is None else vsmax
+        return vsmin, vsmax
+
+    def _advance_pairs(self, state: TypedResolutionState) -> tuple[BoolArray, BoolArray]:
+        """:meth:`advance` with the conflicts and the pairs being resolved as lists (``pair_search="grid"``)."""
+        active = np.ascontiguousarray(state.active, dtype=np.bool_)
+        n_envs, m = active.shape
+        if self.held.shape != (4, n_envs, m):
+            self.pair_keys = np.zeros(0, np.int64)
+            self.held = np.full((4, n_envs, m), np.nan)
+        c = detect_pairs(
+            state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, active, self.rpz, self.hpz, self.lookahead, self.detector, self.python_geo
+        )
+        vsmin, vsmax = self._limits(state)
+        res = mvp_pairs(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
+        # BlueSky's bookkeeping (renew_loop): airspaces with a conflict take the new resolution of
+        # every aircraft, and the current conflicts join the pairs being resolved.
+        renew = np.zeros(n_envs, np.bool_)
+        renew[c.env] = True
+        held = np.array(self.held, dtype=np.float64, order="C")
+        for row, value in enumerate((res.trk, res.gs, res.vs, res.alt)):
+            held[row, renew] = value[renew]
+        self.held = held
+        own = c.flat_own
+        candidates = np.union1d(self.pair_keys, own * m + c.intruder)
+        cand_own = candidates // m
+        cand_intruder = (cand_own // m) * m + candidates % m
+        lat, lon, ve, vn, trk = (
+            np.ascontiguousarray(x, dtype=np.float64).reshape(-1) for x in (state.lat, state.lon, state.gseast, state.gsnorth, state.trk)
+        )
+        keep = np.empty(candidates.size, np.bool_)
+        resolution = self.settings.resofach
+        resume_pairs_loop(cand_own, cand_intruder, lat, lon, ve, vn, trk, active.reshape(-1), self.rpz, self.rpz * resolution, keep)
+        self.pair_keys = candidates[keep]
+        follow = np.zeros(n_envs * m, np.bool_)
+        follow[cand_own[keep]] = True
+        had = np.zeros(n_envs * m, np.bool_)
+        had[cand_own] = True
+        ended = (had & ~follow & active.reshape(-1)).reshape(n_envs, m)
+        return follow.reshape(n_envs, m), ended
+
+    def _command(self, state: TypedResolutionState, follow: BoolArray, ended: BoolArray) -> ResolutionCommand:
+        """The :class:`ResolutionCommand` of the held resolution."""
         trk, gs, vs, alt = self.held
         with np.errstate(invalid="ignore"):
             tas = np.asarray(state.tas) + (gs - np.asarray(state.gs))
@@ -755,5 +1028,6 @@ __all__ = [
     "ResolutionState",
     "mvp",
     "mvp_pair",
+    "mvp_pairs",
     "resume",
 ]

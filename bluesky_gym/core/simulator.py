@@ -23,7 +23,7 @@ from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import vcasormach
-from bluesky_gym.core.conflicts import create_conflicts, detect_loop
+from bluesky_gym.core.conflicts import create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
 from bluesky_gym.core.resolution import AsasConfig, MVPResolver, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
 from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, AircraftState, aircraft_index, checked_index
@@ -79,6 +79,12 @@ class Simulator(AircraftState):
         geo: ``"compiled"`` (BlueSky's compiled geo functions, as a plain BlueSky run uses them)
             or ``"python"`` (BlueSky's Python geo module, which the reference gym environments end up
             with). Only LNAV uses them; they differ in the last bits.
+        pair_search: Which aircraft pairs conflict resolution evaluates: ``"all-pairs"`` (every
+            pair, in (n_envs, max_aircraft, max_aircraft) arrays), ``"grid"`` (the pairs a grid of
+            latitude bands finds, as lists: time and memory about linear in the aircraft at a
+            given density; :func:`~bluesky_gym.core.conflicts.detect_grid`) or ``"auto"`` (the
+            grid from :data:`~bluesky_gym.core.conflicts.GRID_MIN_AIRCRAFT` slots per airspace).
+            Both give the same flight to the bit.
     """
 
     def __init__(
@@ -89,7 +95,9 @@ class Simulator(AircraftState):
         max_waypoints: int = 4,
         perf: pf.AircraftPerformance | None = None,
         geo: str = "compiled",
+        pair_search: str = "auto",
     ) -> None:
+        self.pair_search = resolve_pair_search(pair_search, int(max_aircraft))
         if geo not in ("compiled", "python"):
             raise ValueError(f"geo must be 'compiled' or 'python', got {geo!r}")
         self.geo = geo
@@ -144,7 +152,10 @@ class Simulator(AircraftState):
         # Conflict resolution (BlueSky's ASAS with RESO MVP): the configuration of each airspace that
         # has one, and the resolution state of every airspace (pairs being resolved, held values).
         self._asas: dict[int, AsasConfig] = {}
-        self._reso_pairs = np.zeros((self.n_envs, self.max_aircraft, self.max_aircraft), dtype=np.bool_)
+        # The pairs being resolved: (n_envs, m, m) for all-pairs; for the grid, sorted keys (env * m + own) * m + intruder.
+        m_pairs = self.max_aircraft if self.pair_search == "all-pairs" else 0
+        self._reso_pairs = np.zeros((self.n_envs, m_pairs, m_pairs), dtype=np.bool_)
+        self._reso_keys = np.zeros(0, np.int64)
         self._reso_held = np.full((4, self.n_envs, self.max_aircraft), np.nan)
 
     def _types_loaded(self) -> tuple[list[pf.AircraftPerformance], Array]:
@@ -186,8 +197,16 @@ class Simulator(AircraftState):
         self.wind.clear(None if envs is None else idx)
         for e in range(self.n_envs) if envs is None else np.atleast_1d(np.asarray(envs, dtype=np.int64)).tolist():
             self._asas.pop(int(e), None)
+        self._forget_resolutions(idx)
+
+    def _forget_resolutions(self, idx: slice | IntArray) -> None:
+        """Drop the resolutions in progress of airspaces ``idx``."""
         self._reso_pairs[idx] = False
         self._reso_held[:, idx] = np.nan
+        if self._reso_keys.size:
+            forget = np.zeros(self.n_envs, np.bool_)
+            forget[idx] = True
+            self._reso_keys = self._reso_keys[~forget[self._reso_keys // (self.max_aircraft * self.max_aircraft)]]
 
     def create(
         self,
@@ -580,8 +599,7 @@ class Simulator(AircraftState):
         for e in np.atleast_1d(envs).tolist():
             self._asas[int(e)] = config
         if not config.resolving:
-            self._reso_pairs[envs] = False
-            self._reso_held[:, envs] = np.nan
+            self._forget_resolutions(envs)
 
     def conflict_resolution(self, env: int) -> AsasConfig:
         """The ASAS configuration of airspace ``env`` (BlueSky's defaults unless set)."""
@@ -643,14 +661,19 @@ class Simulator(AircraftState):
                 vsmax=vsmax[view.type_index],
                 detector=str(config.detector),
                 python_geo=self.geo == "python",
+                pair_search=self.pair_search,
             )
             resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
-            cmd = resolver.update(view)
+            if self.pair_search == "grid":
+                resolver.pair_keys = self._group_keys(envs)
+            group_follow, group_ended = resolver.advance(view)
             self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
-            follow[envs] = cmd.follow
+            if self.pair_search == "grid":
+                self._store_group_keys(envs, resolver.pair_keys)
+            follow[envs] = group_follow
             targets[:, envs] = resolution_targets(resolver.held)
             # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
-            for k, s in zip(*np.nonzero(cmd.ended & (self.nwp[envs] > 0))):
+            for k, s in zip(*np.nonzero(group_ended & (self.nwp[envs] > 0))):
                 e = int(envs[k])
                 self.iactwp[e, s] = self._find_active(e, int(s))
                 self._direct(np.array([e]), np.array([s]))
@@ -670,6 +693,28 @@ class Simulator(AircraftState):
             follow.reshape(-1),
             *(np.ascontiguousarray(t).reshape(-1) for t in targets),
         )
+
+    def _group_keys(self, envs: IntArray) -> NDArray[np.int64]:
+        """The pair keys of airspaces ``envs`` (sorted), renumbered as a resolver of those airspaces sees them."""
+        mm = self.max_aircraft * self.max_aircraft
+        if envs.size == self.n_envs:
+            return self._reso_keys
+        env: IntArray = self._reso_keys // mm
+        pos = np.minimum(np.searchsorted(envs, env), envs.size - 1)
+        mine = envs[pos] == env
+        keys: IntArray = self._reso_keys[mine] - (env[mine] - pos[mine]) * mm
+        return keys
+
+    def _store_group_keys(self, envs: IntArray, keys: NDArray[np.int64]) -> None:
+        """Put back the pair keys of airspaces ``envs`` from a resolver of those airspaces."""
+        mm = self.max_aircraft * self.max_aircraft
+        if envs.size == self.n_envs:
+            self._reso_keys = keys
+            return
+        mine = np.zeros(self.n_envs, np.bool_)
+        mine[envs] = True
+        local = keys // mm
+        self._reso_keys = np.sort(np.concatenate((self._reso_keys[~mine[self._reso_keys // mm]], keys + (envs[local] - local) * mm)))
 
     def run(self, n_steps: int, trace: bool = False, stop: Callable[[Array], ArrayLike] | None = None) -> Array | None:
         """Advance every airspace by ``n_steps`` steps (same result as calling :meth:`step` n times).
@@ -838,10 +883,13 @@ class Simulator(AircraftState):
 
 
 class _AirspaceView:
-    """The state arrays MVP reads of some airspaces of a :class:`Simulator`, shaped (len(envs), max_aircraft)."""
+    """The state arrays MVP reads of some airspaces of a :class:`Simulator`, shaped (len(envs), max_aircraft).
+
+    Copies, or views of the simulator's arrays where ``envs`` are all its airspaces (``envs`` is sorted); read only.
+    """
 
     def __init__(self, sim: Simulator, envs: IntArray) -> None:
-        k = envs
+        k: slice | IntArray = slice(None) if envs.size == sim.n_envs else envs
         self.active = sim.active[k]
         self.type_index = sim.type_index[k]
         self.lat, self.lon, self.alt, self.tas = sim.lat[k], sim.lon[k], sim.alt[k], sim.tas[k]
