@@ -14,7 +14,8 @@ shell only converts between the task's arrays and PettingZoo's per-agent dicts.
   raise ``TypeError``.
 * An agent leaves ``agents`` in the step where it is terminated (goal reached) or truncated
   (SectorCR: it left the sector; every task: the time limit); the returned dicts hold exactly the
-  agents that acted in that step.
+  agents that acted in that step (and, in a layout whose aircraft appear mid-episode, such as
+  :mod:`~bluesky_gym.multiagent.real_traffic`, those that appeared, with their first observation).
 * ``reset(seed=s)`` gives the episode of seed ``s`` (the single-agent scenario of that seed with
   every aircraft as an agent); ``reset()`` continues the environment's generator.
 * ``state()`` is the global state for centralised training (see
