@@ -127,6 +127,10 @@ class MultiAgentStepResult:
         episode_done: (n_envs,) episodes that ended in this step (no agent left).
         info: Per-episode values, (n_envs,) each; the KPIs ``kpi_*`` when an episode ended.
         agent_info: Per-agent values, (n_envs, n_agents) each.
+        appeared: (n_envs, n_agents) agents whose aircraft appeared in this step (they did not
+            act; ``observation`` holds their first one), or None in the layouts where none appear.
+        measured: (n_envs, n_agents) acting agents whose aircraft was still there to be measured
+            after the step (the others have no ``agent_info``), or None: every acting agent.
 
     """
 
@@ -138,6 +142,8 @@ class MultiAgentStepResult:
     episode_done: BoolArray
     info: dict[str, Array]
     agent_info: dict[str, Array]
+    appeared: BoolArray | None = None
+    measured: BoolArray | None = None
 
 
 def agent_actions(actions: Any) -> Mapping[Any, Any]:
@@ -279,6 +285,13 @@ class MultiAgentTask(Task):
         if unbounded:
             raise ValueError(f"{self.name}: float32_spaces needs finite bounds; {unbounded} have none")
         return out
+
+    def add_wind(self, wind: Any) -> None:
+        """Nothing more to do: the scenario task installs the wind in every new episode (:meth:`generate` runs its effects).
+
+        The per-agent observations do not carry ``wind.observe``'s entries (those are the
+        single-agent ownship's, slot 0).
+        """
 
     def max_aircraft(self) -> int:
         """Aircraft slots per airspace: the scenario's (one agent per slot)."""
@@ -489,13 +502,17 @@ class MultiAgentTask(Task):
         st.fuel_kg += np.where(done, self.sim.fuelburn, 0.0).sum(axis=1)
         self.agent_outcome[completed] = 1
         self.agent_outcome[done & ~completed] = 2
-        env_idx, slot_idx = np.nonzero(done)
-        if env_idx.size:
-            self.sim.delete(env_idx, slot_idx)
-        episode_done = ~self.finished & ~self.sim.active.any(axis=1)
+        episode_done = self.remove(done)
         self.finished |= episode_done
         self._completed = completed
         return episode_done
+
+    def remove(self, done: BoolArray) -> BoolArray:
+        """Delete the aircraft of the agents that left (``done``); return the (n_envs,) running episodes that ended: no agent left."""
+        env_idx, slot_idx = np.nonzero(done)
+        if env_idx.size:
+            self.sim.delete(env_idx, slot_idx)
+        return ~self.finished & ~self.sim.active.any(axis=1)
 
     def step_result(
         self, obs: dict[str, Array], reward: Array, terminated: BoolArray, truncated: BoolArray, ended: BoolArray, info: dict[str, Array]

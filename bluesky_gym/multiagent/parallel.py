@@ -14,7 +14,8 @@ shell only converts between the task's arrays and PettingZoo's per-agent dicts.
   raise ``TypeError``.
 * An agent leaves ``agents`` in the step where it is terminated (goal reached) or truncated
   (SectorCR: it left the sector; every task: the time limit); the returned dicts hold exactly the
-  agents that acted in that step.
+  agents that acted in that step (and, in a layout whose aircraft appear mid-episode, such as
+  :mod:`~bluesky_gym.multiagent.real_traffic`, those that appeared, with their first observation).
 * ``reset(seed=s)`` gives the episode of seed ``s`` (the single-agent scenario of that seed with
   every aircraft as an agent); ``reset()`` continues the environment's generator.
 * ``state()`` is the global state for centralised training (see
@@ -36,7 +37,7 @@ from gymnasium.utils import seeding
 
 from bluesky_gym.envs.registry import multiagent_entry, resolve
 from bluesky_gym.multiagent import make_task, require_pettingzoo
-from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, agent_action, agent_actions
+from bluesky_gym.multiagent.base import MultiAgentTask, agent_action, agent_actions
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.render import agent_name
@@ -62,8 +63,8 @@ def agent_observation_space(task: MultiAgentTask) -> spaces.Dict:
 
 
 def state_box(task: MultiAgentTask) -> spaces.Box:
-    """Return the Box of the global state: per aircraft slot, the features of :data:`STATE_FEATURES`."""
-    return spaces.Box(-np.inf, np.inf, (task.n_agents * len(STATE_FEATURES),), np.float64)
+    """Return the Box of the global state: per aircraft slot, the task's state features (``base.STATE_FEATURES`` by default)."""
+    return spaces.Box(-np.inf, np.inf, (task.state_size,), np.float64)
 
 
 class BlueSkyParallelEnv(ParallelEnv):
@@ -80,22 +81,23 @@ class BlueSkyParallelEnv(ParallelEnv):
 
     task_class: ClassVar[type[MultiAgentTask]]
     metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS, "is_parallelizable": True}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
+    #: Whether the infos of the step that ends the episode carry its KPIs ``kpi_*``.
+    kpis_in_infos: ClassVar[bool] = True
+    #: The task's per-agent infos shown in the agents' infos (None: all).
+    agent_info_keys: ClassVar[tuple[str, ...] | None] = None
 
     def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, name: str | None = None, **options: Any) -> None:
-        if render_mode is not None and render_mode not in RENDER_MODES:
-            raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
+        modes = self.metadata["render_modes"]
+        if render_mode is not None and render_mode not in modes:
+            raise ValueError(f"render_mode must be one of {modes} or None, got {render_mode!r}")
         self.render_mode = render_mode
         name = self.task_class.name if name is None else name
-        if multiagent_entry(name).task_class() is not self.task_class:
-            raise ValueError(f"{name} is not a form of {self.task_class.name}")
-        self.task = make_task(name, 1, max_episode_steps, **options)
+        self.task = self.make_task(name, max_episode_steps, options)
         self.metadata = {**self.metadata, "name": name}
         self._dtype = self.task.space_dtype
-        self.possible_agents: list[str] = [agent_name(k) for k in range(self.task.n_agents)]
-        self.agent_name_mapping: dict[str, int] = {a: k for k, a in enumerate(self.possible_agents)}
+        self.possible_agents: list[str] = self.all_agents()
         self.agents: list[str] = []
-        self._observation_spaces = {a: agent_observation_space(self.task) for a in self.possible_agents}
-        self._action_spaces = {a: box(self.task.action_spec, self._dtype) for a in self.possible_agents}
+        self._build_spaces()
         self.state_space = state_box(self.task)
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
@@ -103,6 +105,39 @@ class BlueSkyParallelEnv(ParallelEnv):
         self._last_reward = 0.0
         self._last_info: dict[str, Any] = {}
 
+    # --- what a layout changes ----------------------------------------------------------------------
+    def make_task(self, name: str, max_episode_steps: int | None, options: dict[str, Any]) -> MultiAgentTask:
+        """The task of environment ``name`` (one episode)."""
+        if multiagent_entry(name).task_class() is not self.task_class:
+            raise ValueError(f"{name} is not a form of {self.task_class.name}")
+        task: MultiAgentTask = make_task(name, 1, max_episode_steps, **options)
+        return task
+
+    def all_agents(self) -> list[str]:
+        """``possible_agents``: one name per aircraft slot, ``aircraft_k``."""
+        names = [agent_name(k) for k in range(self.task.n_agents)]
+        self.agent_name_mapping: dict[str, int] = {a: k for k, a in enumerate(names)}
+        return names
+
+    def _build_spaces(self) -> None:
+        self._observation_spaces = {a: agent_observation_space(self.task) for a in self.possible_agents}
+        self._action_spaces = {a: box(self.task.action_spec, self._dtype) for a in self.possible_agents}
+
+    def agent_names(self, slots: np.ndarray) -> list[str]:
+        """The names of the agents of aircraft ``slots`` (episode 0)."""
+        return [self.possible_agents[k] for k in slots]
+
+    def action_slot(self, agent: Any) -> int | None:
+        """The aircraft slot whose action ``agent`` gives (``KeyError`` for an unknown name), or None to ignore it."""
+        return self.agent_name_mapping[agent]
+
+    def seed_episode(self, seed: int | None) -> None:
+        """Give the next episode its generator (``seed``: a new one; else the environment's own, continued)."""
+        if seed is not None or self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random(seed)
+        self.task.seed(np.array([0]), [self._np_random])
+
+    # --- the PettingZoo API -------------------------------------------------------------------------
     def observation_space(self, agent: str) -> spaces.Dict:
         """Return the observation space of ``agent`` (the same object at every call)."""
         return self._observation_spaces[agent]
@@ -120,14 +155,12 @@ class BlueSkyParallelEnv(ParallelEnv):
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
         """Start a new episode; ``seed`` seeds the scenario generator. ``options`` are not used."""
-        if seed is not None or self._np_random is None:
-            self._np_random, self._np_random_seed = seeding.np_random(seed)
-        self.task.seed(np.array([0]), [self._np_random])
+        self.seed_episode(seed)
         self.task.reset()
         active = np.flatnonzero(self.task.sim.active[0])
-        self.agents = [self.possible_agents[k] for k in active]
+        self.agents = self.agent_names(active)
         obs = self.task.observation()
-        observations = {self.possible_agents[k]: {key: v[0, k].astype(self._dtype) for key, v in obs.items()} for k in active}
+        observations = {a: {key: v[0, k].astype(self._dtype) for key, v in obs.items()} for a, k in zip(self.agents, active, strict=True)}
         infos: dict[str, dict[str, Any]] = {a: {} for a in self.agents}
         self._last_reward = 0.0
         self._last_info = {k: v[0].item() for k, v in self.task.episode_info().items()}
@@ -136,29 +169,34 @@ class BlueSkyParallelEnv(ParallelEnv):
         return observations, infos
 
     def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict[str, Any]]]:
-        """Advance every agent one decision step."""
+        """Advance every agent one decision step; report the agents that acted and those that appeared."""
         if not self.agents:
             raise RuntimeError("step() called without agents: call reset() first (the episode has ended or never started)")
         task = self.task
         joint = np.zeros((1, task.n_agents, *task.action_spec.shape))
         for agent, action in agent_actions(actions).items():
-            k = self.agent_name_mapping[agent]  # KeyError for an unknown agent
-            joint[0, k] = agent_action(agent, action, task.action_spec.shape)
+            k = self.action_slot(agent)
+            if k is not None:
+                joint[0, k] = agent_action(agent, action, task.action_spec.shape)
         res = task.step(joint)
-        acting = np.flatnonzero(res.acting[0])
-        names = [self.possible_agents[k] for k in acting]
-        observations = {a: {key: v[0, k].astype(self._dtype) for key, v in res.observation.items()} for a, k in zip(names, acting, strict=True)}
-        rewards = {a: float(res.reward[0, k]) for a, k in zip(names, acting, strict=True)}
-        terminations = {a: bool(res.terminated[0, k]) for a, k in zip(names, acting, strict=True)}
-        truncations = {a: bool(res.truncated[0, k]) for a, k in zip(names, acting, strict=True)}
-        infos: dict[str, dict[str, Any]] = {}
+        shown = res.acting[0] if res.appeared is None else res.acting[0] | res.appeared[0]
+        slots = np.flatnonzero(shown)
+        names = self.agent_names(slots)
+        rows = list(zip(names, slots.tolist(), strict=True))
+        observations = {a: {key: v[0, k].astype(self._dtype) for key, v in res.observation.items()} for a, k in rows}
+        rewards = {a: float(res.reward[0, k]) for a, k in rows}
+        terminations = {a: bool(res.terminated[0, k]) for a, k in rows}
+        truncations = {a: bool(res.truncated[0, k]) for a, k in rows}
+        informed = res.acting[0] if res.measured is None else res.measured[0]
         kpis = {}
-        if res.episode_done[0]:
+        if res.episode_done[0] and self.kpis_in_infos:
             kpis = {key: float(v[0]) for key, v in res.info.items() if key.startswith("kpi_") and np.isfinite(v[0])}
-        for name, slot in zip(names, acting, strict=True):
-            info = {key: v[0, slot].item() for key, v in res.agent_info.items()}
-            info.update(kpis)
-            infos[name] = info
+        agent_info = res.agent_info if self.agent_info_keys is None else {k: res.agent_info[k] for k in self.agent_info_keys}
+        infos: dict[str, dict[str, Any]] = {a: {} for a, _ in rows}
+        for name, slot in rows:
+            if informed[slot]:
+                infos[name] = {key: v[0, slot].item() for key, v in agent_info.items()}
+                infos[name].update(kpis)
         self.agents = [a for a in names if not (terminations[a] or truncations[a])]
         self._last_reward = float(res.reward[0].sum())
         self._last_info = {key: v[0].item() for key, v in res.info.items()}

@@ -26,6 +26,12 @@ path, so that all-zero actions replay the recording.
 * ``state()``: per aircraft slot (active, lat, lon, altitude, heading, ground speed), its Box is
   ``state_space``.
 
+The step is :meth:`bluesky_gym.tasks.base.Task.step`, laid out by
+:class:`RealTrafficMultiAgentTask` (a :class:`~bluesky_gym.multiagent.base.MultiAgentTask`) over
+the rows (episode, aircraft slot) of the recorded aircraft; :class:`RealTrafficParallelEnv` is the
+PettingZoo shell of the other multi-agent environments
+(:class:`~bluesky_gym.multiagent.parallel.BlueSkyParallelEnv`) with agents named by flight id.
+
 Example::
 
     from bluesky_gym.multiagent.real_traffic import RealTrafficParallelEnv
@@ -38,20 +44,19 @@ Example::
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import seeding
 
 from bluesky_gym.envs.seeds import is_eval_seed
 from bluesky_gym.multiagent import require_pettingzoo
-from bluesky_gym.multiagent.base import agent_action, agent_actions
-from bluesky_gym.multiagent.parallel import box
+from bluesky_gym.multiagent.base import IntArray, MultiAgentStepResult, MultiAgentTask
+from bluesky_gym.multiagent.parallel import BlueSkyParallelEnv, agent_observation_space, box
 from bluesky_gym.tasks import real_traffic as rt
+from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry
 
-require_pettingzoo()  # a clear error naming the extra when PettingZoo is missing
-from pettingzoo import ParallelEnv  # noqa: E402
+require_pettingzoo()
 
 #: The names of the environment and the configuration each adds to the options (RealTrafficCREnv-v0's, -v1's).
 NAMES: dict[str, tuple[tuple[str, Any], ...]] = {"real_traffic_cr_v0": (), "real_traffic_cr_v1": (("float32_spaces", True),)}
@@ -60,8 +65,113 @@ NAMES: dict[str, tuple[tuple[str, Any], ...]] = {"real_traffic_cr_v0": (), "real
 STATE_COLUMNS = ("active", "lat", "lon", "altitude", "heading", "ground_speed")
 
 
-class RealTrafficParallelEnv(ParallelEnv):
-    """Every recorded aircraft of a real-traffic window is an agent.
+class RealTrafficMultiAgentTask(MultiAgentTask):
+    """The multi-agent layout of the real-traffic step: every recorded aircraft of the window is an agent.
+
+    The scenario is :class:`~bluesky_gym.tasks.real_traffic.RealTrafficAllAgentsTask` (no aircraft
+    flies the recorded profile on its own). Beyond the common layout: an aircraft whose recording
+    starts during a step *appears* (it did not act; the step's result holds its first observation);
+    an acting agent whose recording ends in the step is truncated with an all-zero observation,
+    reward 0 and no per-agent info (its aircraft is gone); at the time limit (the window's end)
+    every agent is truncated, the aircraft that appeared in that step are not agents, and the
+    aircraft stay where the window left them (:meth:`state`).
+
+    Per-agent infos: the common ones (``return``, ``completed``, ``reward_route``,
+    ``reward_intrusion``), ``route_deviation_nm`` and ``intrusions`` (aircraft within 5 NM and
+    1000 ft after the step); the PettingZoo environment shows the last two.
+    """
+
+    name: ClassVar[str] = "real_traffic_cr_v0"
+    env_id: ClassVar[str] = "RealTrafficCREnv-v0"
+    scenario_class = rt.RealTrafficAllAgentsTask
+    intrusion_distance: ClassVar[float] = rt.INTRUSION_NM
+    completion: ClassVar[str] = "none"
+    scenario: rt.RealTrafficAllAgentsTask
+    _route_nm: Array  # (n_envs, n_agents) route deviation [NM] of the rows measured in the step
+
+    def build_observation_spec(self) -> dict[str, BoxSpec]:
+        """RealTrafficCREnv-v0's observation (-v1's with ``float32_spaces``), without the wind's entries (see :meth:`add_wind`)."""
+        return self.scenario.build_observation_spec()
+
+    def build_action_spec(self) -> BoxSpec:
+        """RealTrafficCREnv-v0's action."""
+        return self.scenario.action_spec
+
+    def apply_action(self, action: Array) -> None:
+        """Steer every acting aircraft relative to its own recorded path (:func:`~bluesky_gym.tasks.real_traffic.steer`)."""
+        e, k = np.nonzero(self.acting)
+        rt.steer(self.scenario, e, k, action[e, k])
+
+    def measure(self, envs: IntArray | None = None, own: IntArray | None = None) -> StepGeometry:
+        """The geometry of the rows; without rows, of the acting agents whose aircraft is still recorded (the step's)."""
+        if envs is None or own is None:
+            envs, own = np.nonzero(self.acting & self.sim.active)
+        return self.measure_rows(np.asarray(envs, dtype=np.int64), np.asarray(own, dtype=np.int64))
+
+    def measure_rows(self, envs: IntArray, own: IntArray) -> rt.RealTrafficGeometry:
+        """:func:`bluesky_gym.tasks.real_traffic.measure` of the rows."""
+        return rt.measure(self.scenario, envs, own)
+
+    def observe_rows(self, g: StepGeometry) -> dict[str, Array]:
+        """:func:`bluesky_gym.tasks.real_traffic.observation` of the rows."""
+        assert isinstance(g, rt.RealTrafficGeometry)
+        return rt.observation(self.scenario, g)
+
+    def reward_rows(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
+        """Route and intrusion penalties (:func:`bluesky_gym.tasks.real_traffic.reward`); no agent terminates."""
+        assert isinstance(g, rt.RealTrafficGeometry)
+        r, parts = rt.reward(g)
+        self._route_nm = self._rows_to_slots(g, g.route_nm, 0.0)
+        return r, np.zeros(len(g.envs), bool), parts
+
+    def targets(self) -> tuple[Array, Array]:
+        """Each aircraft's heading reference: its recorded position ``CARROT_S`` ahead (lat, lon [deg]; empty slots: its last slot's flight)."""
+        player = self.scenario.player
+        now = np.broadcast_to(player.now()[:, None], player.flight.shape)
+        carrot = self.scenario.flights.at(np.maximum(player.flight, 0), now + rt.CARROT_S)
+        return carrot["lat"], carrot["lon"]
+
+    def truncate(self, g: StepGeometry) -> BoolArray:
+        """The acting agents whose recording ended in this step."""
+        return self.acting & ~self.sim.active
+
+    def remove(self, done: BoolArray) -> BoolArray:
+        """No aircraft to delete: those whose recording ended are gone, and at the time limit the last step's aircraft stay (in :meth:`state`).
+
+        Returns:
+            The running episodes at the time limit or without aircraft.
+        """
+        running = ~self.finished
+        return running & ((self.stats.steps >= self.time_limit) | ~self.sim.active.any(axis=1))
+
+    def step_result(
+        self, obs: dict[str, Array], reward: Array, terminated: BoolArray, truncated: BoolArray, ended: BoolArray, info: dict[str, Array]
+    ) -> MultiAgentStepResult:
+        """The common result, with the first observation of the agents that appeared and the per-agent infos."""
+        appeared = self.sim.active & ~self.acting & ~ended[:, None]  # at the time limit they are not agents
+        if appeared.any():
+            e, k = np.nonzero(appeared)
+            first = self.with_observation_terms(self.observe_rows(self.measure_rows(e, k)))
+            for key, v in first.items():
+                obs[key][e, k] = v
+        agent_info: dict[str, Any] = dict(super().step_result(obs, reward, terminated, truncated, ended, info).agent_info)
+        agent_info.update(route_deviation_nm=self._route_nm, intrusions=self.intrusion_counts.copy())  # intrusions of this step
+        measured = self.acting & self.sim.active
+        return MultiAgentStepResult(obs, reward, terminated, truncated, self.acting, ended, info, agent_info, appeared, measured)
+
+    def state_rows(self) -> Array:
+        """Per aircraft slot :data:`STATE_COLUMNS`: active, lat, lon [deg], altitude [m], heading [deg], ground speed [m/s]; (n_envs, n_agents, 6)."""
+        s = self.sim
+        return np.stack([s.active.astype(float), s.lat, s.lon, s.alt, s.hdg, s.gs], axis=-1)
+
+    @property
+    def state_size(self) -> int:
+        """Length of one episode's state vector."""
+        return self.n_agents * len(STATE_COLUMNS)
+
+
+class RealTrafficParallelEnv(BlueSkyParallelEnv):
+    """Every recorded aircraft of a real-traffic window is an agent, named by its flight id.
 
     Args:
         max_episode_steps: Time limit in decision steps (default: the window).
@@ -70,105 +180,58 @@ class RealTrafficParallelEnv(ParallelEnv):
         **options: Options of RealTrafficCREnv-v0 (collections, split, window_s, ...).
     """
 
+    task_class = RealTrafficMultiAgentTask
     metadata: dict[str, Any] = {"name": "real_traffic_cr_v0", "render_modes": [], "is_parallelizable": True}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
+    kpis_in_infos: ClassVar[bool] = False
+    agent_info_keys: ClassVar[tuple[str, ...] | None] = ("route_deviation_nm", "intrusions")
+    task: RealTrafficMultiAgentTask
 
     def __init__(self, max_episode_steps: int | None = None, name: str = "real_traffic_cr_v0", **options: Any) -> None:
+        super().__init__(None, max_episode_steps, name, **options)
+
+    def make_task(self, name: str, max_episode_steps: int | None, options: dict[str, Any]) -> RealTrafficMultiAgentTask:
+        """The layout with the configuration of ``name`` and ``options`` on top."""
         if name not in NAMES:
             raise ValueError(f"name must be one of {list(NAMES)}, got {name!r}")
-        config = rt.RealTrafficTask.make_config({**dict(NAMES[name]), **options})
-        self.task = rt.RealTrafficAllAgentsTask(1, config, max_episode_steps=max_episode_steps)
-        self.metadata = {**self.metadata, "name": name}
-        self._dtype = self.task.space_dtype
-        spec = self.task.observation_spec
-        self._obs_space = spaces.Dict({k: box(v, self._dtype) for k, v in spec.items()})
-        self._act_space = box(self.task.action_spec, self._dtype)
-        self.state_space = spaces.Box(-np.inf, np.inf, (self.task.sim.max_aircraft * len(STATE_COLUMNS),), np.float64)
-        self.possible_agents: list[str] = self._possible_agents()
-        self.agents: list[str] = []
-        self._slot: dict[str, int] = {}
-        self._np_random, _ = seeding.np_random(None)
-        self._steps = 0
+        config = RealTrafficMultiAgentTask.make_config({**dict(NAMES[name]), **options})
+        task = RealTrafficMultiAgentTask(1, config, max_episode_steps=max_episode_steps)
+        task.name = task.id = name  # type: ignore[misc]  # the instance's name: _v0 or _v1
+        return task
 
-    def _possible_agents(self) -> list[str]:
+    def all_agents(self) -> list[str]:
         """Flight ids of every aircraft of the windows this environment's split can draw."""
-        data, split = self.task.data, self.task.config.split
+        data, split = self.task.scenario.data, self.task.scenario.config.split
         pools = (data.train,) if split == "train" else (data.test,) if split == "test" else (data.train, data.test)
         flights = sorted({f for pool in pools for w in pool for f in w.flights})
-        return [str(self.task.flights.flight_id[f]) for f in flights]
+        return [str(self.task.scenario.flights.flight_id[f]) for f in flights]
 
-    def observation_space(self, agent: str) -> spaces.Space[Any]:
+    def _build_spaces(self) -> None:
+        self._slots_of: list[str] | None = None
+        self._slots: dict[str, int] = {}
+        self._obs_space = agent_observation_space(self.task)
+        self._act_space = box(self.task.action_spec, self._dtype)
+
+    def observation_space(self, agent: str) -> spaces.Dict:
         """Every agent's observation space (RealTrafficCREnv-v0's)."""
         return self._obs_space
 
-    def action_space(self, agent: str) -> spaces.Space[Any]:
+    def action_space(self, agent: str) -> spaces.Box:
         """Every agent's action space (RealTrafficCREnv-v0's)."""
         return self._act_space
 
-    def _names(self) -> dict[str, int]:
-        task = self.task
-        active = np.flatnonzero(task.sim.active[0])
-        return {str(task.flights.flight_id[task.player.flight[0, s]]): int(s) for s in active}
+    def agent_names(self, slots: np.ndarray) -> list[str]:
+        """The flight ids of the aircraft in ``slots``."""
+        scenario = self.task.scenario
+        return [str(scenario.flights.flight_id[scenario.player.flight[0, s]]) for s in slots]
 
-    def _observe(self, names: dict[str, int]) -> tuple[dict[str, dict[str, np.ndarray]], np.ndarray, rt.RealTrafficGeometry | None]:
-        if not names:
-            return {}, np.zeros(0), None
-        slots = np.fromiter(names.values(), dtype=np.int64)
-        g = rt.measure(self.task, np.zeros(len(slots), np.int64), slots)
-        obs = self.task.with_observation_terms(rt.observation(self.task, g), np.zeros(len(slots), np.int64))  # -v1: clipped to the bounds
-        reward, _ = rt.reward(g)
-        return {a: {k: v[i].astype(self._dtype) for k, v in obs.items()} for i, a in enumerate(names)}, reward, g
+    def action_slot(self, agent: Any) -> int | None:
+        """The slot of a current agent; other names are ignored."""
+        if self._slots_of is not self.agents:  # the agents are the aircraft flying now, in slot order
+            self._slots = dict(zip(self.agents, np.flatnonzero(self.task.sim.active[0]).tolist(), strict=True))
+            self._slots_of = self.agents
+        return self._slots.get(agent) if isinstance(agent, str) else None
 
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Start an episode (seeded: the window of that seed)."""
-        if seed is not None:
-            self._np_random, _ = seeding.np_random(seed)
-        self.task.set_test_split(np.array([0]), np.array([seed is not None and is_eval_seed(int(seed))]))
-        self.task.seed(np.array([0]), [self._np_random])
-        self.task.reset()
-        self._steps = 0
-        self._slot = self._names()
-        self.agents = list(self._slot)
-        obs, _, _ = self._observe(self._slot)
-        return obs, {a: {} for a in self.agents}
-
-    def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float], dict[str, bool], dict[str, bool], dict[str, Any]]:
-        """Apply the agents' actions, fly 10 s, and report every agent that acted or appeared."""
-        if not self.agents:
-            raise RuntimeError("step() called before reset() or after the episode ended; call reset() first")
-        given = agent_actions(actions)
-        shape = self._act_space.shape
-        acting = dict(self._slot)
-        slots = np.fromiter(acting.values(), dtype=np.int64)
-        a = np.zeros((len(slots), *shape))
-        for i, name in enumerate(acting):
-            if name in given:
-                a[i] = np.clip(agent_action(name, given[name], shape), self._act_space.low, self._act_space.high)
-        rt.steer(self.task, np.zeros(len(slots), np.int64), slots, a)
-        self.task.advance()
-        self._steps += 1
-        end = self._steps >= self.task.time_limit
-        now = self._names()
-        # flying after the step: those that acted and are still recorded, then (unless the window ends) those that appeared
-        flying = {n: s for n, s in now.items() if n in acting or not end}
-        obs, reward, g = self._observe(flying)
-        blank = {k: np.zeros(spec.shape, self._dtype) for k, spec in self.task.observation_spec.items()}
-        for n in acting:
-            if n not in flying:
-                obs[n] = {k: v.copy() for k, v in blank.items()}
-        rewards = dict.fromkeys(obs, 0.0)
-        infos: dict[str, Any] = {n: {} for n in obs}
-        if g is not None:
-            for i, n in enumerate(flying):
-                if n in acting:
-                    rewards[n] = float(reward[i])
-                    infos[n] = {"route_deviation_nm": float(g.route_nm[i]), "intrusions": int(g.los[i].sum())}
-        terminations = dict.fromkeys(obs, False)
-        truncations = {n: n in acting and (end or n not in now) for n in obs}
-        self._slot = {} if end else flying
-        self.agents = list(self._slot)
-        return obs, rewards, terminations, truncations, infos
-
-    def state(self) -> np.ndarray:
-        """Global state: per aircraft slot (active, lat, lon, altitude [m], heading [deg], ground speed [m/s]); see ``state_space``."""
-        sim = self.task.sim
-        return np.stack([sim.active[0].astype(float), sim.lat[0], sim.lon[0], sim.alt[0], sim.hdg[0], sim.gs[0]], axis=1).ravel()
+    def seed_episode(self, seed: int | None) -> None:
+        """The split of the episode (the test split for evaluation-range seeds with ``split="auto"``), then its generator."""
+        self.task.scenario.set_test_split(np.array([0]), np.array([seed is not None and is_eval_seed(int(seed))]))
+        super().seed_episode(seed)

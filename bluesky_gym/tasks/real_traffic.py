@@ -379,9 +379,13 @@ class RealTrafficTask(Task):
         cfg = config if config is not None else RealTrafficConfig()
         if isinstance(cfg, RealTrafficConfig):
             cfg.validate()
-            if max_episode_steps is None:
-                max_episode_steps = int(round(cfg.window_s / DECISION_STEP))
         super().__init__(n_envs, cfg, backend, max_episode_steps)
+
+    @classmethod
+    def episode_limit(cls, config: TaskConfig) -> int:
+        """The window's decision steps (``window_s`` / 10 s)."""
+        assert isinstance(config, RealTrafficConfig)
+        return int(round(config.window_s / DECISION_STEP))
 
     def max_aircraft(self) -> int:
         """Ownship and the largest traffic count."""
@@ -515,7 +519,8 @@ class RealTrafficAllAgentsTask(RealTrafficTask):
 
     No aircraft gets the recorded profile from the scenario; each agent's action is applied with
     :func:`steer` to its own slot, its observation and reward are :func:`observation` and
-    :func:`reward` of its own row (see :mod:`bluesky_gym.multiagent.real_traffic`).
+    :func:`reward` of its own row. It is the scenario of the multi-agent layout
+    :class:`~bluesky_gym.multiagent.real_traffic.RealTrafficMultiAgentTask`.
     """
 
     guided_traffic: ClassVar[bool] = False

@@ -91,7 +91,7 @@ def test_a_joined_agent_observes_its_aircraft_as_it_appeared(options) -> None:
         obs, *_ = env.step({a: np.zeros(2) for a in env.agents})
         new = [a for a in env.agents if a not in before]
     assert new, "no aircraft appeared in the episode"
-    task = env.task
+    task = env.task.scenario  # the real-traffic task the multi-agent layout steps
     slot_of = {str(task.flights.flight_id[task.player.flight[0, s]]): s for s in np.flatnonzero(task.sim.active[0])}
     slots = np.array([slot_of[a] for a in new])
     expected = rt.observation(task, rt.measure(task, np.zeros(len(slots), np.int64), slots))
@@ -149,3 +149,37 @@ def test_bad_action_of_an_agent(options, action, message) -> None:
     env.reset(seed=0)
     with pytest.raises(ValueError, match=message):
         env.step({env.agents[0]: action})
+
+
+@pytest.mark.parametrize("observe", [False, True])
+def test_wind_is_flown_and_not_observed_per_agent(options, observe) -> None:
+    """The wind option blows in every episode; its observed entries (the single-agent ownship's) are not in the per-agent observations."""
+    env = RealTrafficParallelEnv(wind={"lat": 52.0, "lon": 4.0, "vnorth": 5.0, "veast": 3.0, "observe": observe}, **options)
+    obs, _ = env.reset(seed=0)
+    assert env.task.sim.wind.any
+    assert all(set(o) == {"ownship", "intruders"} for o in obs.values())
+    obs = env.step({})[0]
+    assert all(env.observation_space(a).contains(o) for a, o in obs.items())
+
+
+def test_the_shared_policy_adapter_trains_on_real_traffic(options) -> None:
+    """The one SB3 adapter takes the real-traffic layout: rows are aircraft slots, appearing aircraft become live, windows restart."""
+    pytest.importorskip("stable_baselines3")
+    from bluesky_gym.multiagent.real_traffic import RealTrafficMultiAgentTask
+    from bluesky_gym.multiagent.sb3 import SharedPolicyVecEnv
+
+    task = RealTrafficMultiAgentTask(2, RealTrafficMultiAgentTask.make_config(options), max_episode_steps=12)
+    venv = SharedPolicyVecEnv(task)
+    venv.seed(0)
+    obs = venv.reset()
+    assert venv.num_envs == 2 * task.n_agents and obs["ownship"].shape == (venv.num_envs, 6)
+    live_counts = []
+    for _ in range(30):
+        venv.step_async(np.zeros((venv.num_envs, 2)))
+        obs, reward, dones, infos = venv.step_wait()
+        live_counts.append(int(venv.live_rows.sum()))
+        assert np.all(reward[~venv.live_rows] == 0.0) and np.all(dones[~venv.live_rows])
+        for i in np.flatnonzero(dones & venv.live_rows):
+            assert "terminal_observation" in infos[i] and infos[i]["TimeLimit.truncated"]  # no agent terminates
+    assert venv.episodes_done >= 4  # windows of 12 steps restart inside the step
+    assert len(set(live_counts)) > 1  # aircraft appear and leave
