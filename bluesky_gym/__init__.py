@@ -13,7 +13,7 @@ from bluesky_gym.envs.registry import ENVIRONMENTS
 from bluesky_gym.registration import available_envs, register_envs
 
 #: The package version, written only here (pyproject.toml reads it; see CHANGELOG.md).
-__version__ = "1.0.0"
+__version__ = "1.1.0"
 __all__ = ["ENVIRONMENTS", "available_envs", "register_envs", "__version__"]
 
 register_envs()
