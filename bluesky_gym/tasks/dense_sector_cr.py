@@ -156,7 +156,6 @@ class DenseSectorCRTask(sc.SectorCRTask):
         starts: list[NDArray[np.float64]] = []
         exits: list[NDArray[np.float64]] = []
         types: list[str] = []
-        capacity = self.sim.max_aircraft
         for e, lam in zip(envs.tolist(), expected.tolist(), strict=True):
             rng = self.rngs[e]
             k = int(rng.poisson(lam))
@@ -169,7 +168,7 @@ class DenseSectorCRTask(sc.SectorCRTask):
             entry_d = rng.uniform(0.0, perimeter, k)
             exit_d = (entry_d + rng.uniform(*EXIT_ARC, k) * perimeter) % perimeter
             kinds = draw_types(rng, imix, k)
-            n_new = min(k, capacity - int(self.next_slot[e]))
+            n_new = min(k, int(c.max_spawned - self.spawned[e]))  # next_slot = num_ac + spawned stays within the slots
             self.spawns_dropped[e] += k - n_new
             if n_new == 0:
                 continue
