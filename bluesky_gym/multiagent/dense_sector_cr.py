@@ -16,7 +16,7 @@ time limit, or earlier when no aircraft is left.
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -98,9 +98,11 @@ class DenseSectorCRMultiAgentTask(SectorCRMultiAgentTask):
 
     def episode_info(self) -> dict[str, Array]:
         """The common per-episode values and the aircraft that entered."""
-        info = super().episode_info()
-        info["spawned"] = self.scenario.spawned.copy()
-        info["spawns_dropped"] = self.scenario.spawns_dropped.copy()
+        info: dict[str, Any] = {
+            **super().episode_info(),
+            "spawned": self.scenario.spawned.copy(),
+            "spawns_dropped": self.scenario.spawns_dropped.copy(),
+        }
         return info
 
     def kpis(self) -> dict[str, Array]:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks import sector_cr as sc
@@ -67,19 +67,21 @@ class DenseSectorCRConfig(sc.SectorCRConfig):
         check_int("max_spawned", self.max_spawned, 0, sc.MAX_AIRCRAFT_LIMIT - sc.worst_case_aircraft(self))
 
 
-def spawn_rate(config: DenseSectorCRConfig, t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+def spawn_rate(config: DenseSectorCRConfig, t_s: ArrayLike) -> NDArray[np.float64]:
     """The spawn rate [aircraft/h] at episode time ``t_s`` [s]."""
     c = config
-    return c.spawn_rate_start + (c.spawn_rate_end - c.spawn_rate_start) * np.minimum(np.asarray(t_s) / c.rise_time_s, 1.0)
+    t = np.asarray(t_s, dtype=np.float64)
+    rate: NDArray[np.float64] = c.spawn_rate_start + (c.spawn_rate_end - c.spawn_rate_start) * np.minimum(t / c.rise_time_s, 1.0)
+    return rate
 
 
-def expected_entries(config: DenseSectorCRConfig, t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+def expected_entries(config: DenseSectorCRConfig, t_s: ArrayLike) -> NDArray[np.float64]:
     """Expected number of aircraft entering from episode time 0 to ``t_s`` [s]: the integral of :func:`spawn_rate`."""
     c = config
     t = np.asarray(t_s, dtype=np.float64)
     rising = np.minimum(t, c.rise_time_s)
     slope = (c.spawn_rate_end - c.spawn_rate_start) / c.rise_time_s  # aircraft / h / s
-    count = c.spawn_rate_start * rising + 0.5 * slope * rising * rising + c.spawn_rate_end * np.maximum(t - c.rise_time_s, 0.0)
+    count: NDArray[np.float64] = c.spawn_rate_start * rising + 0.5 * slope * rising * rising + c.spawn_rate_end * np.maximum(t - c.rise_time_s, 0.0)
     return count / S_PER_H
 
 
@@ -217,11 +219,12 @@ class DenseSectorCRTask(sc.SectorCRTask):
 
     def episode_info(self) -> dict[str, NDArray[np.float64]]:
         """SectorCR's info keys, the other aircraft in the sector now, and the flow's counts."""
-        info = super().episode_info()
-        info["traffic"] = self.sim.active[:, 1:].sum(axis=1)
-        info["spawned"] = self.spawned.copy()
-        info["spawns_dropped"] = self.spawns_dropped.copy()
-        return info
+        return {
+            **super().episode_info(),
+            "traffic": self.sim.active[:, 1:].sum(axis=1),
+            "spawned": self.spawned.copy(),
+            "spawns_dropped": self.spawns_dropped.copy(),
+        }
 
     def kpis(self) -> dict[str, NDArray[np.float64]]:
         """The common KPIs, the time to the first loss of separation, losses per flight-hour and the aircraft that entered."""

@@ -44,9 +44,10 @@ def test_the_episode_ends_at_the_time_limit_with_its_kpis() -> None:
     env = parallel_env("dense_sector_cr_v0", max_episode_steps=12, spawn_rate_start=900.0, spawn_rate_end=900.0)
     env.reset(seed=2)
     n_start = len(env.agents)
-    for step in range(12):
-        obs, _, _, trunc, infos = env.step({a: np.zeros(2) for a in env.agents})
-    assert step == 11 and env.agents == []
+    for _ in range(12):
+        assert env.agents
+        obs, _, _, _, infos = env.step({a: np.zeros(2) for a in env.agents})
+    assert env.agents == []
     task = env.task
     kpis = next(i for i in infos.values() if i)
     assert kpis["kpi_agents"] == n_start + task.scenario.spawned[0]

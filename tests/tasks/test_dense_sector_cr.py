@@ -83,7 +83,8 @@ def test_entering_aircraft_cross_the_sector_from_their_entry_point() -> None:
     # Starts: 0.5 NM inside the perimeter along the radius, so inside the sector.
     start_nm = latlon_to_nm(CENTER, np.stack([task.sim.lat[0, new], task.sim.lon[0, new]], axis=-1))
     inside = np.empty(new.size, bool)
-    dsc.compiled.slots_in_polygons(np.zeros(new.size, np.int64), new, task.sim.lat, task.sim.lon, task.poly_lat, task.poly_lon, task.n_vertices, inside)
+    envs = np.zeros(new.size, np.int64)
+    dsc.compiled.slots_in_polygons(envs, new, task.sim.lat, task.sim.lon, task.poly_lat, task.poly_lon, task.n_vertices, inside)
     assert inside.all()
     # Exit points on the perimeter: on one of the edges (zero cross product with it).
     exits = task.wpt_nm[0, new]
