@@ -100,7 +100,9 @@ class DenseSectorCREnv(BlueSkyEnv):
     `ownship_types`): rates in aircraft/h (at most 3600, `spawn_rate_end` at least
     `spawn_rate_start`), `rise_time_s` > 0, and `max_spawned` such that the slots (worst-case
     initial traffic plus `max_spawned`) stay at most 500. A bad value is refused with a one-line
-    error naming the option.
+    error naming the option. The device simulator (`device="cuda"`) holds at most 65 aircraft
+    per airspace, so there `max_spawned` is at most 27 (the default slots, 158, are refused with
+    an error saying so).
 
     **Train denser than you test.** Train under a rate that rises beyond the test traffic and
     test at a constant rate, e.g.
