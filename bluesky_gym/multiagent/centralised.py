@@ -16,8 +16,8 @@ episode seen as a single-agent MDP:
   limit; info: ``total_reward`` (team return), ``agents_active``, ``agents_completed``,
   ``total_intrusions``, ``average_drift`` and at the end of the episode the KPIs ``kpi_*``.
 
-The ids ``SectorCRCentralised-v0``, ``MergeCentralised-v0`` and ``HorizontalCRCentralised-v0``
-are registered by :func:`bluesky_gym.multiagent.register_envs`.
+The ids ``SectorCRCentralised-v0``, ``MergeCentralised-v0``, ``HorizontalCRCentralised-v0`` and
+``DenseSectorCRCentralised-v0`` are registered by :func:`bluesky_gym.multiagent.register_envs`.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from gymnasium import spaces
 
 from bluesky_gym.envs.shell import TaskSpecMixin, check_reset_options, time_limit_of
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, flatten_observation
+from bluesky_gym.multiagent.dense_sector_cr import DenseSectorCRMultiAgentTask
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
@@ -150,3 +151,9 @@ class HorizontalCRCentralisedEnv(CentralisedEnv):
     """HorizontalCRCentralised-v0: one agent steers the ownship and its intruders (see the module docstring)."""
 
     task_class = HorizontalCRMultiAgentTask
+
+
+class DenseSectorCRCentralisedEnv(CentralisedEnv):
+    """DenseSectorCRCentralised-v0: one agent steers every aircraft of the sector, those that enter during the episode included."""
+
+    task_class = DenseSectorCRMultiAgentTask
