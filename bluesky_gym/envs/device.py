@@ -81,6 +81,12 @@ class TensorIO:
             return self.torch.from_numpy(device_array.copy_to_host())
         return self.torch.as_tensor(device_array, device=self.device)
 
+    def kernel_array(self, tensor: Any) -> Any:
+        """A contiguous tensor as a kernel argument sharing its memory (numba-cuda's view of it; its numpy view under the simulator)."""
+        if cuda_target.SIMULATOR:
+            return tensor.numpy()
+        return cuda_target.cuda.as_cuda_array(tensor)
+
     def upload(self, host: np.ndarray) -> Any:
         """A host array as a tensor on the device: one copy into a numba-cuda device array, wrapped by :meth:`tensor`."""
         return self.tensor(cuda_target.to_device(np.ascontiguousarray(host)))
