@@ -1053,8 +1053,9 @@ class DeviceSimulator(Simulator):
             columns(d[name].reshape(1, flat), host.reshape(1, flat))
         for name in (*DEVICE_SWITCHES, "iactwp", "nwp"):
             columns(d[name].reshape(1, flat), getattr(self, name).reshape(1, flat))
-        for name, host in (("memo", self._memo), ("route_lat", self.route_lat.reshape(flat, -1)), ("route_lon", self.route_lon.reshape(flat, -1))):
-            launch(scatter_rows, rows.size, rows_d, up(np.ascontiguousarray(host[rows])), d[name])
+        per_aircraft_rows = {"memo": self._memo, "route_lat": self.route_lat.reshape(flat, -1), "route_lon": self.route_lon.reshape(flat, -1)}
+        for name, per_aircraft in per_aircraft_rows.items():
+            launch(scatter_rows, rows.size, rows_d, up(np.ascontiguousarray(per_aircraft[rows])), d[name])
         types = self._type_args()
         if types.size != d["types"].size:  # a second aircraft type appeared: every row (the device never changes types)
             d["types"] = up(types)

@@ -36,7 +36,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from bluesky_gym.core import cuda_target
+from bluesky_gym.core import DeviceSimulator, cuda_target
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks import sector_cr as sc
 from bluesky_gym.tasks.base import Task, numeric_action
@@ -56,6 +56,9 @@ class SectorCRDeviceStep:
 
     def __init__(self, task: sc.SectorCRTask, io: Any) -> None:
         self.task, self.io, self.torch = task, io, io.torch
+        if not isinstance(task.sim, DeviceSimulator):
+            raise TypeError(f"the device step needs the task's physics on the device (DeviceSimulator), got {type(task.sim).__name__}")
+        self.sim: DeviceSimulator = task.sim
         torch, dev = self.torch, io.device
         n, m = task.n_envs, task.sim.max_aircraft
         self.n, self.m = n, m
@@ -132,7 +135,7 @@ class SectorCRDeviceStep:
         """:func:`bluesky_gym.tasks.sector_cr.measure` of rows ``envs`` on the device (three launches)."""
         t, k, launch = self.task, self._k, cuda_target.launch
         p, m = int(envs.shape[0]), self.m
-        lat, lon, hdg, tas, alt, active = t.sim.device_arrays("lat", "lon", "hdg", "tas", "alt", "active")
+        lat, lon, hdg, tas, alt, active = self.sim.device_arrays("lat", "lon", "hdg", "tas", "alt", "active")
         sc_ = self.scenario
         g = {
             "drift": self._empty(p),
@@ -145,8 +148,25 @@ class SectorCRDeviceStep:
         }
         wpt_lat, wpt_lon = sc_["wpt_lat"][envs, own].contiguous(), sc_["wpt_lon"][envs, own].contiguous()
         scales = sc.observation_scales(t.config)
-        launch(compiled.sector_observe, p, k(envs), k(own), lat, lon, hdg, tas, active, k(wpt_lat), k(wpt_lon), sc._FLAT_CENTER, scales,
-               k(g["drift"]), k(g["features"]), k(g["intruders"]), k(g["n_others"]))  # fmt: skip
+        launch(
+            compiled.sector_observe,
+            p,
+            k(envs),
+            k(own),
+            lat,
+            lon,
+            hdg,
+            tas,
+            active,
+            k(wpt_lat),
+            k(wpt_lon),
+            sc._FLAT_CENTER,
+            scales,
+            k(g["drift"]),
+            k(g["features"]),
+            k(g["intruders"]),
+            k(g["n_others"]),
+        )
         launch(compiled.kwik_separation, p, k(envs), k(own), lat, lon, alt, active, sc.INTRUSION_DISTANCE, np.nan, k(g["separation"]), k(g["los"]))
         launch(compiled.slots_in_polygons, p, k(envs), k(own), lat, lon, k(sc_["poly_lat"]), k(sc_["poly_lon"]), k(sc_["n_vertices"]), k(g["inside"]))
         return g
@@ -157,10 +177,25 @@ class SectorCRDeviceStep:
         stepped = reward is not None
         p = int(envs.shape[0])
         launch_args = (
-            k(envs), k(g["separation"]), k(g["los"]), stepped, k(reward if stepped else self.nothing), k(g["drift"]),
-            k(self.no_goal[:p]), float(t.dt), int(t.action_frequency), k(s["in_los"]), k(s["min_sep"]), k(s["los_count"]),
-            k(s["los_steps"]), k(s["steps"]), k(s["total_reward"]), k(s["drift_sum"]), k(s["drift_n"]), k(s["time_to_goal"]),
-        )  # fmt: skip
+            k(envs),
+            k(g["separation"]),
+            k(g["los"]),
+            stepped,
+            k(reward if stepped else self.nothing),
+            k(g["drift"]),
+            k(self.no_goal[:p]),
+            float(t.dt),
+            int(t.action_frequency),
+            k(s["in_los"]),
+            k(s["min_sep"]),
+            k(s["los_count"]),
+            k(s["los_steps"]),
+            k(s["steps"]),
+            k(s["total_reward"]),
+            k(s["drift_sum"]),
+            k(s["drift_n"]),
+            k(s["time_to_goal"]),
+        )
         cuda_target.launch(compiled.record_step, p, *launch_args)
 
     def _observation(self, g: dict[str, Any]) -> dict[str, Any]:
@@ -170,7 +205,9 @@ class SectorCRDeviceStep:
         obs.update({key: intruders[:, i] for i, key in enumerate(sc.INTRUDER_KEYS)})
         if self.task.config.float32_spaces:
             torch = self.torch
-            obs = {key: torch.minimum(torch.maximum(v, v.new_tensor(self.bounds[key][0])), v.new_tensor(self.bounds[key][1])) for key, v in obs.items()}
+            obs = {
+                key: torch.minimum(torch.maximum(v, v.new_tensor(self.bounds[key][0])), v.new_tensor(self.bounds[key][1])) for key, v in obs.items()
+            }
         return {key: v.to(self.obs_dtype).contiguous() for key, v in obs.items()}
 
     def _episode_info(self) -> dict[str, Any]:
@@ -186,7 +223,7 @@ class SectorCRDeviceStep:
     def _kpis(self) -> dict[str, Any]:
         """:meth:`bluesky_gym.tasks.base.Task.kpis` on the device (SectorCR has no goal)."""
         s, torch, t = self.stats, self.torch, self.task
-        distflown, fuelburn = t.sim.device_arrays("distflown", "fuelburn")
+        distflown, fuelburn = self.sim.device_arrays("distflown", "fuelburn")
         avg = torch.where(s["drift_n"] > 0, s["drift_sum"] / torch.clamp(s["drift_n"], min=1), np.nan)
         return {
             "kpi_los_count": s["los_count"].to(torch.float64),
@@ -209,10 +246,10 @@ class SectorCRDeviceStep:
         host_rows = t.all_envs if rows is None else rows
 
         def reset() -> None:
-            t.sim.reset_envs(host_rows)
+            self.sim.reset_envs(host_rows)
             t.generate(host_rows)
 
-        t.sim.reset_on_host(host_rows, reset)
+        self.sim.reset_on_host(host_rows, reset)
         self._upload_scenario(rows)
         idx = self.envs if rows is None else self._long(rows)
         self._clear_stats(idx)
@@ -257,19 +294,50 @@ class SectorCRDeviceStep:
         n = self.n
         a = self._actions(actions)
         d_speed = sc.D_VELOCITY * sc.KTS if c.speed_step_in_knots else sc.D_VELOCITY
-        hdg, cas, ap_trk, selspd, swlnav, swvnavspd = t.sim.device_arrays("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd")
+        hdg, cas, ap_trk, selspd, swlnav, swvnavspd = self.sim.device_arrays("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd")
         launch(compiled.command_heading_speed, n, k(self.envs), k(self.own), k(a), hdg, cas, sc.D_HEADING, d_speed, ap_trk, swlnav, selspd, swvnavspd)
         t.advance()
         g = self._measure(self.envs, self.own)
         obs = self._observation(g)
         reward, drift_c, intrusion_c, count = self._empty(n), self._empty(n), self._empty(n), self._empty(n, dtype=torch.int64)
-        launch(compiled.sector_reward, n, k(g["drift"]), k(g["los"]), sc.DRIFT_PENALTY, sc.INTRUSION_PENALTY, k(reward), k(drift_c), k(intrusion_c), k(count))
+        launch(
+            compiled.sector_reward,
+            n,
+            k(g["drift"]),
+            k(g["los"]),
+            sc.DRIFT_PENALTY,
+            sc.INTRUSION_PENALTY,
+            k(reward),
+            k(drift_c),
+            k(intrusion_c),
+            k(count),
+        )
         exit_c, terminated = self._empty(n), self._empty(n, dtype=torch.bool)
-        lat, lon = t.sim.device_arrays("lat", "lon")
+        lat, lon = self.sim.device_arrays("lat", "lon")
         sc_ = self.scenario
-        launch(compiled.sector_episode_reward, n, k(self.envs), k(g["drift"]), k(count), k(g["inside"]), lat, lon, k(sc_["wpt_lat"]), k(sc_["wpt_lon"]),
-               k(s["steps"]), int(t.time_limit), bool(c.exit_ends_episode), sc.EXIT_MARGIN, sc.EARLY_EXIT_PENALTY,
-               k(s["drift_rad_sum"]), k(s["drift_rad_n"]), k(s["total_intrusions"]), k(reward), k(exit_c), k(terminated))  # fmt: skip
+        launch(
+            compiled.sector_episode_reward,
+            n,
+            k(self.envs),
+            k(g["drift"]),
+            k(count),
+            k(g["inside"]),
+            lat,
+            lon,
+            k(sc_["wpt_lat"]),
+            k(sc_["wpt_lon"]),
+            k(s["steps"]),
+            int(t.time_limit),
+            bool(c.exit_ends_episode),
+            sc.EXIT_MARGIN,
+            sc.EARLY_EXIT_PENALTY,
+            k(s["drift_rad_sum"]),
+            k(s["drift_rad_n"]),
+            k(s["total_intrusions"]),
+            k(reward),
+            k(exit_c),
+            k(terminated),
+        )
         self._record(self.envs, g, reward)
         time_up = s["steps"] >= t.time_limit
         truncated = ~terminated & (time_up if c.exit_ends_episode else (time_up | ~g["inside"]))

@@ -486,10 +486,26 @@ class SectorCRTask(Task):
         exits = self.config.exit_ends_episode
         exit_penalty, terminated = np.empty(self.n_envs), np.empty(self.n_envs, bool)
         compiled.sector_episode_reward(
-            g.envs, g.drift_deg, count, g.inside, self.sim.lat, self.sim.lon, self.wpt_lat, self.wpt_lon,
-            self.stats.steps, self.time_limit, exits, EXIT_MARGIN, EARLY_EXIT_PENALTY,
-            self.drift_rad_sum, self.drift_rad_n, self.total_intrusions, r, exit_penalty, terminated,
-        )  # fmt: skip  (the stats count this step after the reward)
+            g.envs,
+            g.drift_deg,
+            count,
+            g.inside,
+            self.sim.lat,
+            self.sim.lon,
+            self.wpt_lat,
+            self.wpt_lon,
+            self.stats.steps,
+            self.time_limit,
+            exits,
+            EXIT_MARGIN,
+            EARLY_EXIT_PENALTY,
+            self.drift_rad_sum,
+            self.drift_rad_n,
+            self.total_intrusions,
+            r,
+            exit_penalty,
+            terminated,
+        )  # (the stats count this step after the reward)
         if exits:
             components["exit"] = exit_penalty
         return r, terminated, components

@@ -69,8 +69,8 @@ def test_env_device_is_refused_with_the_sb3_trainer() -> None:
 def test_train_command_takes_env_device(tmp_path: Path) -> None:
     config = tmp_path / "tiny.toml"
     config.write_text(f'[algos.PPO]\nn_steps = 4\nbatch_size = 12\nn_epochs = 1\n[env_options."{ENV}"]\nmax_episode_steps = 3\n')
-    command = [sys.executable, "-m", "bluesky_gym", "train", "--env", ENV, "--trainer", "fast", "--num-envs", "3", "--steps", "12",
-               "--env-device", "cuda", "--config", str(config), "--eval-episodes", "0", "--quiet", "--no-tensorboard", "--out", str(tmp_path)]  # fmt: skip
+    command = [sys.executable, "-m", "bluesky_gym", "train", "--env", ENV, "--trainer", "fast", "--num-envs", "3", "--steps", "12"]
+    command += ["--env-device", "cuda", "--config", str(config), "--eval-episodes", "0", "--quiet", "--no-tensorboard", "--out", str(tmp_path)]
     done = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     assert (tmp_path / ENV / "PPO" / "seed_0" / "model.zip").exists()

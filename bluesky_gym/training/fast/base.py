@@ -168,7 +168,7 @@ class TensorEpisodeTracker(EpisodeTracker):
         self.n_envs = n_envs
         self.returns = torch.zeros(n_envs, dtype=torch.float64, device=device)  # type: ignore[assignment]
         self.lengths = torch.zeros(n_envs, dtype=torch.int64, device=device)  # type: ignore[assignment]
-        self.components = {}  # type: ignore[var-annotated]
+        self.components = {}
 
     def reset(self) -> None:
         """Forget the episodes in flight (after the environment was reset)."""
