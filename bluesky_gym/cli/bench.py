@@ -399,13 +399,13 @@ def run_gpu_command(args: argparse.Namespace) -> int:
         return _finish(args, {"gpu_compile": {"cc": list(cc), "problems": problems, "results": gpu_bench.compile_summary(results)}}, failed)
     if args.kernel or args.cc:
         raise SystemExit("bluesky-gym bench gpu: --kernel and --cc go with --compile-only")
-    refusal = gpu_bench.device_refusal()
-    if refusal is not None:
-        raise SystemExit(f"bluesky-gym bench gpu: {refusal}")
     if args.envs and args.ppo:
         raise SystemExit("bluesky-gym bench gpu: --envs and --ppo are two checks; run them one at a time")
     if args.budget is not None and not args.budget > 0:
         raise SystemExit(f"bluesky-gym bench gpu: --budget must be a positive number of seconds, got {args.budget}")
+    refusal = gpu_bench.device_refusal()
+    if refusal is not None:
+        raise SystemExit(f"bluesky-gym bench gpu: {refusal}")
     if args.envs:
         envs = gpu_bench.device_envs(**_budget(args), say=say)
         print(gpu_bench.format_device_envs(envs))
