@@ -130,6 +130,18 @@ class SectorCRDeviceStep:
         s["time_to_goal"][idx] = np.nan
         s["in_los"][idx] = False
 
+    def sync_host(self) -> None:
+        """Copy the episode statistics and SectorCR's sums into the task's host arrays (for pictures: the step never reads them)."""
+        s, t = self.stats, self.task
+        host = {"in_los": t.stats.in_los, "min_sep": t.stats.min_separation, "total_intrusions": t.total_intrusions}
+        host.update({k: getattr(t, k) for k in ("drift_rad_sum", "drift_rad_n")})
+        host.update({k: getattr(t.stats, k) for k in ("los_count", "los_steps", "steps", "total_reward", "drift_sum", "drift_n", "time_to_goal")})
+        if t.stats.in_los.shape != tuple(s["in_los"].shape):
+            t.stats.in_los = np.zeros(tuple(s["in_los"].shape), bool)
+            host["in_los"] = t.stats.in_los
+        for k, arr in host.items():
+            arr[...] = s[k].cpu().numpy()
+
     # --- the task's kernels ---------------------------------------------------------------------
     def _measure(self, envs: Any, own: Any) -> dict[str, Any]:
         """:func:`bluesky_gym.tasks.sector_cr.measure` of rows ``envs`` on the device (three launches)."""

@@ -509,6 +509,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             if self._device_step is not None:
                 obs_d, info_d = self._device_step.reset()
                 self._last_info = {}
+                if self.render_mode is not None:
+                    self._device_step.sync_host()
                 if self.render_mode == "human":
                     self.render()
                 return obs_d, info_d
@@ -562,6 +564,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         assert self._device_step is not None
         obs, reward, terminated, truncated, info, _ended = self._device_step.step(actions)
         if self.render_mode is not None:  # the pictures read the host (copies made for them only)
+            self._device_step.sync_host()
             self._last_reward = reward.cpu().numpy()
             self._last_info = {k: v.cpu().numpy() for k, v in info.items() if not k.startswith(("final", "_final"))}
             if self.render_mode == "human":

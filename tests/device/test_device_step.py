@@ -129,3 +129,20 @@ def test_bad_actions_are_refused_in_one_line(action: Any, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         env.step(given)
     env.close()
+
+
+def test_rendering_a_device_step_environment_shows_its_statistics() -> None:
+    """The pictures read the task's host arrays: with a render mode the step copies its statistics there."""
+    cpu = gym.make_vec("SectorCREnv-v0", num_envs=2, render_mode="rgb_array")
+    dev = gym.make_vec("SectorCREnv-v0", num_envs=2, render_mode="rgb_array", device="cuda")
+    cpu.reset(seed=4)
+    dev.reset(seed=4)
+    for _ in range(2):
+        cpu.step(np.full((2, 2), 0.5))
+        dev.step(torch.full((2, 2), 0.5, device=ON))
+    for k in ("steps", "total_reward", "min_separation", "drift_sum"):
+        np.testing.assert_array_equal(getattr(dev.unwrapped.task.stats, k), getattr(cpu.unwrapped.task.stats, k), err_msg=k)
+    np.testing.assert_array_equal(dev.unwrapped.task.total_intrusions, cpu.unwrapped.task.total_intrusions)
+    assert dev.render().shape == cpu.render().shape
+    cpu.close()
+    dev.close()
