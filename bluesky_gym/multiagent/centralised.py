@@ -28,7 +28,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bluesky_gym.envs.shell import TaskSpecMixin, check_reset_options, requested_time_limit
+from bluesky_gym.envs.shell import TaskSpecMixin, check_reset_options, time_limit_of
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, flatten_observation
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
@@ -52,6 +52,8 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
     Args:
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         max_episode_steps: Time limit in decision steps (default: the single-agent environment's).
+        time_limit: ``max_episode_steps`` under the name ``gym.make`` passes on
+            (:func:`~bluesky_gym.envs.shell.time_limit_of`).
         **options: Scenario options of the single-agent task.
 
     """
@@ -59,11 +61,11 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
     task_class: ClassVar[type[MultiAgentTask]]
     metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}  # noqa: RUF012 - Gymnasium declares it an instance attribute
 
-    def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, **options: Any) -> None:
+    def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, time_limit: int | None = None, **options: Any) -> None:
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
         self.render_mode = render_mode
-        self.task = self.task_class(1, self.task_class.make_config(options), max_episode_steps=requested_time_limit(max_episode_steps))
+        self.task = self.task_class(1, self.task_class.make_config(options), max_episode_steps=time_limit_of(max_episode_steps, time_limit))
         m = self.task.n_agents
         low, high = local_bounds(self.task)
         self.observation_space = spaces.Dict(
