@@ -179,7 +179,9 @@ def _exercise_device_only() -> None:
     flat = sim.n_envs * sim.max_aircraft
     field = {k: np.ascontiguousarray(getattr(sim, k)) for k in ("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd")}
     envs, own = np.arange(2), np.zeros(2, np.int64)
-    compiled.command_heading_speed(envs, own, np.zeros((2, 2)), field["hdg"], field["cas"], 22.5, 6.0, *(field[k] for k in ("ap_trk", "swlnav", "selspd", "swvnavspd")))
+    compiled.command_heading_speed(
+        envs, own, np.zeros((2, 2)), field["hdg"], field["cas"], 22.5, 6.0, *(field[k] for k in ("ap_trk", "swlnav", "selspd", "swvnavspd"))
+    )
     rows = np.arange(sim.max_aircraft)
     for flat_array in (np.ascontiguousarray(sim._float_flat), sim.phase.reshape(1, flat), sim.active.reshape(1, flat), sim.iactwp.reshape(1, flat)):
         scatter_columns(rows, np.ascontiguousarray(flat_array[:, rows]), flat_array.copy())
@@ -838,7 +840,9 @@ def format_device_ppo(result: dict[str, Any]) -> str:
     """``bench gpu --ppo``'s table: PPO end-to-end env-steps/s, CPU and device environments side by side."""
     n_steps, epochs, minibatches = PPO_SETTINGS
     lines = [f"PPO end to end on {result['device']}: {result['id']} ({result['seconds']:.0f} s)", ""]
-    lines.append(f"fast PPO, rollouts of {n_steps} steps per environment, {epochs} epochs of {minibatches} minibatches; {PPO_ROLLOUTS} rollouts timed")
+    lines.append(
+        f"fast PPO, rollouts of {n_steps} steps per environment, {epochs} epochs of {minibatches} minibatches; {PPO_ROLLOUTS} rollouts timed"
+    )
     lines.append(f"{'environments':<20}  {'learner':<8}  {'episodes':>9}  {'env-steps/s':>12}")
     for r in result["rates"]:
         rate = "skipped: " + r["skipped"] if "skipped" in r else _rate(r["rate"])

@@ -154,7 +154,13 @@ def add_parser(subparsers: Any) -> None:
     gpu.add_argument("--kernel", action="append", metavar="NAME", help="with --compile-only: only this kernel (repeatable)")
     gpu.add_argument("--envs", action="store_true", help="on a CUDA GPU: every id's make_vec(..., device='cuda') against the CPU (episodes, steps/s)")
     gpu.add_argument("--ppo", action="store_true", help="on a CUDA GPU: PPO end to end (fast trainer) on device environments, env-steps/s")
-    gpu.add_argument("--budget", type=float, default=None, metavar="S", help="wall-clock budget of the device check in seconds (default: 480; --envs 240; --ppo 150)")
+    gpu.add_argument(
+        "--budget",
+        type=float,
+        default=None,
+        metavar="S",
+        help="wall-clock budget of the device check in seconds (default: 480; --envs 240; --ppo 150)",
+    )
     _add_common(gpu)
     gpu.set_defaults(func=run_gpu_command)
 
