@@ -17,6 +17,10 @@ How the batches travel (:class:`TensorIO`):
   or ``__dlpack__``) are copied to the host once per step: the actions become autopilot
   commands, which the task gives on the host.
 
+Where the task's whole step runs on the device (:mod:`bluesky_gym.envs.device_step`: SectorCR),
+neither copy happens: the actions stay on the device, the kernels write into tensors
+(:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
+
 Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the device arrays are numpy arrays in
 disguise and torch has no GPU to put tensors on: the tensors are then CPU tensors, made by the
 same code path, so that the environment's logic is tested without a GPU.

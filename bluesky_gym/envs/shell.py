@@ -402,7 +402,10 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     numpy arrays on the host. The task's own side (actions to commands, resets with their random
     draws, observation, reward) runs on the host as with ``device="cpu"``, so episode ``i`` draws
     the same scenarios as a single environment with seed ``s + i``; its physics agrees with the
-    CPU's within the GPU's rounding (docs/backends.md).
+    CPU's within the GPU's rounding (docs/backends.md). For the tasks of
+    :data:`~bluesky_gym.envs.device_step.DEVICE_STEPS` (SectorCR without wind) the whole step runs
+    on the device instead, every info entry is a tensor there, and only the resets' draws run on
+    the host (:mod:`bluesky_gym.envs.device_step`).
 
     Args:
         num_envs: Number of episodes simulated together.
