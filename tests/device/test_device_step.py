@@ -43,12 +43,18 @@ def _same(device: Any, cpu: np.ndarray, what: str) -> None:
 
 @pytest.mark.parametrize(
     ("env_id", "options"),
-    [("SectorCREnv-v0", {}), ("SectorCREnv-v1", {}), ("SectorCREnv-v0", {"intruder_types": ("A320", "B744"), "ac_density_mode": "uniform"})],
+    [
+        ("SectorCREnv-v0", {}),
+        ("SectorCREnv-v1", {}),
+        ("SectorCREnv-v0", {"intruder_types": ("A320", "B744"), "ac_density_mode": "uniform"}),
+        ("SectorCREnv-v1", {"poly_area_range": (40.0, 80.0), "max_episode_steps": 60}),  # small sectors: left, terminated
+    ],
 )
 def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(env_id: str, options: dict[str, Any], monkeypatch: pytest.MonkeyPatch) -> None:
     """Same seeds, same actions: the same outputs, every info entry included, through terminations, truncations and autoresets."""
-    cpu = gym.make_vec(env_id, num_envs=3, max_episode_steps=3, **options)
-    dev = gym.make_vec(env_id, num_envs=3, max_episode_steps=3, device="cuda", **options)
+    options = {"max_episode_steps": 3, **options}
+    cpu = gym.make_vec(env_id, num_envs=3, **options)
+    dev = gym.make_vec(env_id, num_envs=3, device="cuda", **options)
     assert isinstance(dev.unwrapped._device_step, SectorCRDeviceStep)
     sim = dev.unwrapped.task.sim
     assert isinstance(sim, DeviceSimulator)
@@ -62,8 +68,8 @@ def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(env_id: str, 
     original = DeviceSimulator._to_host
     monkeypatch.setattr(DeviceSimulator, "_to_host", lambda self: (pulls.append(1), original(self))[1])
     rng = np.random.default_rng(2)
-    ended = 0
-    for step in range(7):
+    ended = terminated = 0
+    for step in range(9):
         a = rng.uniform(-1.5, 1.5, cpu.action_space.shape).astype(cpu.action_space.dtype)  # beyond the bounds: clipped
         oc, rc, tc, uc, ic = cpu.step(a)
         od, rd, td, ud, idev = dev.step(torch.as_tensor(a, device=ON))
@@ -81,7 +87,11 @@ def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(env_id: str, 
             else:
                 _same(idev[k], v, f"step {step} info {k}")
         ended += int((tc | uc).sum())
-    assert ended >= 6, "episodes must end (time limit 3, the sector left) and be reset on the way"
+        terminated += int(tc.sum())
+    if options["max_episode_steps"] > 9:
+        assert terminated >= 1, "an agent must leave its small sector (-v1: terminated) and be reset"
+    else:
+        assert ended >= 4, "episodes must end (time limit 3, the sector left) and be reset on the way"
     assert not pulls, "the aircraft state came back to the host whole during a step"
     # The episodes' scenarios on the host are those of the CPU environment (drawn from the same generators).
     np.testing.assert_array_equal(dev.unwrapped.task.wpt_lat, cpu.unwrapped.task.wpt_lat)
