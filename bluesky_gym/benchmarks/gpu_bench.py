@@ -161,6 +161,31 @@ def _exercise_core() -> None:
     atmosphere.tas2cas(150.0 * ones, 3000.0)
     atmosphere.casormach2tas(150.0 * ones, 3000.0)
     lnav.turn_distances(150.0 * ones, 10.0, 80.0)
+    _exercise_device_only()
+
+
+def _exercise_device_only() -> None:
+    """The kernels only the device runs, on host arrays of the layouts the device gives them.
+
+    The device step's commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`) and
+    :meth:`bluesky_gym.core.DeviceSimulator.reset_on_host`'s scatters of each state dtype.
+    """
+    from bluesky_gym.core import Simulator
+    from bluesky_gym.core.state import scatter_columns, scatter_rows
+    from bluesky_gym.tasks import compiled
+
+    sim = Simulator(2, 3, dt=1.0)
+    sim.create([0, 1], 0, 52.0, 4.0, 90.0, 3000.0, 150.0)
+    flat = sim.n_envs * sim.max_aircraft
+    field = {k: np.ascontiguousarray(getattr(sim, k)) for k in ("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd")}
+    envs, own = np.arange(2), np.zeros(2, np.int64)
+    compiled.command_heading_speed(
+        envs, own, np.zeros((2, 2)), field["hdg"], field["cas"], 22.5, 6.0, *(field[k] for k in ("ap_trk", "swlnav", "selspd", "swvnavspd"))
+    )
+    rows = np.arange(sim.max_aircraft)
+    for flat_array in (np.ascontiguousarray(sim._float_flat), sim.phase.reshape(1, flat), sim.active.reshape(1, flat), sim.iactwp.reshape(1, flat)):
+        scatter_columns(rows, np.ascontiguousarray(flat_array[:, rows]), flat_array.copy())
+    scatter_rows(rows, np.ascontiguousarray(sim._memo[rows]), sim._memo.copy())
 
 
 @dataclass(frozen=True)
@@ -554,7 +579,7 @@ def format_device_check(result: dict[str, Any]) -> str:
             lines.append(f"{t['target']:<14}  {t['rows']:>9}  {'skipped: ' + t['skipped']:>15}")
             continue
         lines.append(f"{t['target']:<14}  {t['rows']:>9}  {_rate(t['sector_observe']):>15}  {_rate(t['merge_observe']):>15}")
-    lines.append("Environment steps on the device: bluesky-gym bench gpu --envs. Not measured: PPO end to end (no trainer takes device tensors yet).")
+    lines.append("Environment steps on the device: bluesky-gym bench gpu --envs; PPO end to end: bluesky-gym bench gpu --ppo.")
     return "\n".join(lines)
 
 
@@ -580,10 +605,16 @@ ENV_CHECK_BUDGET = 240.0
 
 
 def env_check_ids() -> list[str]:
-    """The ids the device vector environments are checked with: every single-agent id whose data are in place."""
+    """The ids the device vector environments are checked with: every single-agent id whose data are in place.
+
+    Those whose step runs on the device (:data:`bluesky_gym.envs.device_step.DEVICE_STEPS`) come
+    first, so that a tight budget measures them.
+    """
+    from bluesky_gym.envs.device_step import DEVICE_STEPS
     from bluesky_gym.envs.registry import entry, env_ids
 
-    return [i for i in env_ids() if entry(i).data_status() is None]
+    ids = [i for i in env_ids() if entry(i).data_status() is None]
+    return sorted(ids, key=lambda i: entry(i).task_class() not in DEVICE_STEPS)
 
 
 def _max_diff(a: np.ndarray, b: np.ndarray) -> float:
@@ -716,4 +747,107 @@ def format_device_envs(result: dict[str, Any]) -> str:
     for r in result["rates"]:
         rate = "skipped: " + r["skipped"] if "skipped" in r else _rate(r["rate"])
         lines.append(f"{r['id']:<22}  {r['target']:<16}  {r['episodes']:>9}  {rate:>12}")
+    return "\n".join(lines)
+
+
+# --- PPO end to end -----------------------------------------------------------------------------
+#: The id PPO trains on end to end: its vector step runs on the device (bluesky_gym.envs.device_step).
+PPO_ID = "SectorCREnv-v1"
+#: (environment device, episodes) of the PPO measurement: the CPU vector environment (one process)
+#: next to the device environment at growing batches; the learner is on the GPU in every row.
+PPO_BATCHES: tuple[tuple[str, int], ...] = (("cpu", 2**10), ("cuda", 2**12), ("cuda", 2**14), ("cuda", 2**16))
+#: Rollout steps per environment, epochs and minibatches per update (large-batch PPO, as GPU trainers run it).
+PPO_SETTINGS = (16, 2, 4)
+#: Timed rollouts of each measurement, after one untimed rollout (which compiles the kernels).
+PPO_ROLLOUTS = 2
+#: Wall-clock budget of ``bench gpu --ppo`` [s].
+PPO_CHECK_BUDGET = 150.0
+#: The issue's target on one H100: PPO end to end [env-steps/s].
+TARGET_PPO_RATE = 1e6
+
+
+def ppo_rate(env_device: str, n_envs: int, say: Say = None) -> dict[str, Any]:
+    """Env-steps per second of the fast PPO trainer on :data:`PPO_ID`, collection and updates included.
+
+    The environment runs on ``env_device`` (``"cuda"``: ``make_vec(..., device="cuda")``, the
+    trainer reading its tensors where they are); the learner on the GPU (on the CPU under
+    numba-cuda's simulator). One untimed rollout first, then :data:`PPO_ROLLOUTS` timed ones.
+    """
+    import torch
+    from stable_baselines3.common.logger import configure
+
+    from bluesky_gym.core import cuda_target
+    from bluesky_gym.training.fast import trainer_class
+    from bluesky_gym.training.hyperparams import PAPER, merge
+    from bluesky_gym.training.runner import make_run_spec, new_model
+    from bluesky_gym.training.sb3_vec_env import SB3VecEnv
+
+    if say is not None:
+        say(f"ppo: {PPO_ID}, environments on {env_device}, {n_envs} episodes")
+    learner = "cpu" if cuda_target.SIMULATOR else "cuda"
+    n_steps, epochs, minibatches = PPO_SETTINGS
+    hp = {"n_steps": n_steps, "batch_size": max(1, n_envs * n_steps // minibatches), "n_epochs": epochs}
+    config = merge(PAPER, {"run": {"trainer": "fast", "compile": False}, "algos": {"PPO": hp}})
+    spec = make_run_spec(config, PPO_ID, "PPO", 0, n_envs=n_envs, total_timesteps=1, device=learner, env_device=env_device)
+    venv = SB3VecEnv(PPO_ID, num_envs=n_envs, **({"device": env_device} if env_device != "cpu" else {}))
+    try:
+        model = new_model(spec, venv)
+        model.set_logger(configure(None, []))
+        trainer = trainer_class("PPO")(model, venv.venv, seed=0)
+        trainer.start(list(range(n_envs)))
+
+        def synchronize() -> None:
+            if env_device == "cuda":
+                cuda_target.synchronize()
+            if learner == "cuda":
+                torch.cuda.synchronize()
+
+        rollout = n_envs * n_steps
+        trainer.learn(rollout)
+        synchronize()
+        t0, steps0 = time.perf_counter(), trainer.num_timesteps
+        trainer.learn(steps0 + PPO_ROLLOUTS * rollout)
+        synchronize()
+        rate = (trainer.num_timesteps - steps0) / (time.perf_counter() - t0)
+        trainer.close()
+    finally:
+        venv.close()
+    target = "cpu env (1 process)" if env_device == "cpu" else "cuda env"
+    return {"env": target, "learner": learner, "episodes": n_envs, "rate": rate, "hyperparams": dict(spec.hyperparams)}
+
+
+def device_ppo(budget: float = PPO_CHECK_BUDGET, say: Say = None) -> dict[str, Any]:
+    """PPO end to end (:func:`ppo_rate`) at the sizes of :data:`PPO_BATCHES`, within ``budget`` seconds.
+
+    Raises:
+        RuntimeError: No CUDA device (or numba-cuda's simulator instead of one).
+    """
+    refusal = device_refusal()
+    if refusal is not None:
+        raise RuntimeError(refusal)
+    start = time.perf_counter()
+    device = _device_name()
+    rates: list[dict[str, Any]] = []
+    for env_device, n in PPO_BATCHES:
+        if time.perf_counter() - start > 0.7 * budget:  # a measurement takes a while: start one only with room left
+            rates.append({"env": f"{env_device} env", "episodes": n, "skipped": "time budget"})
+            continue
+        rates.append(ppo_rate(env_device, n, say))
+    return {"device": device, "id": PPO_ID, "seconds": time.perf_counter() - start, "rates": rates}
+
+
+def format_device_ppo(result: dict[str, Any]) -> str:
+    """``bench gpu --ppo``'s table: PPO end-to-end env-steps/s, CPU and device environments side by side."""
+    n_steps, epochs, minibatches = PPO_SETTINGS
+    lines = [f"PPO end to end on {result['device']}: {result['id']} ({result['seconds']:.0f} s)", ""]
+    lines.append(
+        f"fast PPO, rollouts of {n_steps} steps per environment, {epochs} epochs of {minibatches} minibatches; {PPO_ROLLOUTS} rollouts timed"
+    )
+    lines.append(f"{'environments':<20}  {'learner':<8}  {'episodes':>9}  {'env-steps/s':>12}")
+    for r in result["rates"]:
+        rate = "skipped: " + r["skipped"] if "skipped" in r else _rate(r["rate"])
+        lines.append(f"{r['env']:<20}  {r.get('learner', ''):<8}  {r['episodes']:>9}  {rate:>12}")
+    best = max((r["rate"] for r in result["rates"] if "rate" in r and r["env"] == "cuda env"), default=0.0)
+    verdict = "met" if best >= TARGET_PPO_RATE else "NOT MET"
+    lines.append(f"target: PPO end to end >= {_rate(TARGET_PPO_RATE)} env-steps/s on one H100: {verdict} (best {_rate(best)})")
     return "\n".join(lines)

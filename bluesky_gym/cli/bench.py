@@ -12,6 +12,7 @@ Examples::
     bluesky-gym bench gpu --compile-only            # every CUDA kernel to PTX, no GPU needed (the gpu extra)
     bluesky-gym bench gpu                           # the device check, on a machine with a CUDA GPU
     bluesky-gym bench gpu --envs                    # the device vector environments against the CPU ones (a CUDA GPU)
+    bluesky-gym bench gpu --ppo                     # PPO end to end on device environments (a CUDA GPU)
 
 The interpreters can also be given by the environment variables ``BLUESKY_PYTHON`` and
 ``BLUESKY_GYM_REFERENCE_PYTHON``.
@@ -152,6 +153,14 @@ def add_parser(subparsers: Any) -> None:
     gpu.add_argument("--cc", type=_compute_capability, default=None, metavar="M.N", help="compute capability (default: 9.0, Hopper)")
     gpu.add_argument("--kernel", action="append", metavar="NAME", help="with --compile-only: only this kernel (repeatable)")
     gpu.add_argument("--envs", action="store_true", help="on a CUDA GPU: every id's make_vec(..., device='cuda') against the CPU (episodes, steps/s)")
+    gpu.add_argument("--ppo", action="store_true", help="on a CUDA GPU: PPO end to end (fast trainer) on device environments, env-steps/s")
+    gpu.add_argument(
+        "--budget",
+        type=float,
+        default=None,
+        metavar="S",
+        help="wall-clock budget of the device check in seconds (default: 480; --envs 240; --ppo 150)",
+    )
     _add_common(gpu)
     gpu.set_defaults(func=run_gpu_command)
 
@@ -365,6 +374,11 @@ def _run_env_profiles(args: argparse.Namespace) -> int:
     return _finish(args, {"env_profile": profiles}, False)
 
 
+def _budget(args: argparse.Namespace) -> dict[str, float]:
+    """The ``budget`` argument of a device check: ``--budget`` where given (else the check's own default)."""
+    return {} if args.budget is None else {"budget": float(args.budget)}
+
+
 def run_gpu_command(args: argparse.Namespace) -> int:
     """``bench gpu``: the compile-only check, or the device check."""
     from bluesky_gym.benchmarks import gpu_bench
@@ -374,8 +388,8 @@ def run_gpu_command(args: argparse.Namespace) -> int:
         raise SystemExit(f"bluesky-gym bench gpu: {gpu_bench.device_refusal()}")
     say = _progress(args)
     if args.compile_only:
-        if args.envs:
-            raise SystemExit("bluesky-gym bench gpu: --envs runs environments on a GPU; it does not go with --compile-only")
+        if args.envs or args.ppo or args.budget is not None:
+            raise SystemExit("bluesky-gym bench gpu: --envs, --ppo and --budget run on a GPU; they do not go with --compile-only")
         if cuda_target.SIMULATOR:
             raise SystemExit("bluesky-gym bench gpu: --compile-only compiles with NVVM; unset NUMBA_ENABLE_CUDASIM (the simulator compiles nothing)")
         cc = args.cc or cuda_target.DEFAULT_CC
@@ -391,13 +405,21 @@ def run_gpu_command(args: argparse.Namespace) -> int:
         return _finish(args, {"gpu_compile": {"cc": list(cc), "problems": problems, "results": gpu_bench.compile_summary(results)}}, failed)
     if args.kernel or args.cc:
         raise SystemExit("bluesky-gym bench gpu: --kernel and --cc go with --compile-only")
+    if args.envs and args.ppo:
+        raise SystemExit("bluesky-gym bench gpu: --envs and --ppo are two checks; run them one at a time")
+    if args.budget is not None and not args.budget > 0:
+        raise SystemExit(f"bluesky-gym bench gpu: --budget must be a positive number of seconds, got {args.budget}")
     refusal = gpu_bench.device_refusal()
     if refusal is not None:
         raise SystemExit(f"bluesky-gym bench gpu: {refusal}")
     if args.envs:
-        envs = gpu_bench.device_envs(say=say)
+        envs = gpu_bench.device_envs(**_budget(args), say=say)
         print(gpu_bench.format_device_envs(envs))
         return _finish(args, {"gpu_envs": envs}, False)
-    result = gpu_bench.device_check(say=say)
+    if args.ppo:
+        ppo = gpu_bench.device_ppo(**_budget(args), say=say)
+        print(gpu_bench.format_device_ppo(ppo))
+        return _finish(args, {"gpu_ppo": ppo}, False)
+    result = gpu_bench.device_check(**_budget(args), say=say)
     print(gpu_bench.format_device_check(result))
     return _finish(args, {"gpu": result}, not result["fidelity"]["within_tolerances"])

@@ -66,10 +66,33 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         "(default: config, sb3)",
     )
     p.add_argument(
+        "--env-device",
+        choices=("cpu", "cuda"),
+        help="where the fast trainer's environments run: cuda steps them on the GPU and trains from its tensors without host copies "
+        "(needs the gpu and train extras and a CUDA GPU; default: config, cpu)",
+    )
+    p.add_argument(
         "--compile",
         choices=("auto", "on", "off"),
         help="compile the fast trainer's PPO update with torch.compile (auto: for small minibatches in long runs; default: config, auto)",
     )
+
+
+def check_env_device(env_device: str) -> None:
+    """Raise (one line) where the environments cannot run on ``env_device``: ``cuda`` without the extras or a GPU.
+
+    Raises:
+        MissingDependencyError: numba-cuda (the ``gpu`` extra) or PyTorch is missing.
+        ValueError: Neither a CUDA GPU nor numba-cuda's simulator is there.
+    """
+    if env_device == "cpu":
+        return
+    from bluesky_gym.envs.device import TensorIO
+
+    try:
+        TensorIO()
+    except RuntimeError as exc:
+        raise ValueError(f"--env-device {env_device}: {exc}") from None
 
 
 def check_device(device: str) -> None:
@@ -145,6 +168,7 @@ def run_overrides(args: argparse.Namespace) -> dict[str, Any]:
         "device": args.device,
         "trainer": args.trainer,
         "compile": {"on": True, "off": False}.get(args.compile, args.compile),
+        "env_device": args.env_device,
     }
 
 
@@ -189,6 +213,7 @@ def run_train(args: argparse.Namespace) -> int:
         config = load_config(args.config)
         spec = make_run_spec(config, args.env, args.algo, args.seed, **run_overrides(args))
         check_device(spec.device)
+        check_env_device(spec.env_device)
         if not args.quiet and args.steps is not None:
             note = ppo_rounding(spec.algo, spec.hyperparams, spec.n_envs, spec.total_timesteps)
             if note:

@@ -26,7 +26,17 @@ from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
 from bluesky_gym.core.resolution import AsasConfig, MVPResolver, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
-from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, AircraftState, aircraft_index, checked_index
+from bluesky_gym.core.state import (
+    FIELD_INDEX,
+    FLOAT_FIELDS,
+    NON_FLOAT_STATE,
+    STATE_FIELDS,
+    AircraftState,
+    aircraft_index,
+    checked_index,
+    scatter_columns,
+    scatter_rows,
+)
 from bluesky_gym.core.step import MEMO_COLUMNS, post_kernel, pre_kernel, run_kernel, step_kernel
 from bluesky_gym.core.units import ASAS_INTERVAL, BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
 from bluesky_gym.core.wind import WindField
@@ -921,6 +931,10 @@ _KERNEL_STATE = frozenset({*(name for name, _, _ in STATE_FIELDS), "route_lat", 
 }
 
 
+#: The autopilot switches :meth:`DeviceSimulator.device_arrays` gives (bool, per aircraft).
+DEVICE_SWITCHES = ("swlnav", "swvnav", "swvnavspd", "swlastwp")
+
+
 class DeviceSimulator(Simulator):
     """A :class:`Simulator` whose aircraft state lives on a CUDA GPU while it is stepped.
 
@@ -984,22 +998,75 @@ class DeviceSimulator(Simulator):
     def device_arrays(self, *names: str) -> tuple[Any, ...]:
         """Device views (n_envs, max_aircraft) of state arrays, for kernels launched on the device; the state stays there.
 
-        ``names`` are float state fields (``lat``, ``tas``, ...) or ``active``. The views are
-        current until the next command or host read (which bring the state back to the host).
+        ``names`` are float state fields (``lat``, ``tas``, ...), ``active`` or an autopilot switch
+        (:data:`DEVICE_SWITCHES`). The views are current until the next command or host read
+        (which bring the state back to the host). Kernels may write the float fields and the
+        switches (as commands do); the next step flies with what they wrote.
 
         Raises:
-            KeyError: A name that is neither.
+            KeyError: A name that is none of these.
         """
         d = self._to_device()
         out = []
         for name in names:
-            if name == "active":
-                out.append(d["active"].reshape(self.n_envs, self.max_aircraft))
+            if name == "active" or name in DEVICE_SWITCHES:
+                out.append(d[name].reshape(self.n_envs, self.max_aircraft))
             elif name in FIELD_INDEX:
                 out.append(d["F"][FIELD_INDEX[name]].reshape(self.n_envs, self.max_aircraft))
             else:
-                raise KeyError(f"device_arrays: {name!r} is not a float state field or 'active'")
+                raise KeyError(f"device_arrays: {name!r} is not a float state field, 'active' or one of {DEVICE_SWITCHES}")
         return tuple(out)
+
+    def reset_on_host(self, envs: NDArray[np.int64], reset: Callable[[], None]) -> None:
+        """Run ``reset`` (new scenarios of airspaces ``envs``) on the host, moving only those airspaces' aircraft.
+
+        While the state is on the device, ``reset`` must clear airspaces ``envs`` first
+        (:meth:`reset_envs`) and then read and write those airspaces only: the host arrays of
+        the others are stale meanwhile. Afterwards the aircraft of ``envs`` go to the device state
+        (one upload and one launch per state array), and the rest of the state never leaves
+        the device. Where conflict resolution runs (its bookkeeping spans airspaces), or where
+        the state is on the host already, the whole state is on the host for ``reset``, as
+        with any command.
+        """
+        d = object.__getattribute__(self, "_device")
+        if d is None or any(c.resolving for c in self._asas.values()):
+            reset()
+            return
+        object.__setattr__(self, "_device", None)  # host reads no longer bring the state back
+        try:
+            reset()
+        except BaseException:
+            object.__setattr__(self, "_device", d)  # the device state is whole; the host rows are not
+            raise
+        envs = np.asarray(envs, dtype=np.int64)
+        m = self.max_aircraft
+        rows = (envs[:, None] * m + np.arange(m)).reshape(-1)
+        up, launch = self._cuda.to_device, self._cuda.launch
+        rows_d = up(rows)
+        flat = self.n_envs * m
+
+        def columns(dev: Any, host: Any) -> None:
+            launch(scatter_columns, rows.size, rows_d, up(np.ascontiguousarray(host[:, rows])), dev)
+
+        columns(d["F"], self._float_flat)
+        for name, host in (("phase", self._phase_flat), ("active", self._active_flat)):
+            columns(d[name].reshape(1, flat), host.reshape(1, flat))
+        for name in (*DEVICE_SWITCHES, "iactwp", "nwp"):
+            columns(d[name].reshape(1, flat), getattr(self, name).reshape(1, flat))
+        per_aircraft_rows = {"memo": self._memo, "route_lat": self.route_lat.reshape(flat, -1), "route_lon": self.route_lon.reshape(flat, -1)}
+        for name, per_aircraft in per_aircraft_rows.items():
+            launch(scatter_rows, rows.size, rows_d, up(np.ascontiguousarray(per_aircraft[rows])), d[name])
+        types = self._type_args()
+        if types.size != d["types"].size:  # a second aircraft type appeared: every row (the device never changes types)
+            d["types"] = up(types)
+        elif types.size:
+            columns(d["types"].reshape(1, flat), types.reshape(1, flat))
+        if d["table"].shape != self._table.shape:
+            d["table"] = up(self._table)
+        d["any_lnav"] = d["any_lnav"] or bool(self.swlnav[envs].any())
+        object.__setattr__(self, "_device", d)
+        if any(c.resolving for c in self._asas.values()):  # resolution switched on by the reset: its arrays start on the host
+            self._to_host()
 
     def _to_host(self) -> None:
         """Copy the state back from the device (the host arrays become current)."""

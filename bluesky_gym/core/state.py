@@ -12,6 +12,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.units import NO_VALUE
 
 Array = NDArray[np.float64]
@@ -179,3 +180,26 @@ def aircraft_index(env: ArrayLike, slot: ArrayLike, n_envs: int, max_aircraft: i
         else:
             env_a, slot_a = (a.ravel() for a in np.broadcast_arrays(env_a, slot_a))
     return env_a, slot_a
+
+
+# --- moving the state of some airspaces between copies of the arrays ----------------------------
+@jit
+def scatter_columns(cols, src, dst):  # type: ignore[no-untyped-def]
+    """``dst[:, cols[i]] = src[:, i]``: columns of a (k, N) array (the float block, a flat field as (1, N)) from a (k, len(cols)) one.
+
+    :class:`~bluesky_gym.core.DeviceSimulator` puts the aircraft of airspaces reset on the host
+    into its device state with it (one launch per array).
+    """
+    for i in grid_range(cols.shape[0]):
+        c = cols[i]
+        for f in range(dst.shape[0]):
+            dst[f, c] = src[f, i]
+
+
+@jit
+def scatter_rows(rows, src, dst):  # type: ignore[no-untyped-def]
+    """``dst[rows[i], :] = src[i, :]``: rows of an (N, k) array (per-aircraft memo, routes) from a (len(rows), k) one."""
+    for i in grid_range(rows.shape[0]):
+        r = rows[i]
+        for k in range(dst.shape[1]):
+            dst[r, k] = src[i, k]

@@ -17,6 +17,10 @@ How the batches travel (:class:`TensorIO`):
   or ``__dlpack__``) are copied to the host once per step: the actions become autopilot
   commands, which the task gives on the host.
 
+Where the task's whole step runs on the device (:mod:`bluesky_gym.envs.device_step`: SectorCR),
+neither copy happens: the actions stay on the device, the kernels write into tensors
+(:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
+
 Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the device arrays are numpy arrays in
 disguise and torch has no GPU to put tensors on: the tensors are then CPU tensors, made by the
 same code path, so that the environment's logic is tested without a GPU.
@@ -80,6 +84,12 @@ class TensorIO:
         if cuda_target.SIMULATOR:
             return self.torch.from_numpy(device_array.copy_to_host())
         return self.torch.as_tensor(device_array, device=self.device)
+
+    def kernel_array(self, tensor: Any) -> Any:
+        """A contiguous tensor as a kernel argument sharing its memory (numba-cuda's view of it; its numpy view under the simulator)."""
+        if cuda_target.SIMULATOR:
+            return tensor.numpy()
+        return cuda_target.cuda.as_cuda_array(tensor)
 
     def upload(self, host: np.ndarray) -> Any:
         """A host array as a tensor on the device: one copy into a numba-cuda device array, wrapped by :meth:`tensor`."""

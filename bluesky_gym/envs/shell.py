@@ -30,6 +30,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from bluesky_gym.envs.device import TensorIO, check_device
+from bluesky_gym.envs.device_step import device_step_for
 from bluesky_gym.envs.registry import scene_builder
 from bluesky_gym.tasks.base import BoxSpec, StepResult, Task, check_int, numeric_action
 
@@ -401,7 +402,10 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     numpy arrays on the host. The task's own side (actions to commands, resets with their random
     draws, observation, reward) runs on the host as with ``device="cpu"``, so episode ``i`` draws
     the same scenarios as a single environment with seed ``s + i``; its physics agrees with the
-    CPU's within the GPU's rounding (docs/backends.md).
+    CPU's within the GPU's rounding (docs/backends.md). For the tasks of
+    :data:`~bluesky_gym.envs.device_step.DEVICE_STEPS` (SectorCR without wind) the whole step runs
+    on the device instead, every info entry is a tensor there, and only the resets' draws run on
+    the host (:mod:`bluesky_gym.envs.device_step`).
 
     Args:
         num_envs: Number of episodes simulated together.
@@ -472,6 +476,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             )
             self.single_action_space = _box(self.task.action_spec, self.task.space_dtype)
             self.action_space = batch_space(self.single_action_space, self.num_envs)
+            #: The task's step on the device (``device="cuda"``, where the task has one), else None.
+            self._device_step = None if self._io is None else device_step_for(self.task, self._io)
             self._renderer: Any = None
             self._reset_once = False
             self._last_reward = np.zeros(self.num_envs)
@@ -508,9 +514,17 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             seeds = episode_seeds(seed, self.num_envs)
             gens = [seeding.np_random(s)[0] for s in seeds]
             self.task.seed(self.task.all_envs, gens)
-            self.task.reset()
             self._reset_once = True
             self._last_reward = np.zeros(self.num_envs)
+            if self._device_step is not None:
+                obs_d, info_d = self._device_step.reset()
+                self._last_info = {}
+                if self.render_mode is not None:
+                    self._device_step.sync_host()
+                if self.render_mode == "human":
+                    self.render()
+                return obs_d, info_d
+            self.task.reset()
             info = self.task.episode_info()
             self._last_info = info
             if self.render_mode == "human":
@@ -523,6 +537,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         with self._errors:
             if not self._reset_once:
                 raise RuntimeError("step() called before reset(); call reset() first")
+            if self._device_step is not None:
+                return self._step_on_device(actions)
             if self._io is not None:
                 actions = self._io.to_host(actions)
             res: StepResult = self.task.step(actions)
@@ -552,6 +568,18 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             if self._io is not None:
                 return self._on_device(obs, res, info)
             return obs, res.reward, res.terminated, res.truncated, info
+
+    def _step_on_device(self, actions: Any) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
+        """A step with the task on the device (:mod:`bluesky_gym.envs.device_step`): tensors in, tensors out."""
+        assert self._device_step is not None
+        obs, reward, terminated, truncated, info, _ended = self._device_step.step(actions)
+        if self.render_mode is not None:  # the pictures read the host (copies made for them only)
+            self._device_step.sync_host()
+            self._last_reward = reward.cpu().numpy()
+            self._last_info = {k: v.cpu().numpy() for k, v in info.items() if not k.startswith(("final", "_final"))}
+            if self.render_mode == "human":
+                self.render()
+        return obs, reward, terminated, truncated, info
 
     def _on_device(self, obs: dict[str, np.ndarray], res: StepResult, info: dict[str, Any]) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
         """A step's outputs as tensors on the device (``device="cuda"``): one upload per array."""

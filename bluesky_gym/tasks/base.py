@@ -57,7 +57,6 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, check_types
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.units import KTS, MPS2KT
 from bluesky_gym.core.wind import WIND_KEYS, Wind, wind_at_ownship
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.geometry import ref_kwikqdrdist
@@ -367,10 +366,10 @@ def command_heading_and_speed(sim: Physics, envs: NDArray[np.int64], own: NDArra
     step to CAS in m/s, converts the sum to knots and stacks SPD, which BlueSky converts back with
     1 kt = 0.514444 m/s.
     """
-    heading_new = wrap180(sim.hdg[envs, own] + action[:, 0] * d_heading)
-    speed_kts = (sim.cas[envs, own] + action[:, 1] * d_speed) * MPS2KT
+    heading_new, speed = np.empty(len(envs)), np.empty(len(envs))
+    compiled.heading_speed_targets(envs, own, np.ascontiguousarray(action), sim.hdg, sim.cas, d_heading, d_speed, heading_new, speed)
     sim.cmd_heading(envs, own, heading_new)
-    sim.cmd_speed(envs, own, speed_kts * KTS)
+    sim.cmd_speed(envs, own, speed)
 
 
 @dataclass

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core.jit import AVAILABLE, grid_range, jit, jit_inline, scratch
 from bluesky_gym.core.scalar import mod as _mod
-from bluesky_gym.core.units import NM, NM2KM, R_EARTH
+from bluesky_gym.core.units import KTS, MPS2KT, NM, NM2KM, R_EARTH
 
 __all__ = ["AVAILABLE"]
 
@@ -285,6 +285,45 @@ def _velocity(hdg, tas, e, j):  # type: ignore[no-untyped-def]
     return math.cos(hdg[e, j] * _RAD) * tas[e, j], math.sin(hdg[e, j] * _RAD) * tas[e, j]
 
 
+# --- actions: heading and speed changes (SectorCR, Merge) ----------------------------------------
+@jit_inline
+def _heading_speed(hdg, cas, a_heading, a_speed, d_heading, d_speed):  # type: ignore[no-untyped-def]
+    """HDG wrap180(hdg + d_heading a0) [deg]; SPD (CAS + d_speed a1) * 1.94384 kt, in m/s (* 0.514444)."""
+    return _wrap180(hdg + a_heading * d_heading), (cas + a_speed * d_speed) * MPS2KT * KTS
+
+
+@jit
+def heading_speed_targets(envs, own, action, hdg, cas, d_heading, d_speed, hdg_out, spd_out):  # type: ignore[no-untyped-def]
+    """The heading [deg] and CAS [m/s] commanded by the clipped ``action`` (p, 2) of each row.
+
+    Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]`` (see
+    :func:`bluesky_gym.tasks.base.command_heading_and_speed`).
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        hdg_out[r], spd_out[r] = _heading_speed(hdg[e, o], cas[e, o], action[r, 0], action[r, 1], d_heading, d_speed)
+
+
+@jit
+def command_heading_speed(envs, own, action, hdg, cas, d_heading, d_speed, ap_trk, swlnav, selspd, swvnavspd):  # type: ignore[no-untyped-def]
+    """:func:`heading_speed_targets` given as the native core's HDG and SPD commands, written into its autopilot state.
+
+    What :meth:`~bluesky_gym.core.Simulator.cmd_heading` and
+    :meth:`~bluesky_gym.core.Simulator.cmd_speed` do in an airspace without wind: the track
+    selected is the heading, LNAV and VNAV speed are switched off. The device step
+    (:mod:`bluesky_gym.envs.device_step`) launches it on the simulator's device state.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        trk, spd = _heading_speed(hdg[e, o], cas[e, o], action[r, 0], action[r, 1], d_heading, d_speed)
+        ap_trk[e, o] = trk
+        swlnav[e, o] = False
+        selspd[e, o] = spd
+        swvnavspd[e, o] = False
+
+
 # --- SectorCR ----------------------------------------------------------------------------------
 @jit
 def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, center, scales, drift_out, own_out, intruder_out, count_out):  # type: ignore[no-untyped-def]
@@ -368,6 +407,73 @@ def slots_in_polygons(envs, own, lat, lon, poly_lat, poly_lon, n_vertices, out):
     for r in grid_range(envs.shape[0]):
         e = envs[r]
         out[r] = _polygon_contains(lat[e, own[r]], lon[e, own[r]], poly_lat[e], poly_lon[e], n_vertices[e])
+
+
+@jit
+def sector_reward(drift, los, drift_penalty, intrusion_penalty, reward_out, drift_out, intrusion_out, count_out):  # type: ignore[no-untyped-def]
+    """SectorCR's reward of each row: ``drift_penalty`` |drift| [rad] and ``intrusion_penalty`` per intruder in LoS.
+
+    ``drift`` (p,) [deg] and ``los`` (p, m) are the row's :func:`sector_observe` drift and
+    :func:`kwik_separation` flags; out: the reward, its two components and the intruder count.
+    """
+    for r in grid_range(drift.shape[0]):
+        count = 0
+        for j in range(los.shape[1]):
+            if los[r, j]:
+                count += 1
+        d = abs(drift[r] * _RAD) * drift_penalty
+        intrusion = count * intrusion_penalty + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
+        drift_out[r] = d
+        intrusion_out[r] = intrusion
+        count_out[r] = count
+        reward_out[r] = d + intrusion
+
+
+@jit
+def sector_episode_reward(  # type: ignore[no-untyped-def]
+    envs,
+    drift,
+    count,
+    inside,
+    lat,
+    lon,
+    wpt_lat,
+    wpt_lon,
+    steps,
+    time_limit,
+    exit_ends,
+    exit_margin,
+    exit_penalty,
+    drift_rad_sum,
+    drift_rad_n,
+    total_intrusions,
+    reward,
+    exit_out,
+    terminated_out,
+):
+    """SectorCR's episode side of the reward of rows ``envs`` (the agent, slot 0): info sums, and ``-v1``'s sector exit.
+
+    Adds |drift| [rad] and the intruder count to the episode sums. With ``exit_ends`` (``-v1``)
+    leaving the sector (``inside`` False) terminates; unless the agent is within
+    ``exit_margin`` [NM] (kwik) of its own waypoint, it adds ``exit_penalty`` per decision step
+    left (``time_limit - (steps + 1)``, the step counts before this step's record) to ``reward``
+    and ``exit_out``. Without it nothing terminates and ``exit_out`` is left alone.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        drift_rad_sum[e] += abs(drift[r] * _RAD)
+        drift_rad_n[e] += 1
+        total_intrusions[e] += count[r]
+        if not exit_ends:
+            terminated_out[r] = False
+            continue
+        left = not inside[r]
+        at_exit = _kwikdist(lat[e, 0], lon[e, 0], wpt_lat[e, 0], wpt_lon[e, 0]) < exit_margin
+        steps_left = max(time_limit - (steps[e] + 1), 0)
+        penalty = exit_penalty * steps_left if (left and not at_exit) else 0.0
+        exit_out[r] = penalty
+        reward[r] = reward[r] + penalty
+        terminated_out[r] = left
 
 
 # --- Merge -------------------------------------------------------------------------------------

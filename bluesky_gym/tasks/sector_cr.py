@@ -262,10 +262,10 @@ def observation(g: SectorGeometry) -> dict[str, Array]:
 def reward(g: SectorGeometry) -> tuple[Array, NDArray[np.int64], dict[str, Array]]:
     """Per row: -0.1 |drift| [rad] - 1 per other aircraft within 5 NM; also the intrusion count."""
     assert g.drift_deg is not None
-    drift_reward = np.abs(np.deg2rad(g.drift_deg)) * DRIFT_PENALTY
-    count = g.los.sum(axis=1)
-    intrusion = count * INTRUSION_PENALTY + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
-    return drift_reward + intrusion, count, {"drift": drift_reward, "intrusion": intrusion}
+    n = len(g.drift_deg)
+    r, drift_reward, intrusion, count = np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64)
+    compiled.sector_reward(g.drift_deg, g.los, DRIFT_PENALTY, INTRUSION_PENALTY, r, drift_reward, intrusion, count)
+    return r, count, {"drift": drift_reward, "intrusion": intrusion}
 
 
 class SectorCRTask(Task):
@@ -483,17 +483,32 @@ class SectorCRTask(Task):
         """
         r, count, components = reward(g)  # type: ignore[arg-type]
         assert isinstance(g, SectorGeometry) and g.drift_deg is not None
-        self.drift_rad_sum += np.abs(np.deg2rad(g.drift_deg))
-        self.drift_rad_n += 1
-        self.total_intrusions += count
-        if not self.config.exit_ends_episode:
-            return r, np.zeros(self.n_envs, bool), components
-        left = ~g.inside
-        at_exit = self.exit_distance_nm() < EXIT_MARGIN
-        steps_left = np.maximum(self.time_limit - (self.stats.steps + 1), 0)  # stats count this step after the reward
-        exit_penalty = np.where(left & ~at_exit, EARLY_EXIT_PENALTY * steps_left, 0.0)
-        components["exit"] = exit_penalty
-        return r + exit_penalty, left, components
+        exits = self.config.exit_ends_episode
+        exit_penalty, terminated = np.empty(self.n_envs), np.empty(self.n_envs, bool)
+        compiled.sector_episode_reward(
+            g.envs,
+            g.drift_deg,
+            count,
+            g.inside,
+            self.sim.lat,
+            self.sim.lon,
+            self.wpt_lat,
+            self.wpt_lon,
+            self.stats.steps,
+            self.time_limit,
+            exits,
+            EXIT_MARGIN,
+            EARLY_EXIT_PENALTY,
+            self.drift_rad_sum,
+            self.drift_rad_n,
+            self.total_intrusions,
+            r,
+            exit_penalty,
+            terminated,
+        )  # (the stats count this step after the reward)
+        if exits:
+            components["exit"] = exit_penalty
+        return r, terminated, components
 
     def exit_distance_nm(self) -> Array:
         """(n_envs,) kwik distance from the agent to its own waypoint (the sector exit) now [NM]."""

@@ -51,6 +51,7 @@ PAPER: dict[str, Any] = {
         "torch_threads": 1,
         "trainer": "sb3",
         "compile": "auto",
+        "env_device": "cpu",
     },
     "algos": {
         "PPO": {
@@ -229,7 +230,7 @@ def check_config(data: dict[str, Any], source: str = "config", text: str = "") -
 #: Keys of the ``run`` table that take a whole number (``2e6`` is one).
 RUN_INTEGERS = frozenset({"n_envs", "total_timesteps", "checkpoint_freq", "eval_episodes", "torch_threads"})
 #: Keys of the ``run`` table that take a string (``compile`` takes ``true``, ``false`` or ``"auto"``).
-RUN_STRINGS = frozenset({"device", "trainer"})
+RUN_STRINGS = frozenset({"device", "trainer", "env_device"})
 
 
 def _is_number(v: Any) -> bool:

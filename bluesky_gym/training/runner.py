@@ -118,6 +118,9 @@ class RunSpec:
         torch_threads: Torch intra-op threads (0: leave PyTorch's default).
         trainer: ``"sb3"`` (Stable-Baselines3's own loops) or ``"fast"`` (:mod:`bluesky_gym.training.fast`).
         compile: Compile the fast trainer's update with ``torch.compile``.
+        env_device: Where the fast trainer's environments run: ``"cpu"``, or ``"cuda"``
+            (``gym.make_vec(..., device="cuda")``: tensors on the GPU, read by the trainer where
+            they are). Not part of the identity: the episodes are the CPU's (docs/backends.md).
 
     """
 
@@ -135,6 +138,7 @@ class RunSpec:
     torch_threads: int = 1
     trainer: str = "sb3"
     compile: bool = False
+    env_device: str = "cpu"
 
     def identity(self) -> dict[str, Any]:
         """Return the parts that determine what is learned (a resumed run must match them).
@@ -161,6 +165,10 @@ class RunSpec:
         return hashlib.sha256(json.dumps(self.identity(), sort_keys=True).encode()).hexdigest()[:16]
 
 
+#: Where the fast trainer's environments may run (``env_device``).
+ENV_DEVICES = ("cpu", "cuda")
+
+
 def make_run_spec(config: dict[str, Any], env_id: str, algo: str, seed: int, **run_overrides: Any) -> RunSpec:
     """Resolve a full config (see :mod:`bluesky_gym.training.hyperparams`) into a :class:`RunSpec`.
 
@@ -184,6 +192,11 @@ def make_run_spec(config: dict[str, Any], env_id: str, algo: str, seed: int, **r
     trainer = str(run["trainer"])
     if trainer not in TRAINERS:
         raise ValueError(f"unknown trainer {trainer!r}; choose one of {', '.join(TRAINERS)}")
+    env_device = str(run["env_device"])
+    if env_device not in ENV_DEVICES:
+        raise ValueError(f"env_device must be one of {', '.join(ENV_DEVICES)}, got {env_device!r}")
+    if env_device != "cpu" and trainer != "fast":
+        raise ValueError(f"env_device {env_device!r} needs the fast trainer (--trainer fast): Stable-Baselines3's loops step numpy arrays")
     hp, notes = adapt_to_n_envs(algo, hp, n_envs)
     check_hyperparameter_names(algo, hp, source=f"{algo} hyperparameters", trainer=trainer)
     return RunSpec(
@@ -201,6 +214,7 @@ def make_run_spec(config: dict[str, Any], env_id: str, algo: str, seed: int, **r
         torch_threads=int(run["torch_threads"]),
         trainer=trainer,
         compile=resolve_compile(run["compile"], trainer, algo, hp, n_envs, int(run["total_timesteps"])),
+        env_device=env_device,
     )
 
 
@@ -859,8 +873,9 @@ def _require_tensorboard() -> None:
 def _make_venv(spec: RunSpec) -> Any:
     from bluesky_gym.training.sb3_vec_env import SB3VecEnv
 
+    device = {"device": spec.env_device} if spec.env_device != "cpu" else {}
     try:
-        return SB3VecEnv(spec.env_id, num_envs=spec.n_envs, **spec.env_options)
+        return SB3VecEnv(spec.env_id, num_envs=spec.n_envs, **spec.env_options, **device)
     except TypeError as exc:  # unknown scenario option names
         raise ValueError(f"env_options of {spec.env_id}: {exc}") from None
 

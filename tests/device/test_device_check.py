@@ -57,3 +57,25 @@ def test_the_vector_env_check_compares_and_times_every_id(monkeypatch: pytest.Mo
     assert "Vector environments on numba-cuda simulator" in text and "DescentEnv-v1" in text and "env-steps/s" in text
     skipped = gpu_bench.device_envs(budget=0.0)
     assert [s.get("skipped") for s in skipped["samples"]] == ["time budget", "time budget"]
+
+
+def test_the_ppo_check_trains_on_device_environments_and_times_them(monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("stable_baselines3")
+    monkeypatch.setattr(gpu_bench, "PPO_BATCHES", (("cpu", 2), ("cuda", 3)))
+    monkeypatch.setattr(gpu_bench, "PPO_SETTINGS", (2, 1, 2))
+    monkeypatch.setattr(gpu_bench, "PPO_ROLLOUTS", 1)
+    monkeypatch.setattr(gpu_bench, "device_refusal", lambda: None)
+    monkeypatch.setattr(gpu_bench, "_device_name", lambda: "numba-cuda simulator")
+    result = gpu_bench.device_ppo(budget=600.0)
+    assert [(r["env"], r["episodes"]) for r in result["rates"]] == [("cpu env (1 process)", 2), ("cuda env", 3)]
+    assert all(r["rate"] > 0 for r in result["rates"])
+    assert result["rates"][1]["hyperparams"]["batch_size"] == 3  # 3 episodes x 2 steps in 2 minibatches
+    text = gpu_bench.format_device_ppo(result)
+    assert "PPO end to end on numba-cuda simulator: SectorCREnv-v1" in text and "env-steps/s" in text
+    skipped = gpu_bench.device_ppo(budget=0.0)
+    assert [r.get("skipped") for r in skipped["rates"]] == ["time budget", "time budget"]
+
+
+def test_the_device_step_ids_are_checked_first() -> None:
+    ids = gpu_bench.env_check_ids()
+    assert ids[:2] == ["SectorCREnv-v0", "SectorCREnv-v1"]

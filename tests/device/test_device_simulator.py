@@ -180,3 +180,39 @@ def test_a_device_step_is_a_fixed_number_of_launches_whatever_the_number_of_airs
         counts[n_envs, "no ASAS"] = cuda_target.launches() - before
     # LNAV, autopilot, detection, MVP, bookkeeping, resumenav, ended, targets, kinematics; LNAV and the step without ASAS.
     assert counts == {2: 27, 8: 27, (2, "no ASAS"): 2, (8, "no ASAS"): 2}
+
+
+def test_reset_on_host_moves_only_the_reset_airspaces_and_equals_the_cpu() -> None:
+    """Airspace 1 reset and refilled on the host (a new type and a route among them) while the state is on the device: the rest never comes back."""
+    dev, cpu = _traffic(DeviceSimulator, n_aircraft=2, types=("A320",)), _traffic(Simulator, n_aircraft=2, types=("A320",))
+    for sim in (dev, cpu):
+        sim.run(4)
+    dev.device_arrays("lat")  # the state is on the device
+    assert dev.on_device
+
+    def refill(sim: Simulator) -> None:
+        sim.reset_envs([1])
+        sim.create([1, 1, 1], [0, 1, 2], [52.1, 52.2, 51.9], [4.1, 3.9, 4.2], [10.0, 200.0, 300.0], 4000.0, 140.0, actype=["A320", "B744", "A320"])
+        sim.add_waypoint([1], [0], [52.4], [4.3])
+
+    dev.reset_on_host(np.array([1]), lambda: refill(dev))
+    assert dev.on_device, "the state stays on the device: only airspace 1 went there"
+    refill(cpu)
+    for sim in (dev, cpu):
+        sim.run(6)
+    _assert_same_state(dev, cpu)
+
+
+def test_reset_on_host_refused_midway_keeps_the_device_state() -> None:
+    dev, cpu = _traffic(DeviceSimulator), _traffic(Simulator)
+    for sim in (dev, cpu):
+        sim.run(3)
+    dev.device_arrays("lat")
+
+    def fail() -> None:
+        raise ValueError("a scenario that cannot be drawn")
+
+    with pytest.raises(ValueError, match="cannot be drawn"):
+        dev.reset_on_host(np.array([0]), fail)
+    assert dev.on_device
+    _assert_same_state(dev, cpu)

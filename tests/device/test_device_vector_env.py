@@ -49,8 +49,11 @@ def _agree(device: Any, cpu: np.ndarray, what: str) -> None:
         np.testing.assert_allclose(got, cpu, rtol=rtol, atol=ATOL, err_msg=what)
 
 
-def _same_host(device: np.ndarray, cpu: np.ndarray, what: str) -> None:
-    """An info entry: a numpy array on the host either way."""
+def _same_host(device: Any, cpu: np.ndarray, what: str, on_device: bool = False) -> None:
+    """An info entry: a numpy array on the host, or a tensor on the device where the task's step runs there (``on_device``)."""
+    if on_device:
+        device = _host(device)
+        assert device.dtype == cpu.dtype, what
     assert isinstance(device, np.ndarray), what
     if cuda_target.SIMULATOR or cpu.dtype == np.bool_:
         np.testing.assert_array_equal(device, cpu, err_msg=what)
@@ -65,6 +68,7 @@ def test_device_episodes_equal_the_cpu_vector_envs_with_autoreset(env_id: str) -
     cpu = gym.make_vec(env_id, num_envs=2, max_episode_steps=2, **options)
     dev = gym.make_vec(env_id, num_envs=2, max_episode_steps=2, device="cuda", **options)
     assert isinstance(dev.unwrapped.task.sim, DeviceSimulator)
+    on_device = dev.unwrapped._device_step is not None  # the task's step on the device: its info entries are tensors too
     obs_c, _ = cpu.reset(seed=7)
     obs_d, _ = dev.reset(seed=7)
     for k in obs_c:
@@ -87,9 +91,9 @@ def test_device_episodes_equal_the_cpu_vector_envs_with_autoreset(env_id: str) -
                     _agree(idev[k][key], v[key], f"step {step} final_obs {key}")
             elif k == "final_info":
                 for key in v:
-                    _same_host(idev[k][key], v[key], f"step {step} final_info {key}")
+                    _same_host(idev[k][key], v[key], f"step {step} final_info {key}", on_device)
             else:
-                _same_host(idev[k], v, f"step {step} info {k}")
+                _same_host(idev[k], v, f"step {step} info {k}", on_device)
         ended += int((tc | uc).sum())
     assert ended >= 2, "the episodes must end (max_episode_steps=2) and be reset on the way"
     cpu.close()

@@ -46,5 +46,10 @@ def test_bench_gpu_envs_does_not_go_with_compile_only() -> None:
         pytest.skip("numba-cuda is not installed")
     from bluesky_gym.cli import main
 
-    with pytest.raises(SystemExit, match="--envs runs environments on a GPU; it does not go with --compile-only"):
-        main(["bench", "gpu", "--compile-only", "--envs"])
+    for given in (["--envs"], ["--ppo"], ["--budget", "60"]):
+        with pytest.raises(SystemExit, match="--envs, --ppo and --budget run on a GPU; they do not go with --compile-only"):
+            main(["bench", "gpu", "--compile-only", *given])
+    with pytest.raises(SystemExit, match="--envs and --ppo are two checks"):
+        main(["bench", "gpu", "--envs", "--ppo"])
+    with pytest.raises(SystemExit, match="--budget must be a positive number of seconds, got 0.0"):
+        main(["bench", "gpu", "--ppo", "--budget", "0"])

@@ -136,3 +136,19 @@ def test_the_grid_estimate_times_the_fast_trainer(monkeypatch: pytest.MonkeyPatc
     est = estimate(TINY, [ENV], ["PPO", "SAC"], ENV, probe_steps=64, env_probe_steps=64, verbose=0, n_envs=2)
     assert made == ["PPO", "SAC"]  # the configuration's trainer is the one timed
     assert {row["algo"] for row in est["per_run"]} == {"PPO", "SAC"} and all(row["steps_per_s_cpu"] > 0 for row in est["per_run"])
+
+
+def test_env_device_cuda_is_refused_in_one_line_without_a_gpu(tmp_path: Path) -> None:
+    """No GPU and no CUDA simulator (as in the native suite): one line naming what is missing, nothing written."""
+    from bluesky_gym.core import cuda_target
+
+    if cuda_target.SIMULATOR or cuda_target.device_present():
+        pytest.skip("a CUDA device (or numba-cuda's simulator) is there: tests/device trains on it")
+    command = [sys.executable, "-m", "bluesky_gym", "train", "--env", "SectorCREnv-v1", "--trainer", "fast", "--env-device", "cuda",
+               "--steps", "8", "--quiet", "--no-tensorboard", "--out", str(tmp_path / "runs")]  # fmt: skip
+    refused = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert refused.returncode == 2
+    lines = refused.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--env-device cuda" in lines[0], refused.stderr
+    assert "CUDA GPU" in lines[0] or "pip install" in lines[0], refused.stderr
+    assert not (tmp_path / "runs").exists()

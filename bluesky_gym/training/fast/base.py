@@ -62,8 +62,18 @@ class ObservationBatcher:
         self.dim = int(sum(self.sizes))
         self.device = device
 
-    def __call__(self, obs: dict[str, np.ndarray], rows: np.ndarray | None = None) -> torch.Tensor:
-        """Return the observations (of ``rows`` only, if given) as one float32 tensor on the device."""
+    def __call__(self, obs: dict[str, Any], rows: Any = None) -> torch.Tensor:
+        """Return the observations (of ``rows`` only, if given) as one float32 tensor on the device.
+
+        ``obs`` holds numpy arrays, or tensors (an environment made with ``device="cuda"``): those
+        are concatenated where they are, without a copy to the host.
+        """
+        first = obs[self.keys[0]]
+        if isinstance(first, torch.Tensor):
+            idx = None if rows is None else torch.as_tensor(rows, device=first.device)
+            tensors = [obs[k] if idx is None else obs[k][idx] for k in self.keys]
+            n = tensors[0].shape[0]
+            return torch.cat([t.reshape(n, -1).to(torch.float32) for t in tensors], dim=1).to(self.device)
         parts = [np.asarray(obs[k] if rows is None else obs[k][rows]) for k in self.keys]
         n = parts[0].shape[0]
         flat = np.concatenate([p.reshape(n, -1) for p in parts], axis=1, dtype=np.float32)
@@ -129,6 +139,72 @@ class EpisodeTracker:
         self.lengths[done] = 0
         for v in self.components.values():
             v[done] = 0.0
+        return records
+
+
+def ended_rows(mask: Any) -> Any:
+    """The indices of the True entries of a step's mask: numpy for numpy masks, a tensor (on its device) for tensors."""
+    if isinstance(mask, torch.Tensor):
+        return torch.nonzero(mask).flatten()
+    return np.flatnonzero(mask)
+
+
+def _per_env_tensor(value: Any, n: int) -> bool:
+    return isinstance(value, torch.Tensor) and value.ndim == 1 and value.shape[0] == n
+
+
+class TensorEpisodeTracker(EpisodeTracker):
+    """:class:`EpisodeTracker` of an environment whose outputs are tensors on a device (``device="cuda"``).
+
+    Returns, lengths and component sums stay tensors on that device; only the rows of the
+    episodes that ended come to the host, for their records (one check per step whether any did).
+
+    Args:
+        n_envs: Number of batched environments.
+        device: The environment's device.
+    """
+
+    def __init__(self, n_envs: int, device: torch.device) -> None:
+        self.n_envs = n_envs
+        self.returns = torch.zeros(n_envs, dtype=torch.float64, device=device)  # type: ignore[assignment]
+        self.lengths = torch.zeros(n_envs, dtype=torch.int64, device=device)  # type: ignore[assignment]
+        self.components = {}
+
+    def reset(self) -> None:
+        """Forget the episodes in flight (after the environment was reset)."""
+        self.returns.zero_()  # type: ignore[attr-defined]
+        self.lengths.zero_()  # type: ignore[attr-defined]
+        self.components.clear()
+
+    def step(self, reward: Any, terminated: Any, truncated: Any, info: dict[str, Any]) -> list[dict[str, Any]]:
+        """Account for one step of every environment; return the records of the episodes that ended."""
+        n = self.n_envs
+        self.returns += reward
+        self.lengths += 1
+        for k, v in info.items():
+            if k.startswith("reward_") and _per_env_tensor(v, n):
+                if k not in self.components:
+                    self.components[k] = torch.zeros(n, dtype=torch.float64, device=v.device)  # type: ignore[assignment]
+                self.components[k] += v
+        done = terminated | truncated
+        rows = ended_rows(done)
+        if rows.numel() == 0:
+            return []
+        final = info.get("final_info", info)
+        picked = {k: v[rows].cpu().numpy() for k, v in final.items() if _per_env_tensor(v, n) and not k.startswith("reward_")}
+        scalars = {k: v for k, v in picked.items() if v.dtype.kind in "biuf"}
+        returns, lengths, ended = self.returns[rows].cpu().numpy(), self.lengths[rows].cpu().numpy(), terminated[rows].cpu().numpy()
+        components = {k: v[rows].cpu().numpy() for k, v in self.components.items()}
+        records = []
+        for j, i in enumerate(rows.cpu().tolist()):
+            record: dict[str, Any] = {"env_index": i, "return": float(returns[j]), "length": int(lengths[j]), "terminated": bool(ended[j])}
+            record.update({k: float(v[j]) for k, v in components.items()})
+            record.update({k: v[j].item() for k, v in scalars.items()})
+            records.append(record)
+        self.returns[rows] = 0.0
+        self.lengths[rows] = 0
+        for v in self.components.values():
+            v[rows] = 0.0
         return records
 
 
@@ -235,7 +311,10 @@ class FastTrainer:
         self.n_updates = 0
         self.compile = bool(compile)
         self.batch_obs = ObservationBatcher(venv.single_observation_space, self.device)
-        self.episodes = EpisodeTracker(self.n_envs)
+        #: The environment speaks tensors on its device (``gym.make_vec(..., device="cuda")``): the
+        #: trainer hands it the action tensor and reads its outputs where they are, without host copies.
+        self.env_on_device = getattr(venv, "device", "cpu") == "cuda"
+        self.episodes = TensorEpisodeTracker(self.n_envs, self.device) if self.env_on_device else EpisodeTracker(self.n_envs)
         self.recent_returns: deque[float] = deque(maxlen=STATS_WINDOW)
         self.recent_lengths: deque[int] = deque(maxlen=STATS_WINDOW)
         space = venv.single_action_space
@@ -263,12 +342,20 @@ class FastTrainer:
             raise RuntimeError("the trainer's environments are not started; call start() first")
         return self._obs
 
-    def step_env(self, actions: torch.Tensor, hooks: Hooks) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Step every environment with ``actions`` (already in the action space); log ended episodes through ``hooks``."""
-        obs, reward, terminated, truncated, info = self.venv.step(actions.cpu().numpy())
-        reward = np.asarray(reward, dtype=np.float64)
-        terminated = np.asarray(terminated, dtype=bool)
-        truncated = np.asarray(truncated, dtype=bool)
+    def step_env(self, actions: torch.Tensor, hooks: Hooks) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
+        """Step every environment with ``actions`` (already in the action space); log ended episodes through ``hooks``.
+
+        Returns numpy arrays, or tensors on the learner's device for an environment on the device
+        (:attr:`env_on_device`).
+        """
+        if self.env_on_device:
+            obs, reward, terminated, truncated, info = self.venv.step(actions)
+            reward, terminated, truncated = (x.to(self.device) for x in (reward, terminated, truncated))
+        else:
+            obs, reward, terminated, truncated, info = self.venv.step(actions.cpu().numpy())
+            reward = np.asarray(reward, dtype=np.float64)
+            terminated = np.asarray(terminated, dtype=bool)
+            truncated = np.asarray(truncated, dtype=bool)
         self.num_timesteps += self.n_envs
         records = self.episodes.step(reward, terminated, truncated, info)
         if records:

@@ -21,7 +21,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from bluesky_gym.training.fast.base import FastTrainer, Hooks, NoHooks, progress
+from bluesky_gym.training.fast.base import FastTrainer, Hooks, NoHooks, ended_rows, progress
 
 #: The replay buffer of a checkpoint (the transitions stored so far, in insertion order).
 REPLAY_FILE = "replay_buffer.pt"
@@ -127,7 +127,7 @@ class FastOffPolicy(FastTrainer):
             following = self.batch_obs(next_obs)
             stored_next = following
             if done.any():  # the next observation of an ended episode is its final one
-                rows = np.flatnonzero(done)
+                rows = ended_rows(done)
                 stored_next = following.clone()
                 stored_next[torch.as_tensor(rows, device=self.device)] = self.batch_obs(info["final_obs"], rows)
             rewards = torch.as_tensor(reward, dtype=torch.float32, device=self.device)

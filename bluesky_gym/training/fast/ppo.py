@@ -16,11 +16,10 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import torch
 import torch.nn.functional as F
 
-from bluesky_gym.training.fast.base import Adam, FastTrainer, Hooks, NoHooks, progress
+from bluesky_gym.training.fast.base import Adam, FastTrainer, Hooks, NoHooks, ended_rows, progress
 
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
 
@@ -163,7 +162,7 @@ class FastPPO(FastTrainer):
                 log_probs = gaussian_log_prob(actions, mean, log_std)
             next_obs, reward, terminated, truncated, info = self.step_env(torch.clamp(actions, self.action_low, self.action_high), hooks)
             rewards = torch.as_tensor(reward, dtype=torch.float32, device=self.device)
-            timeouts = np.flatnonzero(truncated & ~terminated)
+            timeouts = ended_rows(truncated & ~terminated)
             if len(timeouts):  # bootstrap a truncated episode with the value of its final observation
                 with torch.no_grad():
                     final_values = self.net.values(self.batch_obs(info["final_obs"], timeouts))

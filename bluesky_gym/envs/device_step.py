@@ -1,0 +1,393 @@
+"""The task's step on the device: actions, physics, measure, observation, reward and statistics as kernel launches.
+
+With ``gym.make_vec(id, device="cuda")`` the physics always runs on the device
+(:class:`~bluesky_gym.core.DeviceSimulator`). For the tasks listed in :data:`DEVICE_STEPS`
+(SectorCR, ``-v0`` and ``-v1``, without wind) the rest of the step runs there too
+(:class:`SectorCRDeviceStep`):
+
+* the actions (a tensor on the device) are clipped and given as autopilot commands by one launch
+  (:func:`bluesky_gym.tasks.compiled.command_heading_speed`);
+* the physics sub-steps: one launch of the run kernel;
+* measure: the task's own kernels (:func:`~bluesky_gym.tasks.compiled.sector_observe`,
+  :func:`~bluesky_gym.tasks.compiled.kwik_separation`,
+  :func:`~bluesky_gym.tasks.compiled.slots_in_polygons`), one launch each;
+* reward and the episode sums (:func:`~bluesky_gym.tasks.compiled.sector_reward`,
+  :func:`~bluesky_gym.tasks.compiled.sector_episode_reward`) and the statistics
+  (:func:`~bluesky_gym.tasks.compiled.record_step`), one launch each;
+* the observation's layout and dtype, termination, truncation, the info entries and KPIs:
+  elementwise tensor operations on the device.
+
+These are the kernels the CPU task runs (their CUDA forms, :mod:`bluesky_gym.core.cuda_target`),
+launched over every episode at once: a step is a fixed number of launches whatever the number of
+episodes. One thing comes to the host per step: which episodes ended (a boolean per episode).
+Their new scenarios are drawn on the host from each episode's own generator, in the reference's
+order (:meth:`~bluesky_gym.tasks.base.Task.generate`, as on the CPU), and only those episodes'
+aircraft and scenario arrays are uploaded (:meth:`~bluesky_gym.core.DeviceSimulator.reset_on_host`);
+then a fixed number of launches measures and observes them.
+
+Every output is a torch tensor on the device, the info entries included. Under numba-cuda's
+simulator (``NUMBA_ENABLE_CUDASIM=1``) the tensors are CPU tensors and the outputs equal the CPU
+vector environment's bit for bit (``tests/device/test_device_step.py``).
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from bluesky_gym.core import DeviceSimulator, cuda_target
+from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks import sector_cr as sc
+from bluesky_gym.tasks.base import Task, numeric_action
+
+__all__ = ["DEVICE_STEPS", "SectorCRDeviceStep", "device_step_for"]
+
+
+class SectorCRDeviceStep:
+    """SectorCR's vector-environment step with the task on the device (see the module docstring).
+
+    Args:
+        task: The vector environment's task (its physics a :class:`~bluesky_gym.core.DeviceSimulator`).
+        io: The environment's :class:`~bluesky_gym.envs.device.TensorIO`.
+    """
+
+    task_class: ClassVar[type[Task]] = sc.SectorCRTask
+
+    def __init__(self, task: sc.SectorCRTask, io: Any) -> None:
+        self.task, self.io, self.torch = task, io, io.torch
+        if not isinstance(task.sim, DeviceSimulator):
+            raise TypeError(f"the device step needs the task's physics on the device (DeviceSimulator), got {type(task.sim).__name__}")
+        self.sim: DeviceSimulator = task.sim
+        torch, dev = self.torch, io.device
+        n, m = task.n_envs, task.sim.max_aircraft
+        self.n, self.m = n, m
+        self.envs = self._long(np.arange(n))
+        self.own = self._long(np.zeros(n, np.int64))
+        self.no_goal = torch.zeros(n, dtype=torch.bool, device=dev)
+        self.nothing = torch.zeros(0, dtype=torch.float64, device=dev)
+        spec = task.action_spec
+        self.action_shape = (n, *spec.shape)
+        self.action_low = torch.as_tensor(np.broadcast_to(spec.low, spec.shape).astype(np.float64), device=dev)
+        self.action_high = torch.as_tensor(np.broadcast_to(spec.high, spec.shape).astype(np.float64), device=dev)
+        self.obs_dtype = torch.float32 if task.config.float32_spaces else torch.float64
+        self.bounds = {k: (float(v.low), float(v.high)) for k, v in task.observation_spec.items()}
+        # The episode statistics (Task.stats) and SectorCR's info sums, kept on the device.
+        z = dict(device=dev)
+        self.stats = {
+            "in_los": torch.zeros((n, m), dtype=torch.bool, **z),
+            "min_sep": torch.full((n,), np.inf, dtype=torch.float64, **z),
+            "los_count": torch.zeros(n, dtype=torch.int64, **z),
+            "los_steps": torch.zeros(n, dtype=torch.int64, **z),
+            "steps": torch.zeros(n, dtype=torch.int64, **z),
+            "total_reward": torch.zeros(n, dtype=torch.float64, **z),
+            "drift_sum": torch.zeros(n, dtype=torch.float64, **z),
+            "drift_n": torch.zeros(n, dtype=torch.int64, **z),
+            "time_to_goal": torch.full((n,), np.nan, dtype=torch.float64, **z),
+            "total_intrusions": torch.zeros(n, dtype=torch.int64, **z),
+            "drift_rad_sum": torch.zeros(n, dtype=torch.float64, **z),
+            "drift_rad_n": torch.zeros(n, dtype=torch.int64, **z),
+        }
+        self.scenario: dict[str, Any] = {}
+
+    # --- device buffers ------------------------------------------------------------------------
+    def _long(self, host: np.ndarray) -> Any:
+        return self.torch.as_tensor(np.ascontiguousarray(host, dtype=np.int64), device=self.io.device)
+
+    def _k(self, tensor: Any) -> Any:
+        """A tensor as a kernel argument (no copy)."""
+        return self.io.kernel_array(tensor)
+
+    def _empty(self, *shape: int, dtype: Any = None) -> Any:
+        return self.torch.empty(shape, dtype=self.torch.float64 if dtype is None else dtype, device=self.io.device)
+
+    def _upload_scenario(self, rows: np.ndarray | None) -> None:
+        """The task's scenario arrays of episodes ``rows`` (all when None) to the device."""
+        t = self.task
+        host = {
+            "wpt_lat": t.wpt_lat[:, :1],
+            "wpt_lon": t.wpt_lon[:, :1],
+            "poly_lat": t.poly_lat,
+            "poly_lon": t.poly_lon,
+            "n_vertices": t.n_vertices,
+        }
+        grown = "poly_lat" in self.scenario and self.scenario["poly_lat"].shape != t.poly_lat.shape
+        if rows is None or grown:  # every row (a polygon with more vertices than ever before reallocates them)
+            self.scenario = {k: self.torch.as_tensor(np.ascontiguousarray(v), device=self.io.device) for k, v in host.items()}
+            return
+        idx = self._long(rows)
+        for k, v in host.items():
+            self.scenario[k][idx] = self.torch.as_tensor(np.ascontiguousarray(v[rows]), device=self.io.device)
+
+    def _clear_stats(self, idx: Any) -> None:
+        """:meth:`~bluesky_gym.tasks.base.EpisodeStats.clear` and SectorCR's sums of episodes ``idx``."""
+        s = self.stats
+        for k in ("los_count", "los_steps", "steps", "drift_n", "total_intrusions", "drift_rad_n"):
+            s[k][idx] = 0
+        for k in ("total_reward", "drift_sum", "drift_rad_sum"):
+            s[k][idx] = 0.0
+        s["min_sep"][idx] = np.inf
+        s["time_to_goal"][idx] = np.nan
+        s["in_los"][idx] = False
+
+    def sync_host(self) -> None:
+        """Copy the episode statistics and SectorCR's sums into the task's host arrays (for pictures: the step never reads them)."""
+        s, t = self.stats, self.task
+        host = {"in_los": t.stats.in_los, "min_sep": t.stats.min_separation, "total_intrusions": t.total_intrusions}
+        host.update({k: getattr(t, k) for k in ("drift_rad_sum", "drift_rad_n")})
+        host.update({k: getattr(t.stats, k) for k in ("los_count", "los_steps", "steps", "total_reward", "drift_sum", "drift_n", "time_to_goal")})
+        if t.stats.in_los.shape != tuple(s["in_los"].shape):
+            t.stats.in_los = np.zeros(tuple(s["in_los"].shape), bool)
+            host["in_los"] = t.stats.in_los
+        for k, arr in host.items():
+            arr[...] = s[k].cpu().numpy()
+
+    # --- the task's kernels ---------------------------------------------------------------------
+    def _measure(self, envs: Any, own: Any) -> dict[str, Any]:
+        """:func:`bluesky_gym.tasks.sector_cr.measure` of rows ``envs`` on the device (three launches)."""
+        t, k, launch = self.task, self._k, cuda_target.launch
+        p, m = int(envs.shape[0]), self.m
+        lat, lon, hdg, tas, alt, active = self.sim.device_arrays("lat", "lon", "hdg", "tas", "alt", "active")
+        sc_ = self.scenario
+        g = {
+            "drift": self._empty(p),
+            "features": self._empty(p, 3),
+            "intruders": self._empty(p, 7, sc.NUM_AC_STATE),
+            "n_others": self._empty(p, dtype=self.torch.int64),
+            "separation": self._empty(p, m),
+            "los": self._empty(p, m, dtype=self.torch.bool),
+            "inside": self._empty(p, dtype=self.torch.bool),
+        }
+        wpt_lat, wpt_lon = sc_["wpt_lat"][envs, own].contiguous(), sc_["wpt_lon"][envs, own].contiguous()
+        scales = sc.observation_scales(t.config)
+        launch(
+            compiled.sector_observe,
+            p,
+            k(envs),
+            k(own),
+            lat,
+            lon,
+            hdg,
+            tas,
+            active,
+            k(wpt_lat),
+            k(wpt_lon),
+            sc._FLAT_CENTER,
+            scales,
+            k(g["drift"]),
+            k(g["features"]),
+            k(g["intruders"]),
+            k(g["n_others"]),
+        )
+        launch(compiled.kwik_separation, p, k(envs), k(own), lat, lon, alt, active, sc.INTRUSION_DISTANCE, np.nan, k(g["separation"]), k(g["los"]))
+        launch(compiled.slots_in_polygons, p, k(envs), k(own), lat, lon, k(sc_["poly_lat"]), k(sc_["poly_lon"]), k(sc_["n_vertices"]), k(g["inside"]))
+        return g
+
+    def _record(self, envs: Any, g: dict[str, Any], reward: Any | None) -> None:
+        """:meth:`~bluesky_gym.tasks.base.Task.record` of rows ``envs`` on the device (one launch)."""
+        s, k, t = self.stats, self._k, self.task
+        stepped = reward is not None
+        p = int(envs.shape[0])
+        launch_args = (
+            k(envs),
+            k(g["separation"]),
+            k(g["los"]),
+            stepped,
+            k(reward if stepped else self.nothing),
+            k(g["drift"]),
+            k(self.no_goal[:p]),
+            float(t.dt),
+            int(t.action_frequency),
+            k(s["in_los"]),
+            k(s["min_sep"]),
+            k(s["los_count"]),
+            k(s["los_steps"]),
+            k(s["steps"]),
+            k(s["total_reward"]),
+            k(s["drift_sum"]),
+            k(s["drift_n"]),
+            k(s["time_to_goal"]),
+        )
+        cuda_target.launch(compiled.record_step, p, *launch_args)
+
+    def _observation(self, g: dict[str, Any]) -> dict[str, Any]:
+        """:func:`bluesky_gym.tasks.sector_cr.observation` in the space's dtype (``-v1``: clipped to the declared bounds first)."""
+        f, intruders = g["features"], g["intruders"]
+        obs = {"cos(drift)": f[:, 0:1], "sin(drift)": f[:, 1:2], "airspeed": f[:, 2:3]}
+        obs.update({key: intruders[:, i] for i, key in enumerate(sc.INTRUDER_KEYS)})
+        if self.task.config.float32_spaces:
+            torch = self.torch
+            obs = {
+                key: torch.minimum(torch.maximum(v, v.new_tensor(self.bounds[key][0])), v.new_tensor(self.bounds[key][1])) for key, v in obs.items()
+            }
+        return {key: v.to(self.obs_dtype).contiguous() for key, v in obs.items()}
+
+    def _episode_info(self) -> dict[str, Any]:
+        """:meth:`bluesky_gym.tasks.sector_cr.SectorCRTask.episode_info` on the device."""
+        s, torch = self.stats, self.torch
+        n = s["drift_rad_n"]
+        return {
+            "total_reward": s["total_reward"].clone(),
+            "total_intrusions": s["total_intrusions"].clone(),
+            "average_drift": torch.where(n > 0, s["drift_rad_sum"] / torch.clamp(n, min=1), 0.0),
+        }
+
+    def _kpis(self) -> dict[str, Any]:
+        """:meth:`bluesky_gym.tasks.base.Task.kpis` on the device (SectorCR has no goal)."""
+        s, torch, t = self.stats, self.torch, self.task
+        distflown, fuelburn = self.sim.device_arrays("distflown", "fuelburn")
+        avg = torch.where(s["drift_n"] > 0, s["drift_sum"] / torch.clamp(s["drift_n"], min=1), np.nan)
+        return {
+            "kpi_los_count": s["los_count"].to(torch.float64),
+            "kpi_los_steps": s["los_steps"].to(torch.float64),
+            "kpi_min_separation_nm": s["min_sep"].clone(),
+            "kpi_mean_abs_drift_deg": avg,
+            "kpi_track_distance_km": self.io.tensor(distflown)[:, 0] / 1000.0,
+            "kpi_fuel_kg": self.io.tensor(fuelburn)[:, 0].clone(),
+            "kpi_episode_time_s": s["steps"].to(torch.float64) * t.dt * t.action_frequency,
+        }
+
+    # --- reset and step -------------------------------------------------------------------------
+    def _start(self, rows: np.ndarray | None) -> tuple[Any, dict[str, Any]]:
+        """New episodes in ``rows`` (all when None): drawn on the host, uploaded, measured and recorded on the device.
+
+        Returns:
+            The rows (a device tensor) and their first observation.
+        """
+        t = self.task
+        host_rows = t.all_envs if rows is None else rows
+
+        def reset() -> None:
+            self.sim.reset_envs(host_rows)
+            t.generate(host_rows)
+
+        self.sim.reset_on_host(host_rows, reset)
+        self._upload_scenario(rows)
+        idx = self.envs if rows is None else self._long(rows)
+        self._clear_stats(idx)
+        g = self._measure(idx, self.own[: int(idx.shape[0])])
+        self._record(idx, g, None)
+        return idx, self._observation(g)
+
+    def reset(self) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Every episode anew (their generators seeded by the environment): the first observation and the info."""
+        _, obs = self._start(None)
+        return obs, self._episode_info()
+
+    def _actions(self, actions: Any) -> Any:
+        """The batch of actions as a float64 tensor on the device, validated and clipped to the action space."""
+        torch = self.torch
+        if isinstance(actions, torch.Tensor):
+            a = actions.detach()
+        elif hasattr(actions, "__cuda_array_interface__") and not cuda_target.SIMULATOR:
+            a = torch.as_tensor(actions, device=self.io.device)
+        elif hasattr(actions, "__dlpack__") and not isinstance(actions, np.ndarray):
+            a = torch.from_dlpack(actions)
+        else:
+            a = torch.as_tensor(numeric_action(self.io.to_host(actions), self.action_shape))
+        if a.dtype.is_complex or a.dtype == torch.bool:
+            raise ValueError(f"action must be an array of real numbers with shape {self.action_shape}, got dtype {a.dtype}")
+        a = a.to(device=self.io.device, dtype=torch.float64)
+        if tuple(a.shape) != self.action_shape:
+            raise ValueError(f"action has shape {tuple(a.shape)}, expected {self.action_shape} for {self.task.id}")
+        if not bool(torch.isfinite(a).all()):
+            raise ValueError("action contains NaN or infinite values")
+        return torch.minimum(torch.maximum(a, self.action_low), self.action_high).contiguous()
+
+    def step(self, actions: Any) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any], np.ndarray]:
+        """One step of every episode, ended episodes reset in the same call (SAME_STEP autoreset).
+
+        Returns:
+            Observation, reward, terminated, truncated, info (tensors on the device, Gymnasium's
+            vector-environment layout), and the host's boolean mask of the episodes that ended.
+        """
+        t, s, k, torch, launch = self.task, self.stats, self._k, self.torch, cuda_target.launch
+        c = t.config
+        n = self.n
+        a = self._actions(actions)
+        d_speed = sc.D_VELOCITY * sc.KTS if c.speed_step_in_knots else sc.D_VELOCITY
+        hdg, cas, ap_trk, selspd, swlnav, swvnavspd = self.sim.device_arrays("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd")
+        launch(compiled.command_heading_speed, n, k(self.envs), k(self.own), k(a), hdg, cas, sc.D_HEADING, d_speed, ap_trk, swlnav, selspd, swvnavspd)
+        t.advance()
+        g = self._measure(self.envs, self.own)
+        obs = self._observation(g)
+        reward, drift_c, intrusion_c, count = self._empty(n), self._empty(n), self._empty(n), self._empty(n, dtype=torch.int64)
+        launch(
+            compiled.sector_reward,
+            n,
+            k(g["drift"]),
+            k(g["los"]),
+            sc.DRIFT_PENALTY,
+            sc.INTRUSION_PENALTY,
+            k(reward),
+            k(drift_c),
+            k(intrusion_c),
+            k(count),
+        )
+        exit_c, terminated = self._empty(n), self._empty(n, dtype=torch.bool)
+        lat, lon = self.sim.device_arrays("lat", "lon")
+        sc_ = self.scenario
+        launch(
+            compiled.sector_episode_reward,
+            n,
+            k(self.envs),
+            k(g["drift"]),
+            k(count),
+            k(g["inside"]),
+            lat,
+            lon,
+            k(sc_["wpt_lat"]),
+            k(sc_["wpt_lon"]),
+            k(s["steps"]),
+            int(t.time_limit),
+            bool(c.exit_ends_episode),
+            sc.EXIT_MARGIN,
+            sc.EARLY_EXIT_PENALTY,
+            k(s["drift_rad_sum"]),
+            k(s["drift_rad_n"]),
+            k(s["total_intrusions"]),
+            k(reward),
+            k(exit_c),
+            k(terminated),
+        )
+        self._record(self.envs, g, reward)
+        time_up = s["steps"] >= t.time_limit
+        truncated = ~terminated & (time_up if c.exit_ends_episode else (time_up | ~g["inside"]))
+        done = terminated | truncated
+        info: dict[str, Any] = self._episode_info()
+        info.update({"reward_drift": drift_c, "reward_intrusion": intrusion_c})
+        if c.exit_ends_episode:
+            info["reward_exit"] = exit_c
+        ended = done.cpu().numpy()  # the one transfer to the host of a step
+        if ended.any():
+            info.update(self._kpis())
+            final_info = {key: v.clone() for key, v in info.items()}
+            for key in list(info):
+                if key.startswith("kpi_"):
+                    info[f"_{key}"] = done.clone()
+            final_obs = {key: v.clone() for key, v in obs.items()}
+            rows = np.flatnonzero(ended)
+            idx, new_obs = self._start(rows)
+            for key, v in obs.items():
+                v[idx] = new_obs[key]
+            info["final_obs"] = final_obs
+            info["_final_obs"] = done.clone()
+            info["final_info"] = final_info
+            info["_final_info"] = done.clone()
+        return obs, reward, terminated, truncated, info, ended
+
+
+#: The tasks whose vector-environment step runs on the device, and the classes that run it.
+DEVICE_STEPS: dict[type[Task], type[SectorCRDeviceStep]] = {sc.SectorCRTask: SectorCRDeviceStep}
+
+
+def device_step_for(task: Task, io: Any) -> SectorCRDeviceStep | None:
+    """The device step of ``task``, or None where its step runs on the host (physics on the device).
+
+    The step runs on the device for the tasks of :data:`DEVICE_STEPS`, in their own
+    configurations without wind, effects or extra observation terms.
+    """
+    cls = DEVICE_STEPS.get(type(task))
+    if cls is None or task.effects or task.observation_terms or task.config.wind is not None:
+        return None
+    return cls(task, io)  # type: ignore[arg-type]

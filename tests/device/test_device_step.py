@@ -1,0 +1,158 @@
+"""The task's step on the device (:mod:`bluesky_gym.envs.device_step`): the CPU vector environment's episodes, in a fixed number of launches.
+
+Under numba-cuda's simulator every output (observations, reward, terminated, truncated, every
+info entry, the final observations and infos of ended episodes) must equal the CPU vector
+environment's bit for bit, through several autoresets; the aircraft state must never travel
+back to the host whole; and a step's launches must not grow with the number of episodes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import bluesky_gym
+from bluesky_gym.core import DeviceSimulator, cuda_target
+from bluesky_gym.envs.device_step import SectorCRDeviceStep
+
+from .conftest import needs_device
+
+torch = pytest.importorskip("torch")
+pytestmark = needs_device
+bluesky_gym.register_envs()
+ON = "cpu" if cuda_target.SIMULATOR else "cuda"
+
+
+def _np(value: Any) -> np.ndarray:
+    assert isinstance(value, torch.Tensor), type(value)
+    assert value.device.type == ON
+    return value.cpu().numpy()
+
+
+def _same(device: Any, cpu: np.ndarray, what: str) -> None:
+    got = _np(device)
+    assert got.dtype == cpu.dtype and got.shape == cpu.shape, (what, got.dtype, cpu.dtype, got.shape, cpu.shape)
+    if cuda_target.SIMULATOR or cpu.dtype == np.bool_:
+        np.testing.assert_array_equal(got, cpu, err_msg=what)
+    else:  # on a GPU: within the physics' rounding (float32 observations: their last bit)
+        np.testing.assert_allclose(got, cpu, rtol=max(1e-7, 4 * float(np.finfo(cpu.dtype).eps)), atol=1e-9, err_msg=what)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "options"),
+    [
+        ("SectorCREnv-v0", {}),
+        ("SectorCREnv-v1", {}),
+        ("SectorCREnv-v0", {"intruder_types": ("A320", "B744"), "ac_density_mode": "uniform"}),
+        ("SectorCREnv-v1", {"poly_area_range": (40.0, 80.0), "max_episode_steps": 60}),  # small sectors: left, terminated
+    ],
+)
+def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(env_id: str, options: dict[str, Any], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Same seeds, same actions: the same outputs, every info entry included, through terminations, truncations and autoresets."""
+    options = {"max_episode_steps": 3, **options}
+    cpu = gym.make_vec(env_id, num_envs=3, **options)
+    dev = gym.make_vec(env_id, num_envs=3, device="cuda", **options)
+    assert isinstance(dev.unwrapped._device_step, SectorCRDeviceStep)
+    sim = dev.unwrapped.task.sim
+    assert isinstance(sim, DeviceSimulator)
+    obs_c, info_c = cpu.reset(seed=11)
+    obs_d, info_d = dev.reset(seed=11)
+    for k in obs_c:
+        _same(obs_d[k], obs_c[k], f"reset {k}")
+    for k in info_c:
+        _same(info_d[k], info_c[k], f"reset info {k}")
+    pulls = []
+    original = DeviceSimulator._to_host
+    monkeypatch.setattr(DeviceSimulator, "_to_host", lambda self: (pulls.append(1), original(self))[1])
+    rng = np.random.default_rng(2)
+    ended = terminated = 0
+    for step in range(9):
+        a = rng.uniform(-1.5, 1.5, cpu.action_space.shape).astype(cpu.action_space.dtype)  # beyond the bounds: clipped
+        oc, rc, tc, uc, ic = cpu.step(a)
+        od, rd, td, ud, idev = dev.step(torch.as_tensor(a, device=ON))
+        for k in oc:
+            _same(od[k], oc[k], f"step {step} obs {k}")
+        _same(rd, rc, f"step {step} reward")
+        _same(td, tc, f"step {step} terminated")
+        _same(ud, uc, f"step {step} truncated")
+        assert set(idev) == set(ic), set(idev) ^ set(ic)
+        for k, v in ic.items():
+            if k in ("final_obs", "final_info"):
+                assert set(idev[k]) == set(v)
+                for key in v:
+                    _same(idev[k][key], v[key], f"step {step} {k} {key}")
+            else:
+                _same(idev[k], v, f"step {step} info {k}")
+        ended += int((tc | uc).sum())
+        terminated += int(tc.sum())
+    if options["max_episode_steps"] > 9:
+        assert terminated >= 1, "an agent must leave its small sector (-v1: terminated) and be reset"
+    else:
+        assert ended >= 4, "episodes must end (time limit 3, the sector left) and be reset on the way"
+    assert not pulls, "the aircraft state came back to the host whole during a step"
+    # The episodes' scenarios on the host are those of the CPU environment (drawn from the same generators).
+    np.testing.assert_array_equal(dev.unwrapped.task.wpt_lat, cpu.unwrapped.task.wpt_lat)
+    cpu.close()
+    dev.close()
+
+
+def _launches_of_step(n: int, ends: bool) -> int:
+    env = gym.make_vec("SectorCREnv-v0", num_envs=n, max_episode_steps=1 if ends else 50, device="cuda")
+    env.reset(seed=0)
+    before = cuda_target.launches()
+    _, _, terminated, truncated, _ = env.step(torch.zeros((n, 2), device=ON))
+    assert bool((terminated | truncated).all()) == ends
+    env.close()
+    return cuda_target.launches() - before
+
+
+def test_a_step_is_a_fixed_number_of_launches_whatever_the_number_of_episodes() -> None:
+    assert _launches_of_step(2, False) == _launches_of_step(5, False)
+    assert _launches_of_step(2, True) == _launches_of_step(5, True) > _launches_of_step(2, False)
+
+
+def test_tasks_without_a_device_step_keep_theirs_on_the_host() -> None:
+    """Wind, and the other tasks, run the task's step on the host (the physics on the device)."""
+    windy = gym.make_vec("SectorCREnv-v0", num_envs=2, device="cuda", wind={"lat": [52.0], "lon": [4.4], "vnorth": [5.0], "veast": [0.0]})
+    assert windy.unwrapped._device_step is None
+    horizontal = gym.make_vec("HorizontalCREnv-v0", num_envs=2, device="cuda")
+    assert horizontal.unwrapped._device_step is None
+    windy.close()
+    horizontal.close()
+
+
+@pytest.mark.parametrize(
+    ("action", "message"),
+    [
+        (np.zeros((2, 3)), r"action has shape \(2, 3\), expected \(2, 2\)"),
+        (np.full((2, 2), np.nan), "NaN or infinite"),
+        ([["a", "b"], ["c", "d"]], "real numbers"),
+    ],
+)
+def test_bad_actions_are_refused_in_one_line(action: Any, message: str) -> None:
+    env = gym.make_vec("SectorCREnv-v0", num_envs=2, device="cuda")
+    env.reset(seed=0)
+    given = torch.as_tensor(action, device=ON) if isinstance(action, np.ndarray) else action
+    with pytest.raises(ValueError, match=message):
+        env.step(given)
+    env.close()
+
+
+def test_rendering_a_device_step_environment_shows_its_statistics() -> None:
+    """The pictures read the task's host arrays: with a render mode the step copies its statistics there."""
+    cpu = gym.make_vec("SectorCREnv-v0", num_envs=2, render_mode="rgb_array")
+    dev = gym.make_vec("SectorCREnv-v0", num_envs=2, render_mode="rgb_array", device="cuda")
+    cpu.reset(seed=4)
+    dev.reset(seed=4)
+    for _ in range(2):
+        cpu.step(np.full((2, 2), 0.5))
+        dev.step(torch.full((2, 2), 0.5, device=ON))
+    for k in ("steps", "total_reward", "min_separation", "drift_sum"):
+        np.testing.assert_array_equal(getattr(dev.unwrapped.task.stats, k), getattr(cpu.unwrapped.task.stats, k), err_msg=k)
+    np.testing.assert_array_equal(dev.unwrapped.task.total_intrusions, cpu.unwrapped.task.total_intrusions)
+    assert dev.render().shape == cpu.render().shape
+    cpu.close()
+    dev.close()
