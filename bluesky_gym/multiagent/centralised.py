@@ -28,11 +28,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from bluesky_gym.environments.horizontal_cr.multiagent import HorizontalCRMultiAgentTask
+from bluesky_gym.environments.merge.multiagent import MergeMultiAgentTask
+from bluesky_gym.environments.sector_cr.multiagent import SectorCRMultiAgentTask
 from bluesky_gym.envs.shell import TaskSpecMixin, check_reset_options, requested_time_limit
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, flatten_observation
-from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
-from bluesky_gym.multiagent.merge import MergeMultiAgentTask
-from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
 from bluesky_gym.tasks.base import numeric_action
 
 RENDER_MODES = ["rgb_array", "human"]

@@ -15,7 +15,7 @@ shell only converts between the task's arrays and PettingZoo's per-agent dicts.
 * An agent leaves ``agents`` in the step where it is terminated (goal reached) or truncated
   (SectorCR: it left the sector; every task: the time limit); the returned dicts hold exactly the
   agents that acted in that step (and, in a layout whose aircraft appear mid-episode, such as
-  :mod:`~bluesky_gym.multiagent.real_traffic`, those that appeared, with their first observation).
+  :mod:`~bluesky_gym.environments.real_traffic.multiagent`, those that appeared, with their first observation).
 * ``reset(seed=s)`` gives the episode of seed ``s`` (the single-agent scenario of that seed with
   every aircraft as an agent); ``reset()`` continues the environment's generator.
 * ``state()`` is the global state for centralised training (see
@@ -35,13 +35,13 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
+from bluesky_gym.environments.horizontal_cr.multiagent import HorizontalCRMultiAgentTask
+from bluesky_gym.environments.merge.multiagent import MergeMultiAgentTask
+from bluesky_gym.environments.sector_cr.multiagent import SectorCRMultiAgentTask
 from bluesky_gym.envs.registry import multiagent_entry, resolve
 from bluesky_gym.multiagent import make_task, require_pettingzoo
 from bluesky_gym.multiagent.base import MultiAgentTask, agent_action, agent_actions
-from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
-from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.render import agent_name
-from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
 from bluesky_gym.tasks.base import BoxSpec
 
 require_pettingzoo()  # a clear error naming the extra when PettingZoo is missing
@@ -232,7 +232,7 @@ class BlueSkyParallelEnv(ParallelEnv):
 class SectorCRParallelEnv(BlueSkyParallelEnv):
     """Multi-agent SectorCR: every aircraft in the sector is an agent.
 
-    See :class:`~bluesky_gym.multiagent.sector_cr.SectorCRMultiAgentTask` for the observation,
+    See :class:`~bluesky_gym.environments.sector_cr.multiagent.SectorCRMultiAgentTask` for the observation,
     action and reward of each agent. Scenario options are SectorCREnv-v0's (``ac_density_mode``, ...).
     """
 
@@ -243,7 +243,7 @@ class SectorCRParallelEnv(BlueSkyParallelEnv):
 class MergeParallelEnv(BlueSkyParallelEnv):
     """Multi-agent Merge: every arrival is an agent.
 
-    See :class:`~bluesky_gym.multiagent.merge.MergeMultiAgentTask`. Scenario options are
+    See :class:`~bluesky_gym.environments.merge.multiagent.MergeMultiAgentTask`. Scenario options are
     MergeEnv-v0's (``num_aircraft``, ...).
     """
 
@@ -254,7 +254,7 @@ class MergeParallelEnv(BlueSkyParallelEnv):
 class HorizontalCRParallelEnv(BlueSkyParallelEnv):
     """Multi-agent HorizontalCR: the ownship and its intruders are all agents.
 
-    See :class:`~bluesky_gym.multiagent.horizontal_cr.HorizontalCRMultiAgentTask`. Scenario
+    See :class:`~bluesky_gym.environments.horizontal_cr.multiagent.HorizontalCRMultiAgentTask`. Scenario
     options are HorizontalCREnv-v0's (``num_intruders``, ...).
     """
 

@@ -15,13 +15,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bluesky_gym.core.units import NM2KM
+from bluesky_gym.environments.horizontal_cr import task as hc
+from bluesky_gym.environments.merge import task as mg
+from bluesky_gym.environments.merge.scene import RUNWAY_HDG, RUNWAY_LENGTH_KM
 from bluesky_gym.envs.registry import multiagent_entry
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Area, Fix, Line, MapAircraft, MapScene, Runway
 from bluesky_gym.render.scenes.common import fit_extent
-from bluesky_gym.render.scenes.merge import RUNWAY_HDG, RUNWAY_LENGTH_KM
-from bluesky_gym.tasks import horizontal_cr as hc
-from bluesky_gym.tasks import merge as mg
 from bluesky_gym.tasks.geometry import point_at_distance
 
 if TYPE_CHECKING:

@@ -52,6 +52,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.units import FT, KTS, NM, NM2KM
+from bluesky_gym.environments.descent.task import ALT_MEAN, ALT_STD, RWY_DIS_MEAN, RWY_DIS_STD, DescentTask
+from bluesky_gym.environments.horizontal_cr import task as horizontal_cr
+from bluesky_gym.environments.merge import task as merge
+from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
+from bluesky_gym.environments.plan_waypoint.task import PlanWaypointConfig
+from bluesky_gym.environments.real_traffic import task as rt
+from bluesky_gym.environments.sector_cr import task as sector_cr
+from bluesky_gym.environments.static_obstacle import task as static_obstacle
+from bluesky_gym.environments.static_obstacle.task import StaticObstacleConfig
+from bluesky_gym.environments.vertical_cr import task as vertical_cr
 from bluesky_gym.envs.registry import ENVIRONMENTS, entry, resolve
 from bluesky_gym.multiagent.policies import MIN_ACTION as MIN_ACTION  # the one policy module of every agent layout
 from bluesky_gym.multiagent.policies import MVPMapping as MVPMapping
@@ -62,11 +72,6 @@ from bluesky_gym.multiagent.policies import RandomPolicy as RandomPolicy
 from bluesky_gym.multiagent.policies import SB3Policy as SB3Policy
 from bluesky_gym.multiagent.policies import vertical_speed_action
 from bluesky_gym.tasks import REFERENCE_POLICIES as REFERENCE_POLICIES
-from bluesky_gym.tasks import horizontal_cr, merge, plan_waypoint, sector_cr, static_obstacle, vertical_cr
-from bluesky_gym.tasks import real_traffic as rt
-from bluesky_gym.tasks.descent import ALT_MEAN, ALT_STD, RWY_DIS_MEAN, RWY_DIS_STD, DescentTask
-from bluesky_gym.tasks.plan_waypoint import PlanWaypointConfig
-from bluesky_gym.tasks.static_obstacle import StaticObstacleConfig
 
 Array = NDArray[np.float64]
 

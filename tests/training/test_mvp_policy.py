@@ -133,7 +133,7 @@ def test_eval_cli_with_mvp(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 def test_mvp_caps_the_ownship_vertical_speed_with_its_own_type() -> None:
     """VerticalCR with a B744 ownship: MVP's vertical speed is capped with the B744's envelope (BlueSky's perf per aircraft)."""
     from bluesky_gym.core.aircraft import aircraft_performance
-    from bluesky_gym.tasks.descent import ACTION_2_MS
+    from bluesky_gym.environments.descent.task import ACTION_2_MS
 
     b744, a320 = aircraft_performance("B744"), aircraft_performance("A320")
     venv = gym.make_vec("VerticalCREnv-v0", num_envs=4, vectorization_mode="vector_entry_point", ownship_types="B744")

@@ -9,8 +9,14 @@ import numpy as np
 import pytest
 
 from bluesky_gym.core.units import NM, NM2KM
-from bluesky_gym.tasks import descent, horizontal_cr, merge, plan_waypoint, sector_cr, static_obstacle, vertical_cr
-from bluesky_gym.tasks import real_traffic as rt
+from bluesky_gym.environments.descent import task as descent
+from bluesky_gym.environments.horizontal_cr import task as horizontal_cr
+from bluesky_gym.environments.merge import task as merge
+from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
+from bluesky_gym.environments.real_traffic import task as rt
+from bluesky_gym.environments.sector_cr import task as sector_cr
+from bluesky_gym.environments.static_obstacle import task as static_obstacle
+from bluesky_gym.environments.vertical_cr import task as vertical_cr
 from bluesky_gym.training import make_vector_env, policies
 from bluesky_gym.training.policies import PlanWaypointController, StaticObstacleController
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from bluesky_gym.environments.descent.task import DescentTask
 from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
-from bluesky_gym.tasks.descent import DescentTask
 
 
 class DescentEnv(BlueSkyEnv):

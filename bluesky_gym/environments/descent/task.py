@@ -74,7 +74,7 @@ class DescentConfig(TaskConfig):
 
 
 class DescentTask(Task):
-    """Batched descent task; see :class:`bluesky_gym.envs.descent_env.DescentEnv` for the MDP."""
+    """Batched descent task; see :class:`bluesky_gym.environments.descent.env.DescentEnv` for the MDP."""
 
     env_id: ClassVar[str] = "DescentEnv-v0"
     dt: ClassVar[float] = 1.0

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from bluesky_gym.environments.horizontal_cr.task import HorizontalCRTask
 from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
-from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
 
 
 class HorizontalCREnv(BlueSkyEnv):

@@ -1,6 +1,6 @@
 """Multi-agent HorizontalCR: the ownship and its intruders are all agents (adapted from docs/environments-v0.md §3).
 
-The scenario is HorizontalCREnv-v0's (:class:`~bluesky_gym.tasks.horizontal_cr.HorizontalCRTask`
+The scenario is HorizontalCREnv-v0's (:class:`~bluesky_gym.environments.horizontal_cr.task.HorizontalCRTask`
 generates it): an aircraft at 52N 4E heading north to a waypoint 100-149 km due north, and 5
 intruders placed by ``creconfs`` in conflict with it. Every aircraft here is an agent and needs a
 goal: the first aircraft keeps the single-agent waypoint; each intruder gets a waypoint on its
@@ -10,8 +10,8 @@ its start is before it (so the designed conflict lies half way), at least
 single-agent scenario of the same seed.
 
 Observation and reward are HorizontalCREnv-v0's own functions
-(:func:`bluesky_gym.tasks.horizontal_cr.measure` with the nearest other aircraft,
-:func:`~bluesky_gym.tasks.horizontal_cr.observation`, :func:`~bluesky_gym.tasks.horizontal_cr.reward`)
+(:func:`bluesky_gym.environments.horizontal_cr.task.measure` with the nearest other aircraft,
+:func:`~bluesky_gym.environments.horizontal_cr.task.observation`, :func:`~bluesky_gym.environments.horizontal_cr.task.reward`)
 applied to every agent's slot.
 
 Version history:
@@ -28,8 +28,8 @@ import numpy as np
 from bluesky_gym.core import geo
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import KM, NM, NM2KM, R_EARTH
+from bluesky_gym.environments.horizontal_cr import task as hc
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
-from bluesky_gym.tasks import horizontal_cr as hc
 from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
 

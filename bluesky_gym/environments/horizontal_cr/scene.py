@@ -5,10 +5,10 @@ from __future__ import annotations
 from typing import Any
 
 from bluesky_gym.core.units import NM2KM
+from bluesky_gym.environments.horizontal_cr.task import DISTANCE_MARGIN, INTRUSION_DISTANCE, START_LAT, START_LON
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Fix, Line, MapScene
 from bluesky_gym.render.scenes.common import LEGEND_TRAFFIC, drift_line, fit_extent, map_traffic, ownship_lines
-from bluesky_gym.tasks.horizontal_cr import DISTANCE_MARGIN, INTRUSION_DISTANCE, START_LAT, START_LON
 
 LEGEND = [*LEGEND_TRAFFIC, (pal.GOAL, "waypoint (5 km capture)")]
 

@@ -214,7 +214,7 @@ def bounds_v1(key: str) -> tuple[float, float]:
 
 
 class HorizontalCRTask(Task):
-    """Batched horizontal CR task; see :class:`bluesky_gym.envs.horizontal_cr_env.HorizontalCREnv`."""
+    """Batched horizontal CR task; see :class:`bluesky_gym.environments.horizontal_cr.env.HorizontalCREnv`."""
 
     env_id: ClassVar[str] = "HorizontalCREnv-v0"
     dt: ClassVar[float] = 5.0

@@ -1,12 +1,12 @@
 """Multi-agent Merge: every arrival is an agent merging via the FAF to the runway (adapted from docs/environments-v0.md §7).
 
-The scenario is MergeEnv-v0's (:class:`~bluesky_gym.tasks.merge.MergeTask` generates it): 20
+The scenario is MergeEnv-v0's (:class:`~bluesky_gym.environments.merge.task.MergeTask` generates it): 20
 aircraft at 10000 m north of the final approach fix, within +-15 deg of the approach radial. In
 the single-agent environment aircraft 0 is controlled and the others fly LNAV via the FAF to the
 runway; here every aircraft is an agent with MergeEnv-v0's observation, action and reward from
 its own point of view (an aircraft's LNAV route is switched off by its first heading command):
-the observation and reward are MergeEnv-v0's own functions (:func:`bluesky_gym.tasks.merge.measure`,
-:func:`~bluesky_gym.tasks.merge.observation`, :func:`~bluesky_gym.tasks.merge.reward`) applied to
+the observation and reward are MergeEnv-v0's own functions (:func:`bluesky_gym.environments.merge.task.measure`,
+:func:`~bluesky_gym.environments.merge.task.observation`, :func:`~bluesky_gym.environments.merge.task.reward`) applied to
 every agent's slot.
 
 Version history:
@@ -22,8 +22,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from bluesky_gym.environments.merge import task as mg
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
-from bluesky_gym.tasks import merge as mg
 from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
 

@@ -7,11 +7,11 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.core import geo
+from bluesky_gym.environments.merge.task import FAF_BEARING, INTRUSION_DISTANCE, RWY_LAT, RWY_LON
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Fix, Line, MapScene, Runway
 from bluesky_gym.render.scenes.common import LEGEND_TRAFFIC, OWNSHIP_CALLSIGN, drift_line, fit_extent, map_traffic, ownship_lines
 from bluesky_gym.tasks.geometry import point_at_distance
-from bluesky_gym.tasks.merge import FAF_BEARING, INTRUSION_DISTANCE, RWY_LAT, RWY_LON
 
 RUNWAY_HDG = (FAF_BEARING + 180.0) % 360.0  # deg: arrivals come from the FAF (due north) and land towards the runway
 RUNWAY_LENGTH_KM = 3.3  # km: length of the drawn runway

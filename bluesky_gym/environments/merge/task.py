@@ -283,7 +283,7 @@ def bounds_v1(key: str) -> tuple[float, float]:
 
 
 class MergeTask(Task):
-    """Batched merge task; see :class:`bluesky_gym.envs.merge_env.MergeEnv` for the MDP."""
+    """Batched merge task; see :class:`bluesky_gym.environments.merge.env.MergeEnv` for the MDP."""
 
     env_id: ClassVar[str] = "MergeEnv-v0"
     dt: ClassVar[float] = 5.0

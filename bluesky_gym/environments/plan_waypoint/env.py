@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from bluesky_gym.environments.plan_waypoint.task import PlanWaypointTask
 from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
-from bluesky_gym.tasks.plan_waypoint import PlanWaypointTask
 
 
 class PlanWaypointEnv(BlueSkyEnv):

@@ -7,10 +7,10 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.core.units import NM2KM
+from bluesky_gym.environments.plan_waypoint.task import AC_LAT, AC_LON
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Fix, MapScene
 from bluesky_gym.render.scenes.common import fit_extent, map_traffic, ownship_lines
-from bluesky_gym.tasks.plan_waypoint import AC_LAT, AC_LON
 
 LEGEND = [(pal.OWNSHIP, "ownship (agent)"), (pal.GOAL, "waypoint to visit"), (pal.GOAL_DONE, "waypoint reached")]
 

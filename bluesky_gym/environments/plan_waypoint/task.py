@@ -11,9 +11,9 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import NM2KM
+from bluesky_gym.environments.horizontal_cr.task import AIRBORNE_ALT
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikqdrdist, wrap180
-from bluesky_gym.tasks.horizontal_cr import AIRBORNE_ALT
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 AC_HDG = 0.0  # deg: creation heading (BlueSky's default, north)
@@ -76,7 +76,7 @@ class PlanWaypointConfig(TaskConfig):
 
 
 class PlanWaypointTask(Task):
-    """Batched waypoint-planning task; see :class:`bluesky_gym.envs.plan_waypoint_env.PlanWaypointEnv`."""
+    """Batched waypoint-planning task; see :class:`bluesky_gym.environments.plan_waypoint.env.PlanWaypointEnv`."""
 
     env_id: ClassVar[str] = "PlanWaypointEnv-v0"
     dt: ClassVar[float] = 1.0

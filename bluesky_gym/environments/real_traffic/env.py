@@ -6,9 +6,9 @@ from typing import Any
 
 import numpy as np
 
+from bluesky_gym.environments.real_traffic.task import RealTrafficTask
 from bluesky_gym.envs.seeds import is_eval_seed
 from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv, episode_seeds
-from bluesky_gym.tasks.real_traffic import RealTrafficTask
 
 
 def _test_flags(seeds: list[int | None]) -> np.ndarray:

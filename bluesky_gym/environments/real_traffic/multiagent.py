@@ -3,8 +3,8 @@
 The episode is a window of RealTrafficCREnv-v0 (the same windows, splits and options); every
 aircraft of it, named by its recorded flight id, is an agent from the step its recording starts
 until the step it ends. Each agent has the single-agent observation, action and reward from its
-own point of view (:func:`bluesky_gym.tasks.real_traffic.measure`, :func:`~bluesky_gym.tasks.real_traffic.observation`,
-:func:`~bluesky_gym.tasks.real_traffic.reward` and :func:`~bluesky_gym.tasks.real_traffic.steer`
+own point of view (:func:`bluesky_gym.environments.real_traffic.task.measure`, :func:`~bluesky_gym.environments.real_traffic.task.observation`,
+:func:`~bluesky_gym.environments.real_traffic.task.reward` and :func:`~bluesky_gym.environments.real_traffic.task.steer`
 applied to its own slot): heading, speed (and optionally altitude) relative to its own recorded
 path, so that all-zero actions replay the recording.
 
@@ -34,7 +34,7 @@ PettingZoo shell of the other multi-agent environments
 
 Example::
 
-    from bluesky_gym.multiagent.real_traffic import RealTrafficParallelEnv
+    from bluesky_gym.environments.real_traffic.multiagent import RealTrafficParallelEnv
 
     env = RealTrafficParallelEnv()
     obs, infos = env.reset(seed=0)
@@ -49,11 +49,11 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
+from bluesky_gym.environments.real_traffic import task as rt
 from bluesky_gym.envs.seeds import is_eval_seed
 from bluesky_gym.multiagent import require_pettingzoo
 from bluesky_gym.multiagent.base import IntArray, MultiAgentStepResult, MultiAgentTask
 from bluesky_gym.multiagent.parallel import BlueSkyParallelEnv, agent_observation_space, box
-from bluesky_gym.tasks import real_traffic as rt
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry
 
 require_pettingzoo()
@@ -68,7 +68,7 @@ STATE_COLUMNS = ("active", "lat", "lon", "altitude", "heading", "ground_speed")
 class RealTrafficMultiAgentTask(MultiAgentTask):
     """The multi-agent layout of the real-traffic step: every recorded aircraft of the window is an agent.
 
-    The scenario is :class:`~bluesky_gym.tasks.real_traffic.RealTrafficAllAgentsTask` (no aircraft
+    The scenario is :class:`~bluesky_gym.environments.real_traffic.task.RealTrafficAllAgentsTask` (no aircraft
     flies the recorded profile on its own). Beyond the common layout: an aircraft whose recording
     starts during a step *appears* (it did not act; the step's result holds its first observation);
     an acting agent whose recording ends in the step is truncated with an all-zero observation,
@@ -98,7 +98,7 @@ class RealTrafficMultiAgentTask(MultiAgentTask):
         return self.scenario.action_spec
 
     def apply_action(self, action: Array) -> None:
-        """Steer every acting aircraft relative to its own recorded path (:func:`~bluesky_gym.tasks.real_traffic.steer`)."""
+        """Steer every acting aircraft relative to its own recorded path (:func:`~bluesky_gym.environments.real_traffic.task.steer`)."""
         e, k = np.nonzero(self.acting)
         rt.steer(self.scenario, e, k, action[e, k])
 
@@ -109,16 +109,16 @@ class RealTrafficMultiAgentTask(MultiAgentTask):
         return self.measure_rows(np.asarray(envs, dtype=np.int64), np.asarray(own, dtype=np.int64))
 
     def measure_rows(self, envs: IntArray, own: IntArray) -> rt.RealTrafficGeometry:
-        """:func:`bluesky_gym.tasks.real_traffic.measure` of the rows."""
+        """:func:`bluesky_gym.environments.real_traffic.task.measure` of the rows."""
         return rt.measure(self.scenario, envs, own)
 
     def observe_rows(self, g: StepGeometry) -> dict[str, Array]:
-        """:func:`bluesky_gym.tasks.real_traffic.observation` of the rows."""
+        """:func:`bluesky_gym.environments.real_traffic.task.observation` of the rows."""
         assert isinstance(g, rt.RealTrafficGeometry)
         return rt.observation(self.scenario, g)
 
     def reward_rows(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Route and intrusion penalties (:func:`bluesky_gym.tasks.real_traffic.reward`); no agent terminates."""
+        """Route and intrusion penalties (:func:`bluesky_gym.environments.real_traffic.task.reward`); no agent terminates."""
         assert isinstance(g, rt.RealTrafficGeometry)
         r, parts = rt.reward(g)
         self._route_nm = self._rows_to_slots(g, g.route_nm, 0.0)

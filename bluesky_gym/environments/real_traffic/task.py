@@ -360,7 +360,7 @@ def bounds_v1(config: RealTrafficConfig) -> dict[str, BoxSpec]:
 
 
 class RealTrafficTask(Task):
-    """Batched RealTrafficCREnv-v0 (see :class:`bluesky_gym.envs.real_traffic_env.RealTrafficCREnv`)."""
+    """Batched RealTrafficCREnv-v0 (see :class:`bluesky_gym.environments.real_traffic.env.RealTrafficCREnv`)."""
 
     env_id: ClassVar[str] = "RealTrafficCREnv-v0"
     dt: ClassVar[float] = 1.0
@@ -520,7 +520,7 @@ class RealTrafficAllAgentsTask(RealTrafficTask):
     No aircraft gets the recorded profile from the scenario; each agent's action is applied with
     :func:`steer` to its own slot, its observation and reward are :func:`observation` and
     :func:`reward` of its own row. It is the scenario of the multi-agent layout
-    :class:`~bluesky_gym.multiagent.real_traffic.RealTrafficMultiAgentTask`.
+    :class:`~bluesky_gym.environments.real_traffic.multiagent.RealTrafficMultiAgentTask`.
     """
 
     guided_traffic: ClassVar[bool] = False

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from bluesky_gym.environments.sector_cr.task import SectorCRTask
 from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
-from bluesky_gym.tasks.sector_cr import SectorCRTask
 
 
 class SectorCREnv(BlueSkyEnv):

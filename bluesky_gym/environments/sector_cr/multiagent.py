@@ -1,12 +1,12 @@
 """Multi-agent SectorCR: every aircraft crossing the sector is an agent (adapted from docs/environments-v0.md §5).
 
-The scenario is SectorCREnv-v0's (:class:`~bluesky_gym.tasks.sector_cr.SectorCRTask` generates
+The scenario is SectorCREnv-v0's (:class:`~bluesky_gym.environments.sector_cr.task.SectorCRTask` generates
 it): a random convex sector with ``max(ceil(density * area), 5)`` aircraft, each flying from a
 random point inside towards its own exit point on the boundary. Here every aircraft is an agent
 with the single-agent observation, action and reward, seen from its own point of view: the
 observation and reward are SectorCREnv-v0's own functions
-(:func:`bluesky_gym.tasks.sector_cr.measure`, :func:`~bluesky_gym.tasks.sector_cr.observation`,
-:func:`~bluesky_gym.tasks.sector_cr.reward`) applied to every agent's slot.
+(:func:`bluesky_gym.environments.sector_cr.task.measure`, :func:`~bluesky_gym.environments.sector_cr.task.observation`,
+:func:`~bluesky_gym.environments.sector_cr.task.reward`) applied to every agent's slot.
 
 Version history:
     * Observations now computed by the single-agent task functions for each agent: the drift uses
@@ -21,9 +21,9 @@ from typing import ClassVar
 import numpy as np
 
 from bluesky_gym.core.units import KTS
+from bluesky_gym.environments.sector_cr import task as sc
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks import sector_cr as sc
 from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
 STATE_SCALE_NM = 40.0  # NM: positions in the global state (the sector's circle has a 34.5 NM radius)

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from bluesky_gym.environments.sector_cr.task import INTRUSION_DISTANCE
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Area, Fix, Line, MapScene
 from bluesky_gym.render.scenes.common import LEGEND_TRAFFIC, drift_line, fit_extent, map_traffic, ownship_lines
-from bluesky_gym.tasks.sector_cr import INTRUSION_DISTANCE
 
 LEGEND = [*LEGEND_TRAFFIC, (pal.GOAL, "ownship's exit point"), (pal.AIRSPACE_EDGE, "sector")]
 

@@ -269,7 +269,7 @@ def reward(g: SectorGeometry) -> tuple[Array, NDArray[np.int64], dict[str, Array
 
 
 class SectorCRTask(Task):
-    """Batched sector CR task; see :class:`bluesky_gym.envs.sector_cr_env.SectorCREnv` for the MDP."""
+    """Batched sector CR task; see :class:`bluesky_gym.environments.sector_cr.env.SectorCREnv` for the MDP."""
 
     env_id: ClassVar[str] = "SectorCREnv-v0"
     dt: ClassVar[float] = 1.0

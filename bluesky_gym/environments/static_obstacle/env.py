@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from bluesky_gym.environments.static_obstacle.task import StaticObstacleTask
 from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
-from bluesky_gym.tasks.static_obstacle import StaticObstacleTask
 
 
 class StaticObstacleEnv(BlueSkyEnv):

@@ -7,10 +7,10 @@ from typing import Any
 import numpy as np
 
 from bluesky_gym.core.units import NM2KM
+from bluesky_gym.environments.static_obstacle.task import AC_LAT, AC_LON
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import Area, Fix, Line, MapScene
 from bluesky_gym.render.scenes.common import drift_line, fit_extent, map_traffic, ownship_lines
-from bluesky_gym.tasks.static_obstacle import AC_LAT, AC_LON
 
 LEGEND = [
     (pal.OWNSHIP, "ownship (agent)"),

@@ -121,7 +121,7 @@ class StaticObstacleConfig(TaskConfig):
 
 
 class StaticObstacleTask(Task):
-    """Batched static-obstacle task; see :class:`bluesky_gym.envs.static_obstacle_env.StaticObstacleEnv`."""
+    """Batched static-obstacle task; see :class:`bluesky_gym.environments.static_obstacle.env.StaticObstacleEnv`."""
 
     env_id: ClassVar[str] = "StaticObstacleEnv-v0"
     dt: ClassVar[float] = 1.0

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from bluesky_gym.environments.vertical_cr.task import VerticalCRTask
 from bluesky_gym.envs.shell import BlueSkyEnv, BlueSkyVectorEnv
-from bluesky_gym.tasks.vertical_cr import VerticalCRTask
 
 
 class VerticalCREnv(BlueSkyEnv):

@@ -9,11 +9,11 @@ import numpy as np
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.units import NM2KM
+from bluesky_gym.environments.descent.scene import side_ownship, vertical_lines
+from bluesky_gym.environments.vertical_cr.task import INTRUSION_DISTANCE, VERTICAL_MARGIN
 from bluesky_gym.render import palette as pal
 from bluesky_gym.render.scene import MapScene, SideAircraft, SideScene
 from bluesky_gym.render.scenes.common import LEGEND_TRAFFIC, default_callsign, map_traffic, separation
-from bluesky_gym.render.scenes.descent import side_ownship, vertical_lines
-from bluesky_gym.tasks.vertical_cr import INTRUSION_DISTANCE, VERTICAL_MARGIN
 
 INSET_HALF_WIDTH_NM = 30.0
 

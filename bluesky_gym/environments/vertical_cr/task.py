@@ -10,6 +10,17 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import atmosphere as isa
 from bluesky_gym.core.units import FT
+from bluesky_gym.environments.descent.task import (
+    AC_SPD,
+    ACTION_2_MS,
+    ALT_STD,
+    DEFAULT_RWY_DIS,
+    VZ_BOUND,
+    VZ_STD,
+    DescentConfig,
+    DescentMeasurement,
+    DescentTask,
+)
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
     DEFAULT_TYPES,
@@ -26,7 +37,6 @@ from bluesky_gym.tasks.base import (
     kwik_separation,
     typed,
 )
-from bluesky_gym.tasks.descent import AC_SPD, ACTION_2_MS, ALT_STD, DEFAULT_RWY_DIS, VZ_BOUND, VZ_STD, DescentConfig, DescentMeasurement, DescentTask
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
 INTRUSION_DISTANCE = 5.0  # NM, horizontal radius of the intrusion cylinder
@@ -157,7 +167,7 @@ class VerticalCRConfig(DescentConfig):
 
 
 class VerticalCRTask(DescentTask):
-    """Batched vertical CR task; see :class:`bluesky_gym.envs.vertical_cr_env.VerticalCREnv`.
+    """Batched vertical CR task; see :class:`bluesky_gym.environments.vertical_cr.env.VerticalCREnv`.
 
     It extends the descent task (same ownship, action, altitude reward and termination) with
     intruders that hold their level.
