@@ -174,8 +174,6 @@ class EnvEntry:
         return str(resolve(self.data_note)()) if self.data_note else "not prepared"
 
 
-#: Import path of the module holding the classical controllers and MVP mappings the rows name.
-_POLICIES = "bluesky_gym.training.policies"
 #: Episode-log column of the mean |altitude - target| [m] while flying (derived by the plots from the altitude reward).
 ALTITUDE_ERROR = "altitude_error_m"
 
@@ -187,7 +185,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.descent.env:DescentEnv",
         vector_env="bluesky_gym.environments.descent.env:DescentVectorEnv",
         scene="bluesky_gym.environments.descent.scene:descent_scene",
-        classical=f"{_POLICIES}:DescentController",
+        classical="bluesky_gym.environments.descent.controller:DescentController",
         kpis=(
             ("return", "episode return"),
             (ALTITUDE_ERROR, "mean altitude error [m]"),
@@ -202,8 +200,8 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.vertical_cr.env:VerticalCREnv",
         vector_env="bluesky_gym.environments.vertical_cr.env:VerticalCRVectorEnv",
         scene="bluesky_gym.environments.vertical_cr.scene:vertical_cr_scene",
-        classical=f"{_POLICIES}:VerticalCRController",
-        mvp=f"{_POLICIES}:VERTICAL_CR_MVP",
+        classical="bluesky_gym.environments.vertical_cr.controller:VerticalCRController",
+        mvp="bluesky_gym.environments.vertical_cr.controller:VERTICAL_CR_MVP",
         kpis=(
             ("return", "episode return"),
             (ALTITUDE_ERROR, "mean altitude error [m]"),
@@ -219,7 +217,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.plan_waypoint.env:PlanWaypointEnv",
         vector_env="bluesky_gym.environments.plan_waypoint.env:PlanWaypointVectorEnv",
         scene="bluesky_gym.environments.plan_waypoint.scene:plan_waypoint_scene",
-        classical=f"{_POLICIES}:PlanWaypointController",
+        classical="bluesky_gym.environments.plan_waypoint.controller:PlanWaypointController",
         kpis=(
             ("return", "episode return"),
             ("waypoints_completed", "waypoints completed"),
@@ -243,8 +241,8 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
             scene="bluesky_gym.multiagent.render:horizontal_cr_scene",
             v1=(("airborne_start", True),),
         ),
-        classical=f"{_POLICIES}:HorizontalCRController",
-        mvp=f"{_POLICIES}:HORIZONTAL_CR_MVP",
+        classical="bluesky_gym.environments.horizontal_cr.controller:HorizontalCRController",
+        mvp="bluesky_gym.environments.horizontal_cr.controller:HORIZONTAL_CR_MVP",
         kpis=(
             ("return", "episode return"),
             ("kpi_success", "success rate"),
@@ -270,8 +268,8 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
             scene="bluesky_gym.multiagent.render:sector_cr_scene",
             v1=(("flight_level_altitude", True), ("speed_step_in_knots", True)),
         ),
-        classical=f"{_POLICIES}:SectorCRController",
-        mvp=f"{_POLICIES}:SECTOR_CR_MVP",
+        classical="bluesky_gym.environments.sector_cr.controller:SectorCRController",
+        mvp="bluesky_gym.environments.sector_cr.controller:SECTOR_CR_MVP",
         kpis=(
             ("return", "episode return"),
             ("kpi_los_count", "losses of separation / episode"),
@@ -287,7 +285,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.static_obstacle.env:StaticObstacleEnv",
         vector_env="bluesky_gym.environments.static_obstacle.env:StaticObstacleVectorEnv",
         scene="bluesky_gym.environments.static_obstacle.scene:static_obstacle_scene",
-        classical=f"{_POLICIES}:StaticObstacleController",
+        classical="bluesky_gym.environments.static_obstacle.controller:StaticObstacleController",
         kpis=(
             ("return", "episode return"),
             ("kpi_success", "success rate"),
@@ -311,8 +309,8 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
             centralised_env="bluesky_gym.multiagent.centralised:MergeCentralisedEnv",
             scene="bluesky_gym.multiagent.render:merge_scene",
         ),
-        classical=f"{_POLICIES}:MergeController",
-        mvp=f"{_POLICIES}:MERGE_MVP",
+        classical="bluesky_gym.environments.merge.controller:MergeController",
+        mvp="bluesky_gym.environments.merge.controller:MERGE_MVP",
         kpis=(
             ("return", "episode return"),
             ("faf_reach", "reached the FAF"),
@@ -330,7 +328,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         scene="bluesky_gym.environments.real_traffic.scene:real_traffic_scene",
         data="bluesky_gym.realtraffic.cache:default_data_ready",
         data_note="bluesky_gym.realtraffic.cache:default_data_note",
-        classical=f"{_POLICIES}:RealTrafficController",
+        classical="bluesky_gym.environments.real_traffic.controller:RealTrafficController",
         v1=(),
     ),
 )

@@ -14,9 +14,10 @@ from bluesky_gym.cli import main
 from bluesky_gym.core.conflicts import PZ_HEIGHT
 from bluesky_gym.core.geo import kwikdist
 from bluesky_gym.core.units import KTS
+from bluesky_gym.environments.sector_cr.controller import SECTOR_CR_MVP
 from bluesky_gym.envs.registry import ENVIRONMENTS
 from bluesky_gym.training.evaluation import evaluate, make_policy, reference_scores
-from bluesky_gym.training.policies import SECTOR_CR_MVP, mvp_mapping, mvp_policy, reference_names, reference_policy
+from bluesky_gym.training.policies import mvp_mapping, mvp_policy, reference_names, reference_policy
 
 #: Env -> (decision steps flown, time to loss of separation of the head-on intruder [s]).
 HEAD_ON = {
