@@ -35,9 +35,6 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
-from bluesky_gym.environments.horizontal_cr.multiagent import HorizontalCRMultiAgentTask
-from bluesky_gym.environments.merge.multiagent import MergeMultiAgentTask
-from bluesky_gym.environments.sector_cr.multiagent import SectorCRMultiAgentTask
 from bluesky_gym.envs.registry import multiagent_entry, resolve
 from bluesky_gym.multiagent import make_task, require_pettingzoo
 from bluesky_gym.multiagent.base import MultiAgentTask, agent_action, agent_actions
@@ -227,39 +224,6 @@ class BlueSkyParallelEnv(ParallelEnv):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-
-class SectorCRParallelEnv(BlueSkyParallelEnv):
-    """Multi-agent SectorCR: every aircraft in the sector is an agent.
-
-    See :class:`~bluesky_gym.environments.sector_cr.multiagent.SectorCRMultiAgentTask` for the observation,
-    action and reward of each agent. Scenario options are SectorCREnv-v0's (``ac_density_mode``, ...).
-    """
-
-    task_class = SectorCRMultiAgentTask
-    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": SectorCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
-
-
-class MergeParallelEnv(BlueSkyParallelEnv):
-    """Multi-agent Merge: every arrival is an agent.
-
-    See :class:`~bluesky_gym.environments.merge.multiagent.MergeMultiAgentTask`. Scenario options are
-    MergeEnv-v0's (``num_aircraft``, ...).
-    """
-
-    task_class = MergeMultiAgentTask
-    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": MergeMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
-
-
-class HorizontalCRParallelEnv(BlueSkyParallelEnv):
-    """Multi-agent HorizontalCR: the ownship and its intruders are all agents.
-
-    See :class:`~bluesky_gym.environments.horizontal_cr.multiagent.HorizontalCRMultiAgentTask`. Scenario
-    options are HorizontalCREnv-v0's (``num_intruders``, ...).
-    """
-
-    task_class = HorizontalCRMultiAgentTask
-    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 def parallel_env(name: str, **kwargs: Any) -> BlueSkyParallelEnv:

@@ -21,7 +21,7 @@ Version history:
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -30,6 +30,10 @@ from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import KM, NM, NM2KM, R_EARTH
 from bluesky_gym.environments.horizontal_cr import task as hc
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
+from bluesky_gym.multiagent.centralised import CentralisedEnv
+from bluesky_gym.multiagent.render import LEGEND, agent_aircraft, callsign, goal_lines, panel_rows
+from bluesky_gym.render.scene import Fix, MapScene
+from bluesky_gym.render.scenes.common import fit_extent
 from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
 
@@ -179,3 +183,36 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
         r, _, components = hc.reward(g)  # type: ignore[arg-type]
         self.wpt_reach[g.envs, g.own] = g.goal_reached  # type: ignore[attr-defined]
         return r, g.newly_reached, components  # type: ignore[attr-defined]
+
+
+class HorizontalCRCentralisedEnv(CentralisedEnv):
+    """HorizontalCRCentralised-v0: one agent steers the ownship and its intruders (see :mod:`bluesky_gym.multiagent.centralised`)."""
+
+    task_class = HorizontalCRMultiAgentTask
+
+
+def horizontal_cr_multiagent_scene(task: Any, i: int) -> MapScene:
+    """Draw every agent with its 5 NM zone and its waypoint (5 km capture ring)."""
+    s = task.sim
+    used = task.wpt_lat[i] != 0.0
+    if used.any():
+        lat_pts = [*task.start_lat[i, used].tolist(), *task.wpt_lat[i, used].tolist()]
+        lon_pts = [*task.start_lon[i, used].tolist(), *task.wpt_lon[i, used].tolist()]
+        clat, clon, half = fit_extent(lat_pts, lon_pts, margin_nm=15.0, min_half_nm=45.0)
+    else:  # before the first reset
+        clat, clon, half = hc.START_LAT, hc.START_LON, 60.0
+    fixes = [
+        Fix(float(task.wpt_lat[i, k]), float(task.wpt_lon[i, k]), callsign(int(k)), capture_nm=hc.DISTANCE_MARGIN / NM2KM)
+        for k in np.flatnonzero(s.active[i])
+    ]
+    return MapScene(
+        clat,
+        clon,
+        half,
+        aircraft=agent_aircraft(task, i),
+        fixes=fixes,
+        lines=goal_lines(task, i),
+        follow=None,
+        panel=panel_rows(task, i),
+        legend=LEGEND,
+    )

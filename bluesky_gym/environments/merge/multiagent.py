@@ -18,13 +18,20 @@ Version history:
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from bluesky_gym.environments.merge import task as mg
+from bluesky_gym.environments.merge.scene import RUNWAY_HDG, RUNWAY_LENGTH_KM
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
+from bluesky_gym.multiagent.centralised import CentralisedEnv
+from bluesky_gym.multiagent.render import LEGEND, agent_aircraft, panel_rows
+from bluesky_gym.render import palette as pal
+from bluesky_gym.render.scene import Fix, Line, MapScene, Runway
+from bluesky_gym.render.scenes.common import fit_extent
 from bluesky_gym.tasks.base import BoxSpec, StepGeometry
+from bluesky_gym.tasks.geometry import point_at_distance
 
 
 class MergeMultiAgentTask(MultiAgentTask):
@@ -109,3 +116,41 @@ class MergeMultiAgentTask(MultiAgentTask):
         self.wpt_reach[rows] = np.where(reach_faf, 1, self.wpt_reach[rows])
         self.faf_reached[rows] = np.where(reach_faf, 1, np.where(near_runway, 2, self.faf_reached[rows]))
         return r, near_runway, components
+
+
+class MergeCentralisedEnv(CentralisedEnv):
+    """MergeCentralised-v0: one agent steers every arrival (see :mod:`bluesky_gym.multiagent.centralised`)."""
+
+    task_class = MergeMultiAgentTask
+
+
+def merge_multiagent_scene(task: Any, i: int) -> MapScene:
+    """Draw the FAF (10 NM capture), runway (20 NM goal), the arrival sector and every agent with its 4 NM zone."""
+    s = task.sim
+    active = np.flatnonzero(s.active[i])
+    lat_pts = [mg.RWY_LAT, mg.FAF_LAT, *s.lat[i, active].tolist()]
+    lon_pts = [mg.RWY_LON, mg.FAF_LON, *s.lon[i, active].tolist()]
+    clat, clon, half = fit_extent(lat_pts, lon_pts, margin_nm=22.0, min_half_nm=60.0, max_half_nm=220.0)
+    bearing = float(task.config.spawn_bearing_deg)
+    reach = max(float(task.config.intruder_distance_km[1]), float(task.config.spawn_distance_km[1]))
+    lines = [Line([mg.FAF_LAT, mg.RWY_LAT], [mg.FAF_LON, mg.RWY_LON], pal.ROUTE)]
+    for b in (-bearing, bearing):
+        lat, lon = point_at_distance(mg.FAF_LAT, mg.FAF_LON, reach, b)
+        lines.append(Line([mg.FAF_LAT, float(lat)], [mg.FAF_LON, float(lon)], pal.ROUTE))
+    fixes = [
+        Fix(mg.FAF_LAT, mg.FAF_LON, "FAF", capture_nm=mg.DISTANCE_MARGIN, kind="faf"),
+        Fix(mg.RWY_LAT, mg.RWY_LON, "", capture_nm=mg.GOAL_MARGIN, kind="ring"),
+    ]
+    panel = [*panel_rows(task, i), ("past FAF", str(int((task.wpt_reach[i] != 0)[active].sum())))]
+    return MapScene(
+        clat,
+        clon,
+        half,
+        aircraft=agent_aircraft(task, i),
+        fixes=fixes,
+        runways=[Runway(mg.RWY_LAT, mg.RWY_LON, RUNWAY_HDG, RUNWAY_LENGTH_KM, "RWY")],
+        lines=lines,
+        follow=None,
+        panel=panel,
+        legend=LEGEND,
+    )

@@ -16,13 +16,18 @@ Version history:
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from bluesky_gym.core.units import KTS
 from bluesky_gym.environments.sector_cr import task as sc
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
+from bluesky_gym.multiagent.centralised import CentralisedEnv
+from bluesky_gym.multiagent.render import LEGEND, agent_aircraft, goal_lines, panel_rows
+from bluesky_gym.render import palette as pal
+from bluesky_gym.render.scene import Area, Fix, MapScene
+from bluesky_gym.render.scenes.common import fit_extent
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
@@ -111,3 +116,35 @@ class SectorCRMultiAgentTask(MultiAgentTask):
     def leaving(self, g: StepGeometry) -> BoolArray:
         """Agents outside the sector leave (the single-agent episode's truncation)."""
         return ~g.inside  # type: ignore[attr-defined]
+
+
+class SectorCRCentralisedEnv(CentralisedEnv):
+    """SectorCRCentralised-v0: one agent steers every aircraft of the sector (see :mod:`bluesky_gym.multiagent.centralised`)."""
+
+    task_class = SectorCRMultiAgentTask
+
+
+def sector_cr_multiagent_scene(task: Any, i: int) -> MapScene:
+    """Draw the sector, every agent with its 5 NM zone and its exit point."""
+    scn = task.scenario
+    nv = int(scn.n_vertices[i])
+    plat, plon = scn.poly_lat[i, :nv].tolist(), scn.poly_lon[i, :nv].tolist()
+    if nv >= 3:
+        clat, clon, half = fit_extent(plat, plon, margin_nm=6.0, min_half_nm=30.0)
+    else:  # before the first reset
+        clat, clon, half = 52.0, 4.4, 40.0
+    active = np.flatnonzero(task.sim.active[i])
+    fixes = [Fix(float(scn.wpt_lat[i, k]), float(scn.wpt_lon[i, k])) for k in active]
+    panel = [*panel_rows(task, i), ("inside", str(int((task.inside()[i] & task.sim.active[i]).sum())))]
+    return MapScene(
+        clat,
+        clon,
+        half,
+        aircraft=agent_aircraft(task, i),
+        fixes=fixes,
+        areas=[Area(plat, plon, kind="sector")] if nv >= 3 else [],
+        lines=goal_lines(task, i),
+        follow=None,
+        panel=panel,
+        legend=[*LEGEND, (pal.AIRSPACE_EDGE, "sector")],
+    )
