@@ -7,14 +7,16 @@ environment's: its task, its single and vector environment classes (the environm
 docstring is its documentation page), its render scene, its classical controller, its MVP mapping,
 its KPI panels, its ``-v1`` configuration and its multi-agent form (if any). Code is named by
 import path (``"module:attribute"``), resolved on first use: reading the table imports no
-environment, so ``import bluesky_gym`` stays cheap and the table sits below every reader (a
-controller in :mod:`bluesky_gym.training` is named here and looked up there).
+environment, so ``import bluesky_gym`` stays cheap and the table sits below every reader (an
+environment's controller, in the training layer, is named here and looked up there). The code a
+row names is the environment's folder, ``bluesky_gym.environments.<name>`` (see
+:mod:`bluesky_gym.environments`).
 
 The episode limit is the task's (:attr:`bluesky_gym.tasks.base.Task.max_episode_steps`): the
 task owns the limit, the table reports it.
 
-Adding an environment is adding a row to :data:`PAPER_ENVIRONMENTS` (its ``-v1`` row follows
-from the row's ``v1`` field).
+Adding an environment is adding its folder and a row to :data:`PAPER_ENVIRONMENTS` (its ``-v1``
+row follows from the row's ``v1`` field).
 """
 
 from __future__ import annotations
