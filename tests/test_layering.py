@@ -8,6 +8,12 @@ Layers, lowest first; a module may import from its own layer and the layers belo
 
     core < backends < tasks, scenarios < wrappers, render < envs, multiagent
          < registration, training < benchmarks < cli < __main__
+
+An environment's folder (``bluesky_gym/environments/<name>/``) cuts across the layers: each file
+is ranked by its role, the layer it extends (:data:`ROLES`: ``task.py`` with the tasks,
+``scene.py`` with render, ``env.py`` with envs, ...), so inside a folder too imports only look
+down (a task may not import its scene). The folders' ``__init__.py`` files rank lowest: they
+import nothing.
 """
 
 from __future__ import annotations
@@ -33,6 +39,17 @@ LAYERS = {
     "benchmarks": 6,
     "cli": 7,
     "__main__": 8,
+    "environments": 0,  # the package and folder ``__init__.py`` files of ``bluesky_gym.environments``
+}
+
+#: The layer of each file of an environment folder, by file name (``bluesky_gym/environments/<name>/<role>.py``).
+ROLES = {
+    "task": "tasks",
+    "scene": "render",
+    "env": "envs",
+    "multiagent": "multiagent",
+    "parallel": "multiagent",
+    "controller": "training",
 }
 
 
@@ -133,8 +150,15 @@ def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 def layer(module: str) -> str | None:
-    """The layer of a module: its top-level module or subpackage under the root (None for the root itself)."""
+    """The layer of a module: its top-level module or subpackage under the root (None for the root itself).
+
+    A file of an environment folder (``root.environments.<name>.<role>``) is in its role's layer
+    (:data:`ROLES`); a file without a known role is named ``environments.<name>.<role>``, which
+    has no rank.
+    """
     parts = module.split(".")
+    if len(parts) > 3 and parts[1] == "environments":
+        return ROLES.get(parts[3], ".".join(parts[1:4]))
     return parts[1] if len(parts) > 1 else None
 
 
@@ -160,7 +184,16 @@ def upward_imports(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
 
 def test_every_part_of_the_package_has_a_layer() -> None:
     parts = {layer(m) for m in package_modules(PACKAGE_DIR)} - {None}
-    assert parts <= set(LAYERS), f"give {sorted(parts - set(LAYERS))} a rank in LAYERS"
+    assert parts <= set(LAYERS), f"give {sorted(parts - set(LAYERS))} a rank in LAYERS (a file of an environment folder: a role in ROLES)"
+
+
+def test_every_environment_folder_file_has_a_role() -> None:
+    folders = [p for p in (PACKAGE_DIR / "environments").iterdir() if p.is_dir() and p.name != "__pycache__"]
+    assert len(folders) >= 8
+    for folder in folders:
+        files = {p.stem for p in folder.glob("*.py")} - {"__init__"}
+        assert "task" in files and "env" in files, f"{folder.name}: an environment folder holds at least task.py and env.py"
+        assert files <= set(ROLES), f"{folder.name}: {sorted(files - set(ROLES))} have no role in ROLES"
 
 
 def test_no_import_cycles() -> None:
@@ -222,3 +255,56 @@ def test_checker_finds_upward_imports(tmp_path: Path) -> None:
     graph = import_graph(package_dir)
     assert upward_imports(graph) == [("pkg.core.sim", "pkg.render.draw")]
     assert import_cycles(graph) == [["pkg.core.sim", "pkg.render.draw"]]
+
+
+def test_checker_ranks_environment_folder_files_by_role(tmp_path: Path) -> None:
+    package_dir = _write_package(
+        tmp_path,
+        {
+            "__init__.py": "",
+            "tasks/__init__.py": "",
+            "tasks/base.py": "",
+            "render/__init__.py": "",
+            "envs/__init__.py": "",
+            "envs/shell.py": "",
+            "environments/__init__.py": "",
+            "environments/foo/__init__.py": "",
+            "environments/foo/task.py": "from pkg.tasks import base\n",
+            "environments/foo/scene.py": "from pkg.environments.foo import task\n",  # down: render reads the task
+            "environments/foo/env.py": "from pkg.envs import shell\nfrom . import scene, task\n",  # down
+            "environments/foo/notes.py": "",  # no role
+            "environments/bar/__init__.py": "",
+            "environments/bar/task.py": "from pkg.environments.foo.task import X\n",  # across: another environment's task
+        },
+    )
+    assert layer("pkg.environments.foo.task") == "tasks"
+    assert layer("pkg.environments.foo.scene") == "render"
+    assert layer("pkg.environments.foo.notes") == "environments.foo.notes"
+    assert rank("pkg.environments.foo.notes") is None
+    assert rank("pkg.environments.foo") == rank("pkg.environments") == 0
+    graph = import_graph(package_dir)
+    assert graph["pkg.environments.foo.env"] == {"pkg.envs", "pkg.envs.shell", "pkg.environments.foo.scene", "pkg.environments.foo.task"}
+    assert upward_imports(graph) == []
+
+
+def test_checker_finds_an_upward_import_inside_an_environment_folder(tmp_path: Path) -> None:
+    package_dir = _write_package(
+        tmp_path,
+        {
+            "__init__.py": "",
+            "environments/__init__.py": "",
+            "environments/foo/__init__.py": "",
+            "environments/foo/task.py": "def draw():\n    from .scene import build\n",  # a task importing its scene: up
+            "environments/foo/scene.py": "from pkg.environments.foo import env\n",  # a scene importing its environment: up
+            "environments/foo/env.py": "",
+            "environments/foo/controller.py": "from . import env, task\n",  # training reads envs and tasks: down
+            "environments/bar/__init__.py": "",
+            "environments/bar/task.py": "import pkg.environments.foo.env\n",  # another folder's env: up
+        },
+    )
+    graph = import_graph(package_dir)
+    assert upward_imports(graph) == [
+        ("pkg.environments.bar.task", "pkg.environments.foo.env"),
+        ("pkg.environments.foo.scene", "pkg.environments.foo.env"),
+        ("pkg.environments.foo.task", "pkg.environments.foo.scene"),
+    ]

@@ -121,10 +121,10 @@ def _replay(name: str, n_windows: int, cache: str | None, actype: str | None = N
     import dataclasses
 
     from bluesky_gym.core.aircraft import resolve_type
+    from bluesky_gym.environments.real_traffic.task import RealTrafficConfig
     from bluesky_gym.realtraffic.cache import load_collection
     from bluesky_gym.realtraffic.fidelity import fidelity, large_vertical_deviations
     from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, simulator_type, windows
-    from bluesky_gym.tasks.real_traffic import RealTrafficConfig
 
     cfg = RealTrafficConfig()
     flights = load_collection(name, cache)

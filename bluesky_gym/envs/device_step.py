@@ -37,8 +37,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from bluesky_gym.core import DeviceSimulator, cuda_target
+from bluesky_gym.environments.sector_cr import task as sc
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks import sector_cr as sc
 from bluesky_gym.tasks.base import Task, numeric_action
 
 __all__ = ["DEVICE_STEPS", "SectorCRDeviceStep", "device_step_for"]
@@ -144,7 +144,7 @@ class SectorCRDeviceStep:
 
     # --- the task's kernels ---------------------------------------------------------------------
     def _measure(self, envs: Any, own: Any) -> dict[str, Any]:
-        """:func:`bluesky_gym.tasks.sector_cr.measure` of rows ``envs`` on the device (three launches)."""
+        """:func:`bluesky_gym.environments.sector_cr.task.measure` of rows ``envs`` on the device (three launches)."""
         t, k, launch = self.task, self._k, cuda_target.launch
         p, m = int(envs.shape[0]), self.m
         lat, lon, hdg, tas, alt, active = self.sim.device_arrays("lat", "lon", "hdg", "tas", "alt", "active")
@@ -211,7 +211,7 @@ class SectorCRDeviceStep:
         cuda_target.launch(compiled.record_step, p, *launch_args)
 
     def _observation(self, g: dict[str, Any]) -> dict[str, Any]:
-        """:func:`bluesky_gym.tasks.sector_cr.observation` in the space's dtype (``-v1``: clipped to the declared bounds first)."""
+        """:func:`bluesky_gym.environments.sector_cr.task.observation` in the space's dtype (``-v1``: clipped to the declared bounds first)."""
         f, intruders = g["features"], g["intruders"]
         obs = {"cos(drift)": f[:, 0:1], "sin(drift)": f[:, 1:2], "airspeed": f[:, 2:3]}
         obs.update({key: intruders[:, i] for i, key in enumerate(sc.INTRUDER_KEYS)})
@@ -223,7 +223,7 @@ class SectorCRDeviceStep:
         return {key: v.to(self.obs_dtype).contiguous() for key, v in obs.items()}
 
     def _episode_info(self) -> dict[str, Any]:
-        """:meth:`bluesky_gym.tasks.sector_cr.SectorCRTask.episode_info` on the device."""
+        """:meth:`bluesky_gym.environments.sector_cr.task.SectorCRTask.episode_info` on the device."""
         s, torch = self.stats, self.torch
         n = s["drift_rad_n"]
         return {

@@ -7,14 +7,16 @@ environment's: its task, its single and vector environment classes (the environm
 docstring is its documentation page), its render scene, its classical controller, its MVP mapping,
 its KPI panels, its ``-v1`` configuration and its multi-agent form (if any). Code is named by
 import path (``"module:attribute"``), resolved on first use: reading the table imports no
-environment, so ``import bluesky_gym`` stays cheap and the table sits below every reader (a
-controller in :mod:`bluesky_gym.training` is named here and looked up there).
+environment, so ``import bluesky_gym`` stays cheap and the table sits below every reader (an
+environment's controller, in the training layer, is named here and looked up there). The code a
+row names is the environment's folder, ``bluesky_gym.environments.<name>`` (see
+:mod:`bluesky_gym.environments`).
 
 The episode limit is the task's (:attr:`bluesky_gym.tasks.base.Task.max_episode_steps`): the
 task owns the limit, the table reports it.
 
-Adding an environment is adding a row to :data:`PAPER_ENVIRONMENTS` (its ``-v1`` row follows
-from the row's ``v1`` field).
+Adding an environment is adding its folder and a row to :data:`PAPER_ENVIRONMENTS` (its ``-v1``
+row follows from the row's ``v1`` field).
 """
 
 from __future__ import annotations
@@ -174,8 +176,6 @@ class EnvEntry:
         return str(resolve(self.data_note)()) if self.data_note else "not prepared"
 
 
-#: Import path of the module holding the classical controllers and MVP mappings the rows name.
-_POLICIES = "bluesky_gym.training.policies"
 #: Episode-log column of the mean |altitude - target| [m] while flying (derived by the plots from the altitude reward).
 ALTITUDE_ERROR = "altitude_error_m"
 
@@ -184,11 +184,11 @@ ALTITUDE_ERROR = "altitude_error_m"
 PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     EnvEntry(
         id="DescentEnv-v0",
-        task="bluesky_gym.tasks.descent:DescentTask",
-        env="bluesky_gym.envs.descent_env:DescentEnv",
-        vector_env="bluesky_gym.envs.descent_env:DescentVectorEnv",
-        scene="bluesky_gym.render.scenes.descent:descent_scene",
-        classical=f"{_POLICIES}:DescentController",
+        task="bluesky_gym.environments.descent.task:DescentTask",
+        env="bluesky_gym.environments.descent.env:DescentEnv",
+        vector_env="bluesky_gym.environments.descent.env:DescentVectorEnv",
+        scene="bluesky_gym.environments.descent.scene:descent_scene",
+        classical="bluesky_gym.environments.descent.controller:DescentController",
         kpis=(
             ("return", "episode return"),
             (ALTITUDE_ERROR, "mean altitude error [m]"),
@@ -199,12 +199,12 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     ),
     EnvEntry(
         id="VerticalCREnv-v0",
-        task="bluesky_gym.tasks.vertical_cr:VerticalCRTask",
-        env="bluesky_gym.envs.vertical_cr_env:VerticalCREnv",
-        vector_env="bluesky_gym.envs.vertical_cr_env:VerticalCRVectorEnv",
-        scene="bluesky_gym.render.scenes.vertical_cr:vertical_cr_scene",
-        classical=f"{_POLICIES}:VerticalCRController",
-        mvp=f"{_POLICIES}:VERTICAL_CR_MVP",
+        task="bluesky_gym.environments.vertical_cr.task:VerticalCRTask",
+        env="bluesky_gym.environments.vertical_cr.env:VerticalCREnv",
+        vector_env="bluesky_gym.environments.vertical_cr.env:VerticalCRVectorEnv",
+        scene="bluesky_gym.environments.vertical_cr.scene:vertical_cr_scene",
+        classical="bluesky_gym.environments.vertical_cr.controller:VerticalCRController",
+        mvp="bluesky_gym.environments.vertical_cr.controller:VERTICAL_CR_MVP",
         kpis=(
             ("return", "episode return"),
             (ALTITUDE_ERROR, "mean altitude error [m]"),
@@ -216,11 +216,11 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     ),
     EnvEntry(
         id="PlanWaypointEnv-v0",
-        task="bluesky_gym.tasks.plan_waypoint:PlanWaypointTask",
-        env="bluesky_gym.envs.plan_waypoint_env:PlanWaypointEnv",
-        vector_env="bluesky_gym.envs.plan_waypoint_env:PlanWaypointVectorEnv",
-        scene="bluesky_gym.render.scenes.plan_waypoint:plan_waypoint_scene",
-        classical=f"{_POLICIES}:PlanWaypointController",
+        task="bluesky_gym.environments.plan_waypoint.task:PlanWaypointTask",
+        env="bluesky_gym.environments.plan_waypoint.env:PlanWaypointEnv",
+        vector_env="bluesky_gym.environments.plan_waypoint.env:PlanWaypointVectorEnv",
+        scene="bluesky_gym.environments.plan_waypoint.scene:plan_waypoint_scene",
+        classical="bluesky_gym.environments.plan_waypoint.controller:PlanWaypointController",
         kpis=(
             ("return", "episode return"),
             ("waypoints_completed", "waypoints completed"),
@@ -231,21 +231,21 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     ),
     EnvEntry(
         id="HorizontalCREnv-v0",
-        task="bluesky_gym.tasks.horizontal_cr:HorizontalCRTask",
-        env="bluesky_gym.envs.horizontal_cr_env:HorizontalCREnv",
-        vector_env="bluesky_gym.envs.horizontal_cr_env:HorizontalCRVectorEnv",
-        scene="bluesky_gym.render.scenes.horizontal_cr:horizontal_cr_scene",
+        task="bluesky_gym.environments.horizontal_cr.task:HorizontalCRTask",
+        env="bluesky_gym.environments.horizontal_cr.env:HorizontalCREnv",
+        vector_env="bluesky_gym.environments.horizontal_cr.env:HorizontalCRVectorEnv",
+        scene="bluesky_gym.environments.horizontal_cr.scene:horizontal_cr_scene",
         multiagent=MultiAgentEntry(
             name="horizontal_cr_v0",
-            task="bluesky_gym.multiagent.horizontal_cr:HorizontalCRMultiAgentTask",
-            parallel_env="bluesky_gym.multiagent.parallel:HorizontalCRParallelEnv",
+            task="bluesky_gym.environments.horizontal_cr.multiagent:HorizontalCRMultiAgentTask",
+            parallel_env="bluesky_gym.environments.horizontal_cr.parallel:HorizontalCRParallelEnv",
             centralised_id="HorizontalCRCentralised-v0",
-            centralised_env="bluesky_gym.multiagent.centralised:HorizontalCRCentralisedEnv",
-            scene="bluesky_gym.multiagent.render:horizontal_cr_scene",
+            centralised_env="bluesky_gym.environments.horizontal_cr.multiagent:HorizontalCRCentralisedEnv",
+            scene="bluesky_gym.environments.horizontal_cr.multiagent:horizontal_cr_multiagent_scene",
             v1=(("airborne_start", True),),
         ),
-        classical=f"{_POLICIES}:HorizontalCRController",
-        mvp=f"{_POLICIES}:HORIZONTAL_CR_MVP",
+        classical="bluesky_gym.environments.horizontal_cr.controller:HorizontalCRController",
+        mvp="bluesky_gym.environments.horizontal_cr.controller:HORIZONTAL_CR_MVP",
         kpis=(
             ("return", "episode return"),
             ("kpi_success", "success rate"),
@@ -258,21 +258,21 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     ),
     EnvEntry(
         id="SectorCREnv-v0",
-        task="bluesky_gym.tasks.sector_cr:SectorCRTask",
-        env="bluesky_gym.envs.sector_cr_env:SectorCREnv",
-        vector_env="bluesky_gym.envs.sector_cr_env:SectorCRVectorEnv",
-        scene="bluesky_gym.render.scenes.sector_cr:sector_cr_scene",
+        task="bluesky_gym.environments.sector_cr.task:SectorCRTask",
+        env="bluesky_gym.environments.sector_cr.env:SectorCREnv",
+        vector_env="bluesky_gym.environments.sector_cr.env:SectorCRVectorEnv",
+        scene="bluesky_gym.environments.sector_cr.scene:sector_cr_scene",
         multiagent=MultiAgentEntry(
             name="sector_cr_v0",
-            task="bluesky_gym.multiagent.sector_cr:SectorCRMultiAgentTask",
-            parallel_env="bluesky_gym.multiagent.parallel:SectorCRParallelEnv",
+            task="bluesky_gym.environments.sector_cr.multiagent:SectorCRMultiAgentTask",
+            parallel_env="bluesky_gym.environments.sector_cr.parallel:SectorCRParallelEnv",
             centralised_id="SectorCRCentralised-v0",
-            centralised_env="bluesky_gym.multiagent.centralised:SectorCRCentralisedEnv",
-            scene="bluesky_gym.multiagent.render:sector_cr_scene",
+            centralised_env="bluesky_gym.environments.sector_cr.multiagent:SectorCRCentralisedEnv",
+            scene="bluesky_gym.environments.sector_cr.multiagent:sector_cr_multiagent_scene",
             v1=(("flight_level_altitude", True), ("speed_step_in_knots", True)),
         ),
-        classical=f"{_POLICIES}:SectorCRController",
-        mvp=f"{_POLICIES}:SECTOR_CR_MVP",
+        classical="bluesky_gym.environments.sector_cr.controller:SectorCRController",
+        mvp="bluesky_gym.environments.sector_cr.controller:SECTOR_CR_MVP",
         kpis=(
             ("return", "episode return"),
             ("kpi_los_count", "losses of separation / episode"),
@@ -284,11 +284,11 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     ),
     EnvEntry(
         id="StaticObstacleEnv-v0",
-        task="bluesky_gym.tasks.static_obstacle:StaticObstacleTask",
-        env="bluesky_gym.envs.static_obstacle_env:StaticObstacleEnv",
-        vector_env="bluesky_gym.envs.static_obstacle_env:StaticObstacleVectorEnv",
-        scene="bluesky_gym.render.scenes.static_obstacle:static_obstacle_scene",
-        classical=f"{_POLICIES}:StaticObstacleController",
+        task="bluesky_gym.environments.static_obstacle.task:StaticObstacleTask",
+        env="bluesky_gym.environments.static_obstacle.env:StaticObstacleEnv",
+        vector_env="bluesky_gym.environments.static_obstacle.env:StaticObstacleVectorEnv",
+        scene="bluesky_gym.environments.static_obstacle.scene:static_obstacle_scene",
+        classical="bluesky_gym.environments.static_obstacle.controller:StaticObstacleController",
         kpis=(
             ("return", "episode return"),
             ("kpi_success", "success rate"),
@@ -300,20 +300,20 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     ),
     EnvEntry(
         id="MergeEnv-v0",
-        task="bluesky_gym.tasks.merge:MergeTask",
-        env="bluesky_gym.envs.merge_env:MergeEnv",
-        vector_env="bluesky_gym.envs.merge_env:MergeVectorEnv",
-        scene="bluesky_gym.render.scenes.merge:merge_scene",
+        task="bluesky_gym.environments.merge.task:MergeTask",
+        env="bluesky_gym.environments.merge.env:MergeEnv",
+        vector_env="bluesky_gym.environments.merge.env:MergeVectorEnv",
+        scene="bluesky_gym.environments.merge.scene:merge_scene",
         multiagent=MultiAgentEntry(
             name="merge_v0",
-            task="bluesky_gym.multiagent.merge:MergeMultiAgentTask",
-            parallel_env="bluesky_gym.multiagent.parallel:MergeParallelEnv",
+            task="bluesky_gym.environments.merge.multiagent:MergeMultiAgentTask",
+            parallel_env="bluesky_gym.environments.merge.parallel:MergeParallelEnv",
             centralised_id="MergeCentralised-v0",
-            centralised_env="bluesky_gym.multiagent.centralised:MergeCentralisedEnv",
-            scene="bluesky_gym.multiagent.render:merge_scene",
+            centralised_env="bluesky_gym.environments.merge.multiagent:MergeCentralisedEnv",
+            scene="bluesky_gym.environments.merge.multiagent:merge_multiagent_scene",
         ),
-        classical=f"{_POLICIES}:MergeController",
-        mvp=f"{_POLICIES}:MERGE_MVP",
+        classical="bluesky_gym.environments.merge.controller:MergeController",
+        mvp="bluesky_gym.environments.merge.controller:MERGE_MVP",
         kpis=(
             ("return", "episode return"),
             ("faf_reach", "reached the FAF"),
@@ -325,32 +325,32 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     ),
     EnvEntry(
         id="RealTrafficCREnv-v0",
-        task="bluesky_gym.tasks.real_traffic:RealTrafficTask",
-        env="bluesky_gym.envs.real_traffic_env:RealTrafficCREnv",
-        vector_env="bluesky_gym.envs.real_traffic_env:RealTrafficCRVectorEnv",
-        scene="bluesky_gym.render.scenes.real_traffic:real_traffic_scene",
+        task="bluesky_gym.environments.real_traffic.task:RealTrafficTask",
+        env="bluesky_gym.environments.real_traffic.env:RealTrafficCREnv",
+        vector_env="bluesky_gym.environments.real_traffic.env:RealTrafficCRVectorEnv",
+        scene="bluesky_gym.environments.real_traffic.scene:real_traffic_scene",
         data="bluesky_gym.realtraffic.cache:default_data_ready",
         data_note="bluesky_gym.realtraffic.cache:default_data_note",
-        classical=f"{_POLICIES}:RealTrafficController",
+        classical="bluesky_gym.environments.real_traffic.controller:RealTrafficController",
         v1=(),
     ),
     EnvEntry(
         id="DenseSectorCREnv-v0",
-        task="bluesky_gym.tasks.dense_sector_cr:DenseSectorCRTask",
-        env="bluesky_gym.envs.dense_sector_cr_env:DenseSectorCREnv",
-        vector_env="bluesky_gym.envs.dense_sector_cr_env:DenseSectorCRVectorEnv",
-        scene="bluesky_gym.render.scenes.dense_sector_cr:dense_sector_cr_scene",
+        task="bluesky_gym.environments.dense_sector_cr.task:DenseSectorCRTask",
+        env="bluesky_gym.environments.dense_sector_cr.env:DenseSectorCREnv",
+        vector_env="bluesky_gym.environments.dense_sector_cr.env:DenseSectorCRVectorEnv",
+        scene="bluesky_gym.environments.dense_sector_cr.scene:dense_sector_cr_scene",
         multiagent=MultiAgentEntry(
             name="dense_sector_cr_v0",
-            task="bluesky_gym.multiagent.dense_sector_cr:DenseSectorCRMultiAgentTask",
-            parallel_env="bluesky_gym.multiagent.parallel:DenseSectorCRParallelEnv",
+            task="bluesky_gym.environments.dense_sector_cr.multiagent:DenseSectorCRMultiAgentTask",
+            parallel_env="bluesky_gym.environments.dense_sector_cr.parallel:DenseSectorCRParallelEnv",
             centralised_id="DenseSectorCRCentralised-v0",
-            centralised_env="bluesky_gym.multiagent.centralised:DenseSectorCRCentralisedEnv",
-            scene="bluesky_gym.multiagent.render:sector_cr_scene",
+            centralised_env="bluesky_gym.environments.dense_sector_cr.multiagent:DenseSectorCRCentralisedEnv",
+            scene="bluesky_gym.environments.sector_cr.multiagent:sector_cr_multiagent_scene",
             v1=(("flight_level_altitude", True), ("speed_step_in_knots", True)),
         ),
-        classical=f"{_POLICIES}:SectorCRController",
-        mvp=f"{_POLICIES}:SECTOR_CR_MVP",
+        classical="bluesky_gym.environments.sector_cr.controller:SectorCRController",
+        mvp="bluesky_gym.environments.sector_cr.controller:SECTOR_CR_MVP",
         kpis=(
             ("return", "episode return"),
             ("kpi_los_count", "losses of separation / episode"),

@@ -21,7 +21,8 @@ Interfaces:
 * batched training of one policy shared by all agents with Stable-Baselines3:
   :class:`bluesky_gym.multiagent.sb3.SharedPolicyVecEnv` (every agent slot of every episode is a
   row of the VecEnv);
-* the batched tasks themselves (:mod:`bluesky_gym.multiagent.base` and one module per problem),
+* the batched tasks themselves (:mod:`bluesky_gym.multiagent.base`; each problem's task, PettingZoo
+  and centralised classes in its environment's folder, ``bluesky_gym.environments.<name>``),
   reference policies (:mod:`bluesky_gym.multiagent.policies`) and evaluation
   (:mod:`bluesky_gym.multiagent.evaluation`); training is ``bluesky-gym train-ma``
   (:func:`bluesky_gym.multiagent.train.train_and_compare`).

@@ -12,8 +12,8 @@ same seed with every aircraft under control. The step is the single-agent one
 ``advance`` (one ``Simulator.run`` call), then the step's geometry is measured once for the rows
 (episode, agent slot) of the acting agents, and observation and reward are the single-agent
 task's functions of those rows (``measure`` / ``observation`` / ``reward`` in
-:mod:`bluesky_gym.tasks.sector_cr`, :mod:`~bluesky_gym.tasks.merge`,
-:mod:`~bluesky_gym.tasks.horizontal_cr`).
+:mod:`bluesky_gym.environments.sector_cr.task`, :mod:`~bluesky_gym.environments.merge.task`,
+:mod:`~bluesky_gym.environments.horizontal_cr.task`).
 
 An agent is *acting* in a step when its aircraft is active at the start of the step. It leaves
 the episode when it terminates (it reached its goal: the waypoint, the runway), when it is

@@ -17,7 +17,8 @@ episode seen as a single-agent MDP:
   ``total_intrusions``, ``average_drift`` and at the end of the episode the KPIs ``kpi_*``.
 
 The ids ``SectorCRCentralised-v0``, ``MergeCentralised-v0``, ``HorizontalCRCentralised-v0`` and
-``DenseSectorCRCentralised-v0`` are registered by :func:`bluesky_gym.multiagent.register_envs`.
+``DenseSectorCRCentralised-v0`` are registered by :func:`bluesky_gym.multiagent.register_envs`; each environment's subclass lives
+in its folder's ``multiagent.py`` (``bluesky_gym.environments.<name>.multiagent``).
 """
 
 from __future__ import annotations
@@ -30,10 +31,6 @@ from gymnasium import spaces
 
 from bluesky_gym.envs.shell import TaskSpecMixin, check_reset_options, time_limit_of
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, flatten_observation
-from bluesky_gym.multiagent.dense_sector_cr import DenseSectorCRMultiAgentTask
-from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
-from bluesky_gym.multiagent.merge import MergeMultiAgentTask
-from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
 from bluesky_gym.tasks.base import numeric_action
 
 RENDER_MODES = ["rgb_array", "human"]
@@ -133,27 +130,3 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-
-class SectorCRCentralisedEnv(CentralisedEnv):
-    """SectorCRCentralised-v0: one agent steers every aircraft of the sector (see the module docstring)."""
-
-    task_class = SectorCRMultiAgentTask
-
-
-class MergeCentralisedEnv(CentralisedEnv):
-    """MergeCentralised-v0: one agent steers every arrival (see the module docstring)."""
-
-    task_class = MergeMultiAgentTask
-
-
-class HorizontalCRCentralisedEnv(CentralisedEnv):
-    """HorizontalCRCentralised-v0: one agent steers the ownship and its intruders (see the module docstring)."""
-
-    task_class = HorizontalCRMultiAgentTask
-
-
-class DenseSectorCRCentralisedEnv(CentralisedEnv):
-    """DenseSectorCRCentralised-v0: one agent steers every aircraft of the sector, those that enter during the episode included."""
-
-    task_class = DenseSectorCRMultiAgentTask

@@ -15,7 +15,7 @@ shell only converts between the task's arrays and PettingZoo's per-agent dicts.
 * An agent leaves ``agents`` in the step where it is terminated (goal reached) or truncated
   (SectorCR: it left the sector; every task: the time limit); the returned dicts hold exactly the
   agents that acted in that step (and, in a layout whose aircraft appear mid-episode, such as
-  :mod:`~bluesky_gym.multiagent.real_traffic`, those that appeared, with their first observation).
+  :mod:`~bluesky_gym.environments.real_traffic.multiagent`, those that appeared, with their first observation).
 * ``reset(seed=s)`` gives the episode of seed ``s`` (the single-agent scenario of that seed with
   every aircraft as an agent); ``reset()`` continues the environment's generator.
 * ``state()`` is the global state for centralised training (see
@@ -38,11 +38,7 @@ from gymnasium.utils import seeding
 from bluesky_gym.envs.registry import multiagent_entry, resolve
 from bluesky_gym.multiagent import make_task, require_pettingzoo
 from bluesky_gym.multiagent.base import MultiAgentTask, agent_action, agent_actions
-from bluesky_gym.multiagent.dense_sector_cr import DenseSectorCRMultiAgentTask
-from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
-from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.render import agent_name
-from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
 from bluesky_gym.tasks.base import BoxSpec
 
 require_pettingzoo()  # a clear error naming the extra when PettingZoo is missing
@@ -228,52 +224,6 @@ class BlueSkyParallelEnv(ParallelEnv):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-
-class SectorCRParallelEnv(BlueSkyParallelEnv):
-    """Multi-agent SectorCR: every aircraft in the sector is an agent.
-
-    See :class:`~bluesky_gym.multiagent.sector_cr.SectorCRMultiAgentTask` for the observation,
-    action and reward of each agent. Scenario options are SectorCREnv-v0's (``ac_density_mode``, ...).
-    """
-
-    task_class = SectorCRMultiAgentTask
-    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": SectorCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
-
-
-class MergeParallelEnv(BlueSkyParallelEnv):
-    """Multi-agent Merge: every arrival is an agent.
-
-    See :class:`~bluesky_gym.multiagent.merge.MergeMultiAgentTask`. Scenario options are
-    MergeEnv-v0's (``num_aircraft``, ...).
-    """
-
-    task_class = MergeMultiAgentTask
-    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": MergeMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
-
-
-class HorizontalCRParallelEnv(BlueSkyParallelEnv):
-    """Multi-agent HorizontalCR: the ownship and its intruders are all agents.
-
-    See :class:`~bluesky_gym.multiagent.horizontal_cr.HorizontalCRMultiAgentTask`. Scenario
-    options are HorizontalCREnv-v0's (``num_intruders``, ...).
-    """
-
-    task_class = HorizontalCRMultiAgentTask
-    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
-
-
-class DenseSectorCRParallelEnv(BlueSkyParallelEnv):
-    """Multi-agent DenseSectorCR: every aircraft in the sector is an agent, and agents keep entering.
-
-    See :class:`~bluesky_gym.multiagent.dense_sector_cr.DenseSectorCRMultiAgentTask`. An aircraft
-    that enters during a step appears in that step's dicts with its first observation (reward 0,
-    neither terminated nor truncated, an empty info) and is in ``agents`` from then on. Scenario
-    options are DenseSectorCREnv-v0's (``spawn_rate_start``, ...).
-    """
-
-    task_class = DenseSectorCRMultiAgentTask
-    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": DenseSectorCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 def parallel_env(name: str, **kwargs: Any) -> BlueSkyParallelEnv:

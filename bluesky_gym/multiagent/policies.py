@@ -43,8 +43,8 @@ from bluesky_gym.core.conflicts import PZ_HEIGHT, PZ_RADIUS, detect
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
 from bluesky_gym.core.units import KTS, NM
+from bluesky_gym.environments.descent.task import ACTION_2_MS
 from bluesky_gym.multiagent.base import Array, MultiAgentTask
-from bluesky_gym.tasks.descent import ACTION_2_MS
 
 Obs = dict[str, Array]
 MIN_ACTION = 0.01  # -: |a| <= VS_SELECT_EPS / ACTION_2_MS (0.008) selects BlueSky's default vertical speed; stay above

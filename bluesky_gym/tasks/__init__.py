@@ -1,4 +1,7 @@
-"""The MDPs as batched tasks: one task per module, the step pipeline in :mod:`bluesky_gym.tasks.base`."""
+"""The batched tasks' shared code: the step pipeline (:mod:`bluesky_gym.tasks.base`), geometry and kernels.
+
+Each task lives in its environment's folder (``bluesky_gym.environments.<name>.task``).
+"""
 
 #: The reference policies a task is scored against, in table order: uniform random actions, the
 #: task's hand-written classical controller, and BlueSky's MVP conflict resolution where the task

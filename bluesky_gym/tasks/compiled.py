@@ -226,7 +226,7 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
     """Ownship-relative geometry of the other aircraft, per (episode, ownship) row, into ``out`` (5, p, k).
 
     Rows: dist_km, cos_bearing, sin_bearing, x_dif, y_dif (the expressions of
-    :func:`bluesky_gym.tasks.vertical_cr.intruder_relative_state`). Row ``r`` is ownship slot
+    :func:`bluesky_gym.environments.vertical_cr.task.intruder_relative_state`). Row ``r`` is ownship slot
     ``own[r]`` of episode ``envs[r]``. With ``nearest`` False the other slots follow in slot
     order (the first k; the single-agent tasks' creation order); with ``nearest`` True they are
     the k nearest active ones by kwik distance (ties: lower slot first; empty slots last).

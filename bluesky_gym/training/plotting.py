@@ -107,7 +107,7 @@ class Run:
 
     def _altitude_error(self) -> Array:
         """Mean |altitude - target| [m] over the flying steps of each episode (all but the last, which ends it)."""
-        from bluesky_gym.tasks.descent import ALT_DIF_REWARD_SCALE
+        from bluesky_gym.environments.descent.task import ALT_DIF_REWARD_SCALE
 
         nan = np.full(self.timesteps.shape, np.nan)
         summed = self.columns.get("reward_altitude", nan)

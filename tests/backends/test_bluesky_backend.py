@@ -13,7 +13,7 @@ import pytest
 import bluesky_gym  # noqa: F401  (registers the environments)
 from bluesky_gym.backends import make_physics
 from bluesky_gym.core.extras import install_hint
-from bluesky_gym.tasks.descent import DescentTask
+from bluesky_gym.environments.descent.task import DescentTask
 
 
 def test_missing_bluesky_raises_install_hint(monkeypatch: pytest.MonkeyPatch) -> None:

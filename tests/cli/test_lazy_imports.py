@@ -37,7 +37,7 @@ def test_list_imports_only_what_listing_needs() -> None:
     modules = _modules_after(
         "import contextlib, io\nfrom bluesky_gym.cli import main\nwith contextlib.redirect_stdout(io.StringIO()):\n    main(['list'])"
     )
-    assert "bluesky_gym.envs.merge_env" in modules  # it did build the environments
+    assert "bluesky_gym.environments.merge.env" in modules  # it did build the environments
     assert not {m for m in NOT_FOR_LISTING if m in modules}
 
 

@@ -91,3 +91,13 @@ def test_the_rows_classical_controller_reaches_the_target(guide: types.ModuleTyp
     assert terminated and not truncated and info["kpi_success"] == 1.0
     v1 = guide.HoldTask.make_config(dict(row.v1))
     assert v1.float32_spaces
+
+
+def test_the_guides_folder_table_is_the_layering_rule() -> None:
+    """The guide's table of an environment folder's files names the roles and layers tests/test_layering.py ranks them by."""
+    from tests.test_layering import ROLES
+
+    text = GUIDE.read_text(encoding="utf-8")
+    table = text[text.index("| file | holds | builds on | layer |") :].split("\n\n")[0]
+    rows = re.findall(r"^\| `(\w+)\.py` \|.*\| (\w+) \|$", table, flags=re.MULTILINE)
+    assert dict(rows) == ROLES

@@ -8,8 +8,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import bluesky_gym.multiagent as ma
+from bluesky_gym.environments.horizontal_cr.multiagent import HorizontalCRCentralisedEnv
 from bluesky_gym.multiagent.base import STATE_FEATURES
-from bluesky_gym.multiagent.centralised import HorizontalCRCentralisedEnv
 
 IDS = ma.centralised_ids()
 LIMITS = {"SectorCRCentralised-v0": 200, "MergeCentralised-v0": 50, "HorizontalCRCentralised-v0": 300, "DenseSectorCRCentralised-v0": 200}

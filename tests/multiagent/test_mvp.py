@@ -7,12 +7,12 @@ import pytest
 from gymnasium.utils import seeding
 
 from bluesky_gym.core.geo import kwikdist
+from bluesky_gym.environments.horizontal_cr.multiagent import HorizontalCRMultiAgentTask
+from bluesky_gym.environments.merge.multiagent import MergeMultiAgentTask
+from bluesky_gym.environments.sector_cr.multiagent import SectorCRMultiAgentTask
 from bluesky_gym.multiagent.base import Array, MultiAgentTask
 from bluesky_gym.multiagent.evaluation import evaluate
-from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
-from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.policies import MVPPolicy, Policy
-from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
 
 #: Task -> (decision steps flown, time to loss of separation of the head-on pair [s]).
 CASES = {SectorCRMultiAgentTask: (40, 60.0), MergeMultiAgentTask: (8, 150.0), HorizontalCRMultiAgentTask: (8, 150.0)}

@@ -15,10 +15,10 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.extras import install_hint
+from bluesky_gym.environments.merge import task as mg
+from bluesky_gym.environments.sector_cr import task as sector_cr
 from bluesky_gym.multiagent import names, parallel_env, require_pettingzoo
 from bluesky_gym.multiagent.base import STATE_FEATURES
-from bluesky_gym.tasks import merge as mg
-from bluesky_gym.tasks import sector_cr
 from bluesky_gym.tasks.geometry import point_at_distance
 
 from ..conftest import same_values

@@ -9,8 +9,8 @@ pytest.importorskip("stable_baselines3")
 
 from stable_baselines3 import PPO
 
+from bluesky_gym.environments.horizontal_cr.multiagent import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.evaluation import evaluate, kpi_table, summarise
-from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.policies import GeometricCRPolicy, RandomPolicy, SB3Policy
 from bluesky_gym.multiagent.sb3 import (
     LiveRowsRolloutBuffer,

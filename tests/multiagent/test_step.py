@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from gymnasium.utils import seeding
 
-from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
-from bluesky_gym.multiagent.merge import MergeMultiAgentTask
-from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
-from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
-from bluesky_gym.tasks.merge import MergeTask
-from bluesky_gym.tasks.sector_cr import SectorCRTask
+from bluesky_gym.environments.horizontal_cr.multiagent import HorizontalCRMultiAgentTask
+from bluesky_gym.environments.horizontal_cr.task import HorizontalCRTask
+from bluesky_gym.environments.merge.multiagent import MergeMultiAgentTask
+from bluesky_gym.environments.merge.task import MergeTask
+from bluesky_gym.environments.sector_cr.multiagent import SectorCRMultiAgentTask
+from bluesky_gym.environments.sector_cr.task import SectorCRTask
 
 
 def _seeded(task, seed: int = 3):

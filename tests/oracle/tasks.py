@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from bluesky_gym.core.units import NM2KM
-from bluesky_gym.tasks import merge as mg
-from bluesky_gym.tasks import sector_cr as sc
+from bluesky_gym.environments.merge import task as mg
+from bluesky_gym.environments.sector_cr import task as sc
 from bluesky_gym.tasks.base import wrap180
 from bluesky_gym.tasks.geometry import latlon_to_nm
 from tests.oracle.geometry import ref_kwikdist, ref_kwikdist_matrix, ref_kwikqdrdist
@@ -117,7 +117,7 @@ def intruder_relative_state(sim_lat: Array, sim_lon: Array, hdg: Array, gs: Arra
 
 def horizontal_cr_observation(sim, wpt_lat: Array, wpt_lon: Array) -> dict[str, Array]:
     """HorizontalCREnv-v0's observation: intruders in slot order, waypoint distance and drift."""
-    from bluesky_gym.tasks import horizontal_cr as hc
+    from bluesky_gym.environments.horizontal_cr import task as hc
 
     s = sim
     rel = intruder_relative_state(s.lat, s.lon, s.hdg, s.gs)

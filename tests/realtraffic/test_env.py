@@ -10,8 +10,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import bluesky_gym
+from bluesky_gym.environments.real_traffic.task import RealTrafficConfig, episode_data
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE
-from bluesky_gym.tasks.real_traffic import RealTrafficConfig, episode_data
 
 from ..conftest import same_values
 from .synthetic import save, traffic_collection
@@ -161,7 +161,7 @@ def test_pettingzoo_every_recorded_aircraft_is_an_agent(options) -> None:
     pytest.importorskip("pettingzoo")
     from pettingzoo.test import parallel_api_test
 
-    from bluesky_gym.multiagent.real_traffic import RealTrafficParallelEnv
+    from bluesky_gym.environments.real_traffic.multiagent import RealTrafficParallelEnv
 
     parallel_api_test(RealTrafficParallelEnv(**options), num_cycles=80)
     env = RealTrafficParallelEnv(**options)

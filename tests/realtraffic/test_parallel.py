@@ -11,7 +11,7 @@ pytest.importorskip("pettingzoo")
 
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-from bluesky_gym.multiagent.real_traffic import RealTrafficParallelEnv
+from bluesky_gym.environments.real_traffic.multiagent import RealTrafficParallelEnv
 
 from .synthetic import joining_collection, save
 
@@ -81,7 +81,7 @@ def test_an_agent_that_appears_gets_its_first_observation(options) -> None:
 
 def test_a_joined_agent_observes_its_aircraft_as_it_appeared(options) -> None:
     """The first observation of an appearing agent is the single-agent observation of its own slot after that step."""
-    from bluesky_gym.tasks import real_traffic as rt
+    from bluesky_gym.environments.real_traffic import task as rt
 
     env = RealTrafficParallelEnv(**options)
     env.reset(seed=1)
@@ -165,7 +165,7 @@ def test_wind_is_flown_and_not_observed_per_agent(options, observe) -> None:
 def test_the_shared_policy_adapter_trains_on_real_traffic(options) -> None:
     """The one SB3 adapter takes the real-traffic layout: rows are aircraft slots, appearing aircraft become live, windows restart."""
     pytest.importorskip("stable_baselines3")
-    from bluesky_gym.multiagent.real_traffic import RealTrafficMultiAgentTask
+    from bluesky_gym.environments.real_traffic.multiagent import RealTrafficMultiAgentTask
     from bluesky_gym.multiagent.sb3 import SharedPolicyVecEnv
 
     task = RealTrafficMultiAgentTask(2, RealTrafficMultiAgentTask.make_config(options), max_episode_steps=12)

@@ -20,7 +20,7 @@ import pytest
 
 pytest.importorskip("pettingzoo")
 
-from bluesky_gym.multiagent.real_traffic import RealTrafficParallelEnv
+from bluesky_gym.environments.real_traffic.multiagent import RealTrafficParallelEnv
 
 try:
     from .synthetic import joining_collection, save

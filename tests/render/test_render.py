@@ -314,7 +314,7 @@ def test_the_renderer_draws_the_scene_it_is_given() -> None:
     with pytest.raises(TypeError, match="scene builder"):
         make_renderer(env.unwrapped.task, "rgb_array", scene="merge")  # type: ignore[arg-type]
 
-    from bluesky_gym.multiagent.centralised import MergeCentralisedEnv
+    from bluesky_gym.environments.merge.multiagent import MergeCentralisedEnv
 
     ma_env = MergeCentralisedEnv(render_mode="rgb_array")
     ma_env.reset(seed=0)

@@ -7,13 +7,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from bluesky_gym.environments.horizontal_cr.task import HorizontalCRTask
+from bluesky_gym.environments.merge import task as mg
+from bluesky_gym.environments.merge.task import MergeTask
+from bluesky_gym.environments.sector_cr import task as sc
+from bluesky_gym.environments.sector_cr.task import SectorCRTask
+from bluesky_gym.environments.vertical_cr.task import VerticalCRTask, intruder_relative_state
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks import merge as mg
-from bluesky_gym.tasks import sector_cr as sc
-from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
-from bluesky_gym.tasks.merge import MergeTask
-from bluesky_gym.tasks.sector_cr import SectorCRTask
-from bluesky_gym.tasks.vertical_cr import VerticalCRTask, intruder_relative_state
 from tests.oracle import tasks as oracle
 from tests.oracle.geometry import points_in_polygons, ref_kwikdist, ref_kwikdist_matrix
 

@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from bluesky_gym.tasks import dense_sector_cr as dsc
-from bluesky_gym.tasks.dense_sector_cr import DenseSectorCRConfig, DenseSectorCRTask, expected_entries, spawn_rate
+from bluesky_gym.environments.dense_sector_cr import task as dsc
+from bluesky_gym.environments.dense_sector_cr.task import DenseSectorCRConfig, DenseSectorCRTask, expected_entries, spawn_rate
+from bluesky_gym.environments.sector_cr.task import CENTER, SectorCRTask, worst_case_aircraft
 from bluesky_gym.tasks.geometry import initial_bearing, latlon_to_nm
-from bluesky_gym.tasks.sector_cr import CENTER, SectorCRTask, worst_case_aircraft
 
 from .conftest import seeded_task
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bluesky_gym.tasks.descent import DescentTask, descent_outcome
-from bluesky_gym.tasks.plan_waypoint import PlanWaypointTask
-from bluesky_gym.tasks.static_obstacle import StaticObstacleTask
-from bluesky_gym.tasks.vertical_cr import VerticalCRTask
+from bluesky_gym.environments.descent.task import DescentTask, descent_outcome
+from bluesky_gym.environments.plan_waypoint.task import PlanWaypointTask
+from bluesky_gym.environments.static_obstacle.task import StaticObstacleTask
+from bluesky_gym.environments.vertical_cr.task import VerticalCRTask
 
 from .conftest import R_EARTH
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import bluesky_gym
-from bluesky_gym.tasks.horizontal_cr import HorizontalCRConfig, HorizontalCRTask
+from bluesky_gym.environments.horizontal_cr.task import HorizontalCRConfig, HorizontalCRTask
 
 from .conftest import NM, R_EARTH, east_of, north_of, seeded_task
 

@@ -11,8 +11,8 @@ import pytest
 
 import bluesky_gym
 from bluesky_gym.core import geo
+from bluesky_gym.environments.merge.task import FAF_LAT, FAF_LON, RWY_LAT, RWY_LON, MergeConfig, MergeTask
 from bluesky_gym.tasks.geometry import initial_bearing
-from bluesky_gym.tasks.merge import FAF_LAT, FAF_LON, RWY_LAT, RWY_LON, MergeConfig, MergeTask
 
 from .conftest import NM, R_EARTH, seeded_task
 

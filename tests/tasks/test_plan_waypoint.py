@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import bluesky_gym
-from bluesky_gym.envs.plan_waypoint_env import PlanWaypointEnv
-from bluesky_gym.tasks.plan_waypoint import PlanWaypointConfig, PlanWaypointTask
+from bluesky_gym.environments.plan_waypoint.env import PlanWaypointEnv
+from bluesky_gym.environments.plan_waypoint.task import PlanWaypointConfig, PlanWaypointTask
 
 from .conftest import R_KM, great_circle, kwik, seeded_task
 

@@ -6,14 +6,14 @@ import dataclasses
 
 import pytest
 
-from bluesky_gym.tasks.descent import DescentTask
-from bluesky_gym.tasks.horizontal_cr import HorizontalCRTask
-from bluesky_gym.tasks.merge import MergeTask
-from bluesky_gym.tasks.plan_waypoint import PlanWaypointTask
-from bluesky_gym.tasks.real_traffic import RealTrafficTask
-from bluesky_gym.tasks.sector_cr import SectorCRTask
-from bluesky_gym.tasks.static_obstacle import StaticObstacleTask
-from bluesky_gym.tasks.vertical_cr import VerticalCRTask
+from bluesky_gym.environments.descent.task import DescentTask
+from bluesky_gym.environments.horizontal_cr.task import HorizontalCRTask
+from bluesky_gym.environments.merge.task import MergeTask
+from bluesky_gym.environments.plan_waypoint.task import PlanWaypointTask
+from bluesky_gym.environments.real_traffic.task import RealTrafficTask
+from bluesky_gym.environments.sector_cr.task import SectorCRTask
+from bluesky_gym.environments.static_obstacle.task import StaticObstacleTask
+from bluesky_gym.environments.vertical_cr.task import VerticalCRTask
 
 TASKS = [DescentTask, VerticalCRTask, HorizontalCRTask, PlanWaypointTask, SectorCRTask, StaticObstacleTask, MergeTask, RealTrafficTask]
 

@@ -11,8 +11,8 @@ import pytest
 from matplotlib.path import Path
 
 import bluesky_gym
+from bluesky_gym.environments.sector_cr.task import CENTER, SectorCRConfig, SectorCRTask
 from bluesky_gym.tasks.geometry import initial_bearing, nm_to_latlon
-from bluesky_gym.tasks.sector_cr import CENTER, SectorCRConfig, SectorCRTask
 
 from .conftest import NM, R_EARTH, seeded_task
 

@@ -11,7 +11,7 @@ import pytest
 from matplotlib.path import Path
 
 import bluesky_gym
-from bluesky_gym.tasks.static_obstacle import StaticObstacleConfig, StaticObstacleTask, sample_waypoint
+from bluesky_gym.environments.static_obstacle.task import StaticObstacleConfig, StaticObstacleTask, sample_waypoint
 from tests.oracle.static_obstacle import reference_substeps
 
 from .conftest import great_circle, kwik, seeded_task

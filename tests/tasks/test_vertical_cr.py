@@ -10,7 +10,7 @@ import pytest
 
 import bluesky_gym
 from bluesky_gym.core import atmosphere as isa
-from bluesky_gym.tasks.vertical_cr import VerticalCRConfig, VerticalCRTask
+from bluesky_gym.environments.vertical_cr.task import VerticalCRConfig, VerticalCRTask
 
 from .conftest import NM, R_EARTH, east_of, north_of, seeded_task
 
@@ -242,7 +242,7 @@ def test_ownship_separation_uses_the_intrusion_cylinder() -> None:
 
 
 def test_intruder_relative_state_equals_the_numpy_oracle() -> None:
-    from bluesky_gym.tasks.vertical_cr import intruder_relative_state
+    from bluesky_gym.environments.vertical_cr.task import intruder_relative_state
     from tests.oracle.tasks import intruder_relative_state as oracle
 
     rng = np.random.default_rng(12)

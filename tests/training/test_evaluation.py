@@ -10,6 +10,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from bluesky_gym.environments.descent.controller import DescentController
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE
 from bluesky_gym.training.evaluation import (
     evaluate,
@@ -21,7 +22,6 @@ from bluesky_gym.training.evaluation import (
     save_result,
     summarise,
 )
-from bluesky_gym.training.policies import DescentController
 
 from .conftest import needs_sb3
 

@@ -14,9 +14,10 @@ from bluesky_gym.cli import main
 from bluesky_gym.core.conflicts import PZ_HEIGHT
 from bluesky_gym.core.geo import kwikdist
 from bluesky_gym.core.units import KTS
+from bluesky_gym.environments.sector_cr.controller import SECTOR_CR_MVP
 from bluesky_gym.envs.registry import ENVIRONMENTS
 from bluesky_gym.training.evaluation import evaluate, make_policy, reference_scores
-from bluesky_gym.training.policies import SECTOR_CR_MVP, mvp_mapping, mvp_policy, reference_names, reference_policy
+from bluesky_gym.training.policies import mvp_mapping, mvp_policy, reference_names, reference_policy
 
 #: Env -> (decision steps flown, time to loss of separation of the head-on intruder [s]).
 HEAD_ON = {
@@ -133,7 +134,7 @@ def test_eval_cli_with_mvp(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 def test_mvp_caps_the_ownship_vertical_speed_with_its_own_type() -> None:
     """VerticalCR with a B744 ownship: MVP's vertical speed is capped with the B744's envelope (BlueSky's perf per aircraft)."""
     from bluesky_gym.core.aircraft import aircraft_performance
-    from bluesky_gym.tasks.descent import ACTION_2_MS
+    from bluesky_gym.environments.descent.task import ACTION_2_MS
 
     b744, a320 = aircraft_performance("B744"), aircraft_performance("A320")
     venv = gym.make_vec("VerticalCREnv-v0", num_envs=4, vectorization_mode="vector_entry_point", ownship_types="B744")

@@ -97,7 +97,7 @@ def test_plots_and_aggregate_from_run_dirs(tmp_path: Path) -> None:
 
 def _descent_run(root: Path, name: str, seed: int, n_steps: int, finished: bool = True) -> Path:
     """A Descent run whose episodes fly 10 steps 300 m off the target, then land at 30 m."""
-    from bluesky_gym.tasks.descent import ALT_DIF_REWARD_SCALE
+    from bluesky_gym.environments.descent.task import ALT_DIF_REWARD_SCALE
 
     d = root / name / f"seed_{seed}"
     # as the runner writes it: the digest covers the whole identity, seed included

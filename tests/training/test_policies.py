@@ -5,21 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bluesky_gym.environments.descent.controller import DescentController
+from bluesky_gym.environments.horizontal_cr.controller import HorizontalCRController
+from bluesky_gym.environments.merge.controller import MergeController
+from bluesky_gym.environments.plan_waypoint.controller import PlanWaypointController
+from bluesky_gym.environments.sector_cr.controller import SectorCRController
+from bluesky_gym.environments.static_obstacle.controller import StaticObstacleController
+from bluesky_gym.environments.vertical_cr.controller import VerticalCRController
 from bluesky_gym.envs.registry import ENVIRONMENTS, entry
 from bluesky_gym.registration import available_envs
 from bluesky_gym.training.evaluation import evaluate, make_policy
-from bluesky_gym.training.policies import (
-    DescentController,
-    HorizontalCRController,
-    MergeController,
-    PlanWaypointController,
-    RandomPolicy,
-    SectorCRController,
-    StaticObstacleController,
-    VerticalCRController,
-    _cpa_turn,
-    reference_policy,
-)
+from bluesky_gym.training.policies import RandomPolicy, cpa_turn, reference_policy
 
 
 def _deg(a: float) -> tuple[np.ndarray, np.ndarray]:
@@ -128,14 +124,14 @@ def test_plan_waypoint_goes_to_the_nearest_open_waypoint() -> None:
 def test_cpa_turn_geometry() -> None:
     # North/east metres. Head-on, intruder 20 km north passing 2 km east of the ownship: the
     # ownship (flying north) should turn left, away from it.
-    alert, turn = _cpa_turn(np.array([[20000.0]]), np.array([[2000.0]]), np.array([[-300.0]]), np.array([[0.0]]), 9260.0, 180.0)
+    alert, turn = cpa_turn(np.array([[20000.0]]), np.array([[2000.0]]), np.array([[-300.0]]), np.array([[0.0]]), 9260.0, 180.0)
     assert alert[0] and turn[0] == -1.0
-    alert, turn = _cpa_turn(np.array([[20000.0]]), np.array([[-2000.0]]), np.array([[-300.0]]), np.array([[0.0]]), 9260.0, 180.0)
+    alert, turn = cpa_turn(np.array([[20000.0]]), np.array([[-2000.0]]), np.array([[-300.0]]), np.array([[0.0]]), 9260.0, 180.0)
     assert alert[0] and turn[0] == 1.0
     # Diverging, or a wide miss: no alert.
-    alert, _ = _cpa_turn(np.array([[20000.0]]), np.array([[0.0]]), np.array([[300.0]]), np.array([[0.0]]), 9260.0, 180.0)
+    alert, _ = cpa_turn(np.array([[20000.0]]), np.array([[0.0]]), np.array([[300.0]]), np.array([[0.0]]), 9260.0, 180.0)
     assert not alert[0]
-    alert, _ = _cpa_turn(np.array([[20000.0]]), np.array([[15000.0]]), np.array([[-300.0]]), np.array([[0.0]]), 9260.0, 180.0)
+    alert, _ = cpa_turn(np.array([[20000.0]]), np.array([[15000.0]]), np.array([[-300.0]]), np.array([[0.0]]), 9260.0, 180.0)
     assert not alert[0]
 
 

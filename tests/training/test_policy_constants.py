@@ -3,16 +3,33 @@
 from __future__ import annotations
 
 import ast
+import importlib
 import inspect
+from types import ModuleType
 
 import numpy as np
 import pytest
 
 from bluesky_gym.core.units import NM, NM2KM
-from bluesky_gym.tasks import descent, horizontal_cr, merge, plan_waypoint, sector_cr, static_obstacle, vertical_cr
-from bluesky_gym.tasks import real_traffic as rt
+from bluesky_gym.environments.descent import controller as descent_controller
+from bluesky_gym.environments.descent import task as descent
+from bluesky_gym.environments.horizontal_cr import task as horizontal_cr
+from bluesky_gym.environments.merge import task as merge
+from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
+from bluesky_gym.environments.plan_waypoint.controller import PlanWaypointController
+from bluesky_gym.environments.real_traffic import task as rt
+from bluesky_gym.environments.sector_cr import task as sector_cr
+from bluesky_gym.environments.static_obstacle import task as static_obstacle
+from bluesky_gym.environments.static_obstacle.controller import StaticObstacleController
+from bluesky_gym.environments.vertical_cr import task as vertical_cr
+from bluesky_gym.envs.registry import PAPER_ENVIRONMENTS, resolve
 from bluesky_gym.training import make_vector_env, policies
-from bluesky_gym.training.policies import PlanWaypointController, StaticObstacleController
+
+#: The modules of the reference policies: the shared one and every environment's controller module.
+POLICY_MODULES = [
+    policies,
+    *sorted({importlib.import_module(row.classical.partition(":")[0]) for row in PAPER_ENVIRONMENTS if row.classical}, key=str),
+]
 
 #: The task-owned scales the controllers use (observation scales, action steps, protected zones), in
 #: the units the controllers use them in. The step length (30 s) is left out: it equals the
@@ -61,12 +78,22 @@ def test_the_scale_list_is_distinct_from_trivial_numbers() -> None:
     assert all(abs(v) not in (0.0, 1.0) for v in TASK_SCALES.values()), TASK_SCALES
 
 
-def test_policies_declare_no_copy_of_a_task_scale() -> None:
-    """No number in training/policies.py equals a scale a task owns: the controllers import them."""
-    literals = _numeric_literals(policies)
-    assert any(v == policies.GLIDE_SLOPE for _, v in literals)  # the controllers' own tuning is read
+def test_every_controller_module_is_checked() -> None:
+    assert len(POLICY_MODULES) == 9  # training/policies.py and the eight environments' controller.py
+    assert all(resolve(row.classical).__module__ in {m.__name__ for m in POLICY_MODULES} for row in PAPER_ENVIRONMENTS if row.classical)
+
+
+@pytest.mark.parametrize("module", POLICY_MODULES, ids=lambda m: m.__name__)
+def test_policies_declare_no_copy_of_a_task_scale(module: ModuleType) -> None:
+    """No number in a controller module equals a scale a task owns: the controllers import them."""
+    literals = _numeric_literals(module)
     copies = [f"line {line}: {value:g} == {name}" for line, value in literals for name, scale in TASK_SCALES.items() if value == scale]
-    assert not copies, "training/policies.py re-declares task constants: " + "; ".join(copies)
+    assert not copies, f"{module.__name__} re-declares task constants: " + "; ".join(copies)
+
+
+def test_the_literal_scan_reads_the_controllers_tuning() -> None:
+    """The scan sees a module's own numbers (the descent controller's glide slope), so a copied scale would be seen too."""
+    assert any(v == descent_controller.GLIDE_SLOPE for _, v in _numeric_literals(descent_controller))
 
 
 def _bound(controller: policies.Policy, env_id: str, **options: float) -> policies.Policy:

@@ -1,0 +1,1 @@
+"""MergeEnv: its task, environment, scene and reference policies (see :mod:`bluesky_gym.environments`)."""

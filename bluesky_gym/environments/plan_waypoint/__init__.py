@@ -1,0 +1,1 @@
+"""PlanWaypointEnv: its task, environment, scene and reference policies (see :mod:`bluesky_gym.environments`)."""
