@@ -50,6 +50,7 @@ ROLES = {
     "multiagent": "multiagent",
     "parallel": "multiagent",
     "controller": "training",
+    "device_step": "envs",
 }
 
 

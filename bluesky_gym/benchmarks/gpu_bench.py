@@ -607,14 +607,13 @@ ENV_CHECK_BUDGET = 240.0
 def env_check_ids() -> list[str]:
     """The ids the device vector environments are checked with: every single-agent id whose data are in place.
 
-    Those whose step runs on the device (:data:`bluesky_gym.envs.device_step.DEVICE_STEPS`) come
-    first, so that a tight budget measures them.
+    Those whose step runs on the device (a registry row with a ``device_step``) come first, so
+    that a tight budget measures them.
     """
-    from bluesky_gym.envs.device_step import DEVICE_STEPS
     from bluesky_gym.envs.registry import entry, env_ids
 
     ids = [i for i in env_ids() if entry(i).data_status() is None]
-    return sorted(ids, key=lambda i: entry(i).task_class() not in DEVICE_STEPS)
+    return sorted(ids, key=lambda i: entry(i).device_step is None)
 
 
 def _max_diff(a: np.ndarray, b: np.ndarray) -> float:
@@ -751,7 +750,7 @@ def format_device_envs(result: dict[str, Any]) -> str:
 
 
 # --- PPO end to end -----------------------------------------------------------------------------
-#: The id PPO trains on end to end: its vector step runs on the device (bluesky_gym.envs.device_step).
+#: The id PPO trains on end to end: its vector step runs on the device (bluesky_gym.environments.sector_cr.device_step).
 PPO_ID = "SectorCREnv-v1"
 #: (environment device, episodes) of the PPO measurement: the CPU vector environment (one process)
 #: next to the device environment at growing batches; the learner is on the GPU in every row.

@@ -17,7 +17,7 @@ How the batches travel (:class:`TensorIO`):
   or ``__dlpack__``) are copied to the host once per step: the actions become autopilot
   commands, which the task gives on the host.
 
-Where the task's whole step runs on the device (:mod:`bluesky_gym.envs.device_step`: SectorCR),
+Where the task's whole step runs on the device (:mod:`bluesky_gym.environments.sector_cr.device_step`: SectorCR),
 neither copy happens: the actions stay on the device, the kernels write into tensors
 (:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
 

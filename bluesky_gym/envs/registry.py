@@ -113,6 +113,10 @@ class EnvEntry:
         v1: The configuration of the ``-v1`` id made from this row: the fields that fix the
             ``-v0`` defects of its task (float32 spaces with finite bounds are added;
             docs/environments-v1.md lists them with reasons); None: no ``-v1`` id.
+        device_step: Import path of the class that runs the task's vector step on a CUDA device
+            (constructed with the task and the environment's tensor converter; its ``supports(task)``
+            says whether a configuration can); None: with ``device="cuda"`` only the physics runs
+            there.
     """
 
     id: str
@@ -128,6 +132,7 @@ class EnvEntry:
     mvp: str | None = None
     kpis: tuple[tuple[str, str], ...] = ()
     v1: tuple[tuple[str, Any], ...] | None = None
+    device_step: str | None = None
 
     def task_class(self) -> type[Any]:
         """The batched task class."""
@@ -262,6 +267,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.sector_cr.env:SectorCREnv",
         vector_env="bluesky_gym.environments.sector_cr.env:SectorCRVectorEnv",
         scene="bluesky_gym.environments.sector_cr.scene:sector_cr_scene",
+        device_step="bluesky_gym.environments.sector_cr.device_step:SectorCRDeviceStep",
         multiagent=MultiAgentEntry(
             name="sector_cr_v0",
             task="bluesky_gym.environments.sector_cr.multiagent:SectorCRMultiAgentTask",
@@ -425,3 +431,12 @@ def scene_builder(env_id: str) -> Callable[[Any, int], Any]:
             return e.scene_builder()
     generic: Callable[[Any, int], Any] = resolve(GENERIC_SCENE)
     return generic
+
+
+def device_step_class(task_class: type[Any]) -> type[Any] | None:
+    """The class running the vector step of ``task_class`` on a CUDA device (its row's ``device_step``), or None."""
+    for e in ENVIRONMENTS:
+        if e.device_step is not None and e.task_class() is task_class:
+            cls: type[Any] = resolve(e.device_step)
+            return cls
+    return None

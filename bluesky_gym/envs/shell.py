@@ -30,8 +30,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from bluesky_gym.envs.device import TensorIO, check_device
-from bluesky_gym.envs.device_step import device_step_for
-from bluesky_gym.envs.registry import scene_builder
+from bluesky_gym.envs.registry import device_step_class, scene_builder
 from bluesky_gym.tasks.base import BoxSpec, StepResult, Task, check_int, numeric_action
 
 RENDER_MODES = ["rgb_array", "human"]
@@ -151,6 +150,14 @@ def batch_memory_error(env_id: str, task_class: type[Task], config: Any, num_env
         f"{env_id}: num_envs={num_envs} needs about {_size(per_episode * num_envs)} of memory ({_size(per_episode)} per episode) "
         f"to be built, more than this machine could allocate ({exc}); use fewer episodes per batch"
     )
+
+
+def device_step_for(task: Task, io: TensorIO) -> Any:
+    """The device step of ``task`` (its registry row's ``device_step``), or None where its step runs on the host (physics on the device)."""
+    cls = device_step_class(type(task))
+    if cls is None or not cls.supports(task):
+        return None
+    return cls(task, io)
 
 
 def time_limit_of(max_episode_steps: int | None, time_limit: int | None) -> int | None:
@@ -402,10 +409,10 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     numpy arrays on the host. The task's own side (actions to commands, resets with their random
     draws, observation, reward) runs on the host as with ``device="cpu"``, so episode ``i`` draws
     the same scenarios as a single environment with seed ``s + i``; its physics agrees with the
-    CPU's within the GPU's rounding (docs/backends.md). For the tasks of
-    :data:`~bluesky_gym.envs.device_step.DEVICE_STEPS` (SectorCR without wind) the whole step runs
-    on the device instead, every info entry is a tensor there, and only the resets' draws run on
-    the host (:mod:`bluesky_gym.envs.device_step`).
+    CPU's within the GPU's rounding (docs/backends.md). For a task whose
+    registry row names a ``device_step`` (SectorCR without wind:
+    :mod:`bluesky_gym.environments.sector_cr.device_step`) the whole step runs on the device
+    instead, every info entry is a tensor there, and only the resets' draws run on the host.
 
     Args:
         num_envs: Number of episodes simulated together.
@@ -570,7 +577,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             return obs, res.reward, res.terminated, res.truncated, info
 
     def _step_on_device(self, actions: Any) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
-        """A step with the task on the device (:mod:`bluesky_gym.envs.device_step`): tensors in, tensors out."""
+        """A step with the task on the device (:mod:`bluesky_gym.environments.sector_cr.device_step`): tensors in, tensors out."""
         assert self._device_step is not None
         obs, reward, terminated, truncated, info, _ended = self._device_step.step(actions)
         if self.render_mode is not None:  # the pictures read the host (copies made for them only)

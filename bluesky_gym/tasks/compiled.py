@@ -312,7 +312,7 @@ def command_heading_speed(envs, own, action, hdg, cas, d_heading, d_speed, ap_tr
     What :meth:`~bluesky_gym.core.Simulator.cmd_heading` and
     :meth:`~bluesky_gym.core.Simulator.cmd_speed` do in an airspace without wind: the track
     selected is the heading, LNAV and VNAV speed are switched off. The device step
-    (:mod:`bluesky_gym.envs.device_step`) launches it on the simulator's device state.
+    (:mod:`bluesky_gym.environments.sector_cr.device_step`) launches it on the simulator's device state.
     """
     for r in grid_range(envs.shape[0]):
         e = envs[r]

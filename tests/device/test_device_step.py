@@ -1,4 +1,6 @@
-"""The task's step on the device (:mod:`bluesky_gym.envs.device_step`): the CPU vector environment's episodes, in a fixed number of launches.
+"""The task's step on the device (:mod:`bluesky_gym.environments.sector_cr.device_step`).
+
+It gives the CPU vector environment's episodes, in a fixed number of launches.
 
 Under numba-cuda's simulator every output (observations, reward, terminated, truncated, every
 info entry, the final observations and infos of ended episodes) must equal the CPU vector
@@ -16,7 +18,7 @@ import pytest
 
 import bluesky_gym
 from bluesky_gym.core import DeviceSimulator, cuda_target
-from bluesky_gym.envs.device_step import SectorCRDeviceStep
+from bluesky_gym.environments.sector_cr.device_step import SectorCRDeviceStep
 
 from .conftest import needs_device
 

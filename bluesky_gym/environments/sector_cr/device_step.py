@@ -1,9 +1,8 @@
 """The task's step on the device: actions, physics, measure, observation, reward and statistics as kernel launches.
 
 With ``gym.make_vec(id, device="cuda")`` the physics always runs on the device
-(:class:`~bluesky_gym.core.DeviceSimulator`). For the tasks listed in :data:`DEVICE_STEPS`
-(SectorCR, ``-v0`` and ``-v1``, without wind) the rest of the step runs there too
-(:class:`SectorCRDeviceStep`):
+(:class:`~bluesky_gym.core.DeviceSimulator`). For SectorCR (``-v0`` and ``-v1``, without wind; its
+registry row's ``device_step``) the rest of the step runs there too (:class:`SectorCRDeviceStep`):
 
 * the actions (a tensor on the device) are clipped and given as autopilot commands by one launch
   (:func:`bluesky_gym.tasks.compiled.command_heading_speed`);
@@ -41,7 +40,7 @@ from bluesky_gym.environments.sector_cr import task as sc
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import Task, numeric_action
 
-__all__ = ["DEVICE_STEPS", "SectorCRDeviceStep", "device_step_for"]
+__all__ = ["SectorCRDeviceStep"]
 
 
 class SectorCRDeviceStep:
@@ -53,6 +52,11 @@ class SectorCRDeviceStep:
     """
 
     task_class: ClassVar[type[Task]] = sc.SectorCRTask
+
+    @staticmethod
+    def supports(task: Task) -> bool:
+        """Whether ``task``'s configuration runs on the device: no wind, no effects, no extra observation terms."""
+        return not task.effects and not task.observation_terms and task.config.wind is None
 
     def __init__(self, task: sc.SectorCRTask, io: Any) -> None:
         self.task, self.io, self.torch = task, io, io.torch
@@ -375,19 +379,3 @@ class SectorCRDeviceStep:
             info["final_info"] = final_info
             info["_final_info"] = done.clone()
         return obs, reward, terminated, truncated, info, ended
-
-
-#: The tasks whose vector-environment step runs on the device, and the classes that run it.
-DEVICE_STEPS: dict[type[Task], type[SectorCRDeviceStep]] = {sc.SectorCRTask: SectorCRDeviceStep}
-
-
-def device_step_for(task: Task, io: Any) -> SectorCRDeviceStep | None:
-    """The device step of ``task``, or None where its step runs on the host (physics on the device).
-
-    The step runs on the device for the tasks of :data:`DEVICE_STEPS`, in their own
-    configurations without wind, effects or extra observation terms.
-    """
-    cls = DEVICE_STEPS.get(type(task))
-    if cls is None or task.effects or task.observation_terms or task.config.wind is not None:
-        return None
-    return cls(task, io)  # type: ignore[arg-type]
