@@ -56,7 +56,7 @@ EBY_ALTITUDE = 1e5  # m: the altitude Eby commands, signed by its vertical speed
 
 @jit
 def dot3(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> float:
-    """numpy's ``np.dot`` of two 3-vectors (and ``np.linalg.norm``'s square): BLAS ``ddot``, fused multiply-adds from 0."""
+    """The ``np.dot`` of two 3-vectors (and ``np.linalg.norm``'s square) as numpy's BLAS ``ddot`` computes it: fused multiply-adds from 0."""
     return fma(a2, b2, fma(a1, b1, fma(a0, b0, 0.0)))
 
 
