@@ -40,8 +40,8 @@ from typing import Any
 from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int, warn
 from bluesky_gym.cli.train import add_damage_options, add_run_options, check_device, load_config, ppo_rounding, run_overrides
 from bluesky_gym.core.extras import MissingDependencyError
-from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.tasks import RESOLUTION_REFERENCES
+from bluesky_gym.training import ALGORITHMS
 
 
 def add_parser(subparsers: Any) -> None:
