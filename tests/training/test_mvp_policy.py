@@ -210,6 +210,7 @@ def test_eby_and_swarm_references_are_selectable_not_default(tmp_path: Path, cap
         reference_scores("HorizontalCREnv-v0", 1, extra=("ssd",))
     assert main(["eval", "HorizontalCREnv-v0", "--model", "eby", "--model", "swarm", "--episodes", "2", "--out", str(tmp_path)]) == 0
     assert [line.split()[0] for line in capsys.readouterr().out.splitlines()[2:4]] == ["eby", "swarm"]
+    assert json.loads((tmp_path / "eval_swarm.json").read_text())["policy"] == "swarm"
 
 
 @pytest.mark.parametrize("name", ["eby", "swarm"])
