@@ -495,7 +495,7 @@ def scan_cell(  # type: ignore[no-untyped-def]
             a = s
             z = t if s > p else s  # (the later positions of p's own cell are at lon >= lon_p already)
             while a < z:  # the first position with lon >= lo_lon
-                mid = (a + z) // 2
+                mid = (a + z) >> 1
                 if s_lon[mid] < lo_lon:
                     a = mid + 1
                 else:
@@ -520,7 +520,7 @@ def scan_cell(  # type: ignore[no-untyped-def]
 
 @jit
 def grid_detect_kernel(  # type: ignore[no-untyped-def]
-    m, good, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, prev, env_f, env_i, cell_start, cell_cos, cell_of, order, pcell, sw,
+    m, good, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, prev, env_f, env_i, cell_start, cell_cos, cell_info, cell_of, order, pcell, sw,
     cand, pair_ij, pair_f, pair_los, row, out_ij, out_f, out_los, counts,
 ):  # fmt: skip
     """CSTATEBASED conflict detection of every airspace on a grid of cells; the conflicts as pairs sorted by (ownship, intruder).
@@ -543,7 +543,7 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
     ``cand`` (2, room; the conflict buffers have room for twice as many), ``out_ij`` (flat ownship, flat intruder), ``out_f`` (bearing,
     distance, time to CPA, distance at CPA, time to loss of separation), ``out_los`` sorted by
     ownship and intruder, and ``row`` (aircraft ``k``'s conflicts are ``row[k]:row[k + 1]``).
-    ``env_f``, ``env_i``, ``cell_start``, ``cell_cos``, ``cell_of``, ``sw``, ``cand``, ``pair_*`` are work arrays.
+    ``env_f``, ``env_i``, ``cell_start``, ``cell_cos``, ``cell_info`` (airspace, band, layer of each cell), ``cell_of``, ``sw``, ``cand``, ``pair_*`` are work arrays.
     """
     n_envs = env_i.shape[1]
     n = good.shape[0]
@@ -600,28 +600,32 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
             edge = minimum(maximum(abs(edge_lo), abs(edge_lo + band_h)), 90.0)  # the band's edge farthest from the equator
             c = maximum(math.cos(edge * DEG2RAD), 0.0)
             for la in range(nl):
-                cell_cos[n_cells + b * nl + la] = c
+                d = n_cells + b * nl + la
+                cell_cos[d] = c
+                cell_info[0, d] = e
+                cell_info[1, d] = b
+                cell_info[2, d] = la
         n_cells += nb * nl
     # 2. The cell of every aircraft, and the aircraft by cell (a counting sort, in the last call's order).
     for c in range(n_cells + 1):
         cell_start[c] = 0
-    for k in range(n):
-        if not good[k]:
-            continue
-        e = k // m
-        c = env_i[3, e]
-        if env_i[0, e] == 0:
-            b = int(math.floor((lat[k] - env_f[2, e]) / env_f[1, e]))
-            if b > env_i[1, e] - 1:
-                b = env_i[1, e] - 1
-            la = 0
-            if env_i[2, e] > 1:
-                la = int(math.floor((alt[k] - env_f[3, e]) / env_f[4, e]))
-                if la > env_i[2, e] - 1:
-                    la = env_i[2, e] - 1
-            c += b * env_i[2, e] + la
-        cell_of[k] = c
-        cell_start[c + 1] += 1
+    for e in range(n_envs):
+        for k in range(e * m, (e + 1) * m):
+            if not good[k]:
+                continue
+            c = env_i[3, e]
+            if env_i[0, e] == 0:
+                b = int(math.floor((lat[k] - env_f[2, e]) / env_f[1, e]))
+                if b > env_i[1, e] - 1:
+                    b = env_i[1, e] - 1
+                la = 0
+                if env_i[2, e] > 1:
+                    la = int(math.floor((alt[k] - env_f[3, e]) / env_f[4, e]))
+                    if la > env_i[2, e] - 1:
+                        la = env_i[2, e] - 1
+                c += b * env_i[2, e] + la
+            cell_of[k] = c
+            cell_start[c + 1] += 1
     for c in range(n_cells):
         cell_start[c + 1] += cell_start[c]
     placed = 0
@@ -643,7 +647,7 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
     key = sw[1]
     for p in range(placed):
         k = order[p]
-        e = k // m
+        e = cell_info[0, pcell[p]]
         key[p] = lon[k] if env_i[0, e] == 0 else k - e * m
     for c in range(n_cells):
         for p in range(cell_start[c] + 1, cell_start[c + 1]):
@@ -671,13 +675,12 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
     s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos = sw[0], sw[1], sw[2], sw[3], sw[4], sw[5], sw[6]
     for p in range(placed):
         c = pcell[p]
-        e = order[p] // m
+        e = cell_info[0, c]
+        b = cell_info[1, c]
+        la = cell_info[2, c]
         full = env_i[0, e] != 0
         nb = env_i[1, e]
         nl = env_i[2, e]
-        rel = c - env_i[3, e]
-        b = rel // nl
-        la = rel - b * nl
         reach = env_f[0, e]
         scan_cell(p, p + 1, cell_start[c + 1], full, reach, cell_cos[c], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
         if full:
@@ -751,6 +754,7 @@ class GridWork:
         cells = n_envs * 2 * (4 * m + 65)  # at most 4 m + 65 bands per airspace, at most twice as many cells
         self.cell_start = np.empty(cells + 1, np.int64)
         self.cell_cos = np.empty(cells)
+        self.cell_info = np.empty((3, cells), np.int64)
         self.cell_of = np.empty(n, np.int64)
         self.order = np.empty(n, np.int64)
         self.spare = np.empty(n, np.int64)
@@ -816,7 +820,7 @@ def detect_grid(
     while True:
         grid_detect_kernel(
             m, active.reshape(-1), lat, lon, alt, gs, trk, vs, float(rpz), float(hpz), float(lookahead), prev, w.env_f, w.env_i,
-            w.cell_start, w.cell_cos, w.cell_of, out, w.pcell, w.sorted_state,
+            w.cell_start, w.cell_cos, w.cell_info, w.cell_of, out, w.pcell, w.sorted_state,
             w.cand, w.pair_ij, w.pair_f, w.pair_los, w.row, w.out_ij, w.out_f, w.out_los, w.counts,
         )  # fmt: skip
         if w.counts[1] <= w.cand.shape[1]:

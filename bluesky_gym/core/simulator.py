@@ -23,7 +23,7 @@ from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import vcasormach
-from bluesky_gym.core.conflicts import create_conflicts, detect_loop, resolve_pair_search
+from bluesky_gym.core.conflicts import GridWork, create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
 from bluesky_gym.core.resolution import AsasConfig, MVPResolver, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
 from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, AircraftState, aircraft_index, checked_index
@@ -157,6 +157,8 @@ class Simulator(AircraftState):
         self._reso_pairs = np.zeros((self.n_envs, m_pairs, m_pairs), dtype=np.bool_)
         self._reso_keys = np.zeros(0, np.int64)
         self._reso_held = np.full((4, self.n_envs, self.max_aircraft), np.nan)
+        # The grid's work arrays per ASAS configuration (a cache: any content gives the same flight).
+        self._grid_works: dict[AsasConfig, GridWork] = {}
 
     def _types_loaded(self) -> tuple[list[pf.AircraftPerformance], Array]:
         if self._performance is None:
@@ -666,6 +668,7 @@ class Simulator(AircraftState):
             resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
             if self.pair_search == "grid":
                 resolver.pair_keys = self._group_keys(envs)
+                resolver.grid_work = self._grid_works.setdefault(config, resolver.grid_work)
             group_follow, group_ended = resolver.advance(view)
             self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
             if self.pair_search == "grid":
