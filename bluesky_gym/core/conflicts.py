@@ -525,18 +525,21 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
 ):  # fmt: skip
     """CSTATEBASED conflict detection of every airspace on a grid of cells; the conflicts as pairs sorted by (ownship, intruder).
 
-    Per airspace (``m`` slots each; the state flat, ``good`` the active aircraft): the reach (the
-    largest distance of a pair in conflict, ``rpz + 2 gs_max lookahead`` with margins) and the
-    vertical reach (``hpz + 2 |vs|_max lookahead``) give cells: bands of latitude at least one
-    reach high, split into layers of altitude at least one vertical reach high (at most about
-    ``4 m`` cells). The aircraft are put in cell order (starting from the order ``prev`` of the last
-    call, so that the sort by longitude within each cell has little to do), then each aircraft
-    pairs with the later aircraft of its cell, those of the layer above in its band, and those of
-    the three nearest layers in the next band, within the window of longitude its reach spans at
-    the band's smallest cosine of latitude (:func:`scan_cell`): each unordered pair of the
-    neighbouring cells once. A pair more than one band or one layer apart is farther than its
-    reach, so it cannot be in conflict. An airspace with a non-finite state or ``|lat| > 90`` is
-    one cell whose pairs are all evaluated.
+    Per airspace (``m`` slots each; the state flat, ``good`` the active aircraft), the reach (the
+    largest distance of a pair in conflict, ``rpz + 2 gs_max lookahead`` with margins) gives bands
+    of latitude at least one reach high (at most about ``4 m``). Each band holds layers of
+    altitude of the level aircraft (vertical speed 0), at least ``hpz`` high with margins (the
+    largest altitude difference of a level pair in conflict), and one cell for the others. The
+    aircraft are put in cell order (starting from the order ``prev`` of the last call, so that the
+    sort by longitude within each cell has little to do). A level aircraft pairs with the later
+    aircraft of its cell, those of the layer above in its band and those of the three nearest
+    layers of the next band; a climbing or descending one with the later aircraft of its cell,
+    those of the next band's such cell, and the level aircraft of every layer of its band and of
+    the bands on either side: each unordered pair of neighbouring cells once, within the window of
+    longitude the reach spans at the band's smallest cosine of latitude, where
+    :func:`may_conflict` allows (:func:`scan_cell`). A pair more than one band or one layer apart
+    cannot be in conflict. An airspace with a non-finite state or ``|lat| > 90`` is one cell whose
+    pairs are all evaluated. The candidates, in both orders, go through :func:`detect_pair`.
 
     Outputs: ``order[:n]``, ``pcell[:n]`` (the aircraft and their cell by grid position),
     ``counts`` (conflicts found, candidate pairs, aircraft placed ``n``); where the candidates fit
@@ -553,7 +556,6 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
     for e in range(n_envs):
         full = False
         g = 0.0
-        vz = 0.0
         lo = math.inf
         hi = -math.inf
         a0 = math.inf
@@ -566,24 +568,27 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
                 full = True
             else:
                 g = maximum(g, abs(gs[k]))
-                vz = maximum(vz, abs(vs[k]))
                 lo = minimum(lo, lat[k])
                 hi = maximum(hi, lat[k])
-                a0 = minimum(a0, alt[k])
-                a1 = maximum(a1, alt[k])
+                if vs[k] == 0.0:  # level: the layers of altitude span these
+                    a0 = minimum(a0, alt[k])
+                    a1 = maximum(a1, alt[k])
         if lo > hi:  # no aircraft with a finite state
-            lo = hi = a0 = a1 = 0.0
+            lo = hi = 0.0
+        if a0 > a1:  # no level aircraft
+            a0 = a1 = 0.0
         reach = ((rpz + 2.0 * g * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) / R_EARTH * RAD2DEG
         nb = 1
-        nl = 1
+        nl = 0  # layers of level aircraft per band (each band also has a cell for the others)
         band_h = 1.0
         layer_h = 1.0
         if not full:
             band_h = maximum(reach, (hi - lo) / (4 * m + 64))  # no smaller than the reach, nor many more bands than aircraft
             nb = int(math.floor((hi - lo) / band_h)) + 1
+            nl = 1
             span = a1 - a0
             if span - span == 0.0:
-                vreach = ((hpz + 2.0 * vz * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M
+                vreach = (hpz * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M  # may_conflict's bound of level pairs, with margin
                 layer_h = maximum(vreach, span / max(1, (4 * m + 64) // nb))
                 nl = int(math.floor(span / layer_h)) + 1
         env_f[0, e] = reach
@@ -599,13 +604,13 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
             edge_lo = lo + b * band_h
             edge = minimum(maximum(abs(edge_lo), abs(edge_lo + band_h)), 90.0)  # the band's edge farthest from the equator
             c = maximum(math.cos(edge * DEG2RAD), 0.0)
-            for la in range(nl):
-                d = n_cells + b * nl + la
+            for la in range(nl + 1):
+                d = n_cells + b * (nl + 1) + la
                 cell_cos[d] = c
                 cell_info[0, d] = e
                 cell_info[1, d] = b
                 cell_info[2, d] = la
-        n_cells += nb * nl
+        n_cells += nb * (nl + 1)
     # 2. The cell of every aircraft, and the aircraft by cell (a counting sort, in the last call's order).
     for c in range(n_cells + 1):
         cell_start[c] = 0
@@ -618,12 +623,15 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
                 b = int(math.floor((lat[k] - env_f[2, e]) / env_f[1, e]))
                 if b > env_i[1, e] - 1:
                     b = env_i[1, e] - 1
-                la = 0
-                if env_i[2, e] > 1:
-                    la = int(math.floor((alt[k] - env_f[3, e]) / env_f[4, e]))
-                    if la > env_i[2, e] - 1:
-                        la = env_i[2, e] - 1
-                c += b * env_i[2, e] + la
+                nl = env_i[2, e]
+                la = nl  # climbing or descending: the band's last cell
+                if vs[k] == 0.0:
+                    la = 0
+                    if nl > 1:
+                        la = int(math.floor((alt[k] - env_f[3, e]) / env_f[4, e]))
+                        if la > nl - 1:
+                            la = nl - 1
+                c += b * (nl + 1) + la
             cell_of[k] = c
             cell_start[c + 1] += 1
     for c in range(n_cells):
@@ -685,12 +693,23 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
         scan_cell(p, p + 1, cell_start[c + 1], full, reach, cell_cos[c], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
         if full:
             continue
-        if la + 1 < nl:
-            d = c + 1
-            scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+        c0 = env_i[3, e]
+        if la < nl:  # level: the layer above, and the three nearest layers of the next band
+            if la + 1 < nl:
+                d = c + 1
+                scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+            if b + 1 < nb:
+                for l2 in range(max(la - 1, 0), min(la + 2, nl)):
+                    d = c0 + (b + 1) * (nl + 1) + l2
+                    scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+            continue
+        # Climbing or descending: the next band's such aircraft, and the level aircraft of every layer of this band and its two neighbours.
         if b + 1 < nb:
-            for l2 in range(max(la - 1, 0), min(la + 2, nl)):
-                d = env_i[3, e] + (b + 1) * nl + l2
+            d = c0 + (b + 1) * (nl + 1) + nl
+            scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+        for b2 in range(max(b - 1, 0), min(b + 2, nb)):
+            for l2 in range(nl):
+                d = c0 + b2 * (nl + 1) + l2
                 scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
     if counts[1] > cand.shape[1]:
         return  # no room for all candidates (the caller makes room and calls again)
@@ -751,7 +770,7 @@ class GridWork:
         self.n_order = 0
         self.env_f = np.empty((5, n_envs))
         self.env_i = np.empty((4, n_envs), np.int64)
-        cells = n_envs * 2 * (4 * m + 65)  # at most 4 m + 65 bands per airspace, at most twice as many cells
+        cells = n_envs * 3 * (4 * m + 65)  # at most 4 m + 65 bands per airspace, about twice as many layers, and one more cell per band
         self.cell_start = np.empty(cells + 1, np.int64)
         self.cell_cos = np.empty(cells)
         self.cell_info = np.empty((3, cells), np.int64)

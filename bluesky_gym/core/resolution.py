@@ -581,9 +581,10 @@ def _mvp_inputs(
     state: ResolutionState, settings: ResolutionSettings | None, vsmin: ArrayLike | None, vsmax: ArrayLike | None
 ) -> tuple[ResolutionSettings, BoolArray, list[Array]]:
     """The settings, ``active`` and the per-aircraft arrays :func:`mvp_loop` reads after it, ``alt`` .. ``vsmax`` (n_envs, n_aircraft)."""
-    default = aircraft_performance(DEFAULT_TYPE)
-    vsmin = default.vsmin if vsmin is None else vsmin
-    vsmax = default.vsmax if vsmax is None else vsmax
+    if vsmin is None or vsmax is None:
+        default = aircraft_performance(DEFAULT_TYPE)
+        vsmin = default.vsmin if vsmin is None else vsmin
+        vsmax = default.vsmax if vsmax is None else vsmax
     active = np.ascontiguousarray(state.active, dtype=np.bool_)
 
     floats = (state.alt, state.gseast, state.gsnorth, state.vs, state.trk, state.gs, state.selalt, state.ap_vs, state.vmin, state.vmax, vsmin, vsmax)

@@ -653,6 +653,7 @@ class Simulator(AircraftState):
                 groups.setdefault(config, []).append(e)
         for config, members in groups.items():  # airspaces with the same settings resolve in one batch
             envs = np.array(sorted(members), dtype=np.int64)
+            sel: slice | IntArray = slice(None) if envs.size == self.n_envs else envs  # views where the group is every airspace
             view = _AirspaceView(self, envs)
             resolver = MVPResolver(
                 config.settings,
@@ -665,18 +666,18 @@ class Simulator(AircraftState):
                 python_geo=self.geo == "python",
                 pair_search=self.pair_search,
             )
-            resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
+            resolver.pairs, resolver.held = self._reso_pairs[sel], self._reso_held[:, sel]
             if self.pair_search == "grid":
                 resolver.pair_keys = self._group_keys(envs)
                 resolver.grid_work = self._grid_works.setdefault(config, resolver.grid_work)
             group_follow, group_ended = resolver.advance(view)
-            self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
+            self._reso_pairs[sel], self._reso_held[:, sel] = resolver.pairs, resolver.held
             if self.pair_search == "grid":
                 self._store_group_keys(envs, resolver.pair_keys)
-            follow[envs] = group_follow
-            targets[:, envs] = resolution_targets(resolver.held)
+            follow[sel] = group_follow
+            targets[:, sel] = resolution_targets(resolver.held)
             # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
-            for k, s in zip(*np.nonzero(group_ended & (self.nwp[envs] > 0))):
+            for k, s in zip(*np.nonzero(group_ended & (self.nwp[sel] > 0))):
                 e = int(envs[k])
                 self.iactwp[e, s] = self._find_active(e, int(s))
                 self._direct(np.array([e]), np.array([s]))
