@@ -588,7 +588,9 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
             nl = 1
             span = a1 - a0
             if span - span == 0.0:
-                vreach = (hpz * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M  # may_conflict's bound of level pairs, with margin
+                vreach = (hpz * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) * (
+                    1.0 + GRID_MARGIN_REL
+                ) + GRID_MARGIN_M  # may_conflict's bound of level pairs, with margin
                 layer_h = maximum(vreach, span / max(1, (4 * m + 64) // nb))
                 nl = int(math.floor(span / layer_h)) + 1
         env_f[0, e] = reach
@@ -690,27 +692,127 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
         nb = env_i[1, e]
         nl = env_i[2, e]
         reach = env_f[0, e]
-        scan_cell(p, p + 1, cell_start[c + 1], full, reach, cell_cos[c], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+        scan_cell(
+            p,
+            p + 1,
+            cell_start[c + 1],
+            full,
+            reach,
+            cell_cos[c],
+            order,
+            s_lat,
+            s_lon,
+            s_alt,
+            s_vs,
+            s_u,
+            s_v,
+            s_cos,
+            rpz,
+            hpz,
+            lookahead,
+            cand,
+            counts,
+        )
         if full:
             continue
         c0 = env_i[3, e]
         if la < nl:  # level: the layer above, and the three nearest layers of the next band
             if la + 1 < nl:
                 d = c + 1
-                scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+                scan_cell(
+                    p,
+                    cell_start[d],
+                    cell_start[d + 1],
+                    full,
+                    reach,
+                    cell_cos[d],
+                    order,
+                    s_lat,
+                    s_lon,
+                    s_alt,
+                    s_vs,
+                    s_u,
+                    s_v,
+                    s_cos,
+                    rpz,
+                    hpz,
+                    lookahead,
+                    cand,
+                    counts,
+                )
             if b + 1 < nb:
                 for l2 in range(max(la - 1, 0), min(la + 2, nl)):
                     d = c0 + (b + 1) * (nl + 1) + l2
-                    scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+                    scan_cell(
+                        p,
+                        cell_start[d],
+                        cell_start[d + 1],
+                        full,
+                        reach,
+                        cell_cos[d],
+                        order,
+                        s_lat,
+                        s_lon,
+                        s_alt,
+                        s_vs,
+                        s_u,
+                        s_v,
+                        s_cos,
+                        rpz,
+                        hpz,
+                        lookahead,
+                        cand,
+                        counts,
+                    )
             continue
         # Climbing or descending: the next band's such aircraft, and the level aircraft of every layer of this band and its two neighbours.
         if b + 1 < nb:
             d = c0 + (b + 1) * (nl + 1) + nl
-            scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+            scan_cell(
+                p,
+                cell_start[d],
+                cell_start[d + 1],
+                full,
+                reach,
+                cell_cos[d],
+                order,
+                s_lat,
+                s_lon,
+                s_alt,
+                s_vs,
+                s_u,
+                s_v,
+                s_cos,
+                rpz,
+                hpz,
+                lookahead,
+                cand,
+                counts,
+            )
         for b2 in range(max(b - 1, 0), min(b + 2, nb)):
             for l2 in range(nl):
                 d = c0 + b2 * (nl + 1) + l2
-                scan_cell(p, cell_start[d], cell_start[d + 1], full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+                scan_cell(
+                    p,
+                    cell_start[d],
+                    cell_start[d + 1],
+                    full,
+                    reach,
+                    cell_cos[d],
+                    order,
+                    s_lat,
+                    s_lon,
+                    s_alt,
+                    s_vs,
+                    s_u,
+                    s_v,
+                    s_cos,
+                    rpz,
+                    hpz,
+                    lookahead,
+                    cand,
+                    counts,
+                )
     if counts[1] > cand.shape[1]:
         return  # no room for all candidates (the caller makes room and calls again)
     # 6. Both orders of each candidate pair through detect_pair (the conflict buffers hold twice the candidates).

@@ -47,7 +47,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
-from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, ConflictPairs, Conflicts, GridWork, detect_pairs, detect_with, float_array
+from bluesky_gym.core.conflicts import (
+    DETECTORS,
+    LOOKAHEAD,
+    PZ_HEIGHT,
+    PZ_RADIUS,
+    ConflictPairs,
+    Conflicts,
+    GridWork,
+    detect_pairs,
+    detect_with,
+    float_array,
+)
 from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
@@ -1036,12 +1047,13 @@ class MVPResolver:
         held = np.array(self.held, dtype=np.float64, order="C")
         kept = np.empty(self.pair_keys.size + c.env.size, np.int64)
         follow, ended = np.empty(n, np.bool_), np.empty(n, np.bool_)
-        flat = [x.reshape(-1) for x in floats]  # alt .. vsmax
+        alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin_a, vsmax_a = (x.reshape(-1) for x in floats)
         lat, lon = (float_array(x, active.shape).reshape(-1) for x in (state.lat, state.lon))
         counts = np.zeros(1, np.int64)
+        zone = (self.rpz * s.resofach, self.hpz * s.resofacv, self.lookahead, s.mode, 1.0 if s.swresohoriz else 0.0)
         asas_pairs_kernel(
-            m, row, intruder, qdr, dist, tcpa, tlos, active.reshape(-1), *flat, self.rpz * s.resofach, self.hpz * s.resofacv, self.lookahead,
-            s.mode, 1.0 if s.swresohoriz else 0.0, held.reshape(4, n), self.pair_keys, lat, lon, self.rpz, self.rpz * s.resofach, kept, follow, ended, counts,
+            m, row, intruder, qdr, dist, tcpa, tlos, active.reshape(-1), alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax,
+            vsmin_a, vsmax_a, *zone, held.reshape(4, n), self.pair_keys, lat, lon, self.rpz, self.rpz * s.resofach, kept, follow, ended, counts,
         )  # fmt: skip
         self.held = held
         self.pair_keys = kept[: counts[0]]
