@@ -479,7 +479,9 @@ def record_pair(i, j, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, pair_ij, 
 def scan_cell(  # type: ignore[no-untyped-def]
     p, s, t, full, reach_deg, cell_cos, order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts,
 ):  # fmt: skip
-    """The pairs of the aircraft at grid position ``p`` with those at positions ``s .. t-1`` (one cell's, by longitude); see :func:`grid_detect_kernel`.
+    """The candidate pairs of the aircraft at grid position ``p`` with those at ``s .. t-1`` (one cell's, by longitude).
+
+    See :func:`grid_detect_kernel`.
 
     In the window of longitude the reach spans at the smallest cosine of latitude, where
     :func:`may_conflict` allows (everywhere in a ``full`` airspace), the pair (flat indices) is a
@@ -546,7 +548,8 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
     ``cand`` (2, room; the conflict buffers have room for twice as many), ``out_ij`` (flat ownship, flat intruder), ``out_f`` (bearing,
     distance, time to CPA, distance at CPA, time to loss of separation), ``out_los`` sorted by
     ownship and intruder, and ``row`` (aircraft ``k``'s conflicts are ``row[k]:row[k + 1]``).
-    ``env_f``, ``env_i``, ``cell_start``, ``cell_cos``, ``cell_info`` (airspace, band, layer of each cell), ``cell_of``, ``sw``, ``cand``, ``pair_*`` are work arrays.
+    ``env_f``, ``env_i``, ``cell_start``, ``cell_cos``, ``cell_info`` (airspace, band, layer of
+    each cell), ``cell_of``, ``sw``, ``cand``, ``pair_*`` are work arrays.
     """
     n_envs = env_i.shape[1]
     n = good.shape[0]
