@@ -129,7 +129,8 @@ def _exercise_core() -> None:
     ASAS runs with both pair searches (all pairs and the grid).
     """
     from bluesky_gym.core import Simulator, atmosphere, geo, lnav
-    from bluesky_gym.core.resolution import AsasConfig
+    from bluesky_gym.core.conflicts import detect_pairs
+    from bluesky_gym.core.resolution import AsasConfig, mvp_pairs
 
     sim = Simulator(3, 4, dt=1.0)
     sim.create([0, 1, 2], 0, [52.0, 52.1, 51.9], [4.0, 4.1, 3.9], [0.0, 90.0, 180.0], 3000.0, [140.0, 0.6, 150.0], actype=["A320", "B738", "A320"])
@@ -150,6 +151,9 @@ def _exercise_core() -> None:
     grid.create([0, 0, 1, 1], [0, 1, 0, 1], [52.0, 52.1, 52.0, 52.0], [4.0, 4.0, 4.0, 4.1], [0.0, 180.0, 90.0, 270.0], 3000.0, 140.0)
     grid.alt[1, 1] = np.nan  # an airspace searched exhaustively
     grid.set_conflict_resolution([0, 1], AsasConfig(detector="CSTATEBASED", resolution=True))
+    grid.run(2)
+    mvp_pairs(grid, detect_pairs(grid.lat, grid.lon, grid.alt, grid.gs, grid.trk, grid.vs, grid.active))  # MVP of listed pairs (API)
+    grid.set_conflict_resolution([0, 1], AsasConfig(detector="CSTATEBASED", resolution=True, method="EBY"))  # a method's own grid path
     grid.run(2)
     ones = np.ones(3)
     geo.qdrdist(52.0 * ones, 4.0, 52.1, 4.1)

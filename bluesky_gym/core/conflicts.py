@@ -328,7 +328,7 @@ PAIR_SEARCHES = ("auto", "all-pairs", "grid")
 GRID_MIN_AIRCRAFT = 256
 GRID_MARGIN_REL = 1e-6  # -, relative margin of the grid's reach (far above the rounding of detect_pair)
 GRID_MARGIN_M = 1.0  # m, absolute margin of the grid's reach and of its vertical bound
-GRID_PARTNERS = 8  # candidate partners per aircraft the grid's scan makes room for at first
+GRID_PAIRS = 1024  # candidate pairs the grid's buffers make room for at first
 
 
 def resolve_pair_search(pair_search: str, max_aircraft: int) -> str:
@@ -451,165 +451,454 @@ def may_conflict(
 
 
 @jit_inline
-def scan_band(p, s, t, exhaustive, reach_deg, band_cos, lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, out, n):  # type: ignore[no-untyped-def]
-    """The partners of the aircraft at position ``p`` among positions ``s .. t-1`` (one band's, by longitude), after ``n``; returns the new count.
+def record_pair(i, j, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, pair_ij, pair_f, pair_los, counts):  # type: ignore[no-untyped-def]
+    """:func:`detect_pair` of ownship ``i`` and intruder ``j`` (flat indices); a conflict is appended to the pair buffers.
 
-    See :func:`grid_scan_loop`; the partners go to ``out[p, n:]`` as far as it has room.
+    ``counts[0]`` counts the conflicts found, also those past the buffers' room (which are not written).
+    """
+    c, lo, q, d, t, dc, ti = detect_pair(
+        lat[i], lon[i], alt[i], gs[i], trk[i], vs[i],
+        lat[j], lon[j], alt[j], gs[j], trk[j], vs[j],
+        rpz, hpz, lookahead,
+    )  # fmt: skip
+    if c:
+        k = counts[0]
+        if k < pair_los.shape[0]:
+            pair_ij[0, k] = i
+            pair_ij[1, k] = j
+            pair_los[k] = lo
+            pair_f[0, k] = q
+            pair_f[1, k] = d
+            pair_f[2, k] = t
+            pair_f[3, k] = dc
+            pair_f[4, k] = ti
+        counts[0] = k + 1
+
+
+@jit_inline
+def scan_cell(  # type: ignore[no-untyped-def]
+    p, s, t, full, reach_deg, cell_cos, order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts,
+):  # fmt: skip
+    """The candidate pairs of the aircraft at grid position ``p`` with those at ``s .. t-1`` (one cell's, by longitude).
+
+    See :func:`grid_detect_kernel`.
+
+    In the window of longitude the reach spans at the smallest cosine of latitude, where
+    :func:`may_conflict` allows (everywhere in a ``full`` airspace), the pair (flat indices) is a
+    candidate: appended to ``cand`` (2, room) as far as it has room, and counted in ``counts[1]``.
     """
     hi = math.inf
-    if not exhaustive:
-        c = minimum(cosl[p], band_cos)
+    if not full:
+        c = minimum(s_cos[p], cell_cos)
         if c > 0.0 and reach_deg < 180.0 * c:
             w = reach_deg / c
-            hi = lon[p] + w
-            lo_lon = lon[p] - w
+            hi = s_lon[p] + w
+            lo_lon = s_lon[p] - w
             a = s
-            z = t
+            z = t if s > p else s  # (the later positions of p's own cell are at lon >= lon_p already)
             while a < z:  # the first position with lon >= lo_lon
-                mid = (a + z) // 2
-                if lon[mid] < lo_lon:
+                mid = (a + z) >> 1
+                if s_lon[mid] < lo_lon:
                     a = mid + 1
                 else:
                     z = mid
             s = a
-    lat_p, lon_p, alt_p, vs_p, u_p, v_p, cos_p = lat[p], lon[p], alt[p], vs[p], u[p], v[p], cosl[p]
+    i = order[p]
+    lat_p, lon_p, alt_p, vs_p, u_p, v_p, cos_p = s_lat[p], s_lon[p], s_alt[p], s_vs[p], s_u[p], s_v[p], s_cos[p]
     for q in range(s, t):
-        if lon[q] > hi:
-            break
-        if not exhaustive:
-            if not may_conflict(lat_p, lon_p, alt_p, vs_p, u_p, v_p, cos_p, lat[q], lon[q], alt[q], vs[q], u[q], v[q], cosl[q], rpz, hpz, lookahead):
+        if not full:
+            if s_lon[q] > hi:
+                break
+            if not may_conflict(
+                lat_p, lon_p, alt_p, vs_p, u_p, v_p, cos_p, s_lat[q], s_lon[q], s_alt[q], s_vs[q], s_u[q], s_v[q], s_cos[q], rpz, hpz, lookahead
+            ):
                 continue
-        if n < out.shape[1]:
-            out[p, n] = q
-        n += 1
-    return n
+        k = counts[1]
+        if k < cand.shape[1]:
+            cand[0, k] = i
+            cand[1, k] = order[q]
+        counts[1] = k + 1
 
 
 @jit
-def grid_scan_loop(  # type: ignore[no-untyped-def]
-    m, order, band, env_band0, env_nb, exhaustive, reach_deg, band_start, band_cos,
-    lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, counts, out,
+def grid_detect_kernel(  # type: ignore[no-untyped-def]
+    m, good, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, prev, env_f, env_i, cell_start, cell_cos, cell_info, cell_of, order, pcell, sw,
+    cand, pair_ij, pair_f, pair_los, row, out_ij, out_f, out_los, counts,
 ):  # fmt: skip
-    """The candidate pairs of every airspace from the grid of latitude bands; all arrays by position in the grid's order.
+    """CSTATEBASED conflict detection of every airspace on a grid of cells; the conflicts as pairs sorted by (ownship, intruder).
 
-    Each airspace's aircraft lie in bands of latitude at least one reach (the largest distance a
-    pair in conflict can have) high, counted from ``env_band0[e]``. Position ``p`` holds aircraft
-    ``order[p]`` (flat index ``env * m + slot``) of band ``band[p]``, by band and then by
-    longitude, and the state arrays are in that order. The aircraft at ``p`` pairs with the later
-    positions of its band and those of the next band, in the window of longitude its reach spans
-    at the smallest cosine of latitude, where :func:`may_conflict` (symmetric) allows: each
-    unordered pair once. An airspace marked ``exhaustive`` (non-finite or out-of-range states) has
-    one band and every pair is a candidate. The partners' positions go to ``out[p, :]`` (as many
-    as it holds) and their number to ``counts[p]``.
+    Per airspace (``m`` slots each; the state flat, ``good`` the active aircraft), the reach (the
+    largest distance of a pair in conflict, ``rpz + 2 gs_max lookahead`` with margins) gives bands
+    of latitude at least one reach high (at most about ``4 m``). Each band holds layers of
+    altitude of the level aircraft (vertical speed 0), at least ``hpz`` high with margins (the
+    largest altitude difference of a level pair in conflict), and one cell for the others. The
+    aircraft are put in cell order (starting from the order ``prev`` of the last call, so that the
+    sort by longitude within each cell has little to do). A level aircraft pairs with the later
+    aircraft of its cell, those of the layer above in its band and those of the three nearest
+    layers of the next band; a climbing or descending one with the later aircraft of its cell,
+    those of the next band's such cell, and the level aircraft of every layer of its band and of
+    the bands on either side: each unordered pair of neighbouring cells once, within the window of
+    longitude the reach spans at the band's smallest cosine of latitude, where
+    :func:`may_conflict` allows (:func:`scan_cell`). A pair more than one band or one layer apart
+    cannot be in conflict. An airspace with a non-finite state or ``|lat| > 90`` is one cell whose
+    pairs are all evaluated. The candidates, in both orders, go through :func:`detect_pair`.
+
+    Outputs: ``order[:n]``, ``pcell[:n]`` (the aircraft and their cell by grid position),
+    ``counts`` (conflicts found, candidate pairs, aircraft placed ``n``); where the candidates fit
+    ``cand`` (2, room; the conflict buffers have room for twice as many), ``out_ij`` (flat ownship, flat intruder), ``out_f`` (bearing,
+    distance, time to CPA, distance at CPA, time to loss of separation), ``out_los`` sorted by
+    ownship and intruder, and ``row`` (aircraft ``k``'s conflicts are ``row[k]:row[k + 1]``).
+    ``env_f``, ``env_i``, ``cell_start``, ``cell_cos``, ``cell_info`` (airspace, band, layer of
+    each cell), ``cell_of``, ``sw``, ``cand``, ``pair_*`` are work arrays.
     """
-    for p in grid_range(order.shape[0]):
-        e = order[p] // m
-        b = band[p]
-        x = exhaustive[e]
-        r = reach_deg[e]
-        n = scan_band(p, p + 1, band_start[b + 1], x, r, band_cos[b], lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, out, 0)
-        if b + 1 < env_band0[e] + env_nb[e]:
-            c = b + 1
-            n = scan_band(p, band_start[c], band_start[c + 1], x, r, band_cos[c], lat, lon, alt, vs, u, v, cosl, rpz, hpz, lookahead, out, n)
-        counts[p] = n
-
-
-@jit
-def grid_bounds_loop(m, good, lat, lon, alt, gs, trk, vs, exhaustive, bounds):  # type: ignore[no-untyped-def]
-    """Per airspace: whether its grid must be ``exhaustive`` (an active aircraft with a non-finite state or ``|lat| > 90``), and ``bounds``.
-
-    ``bounds`` (4, n_envs): the largest ground speed [m/s], the smallest and the largest latitude
-    and the smallest longitude [deg] of the active aircraft (0 where none).
-    """
-    for e in grid_range(exhaustive.shape[0]):
-        x = False
+    n_envs = env_i.shape[1]
+    n = good.shape[0]
+    look = lookahead if lookahead > 0.0 else 0.0
+    # 1. Per airspace: the bounds of its aircraft, its bands and layers, and the cosine bound of each cell.
+    n_cells = 0
+    for e in range(n_envs):
+        full = False
         g = 0.0
         lo = math.inf
         hi = -math.inf
-        west = math.inf
+        a0 = math.inf
+        a1 = -math.inf
         for k in range(e * m, (e + 1) * m):
             if not good[k]:
                 continue
-            s = lat[k] + lon[k] + alt[k] + gs[k] + trk[k] + vs[k]
-            if not (s - s == 0.0) or abs(lat[k]) > 90.0:  # a NaN or an infinity
-                x = True
+            x = lat[k] + lon[k] + alt[k] + gs[k] + trk[k] + vs[k]
+            if not (x - x == 0.0) or abs(lat[k]) > 90.0:  # a NaN or an infinity
+                full = True
             else:
                 g = maximum(g, abs(gs[k]))
                 lo = minimum(lo, lat[k])
                 hi = maximum(hi, lat[k])
-                west = minimum(west, lon[k])
-        exhaustive[e] = x
-        bounds[0, e] = g
-        bounds[1, e] = lo if lo <= hi else 0.0
-        bounds[2, e] = hi if lo <= hi else 0.0
-        bounds[3, e] = west if lo <= hi else 0.0
+                if vs[k] == 0.0:  # level: the layers of altitude span these
+                    a0 = minimum(a0, alt[k])
+                    a1 = maximum(a1, alt[k])
+        if lo > hi:  # no aircraft with a finite state
+            lo = hi = 0.0
+        if a0 > a1:  # no level aircraft
+            a0 = a1 = 0.0
+        reach = ((rpz + 2.0 * g * look) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) / R_EARTH * RAD2DEG
+        nb = 1
+        nl = 0  # layers of level aircraft per band (each band also has a cell for the others)
+        band_h = 1.0
+        layer_h = 1.0
+        if not full:
+            band_h = maximum(reach, (hi - lo) / (4 * m + 64))  # no smaller than the reach, nor many more bands than aircraft
+            nb = int(math.floor((hi - lo) / band_h)) + 1
+            nl = 1
+            span = a1 - a0
+            if span - span == 0.0:
+                vreach = (hpz * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) * (
+                    1.0 + GRID_MARGIN_REL
+                ) + GRID_MARGIN_M  # may_conflict's bound of level pairs, with margin
+                layer_h = maximum(vreach, span / max(1, (4 * m + 64) // nb))
+                nl = int(math.floor(span / layer_h)) + 1
+        env_f[0, e] = reach
+        env_f[1, e] = band_h
+        env_f[2, e] = lo
+        env_f[3, e] = a0
+        env_f[4, e] = layer_h
+        env_i[0, e] = 1 if full else 0
+        env_i[1, e] = nb
+        env_i[2, e] = nl
+        env_i[3, e] = n_cells
+        for b in range(nb):
+            edge_lo = lo + b * band_h
+            edge = minimum(maximum(abs(edge_lo), abs(edge_lo + band_h)), 90.0)  # the band's edge farthest from the equator
+            c = maximum(math.cos(edge * DEG2RAD), 0.0)
+            for la in range(nl + 1):
+                d = n_cells + b * (nl + 1) + la
+                cell_cos[d] = c
+                cell_info[0, d] = e
+                cell_info[1, d] = b
+                cell_info[2, d] = la
+        n_cells += nb * (nl + 1)
+    # 2. The cell of every aircraft, and the aircraft by cell (a counting sort, in the last call's order).
+    for c in range(n_cells + 1):
+        cell_start[c] = 0
+    for e in range(n_envs):
+        for k in range(e * m, (e + 1) * m):
+            if not good[k]:
+                continue
+            c = env_i[3, e]
+            if env_i[0, e] == 0:
+                b = int(math.floor((lat[k] - env_f[2, e]) / env_f[1, e]))
+                if b > env_i[1, e] - 1:
+                    b = env_i[1, e] - 1
+                nl = env_i[2, e]
+                la = nl  # climbing or descending: the band's last cell
+                if vs[k] == 0.0:
+                    la = 0
+                    if nl > 1:
+                        la = int(math.floor((alt[k] - env_f[3, e]) / env_f[4, e]))
+                        if la > nl - 1:
+                            la = nl - 1
+                c += b * (nl + 1) + la
+            cell_of[k] = c
+            cell_start[c + 1] += 1
+    for c in range(n_cells):
+        cell_start[c + 1] += cell_start[c]
+    placed = 0
+    for r in range(prev.shape[0] + n):
+        k = prev[r] if r < prev.shape[0] else r - prev.shape[0]
+        if k < 0 or k >= n or not good[k] or cell_of[k] < 0:
+            continue
+        c = cell_of[k]
+        order[cell_start[c]] = k
+        pcell[cell_start[c]] = c
+        cell_start[c] += 1
+        cell_of[k] = -1  # placed
+        placed += 1
+    for c in range(n_cells, 0, -1):
+        cell_start[c] = cell_start[c - 1]
+    cell_start[0] = 0
+    counts[2] = placed
+    # 3. Within each cell by longitude (an airspace searched in full: by slot); an insertion sort of a nearly sorted order.
+    key = sw[1]
+    for p in range(placed):
+        k = order[p]
+        e = cell_info[0, pcell[p]]
+        key[p] = lon[k] if env_i[0, e] == 0 else k - e * m
+    for c in range(n_cells):
+        for p in range(cell_start[c] + 1, cell_start[c + 1]):
+            k = order[p]
+            x = key[p]
+            q = p - 1
+            while q >= cell_start[c] and key[q] > x:
+                order[q + 1] = order[q]
+                key[q + 1] = key[q]
+                q -= 1
+            order[q + 1] = k
+            key[q + 1] = x
+    # 4. The state by grid position, so that the scans read memory in sequence.
+    for p in range(placed):
+        k = order[p]
+        sw[0, p] = lat[k]
+        sw[2, p] = alt[k]
+        sw[3, p] = vs[k]
+        sw[4, p] = gs[k] * math.sin(trk[k] * DEG2RAD)  # ground velocity as detect_pair computes it
+        sw[5, p] = gs[k] * math.cos(trk[k] * DEG2RAD)
+        sw[6, p] = maximum(math.cos(lat[k] * DEG2RAD), 0.0)
+    # 5. The scans: each unordered pair of neighbouring cells once.
+    counts[0] = 0
+    counts[1] = 0
+    s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos = sw[0], sw[1], sw[2], sw[3], sw[4], sw[5], sw[6]
+    for p in range(placed):
+        c = pcell[p]
+        e = cell_info[0, c]
+        b = cell_info[1, c]
+        la = cell_info[2, c]
+        full = env_i[0, e] != 0
+        nb = env_i[1, e]
+        nl = env_i[2, e]
+        reach = env_f[0, e]
+        scan_cell(
+            p,
+            p + 1,
+            cell_start[c + 1],
+            full,
+            reach,
+            cell_cos[c],
+            order,
+            s_lat,
+            s_lon,
+            s_alt,
+            s_vs,
+            s_u,
+            s_v,
+            s_cos,
+            rpz,
+            hpz,
+            lookahead,
+            cand,
+            counts,
+        )
+        if full:
+            continue
+        c0 = env_i[3, e]
+        if la < nl:  # level: the layer above, and the three nearest layers of the next band
+            if la + 1 < nl:
+                d = c + 1
+                scan_cell(
+                    p,
+                    cell_start[d],
+                    cell_start[d + 1],
+                    full,
+                    reach,
+                    cell_cos[d],
+                    order,
+                    s_lat,
+                    s_lon,
+                    s_alt,
+                    s_vs,
+                    s_u,
+                    s_v,
+                    s_cos,
+                    rpz,
+                    hpz,
+                    lookahead,
+                    cand,
+                    counts,
+                )
+            if b + 1 < nb:
+                for l2 in range(max(la - 1, 0), min(la + 2, nl)):
+                    d = c0 + (b + 1) * (nl + 1) + l2
+                    scan_cell(
+                        p,
+                        cell_start[d],
+                        cell_start[d + 1],
+                        full,
+                        reach,
+                        cell_cos[d],
+                        order,
+                        s_lat,
+                        s_lon,
+                        s_alt,
+                        s_vs,
+                        s_u,
+                        s_v,
+                        s_cos,
+                        rpz,
+                        hpz,
+                        lookahead,
+                        cand,
+                        counts,
+                    )
+            continue
+        # Climbing or descending: the next band's such aircraft, and the level aircraft of every layer of this band and its two neighbours.
+        if b + 1 < nb:
+            d = c0 + (b + 1) * (nl + 1) + nl
+            scan_cell(
+                p,
+                cell_start[d],
+                cell_start[d + 1],
+                full,
+                reach,
+                cell_cos[d],
+                order,
+                s_lat,
+                s_lon,
+                s_alt,
+                s_vs,
+                s_u,
+                s_v,
+                s_cos,
+                rpz,
+                hpz,
+                lookahead,
+                cand,
+                counts,
+            )
+        for b2 in range(max(b - 1, 0), min(b + 2, nb)):
+            for l2 in range(nl):
+                d = c0 + b2 * (nl + 1) + l2
+                scan_cell(
+                    p,
+                    cell_start[d],
+                    cell_start[d + 1],
+                    full,
+                    reach,
+                    cell_cos[d],
+                    order,
+                    s_lat,
+                    s_lon,
+                    s_alt,
+                    s_vs,
+                    s_u,
+                    s_v,
+                    s_cos,
+                    rpz,
+                    hpz,
+                    lookahead,
+                    cand,
+                    counts,
+                )
+    if counts[1] > cand.shape[1]:
+        return  # no room for all candidates (the caller makes room and calls again)
+    # 6. Both orders of each candidate pair through detect_pair (the conflict buffers hold twice the candidates).
+    for f in range(counts[1]):
+        record_pair(cand[0, f], cand[1, f], lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, pair_ij, pair_f, pair_los, counts)
+        record_pair(cand[1, f], cand[0, f], lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, pair_ij, pair_f, pair_los, counts)
+    # 7. The conflicts by ownship (a counting sort), then by intruder within each ownship.
+    found = counts[0]
+    for k in range(n + 1):
+        row[k] = 0
+    for f in range(found):
+        row[pair_ij[0, f] + 1] += 1
+    for k in range(n):
+        row[k + 1] += row[k]
+    for f in range(found):
+        g = row[pair_ij[0, f]]
+        row[pair_ij[0, f]] += 1
+        out_ij[0, g] = pair_ij[0, f]
+        out_ij[1, g] = pair_ij[1, f]
+        for r in range(5):
+            out_f[r, g] = pair_f[r, f]
+        out_los[g] = pair_los[f]
+    for k in range(n, 0, -1):
+        row[k] = row[k - 1]
+    row[0] = 0
+    for k in range(n):
+        for g in range(row[k] + 1, row[k + 1]):  # an ownship's few pairs by intruder (an insertion sort)
+            h = g
+            while h > row[k] and out_ij[1, h - 1] > out_ij[1, h]:
+                for r in range(2):
+                    out_ij[r, h - 1], out_ij[r, h] = out_ij[r, h], out_ij[r, h - 1]
+                for r in range(5):
+                    out_f[r, h - 1], out_f[r, h] = out_f[r, h], out_f[r, h - 1]
+                out_los[h - 1], out_los[h] = out_los[h], out_los[h - 1]
+                h -= 1
 
 
-@jit
-def grid_band_loop(m, good, lat, lon, exhaustive, lat0, lon0, band_h, env_nb, env_band0, band, within, key):  # type: ignore[no-untyped-def]
-    """Every active aircraft's band (counted over all airspaces), its place ``within`` the band, and a sort ``key``.
+class GridWork:
+    """The work arrays of :func:`detect_grid`, kept from call to call, and the grid's last order of the aircraft.
 
-    Within a band the aircraft go by longitude; in an exhaustive airspace (one band) by slot.
-    The key orders them by band and nearly by ``within`` (:func:`sort_bands` makes it exact).
+    Reusing them saves the allocations of every call, and the sort of each call starts from the
+    order of the last one, which the aircraft have barely changed. Any order gives the same result,
+    so one :class:`GridWork` may serve any traffic (it is resized to the airspaces it is given).
     """
-    for k in grid_range(good.shape[0]):
-        if not good[k]:
-            continue
-        e = k // m
-        if exhaustive[e]:
-            band[k] = env_band0[e]
-            within[k] = k - e * m
-            key[k] = env_band0[e] * 1024.0 + within[k] / m
-            continue
-        b = int(math.floor((lat[k] - lat0[e]) / band_h[e]))
-        if b > env_nb[e] - 1:
-            b = env_nb[e] - 1
-        band[k] = env_band0[e] + b
-        within[k] = lon[k]
-        key[k] = band[k] * 1024.0 + (lon[k] - lon0[e]) / 360.0
 
+    def __init__(self) -> None:
+        self.shape = (0, 0)
+        self.n_order = 0
+        self.counts = np.zeros(3, np.int64)
 
-@jit
-def sort_bands(order, band, within):  # type: ignore[no-untyped-def]
-    """Insertion sort of ``order`` by (``band``, ``within``) of its aircraft, in place; fast on a nearly sorted ``order``."""
-    for k in range(1, order.shape[0]):
-        x = order[k]
-        bk = band[x]
-        lk = within[x]
-        j = k - 1
-        while j >= 0 and (band[order[j]] > bk or (band[order[j]] == bk and within[order[j]] > lk)):
-            order[j + 1] = order[j]
-            j -= 1
-        order[j + 1] = x
+    def fit(self, n_envs: int, m: int) -> None:
+        """Size the arrays for ``n_envs`` airspaces of ``m`` slots (the last order is forgotten if the shape changes)."""
+        if self.shape == (n_envs, m):
+            return
+        n = n_envs * m
+        self.shape = (n_envs, m)
+        self.n_order = 0
+        self.env_f = np.empty((5, n_envs))
+        self.env_i = np.empty((4, n_envs), np.int64)
+        cells = n_envs * 3 * (4 * m + 65)  # at most 4 m + 65 bands per airspace, about twice as many layers, and one more cell per band
+        self.cell_start = np.empty(cells + 1, np.int64)
+        self.cell_cos = np.empty(cells)
+        self.cell_info = np.empty((3, cells), np.int64)
+        self.cell_of = np.empty(n, np.int64)
+        self.order = np.empty(n, np.int64)
+        self.spare = np.empty(n, np.int64)
+        self.pcell = np.empty(n, np.int64)
+        self.sorted_state = np.empty((7, n))
+        self.row = np.zeros(n + 1, np.int64)
+        self.reserve(GRID_PAIRS)
 
+    def reserve(self, candidates: int) -> None:
+        """Room for ``candidates`` candidate pairs (and their conflicts, at most two each)."""
+        self.cand = np.empty((2, candidates), np.int64)
+        pairs = 2 * candidates
+        self.pair_ij, self.out_ij = np.empty((2, pairs), np.int64), np.empty((2, pairs), np.int64)
+        self.pair_f, self.out_f = np.empty((5, pairs)), np.empty((5, pairs))
+        self.pair_los, self.out_los = np.empty(pairs, np.bool_), np.empty(pairs, np.bool_)
 
-@jit
-def detect_pairs_loop(own, intruder, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin):  # type: ignore[no-untyped-def]
-    """:func:`detect_pair` of listed ordered pairs (flat aircraft indices); outputs one per pair."""
-    for p in grid_range(own.shape[0]):
-        i = own[p]
-        j = intruder[p]
-        c, lo, q, d, t, dc, ti = detect_pair(
-            lat[i], lon[i], alt[i], gs[i], trk[i], vs[i],
-            lat[j], lon[j], alt[j], gs[j], trk[j], vs[j],
-            rpz, hpz, lookahead,
-        )  # fmt: skip
-        conflict[p] = c
-        los[p] = lo
-        qdr[p] = q
-        dist[p] = d
-        tcpa[p] = t
-        dcpa[p] = dc
-        tin[p] = ti
-
-
-@jit
-def velocity_loop(gs, trk, lat, u, v, cosl):  # type: ignore[no-untyped-def]
-    """Ground velocity east and north [m/s] (as :func:`detect_pair` computes them) and the cosine of latitude clipped at 0."""
-    for k in grid_range(gs.shape[0]):
-        u[k] = gs[k] * math.sin(trk[k] * DEG2RAD)
-        v[k] = gs[k] * math.cos(trk[k] * DEG2RAD)
-        cosl[k] = maximum(math.cos(lat[k] * DEG2RAD), 0.0)
+    @property
+    def evaluated(self) -> int:
+        """How many ordered pairs the last call evaluated with :func:`detect_pair` (both orders of each candidate)."""
+        return 2 * int(self.counts[1])
 
 
 def detect_grid(
@@ -623,89 +912,49 @@ def detect_grid(
     rpz: float = PZ_RADIUS,
     hpz: float = PZ_HEIGHT,
     lookahead: float = LOOKAHEAD,
+    work: GridWork | None = None,
 ) -> ConflictPairs:
-    """The conflicts of :func:`detect`, as pairs, evaluating only the pairs that a grid of latitude bands finds.
+    """The conflicts of :func:`detect`, as pairs, evaluating only the pairs that a grid of cells finds.
 
     The same :func:`detect_pair` evaluates each pair, so the conflicts and their quantities are
-    those of :func:`detect` to the bit; the grid (:func:`grid_scan_loop`, :func:`may_conflict`)
+    those of :func:`detect` to the bit; the grid (:func:`grid_detect_kernel`, :func:`may_conflict`)
     only leaves out pairs that cannot be in conflict, so the work grows about linearly with the
     number of aircraft at a given traffic density. All inputs are shaped (n_envs, n_aircraft).
+
+    Args:
+        lat: Latitude [deg] (the others likewise: :func:`detect`'s).
+        lon: Longitude [deg].
+        alt: Altitude [m].
+        gs: Ground speed [m/s].
+        trk: Track [deg].
+        vs: Vertical speed [m/s].
+        active: The aircraft that exist.
+        rpz: Protected-zone radius [m].
+        hpz: Protected-zone half height [m].
+        lookahead: Look-ahead time [s].
+        work: Work arrays to reuse from call to call (None: new ones); after the call its ``row``
+            gives each aircraft's conflicts (flat index ``k``: entries ``row[k]:row[k + 1]``).
     """
     active = np.ascontiguousarray(active, dtype=np.bool_)
     n_envs, m = active.shape
     lat, lon, alt, gs, trk, vs = (float_array(x, active.shape).reshape(-1) for x in (lat, lon, alt, gs, trk, vs))
-    good = active.reshape(-1)
-    n = good.shape[0]
-    # Per airspace: the reach (largest distance of a pair in conflict), the bands of latitude.
-    exhaustive = np.empty(n_envs, np.bool_)
-    bounds = np.empty((4, n_envs))  # largest ground speed, smallest and largest latitude, smallest longitude
-    grid_bounds_loop(m, good, lat, lon, alt, gs, trk, vs, exhaustive, bounds)
-    gs_max, lat0, lat1, lon0 = bounds
-    reach_deg = ((float(rpz) + 2.0 * gs_max * max(float(lookahead), 0.0)) * (1.0 + GRID_MARGIN_REL) + GRID_MARGIN_M) / R_EARTH * RAD2DEG
-    band_h = np.maximum(reach_deg, (lat1 - lat0) / (4 * m + 64))  # no smaller than the reach, nor many more bands than aircraft
-    env_nb = np.where(exhaustive, 1, np.floor((lat1 - lat0) / band_h).astype(np.int64) + 1)
-    env_band0 = np.zeros(n_envs, np.int64)
-    np.cumsum(env_nb[:-1], out=env_band0[1:])
-    band, within, key = np.empty(n, np.int64), np.empty(n), np.empty(n)
-    grid_band_loop(m, good, lat, lon, exhaustive, lat0, lon0, band_h, env_nb, env_band0, band, within, key)
-    # The smallest cosine of latitude over each band (its edge farthest from the equator).
-    n_bands = int(env_nb.sum())
-    band_env = np.repeat(np.arange(n_envs), env_nb)
-    edge_lo = lat0[band_env] + (np.arange(n_bands) - env_band0[band_env]) * band_h[band_env]
-    edge = np.minimum(np.maximum(np.abs(edge_lo), np.abs(edge_lo + band_h[band_env])), 90.0)
-    band_cos = np.maximum(np.cos(edge * DEG2RAD), 0.0)
-    # The aircraft by band, then longitude: a quick sort of a key close to that order, made exact by an insertion sort.
-    members = np.flatnonzero(good)
-    order = members[np.argsort(key[members])]
-    sort_bands(order, band, within)
-    s_band = np.ascontiguousarray(band[order])
-    band_start = np.searchsorted(s_band, np.arange(n_bands + 1)).astype(np.int64)
-    # The state in the grid's order, so that the scans read memory in sequence.
-    s_lat, s_lon, s_alt, s_gs, s_trk, s_vs = (x[order] for x in (lat, lon, alt, gs, trk, vs))
-    p_all = order.size
-    u, v, cosl = np.empty(p_all), np.empty(p_all), np.empty(p_all)
-    velocity_loop(s_gs, s_trk, s_lat, u, v, cosl)
-    rpz, hpz, lookahead = float(rpz), float(hpz), float(lookahead)
-    counts = np.zeros(p_all, np.int64)
-    args = (
-        m,
-        order,
-        s_band,
-        env_band0,
-        env_nb,
-        exhaustive,
-        reach_deg,
-        band_start,
-        band_cos,
-        s_lat,
-        s_lon,
-        s_alt,
-        s_vs,
-        u,
-        v,
-        cosl,
-        rpz,
-        hpz,
-        lookahead,
-    )
-    partners = np.empty((p_all, GRID_PARTNERS), np.int64)
-    grid_scan_loop(*args, counts, partners)
-    most = int(counts.max(initial=0))
-    if most > GRID_PARTNERS:  # a crowded airspace: scan again with room for all
-        partners = np.empty((p_all, most), np.int64)
-        grid_scan_loop(*args, counts, partners)
-    intruder = partners[np.arange(partners.shape[1]) < counts[:, None]]
-    first = np.repeat(np.arange(p_all, dtype=np.int64), counts)
-    own, intruder = np.concatenate((first, intruder)), np.concatenate((intruder, first))  # both orders of each pair
-    p = own.size
-    conflict, los = np.empty(p, np.bool_), np.empty(p, np.bool_)
-    qdr, dist, tcpa, dcpa, tin = (np.empty(p) for _ in range(5))
-    detect_pairs_loop(own, intruder, s_lat, s_lon, s_alt, s_gs, s_trk, s_vs, rpz, hpz, lookahead, conflict, los, qdr, dist, tcpa, dcpa, tin)
-    sel = np.flatnonzero(conflict)
-    own, intruder = order[own[sel]], order[intruder[sel]]
-    sort = np.lexsort((intruder, own))
-    own, sel = own[sort], sel[sort]
-    return ConflictPairs(m, own // m, own % m, intruder[sort] % m, los[sel], qdr[sel], dist[sel], tcpa[sel], dcpa[sel], tin[sel])
+    w = GridWork() if work is None else work
+    w.fit(n_envs, m)
+    prev, out = w.order[: w.n_order], w.spare
+    while True:
+        grid_detect_kernel(
+            m, active.reshape(-1), lat, lon, alt, gs, trk, vs, float(rpz), float(hpz), float(lookahead), prev, w.env_f, w.env_i,
+            w.cell_start, w.cell_cos, w.cell_info, w.cell_of, out, w.pcell, w.sorted_state,
+            w.cand, w.pair_ij, w.pair_f, w.pair_los, w.row, w.out_ij, w.out_f, w.out_los, w.counts,
+        )  # fmt: skip
+        if w.counts[1] <= w.cand.shape[1]:
+            break
+        w.reserve(2 * int(w.counts[1]))  # a crowded airspace: again with room for all
+    found = int(w.counts[0])
+    w.order, w.spare, w.n_order = out, w.order, int(w.counts[2])
+    own = w.out_ij[0, :found].copy()
+    f = w.out_f[:, :found]
+    return ConflictPairs(m, own // m, own % m, w.out_ij[1, :found] % m, w.out_los[:found].copy(), *(f[r].copy() for r in range(5)))
 
 
 def detect_pairs(
@@ -721,14 +970,15 @@ def detect_pairs(
     lookahead: float = LOOKAHEAD,
     detector: str = "CSTATEBASED",
     python_geo: bool = False,
+    work: GridWork | None = None,
 ) -> ConflictPairs:
-    """The conflict pairs of ``detector``: CSTATEBASED by :func:`detect_grid`, STATEBASED by :func:`detect_statebased` (all pairs).
+    """The conflict pairs of ``detector``: CSTATEBASED by :func:`detect_grid` (with ``work``), STATEBASED by :func:`detect_statebased` (all pairs).
 
     Raises:
         ValueError: Another detector name.
     """
     if detector == "CSTATEBASED":
-        return detect_grid(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead)
+        return detect_grid(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, work)
     return ConflictPairs.from_dense(detect_with(detector, lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead, python_geo))
 
 
@@ -841,6 +1091,7 @@ __all__ = [
     "ConflictPairs",
     "Conflicts",
     "GRID_MIN_AIRCRAFT",
+    "GridWork",
     "PAIR_SEARCHES",
     "DETECTORS",
     "create_conflicts",

@@ -56,7 +56,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import tas2cas
-from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, ConflictPairs, Conflicts, detect_pairs, detect_with, float_array
+from bluesky_gym.core.conflicts import (
+    DETECTORS,
+    LOOKAHEAD,
+    PZ_HEIGHT,
+    PZ_RADIUS,
+    ConflictPairs,
+    Conflicts,
+    GridWork,
+    detect_pairs,
+    detect_with,
+    float_array,
+)
 from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.scalar import RAD, divide, maximum, minimum, mod, sign
 from bluesky_gym.core.units import R_EARTH
@@ -424,59 +435,49 @@ def mvp_loop(  # type: ignore[no-untyped-def]
 
 
 @jit
+def mvp_listed(  # type: ignore[no-untyped-def]
+    i, row, intruder, qdr, dist, tcpa, tlos, alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin, vsmax,
+    rpz_m, hpz_m, dtlook, mode, horizontal,
+):  # fmt: skip
+    """MVP of aircraft ``i`` (flat index) from its listed conflicts ``row[i]:row[i + 1]`` (by rising intruder), summed in :func:`mvp_loop`'s order.
+
+    Returns:
+        Resolution track, ground speed, vertical speed, altitude (:func:`mvp_aircraft`), then the
+        summed change east, north, up and the shortest vertical solving time.
+    """
+    dve = 0.0
+    dvn = 0.0
+    dvz = 0.0
+    tsol = NO_VERTICAL_SOLUTION
+    for p in range(row[i], row[i + 1]):
+        j = intruder[p]
+        dve, dvn, dvz, tsol = mvp_add_pair(
+            dve, dvn, dvz, tsol, qdr[p], dist[p], tcpa[p], tlos[p],
+            alt[i], alt[j], gseast[i], gseast[j], gsnorth[i], gsnorth[j], vs[i], vs[j], rpz_m, hpz_m, dtlook,
+        )  # fmt: skip
+    t, g, v, a = mvp_aircraft(
+        dve, dvn, dvz, tsol, alt[i], gseast[i], gsnorth[i], vs[i], trk[i], gs[i], selalt[i], ap_vs[i],
+        vmin[i], vmax[i], vsmin[i], vsmax[i], dtlook, mode, horizontal,
+    )  # fmt: skip
+    return t, g, v, a, dve, dvn, dvz, tsol
+
+
+@jit
 def mvp_pairs_loop(  # type: ignore[no-untyped-def]
-    row,
-    intruder,
-    qdr,
-    dist,
-    tcpa,
-    tlos,
-    active,
-    alt,
-    gseast,
-    gsnorth,
-    vs,
-    trk,
-    gs,
-    selalt,
-    ap_vs,
-    vmin,
-    vmax,
-    vsmin,
-    vsmax,
-    rpz_m,
-    hpz_m,
-    dtlook,
-    mode,
-    horizontal,
-    out_trk,
-    out_gs,
-    out_vs,
-    out_alt,
-    out_dv,
-    out_tsolv,
-):
+    row, intruder, qdr, dist, tcpa, tlos, active, alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin, vsmax,
+    rpz_m, hpz_m, dtlook, mode, horizontal, out_trk, out_gs, out_vs, out_alt, out_dv, out_tsolv,
+):  # fmt: skip
     """:func:`mvp_loop` from a list of conflict pairs: aircraft ``k``'s (flat index) are ``row[k]:row[k + 1]``, by rising intruder.
 
     The state and the outputs are flat (one entry per aircraft; ``out_dv`` (aircraft, 3)); the
-    sums run in the order of :func:`mvp_loop`, so the results are the same to the bit.
+    sums run in the order of :func:`mvp_loop` (:func:`mvp_listed`), so the results are the same to the bit.
     """
     for i in grid_range(active.shape[0]):
         if not active[i]:
             continue
-        dve = 0.0
-        dvn = 0.0
-        dvz = 0.0
-        tsol = NO_VERTICAL_SOLUTION
-        for p in range(row[i], row[i + 1]):
-            j = intruder[p]
-            dve, dvn, dvz, tsol = mvp_add_pair(
-                dve, dvn, dvz, tsol, qdr[p], dist[p], tcpa[p], tlos[p],
-                alt[i], alt[j], gseast[i], gseast[j], gsnorth[i], gsnorth[j], vs[i], vs[j], rpz_m, hpz_m, dtlook,
-            )  # fmt: skip
-        t, g, v, a = mvp_aircraft(
-            dve, dvn, dvz, tsol, alt[i], gseast[i], gsnorth[i], vs[i], trk[i], gs[i], selalt[i], ap_vs[i],
-            vmin[i], vmax[i], vsmin[i], vsmax[i], dtlook, mode, horizontal,
+        t, g, v, a, dve, dvn, dvz, tsol = mvp_listed(
+            i, row, intruder, qdr, dist, tcpa, tlos, alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin, vsmax,
+            rpz_m, hpz_m, dtlook, mode, horizontal,
         )  # fmt: skip
         out_trk[i] = t
         out_gs[i] = g
@@ -603,9 +604,10 @@ def _mvp_inputs(
     state: ResolutionState, settings: ResolutionSettings | None, vsmin: ArrayLike | None, vsmax: ArrayLike | None
 ) -> tuple[ResolutionSettings, BoolArray, list[Array]]:
     """The settings, ``active`` and the per-aircraft arrays :func:`mvp_loop` reads after it, ``alt`` .. ``vsmax`` (n_envs, n_aircraft)."""
-    default = aircraft_performance(DEFAULT_TYPE)
-    vsmin = default.vsmin if vsmin is None else vsmin
-    vsmax = default.vsmax if vsmax is None else vsmax
+    if vsmin is None or vsmax is None:
+        default = aircraft_performance(DEFAULT_TYPE)
+        vsmin = default.vsmin if vsmin is None else vsmin
+        vsmax = default.vsmax if vsmax is None else vsmax
     active = np.ascontiguousarray(state.active, dtype=np.bool_)
 
     floats = (state.alt, state.gseast, state.gsnorth, state.vs, state.trk, state.gs, state.selalt, state.ap_vs, state.vmin, state.vmax, vsmin, vsmax)
@@ -706,6 +708,77 @@ def resume_loop(pairs, lat, lon, gseast, gsnorth, trk, active, rpz, bounce_dist,
                                trk[e, i], trk[e, j], rpz, bounce_dist):  # fmt: skip
                     keep[e, i, j] = True
                     asas[e, i] = True
+
+
+@jit
+def asas_pairs_kernel(  # type: ignore[no-untyped-def]
+    m, row, intruder, qdr, dist, tcpa, tlos, active, alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin, vsmax,
+    rpz_m, hpz_m, dtlook, mode, horizontal, held, keys, lat, lon, rpz, bounce_dist, kept, follow, ended, counts,
+):  # fmt: skip
+    """One ASAS update of MVP from the conflicts as pairs: the resolution, BlueSky's bookkeeping and ``resumenav`` in one pass.
+
+    The conflicts are :func:`mvp_pairs_loop`'s (aircraft ``k``'s, flat index, are
+    ``row[k]:row[k + 1]`` by rising intruder; the state flat). Per airspace of ``m`` aircraft with a
+    conflict, ``held`` (4, aircraft: track, ground speed, vertical speed, altitude) takes MVP's
+    resolution of every aircraft (NaN where none is active), as :func:`renew_loop`; elsewhere it
+    keeps the last one. The pairs being resolved, ``keys`` (sorted keys ``own * m + intruder``
+    slot, ``own`` the flat ownship), and the current conflicts are merged, and :func:`resume_pair`
+    decides which go on: those go to ``kept`` (sorted; ``counts[0]`` of them), their ownships
+    ``follow``, and ``ended`` marks the active aircraft that had a pair and follow none.
+    """
+    n = active.shape[0]
+    for e in range(n // m):
+        if row[e * m] == row[(e + 1) * m]:
+            continue  # no conflict in the airspace: the last resolution stays
+        for i in range(e * m, (e + 1) * m):
+            if not active[i]:
+                for r in range(4):
+                    held[r, i] = math.nan
+                continue
+            t, g, v, a, _, _, _, _ = mvp_listed(
+                i, row, intruder, qdr, dist, tcpa, tlos, alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin, vsmax,
+                rpz_m, hpz_m, dtlook, mode, horizontal,
+            )  # fmt: skip
+            held[0, i] = t
+            held[1, i] = g
+            held[2, i] = v
+            held[3, i] = a
+    for i in range(n):
+        follow[i] = False
+        ended[i] = False  # here: whether the aircraft has a pair (made "ended" at the end)
+    # The union of the pairs being resolved and the conflicts, both sorted, each pair through resumenav.
+    a = 0
+    b = 0
+    i = 0
+    done = 0
+    while a < keys.shape[0] or i < n:
+        if i < n and b >= row[i + 1]:
+            i += 1
+            continue
+        new = i * m + intruder[b] % m if i < n else -1
+        if a < keys.shape[0] and (i >= n or keys[a] <= new):
+            key = keys[a]
+            if i < n and keys[a] == new:
+                b += 1
+            a += 1
+        else:
+            key = new
+            b += 1
+        own = key // m
+        other = (own // m) * m + key % m
+        ended[own] = True
+        if (
+            active[own]
+            and active[other]
+            and resume_pair(lat[own], lon[own], lat[other], lon[other], gseast[own], gseast[other], gsnorth[own], gsnorth[other],
+                            trk[own], trk[other], rpz, bounce_dist)
+        ):  # fmt: skip
+            kept[done] = key
+            done += 1
+            follow[own] = True
+    counts[0] = done
+    for i in range(n):
+        ended[i] = ended[i] and not follow[i] and active[i]
 
 
 @jit
@@ -919,6 +992,7 @@ class ConflictResolver:
             raise ValueError(f"RESO {self.name} needs pair_search {allowed}, got {pair_search!r}")
         self.pair_search = pair_search
         self.pair_keys = np.zeros(0, np.int64)
+        self.grid_work = GridWork()  # the grid's work arrays, kept from update to update
         self.detector = detector
         self.python_geo = python_geo
         self.settings = settings or ResolutionSettings()
@@ -1028,15 +1102,20 @@ class ConflictResolver:
         return vsmin, vsmax
 
     def _advance_pairs(self, state: TypedResolutionState) -> tuple[BoolArray, BoolArray]:
-        """:meth:`advance` with the conflicts and the pairs being resolved as lists (``pair_search="grid"``)."""
+        """:meth:`advance` with the conflicts and the pairs being resolved as lists (``pair_search="grid"``).
+
+        The method's :meth:`resolve_pairs`, then BlueSky's bookkeeping; MVP runs all of it in one kernel
+        (:meth:`MVPResolver._advance_pairs`).
+        """
         active = np.ascontiguousarray(state.active, dtype=np.bool_)
         n_envs, m = active.shape
         if self.held.shape != (4, n_envs, m):
             self.pair_keys = np.zeros(0, np.int64)
             self.held = np.full((4, n_envs, m), np.nan)
         c = detect_pairs(
-            state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, active, self.rpz, self.hpz, self.lookahead, self.detector, self.python_geo
-        )
+            state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, active, self.rpz, self.hpz, self.lookahead, self.detector,
+            self.python_geo, self.grid_work,
+        )  # fmt: skip
         vsmin, vsmax = self._limits(state)
         res = self.resolve_pairs(state, c, vsmin, vsmax)
         # BlueSky's bookkeeping (renew_loop): airspaces with a conflict take the new resolution of
@@ -1096,6 +1175,43 @@ class MVPResolver(ConflictResolver):
     def resolve_pairs(self, state: TypedResolutionState, conflicts: ConflictPairs, vsmin: ArrayLike, vsmax: ArrayLike) -> Resolution:
         """:func:`mvp_pairs` with this resolver's settings and zone."""
         return mvp_pairs(state, conflicts, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
+
+    def _advance_pairs(self, state: TypedResolutionState) -> tuple[BoolArray, BoolArray]:
+        """:meth:`ConflictResolver._advance_pairs` for MVP in one kernel (:func:`asas_pairs_kernel`): the same resolutions and pairs."""
+        active = np.ascontiguousarray(state.active, dtype=np.bool_)
+        n_envs, m = active.shape
+        n = n_envs * m
+        if self.held.shape != (4, n_envs, m):
+            self.pair_keys = np.zeros(0, np.int64)
+            self.held = np.full((4, n_envs, m), np.nan)
+        c = detect_pairs(
+            state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, active, self.rpz, self.hpz, self.lookahead, self.detector,
+            self.python_geo, self.grid_work,
+        )  # fmt: skip
+        if self.detector == "CSTATEBASED":  # the grid's own sorted buffers
+            w = self.grid_work
+            row, intruder, qdr, dist, tcpa, tlos = w.row, w.out_ij[1], w.out_f[0], w.out_f[1], w.out_f[2], w.out_f[4]
+        else:
+            row = np.zeros(n + 1, np.int64)
+            np.cumsum(np.bincount(c.flat_own, minlength=n), out=row[1:])
+            intruder = c.env * m + c.intruder
+            qdr, dist, tcpa, tlos = c.qdr, c.dist, c.tcpa, c.tlos
+        vsmin, vsmax = self._limits(state)
+        s, _, floats = _mvp_inputs(state, self.settings, vsmin, vsmax)
+        held = np.array(self.held, dtype=np.float64, order="C")
+        kept = np.empty(self.pair_keys.size + c.env.size, np.int64)
+        follow, ended = np.empty(n, np.bool_), np.empty(n, np.bool_)
+        alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin_a, vsmax_a = (x.reshape(-1) for x in floats)
+        lat, lon = (float_array(x, active.shape).reshape(-1) for x in (state.lat, state.lon))
+        counts = np.zeros(1, np.int64)
+        zone = (self.rpz * s.resofach, self.hpz * s.resofacv, self.lookahead, s.mode, 1.0 if s.swresohoriz else 0.0)
+        asas_pairs_kernel(
+            m, row, intruder, qdr, dist, tcpa, tlos, active.reshape(-1), alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax,
+            vsmin_a, vsmax_a, *zone, held.reshape(4, n), self.pair_keys, lat, lon, self.rpz, self.rpz * s.resofach, kept, follow, ended, counts,
+        )  # fmt: skip
+        self.held = held
+        self.pair_keys = kept[: counts[0]]
+        return follow.reshape(n_envs, m), ended.reshape(n_envs, m)
 
 
 __all__ = [

@@ -23,7 +23,7 @@ from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import vcasormach
-from bluesky_gym.core.conflicts import create_conflicts, detect_loop, resolve_pair_search
+from bluesky_gym.core.conflicts import GridWork, create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
 from bluesky_gym.core.resolution import AsasConfig, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
 from bluesky_gym.core.resolvers import resolver_class
@@ -169,6 +169,8 @@ class Simulator(AircraftState):
         self._reso_keys = np.zeros(0, np.int64)
         self._reso_held = np.full((4, self.n_envs, self.max_aircraft), np.nan)
         self._reso_following = np.zeros((self.n_envs, self.max_aircraft), dtype=np.bool_)  # who follows (methods that make everyone follow)
+        # The grid's work arrays per ASAS configuration (a cache: any content gives the same flight).
+        self._grid_works: dict[AsasConfig, GridWork] = {}
 
     def _types_loaded(self) -> tuple[list[pf.AircraftPerformance], Array]:
         if self._performance is None:
@@ -672,6 +674,7 @@ class Simulator(AircraftState):
                 groups.setdefault(config, []).append(e)
         for config, members in groups.items():  # airspaces with the same settings resolve in one batch
             envs = np.array(sorted(members), dtype=np.int64)
+            sel: slice | IntArray = slice(None) if envs.size == self.n_envs else envs  # views where the group is every airspace
             view = _AirspaceView(self, envs)
             resolver = resolver_class(config.method)(
                 config.settings,
@@ -684,19 +687,20 @@ class Simulator(AircraftState):
                 python_geo=self.geo == "python",
                 pair_search=self.pair_search,
             )
-            resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
-            resolver.following = self._reso_following[envs]
+            resolver.pairs, resolver.held = self._reso_pairs[sel], self._reso_held[:, sel]
+            resolver.following = self._reso_following[sel]
             if self.pair_search == "grid":
                 resolver.pair_keys = self._group_keys(envs)
+                resolver.grid_work = self._grid_works.setdefault(config, resolver.grid_work)
             group_follow, group_ended = resolver.advance(view)
-            self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
-            self._reso_following[envs] = resolver.following if resolver.follow_all else False
+            self._reso_pairs[sel], self._reso_held[:, sel] = resolver.pairs, resolver.held
+            self._reso_following[sel] = resolver.following if resolver.follow_all else False
             if self.pair_search == "grid":
                 self._store_group_keys(envs, resolver.pair_keys)
-            follow[envs] = group_follow
-            targets[:, envs] = resolution_targets(resolver.held)
+            follow[sel] = group_follow
+            targets[:, sel] = resolution_targets(resolver.held)
             # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
-            for k, s in zip(*np.nonzero(group_ended & (self.nwp[envs] > 0))):
+            for k, s in zip(*np.nonzero(group_ended & (self.nwp[sel] > 0))):
                 e = int(envs[k])
                 self.iactwp[e, s] = self._find_active(e, int(s))
                 self._direct(np.array([e]), np.array([s]))

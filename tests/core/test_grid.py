@@ -99,14 +99,40 @@ def test_grid_with_non_finite_and_out_of_range_states_evaluates_every_pair() -> 
     assert empty.env.size == 0
 
 
-def test_grid_evaluates_far_fewer_pairs_than_all(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_grid_evaluates_far_fewer_pairs_than_all() -> None:
     t = traffic(np.random.default_rng(3), 1, 2000, 0.0, 0.0, 8.0, 8.0)
-    evaluated: list[int] = []
-    loop = cd.detect_pairs_loop
-    monkeypatch.setattr(cd, "detect_pairs_loop", lambda own, *rest: (evaluated.append(own.size), loop(own, *rest))[1])
-    got = detect_grid(*args(t))
+    work = cd.GridWork()
+    got = detect_grid(*args(t), work=work)
     assert_same_pairs(got, ConflictPairs.from_dense(detect(*args(t))))
-    assert got.env.size > 0 and evaluated[0] < 0.01 * 2000 * 1999
+    assert got.env.size > 0 and 0 < work.evaluated < 0.01 * 2000 * 1999
+
+
+def test_grid_layers_of_altitude_and_reused_work_arrays_give_the_same_pairs() -> None:
+    """Level traffic (one layer of altitude per vertical reach), then climbing traffic, several airspaces, through one GridWork.
+
+    Each call starts from the order of the last one, of other traffic or of fewer aircraft: the
+    pairs do not depend on it; a crowded airspace outgrows the first room for conflicts.
+    """
+    rng = np.random.default_rng(21)
+    work = cd.GridWork()
+    for case in range(6):
+        t = traffic(rng, 2, 400, 0.0, 0.0, 2.0, 2.0)
+        t["alt"] = rng.uniform(6000.0, 12000.0, t["alt"].shape)
+        if case % 2 == 0:
+            t["vs"][...] = 0.0  # about 20 layers of altitude
+        if case == 4:
+            t["lat"][1] = rng.uniform(-0.05, 0.05, 400)  # crowded: more conflicts than the first room
+            t["lon"][1] = rng.uniform(-0.05, 0.05, 400)
+            t["alt"][1] = 9000.0
+        if case == 5:
+            t["active"][0, :300] = False
+        want = ConflictPairs.from_dense(detect(*args(t)))
+        assert want.env.size > 0
+        got = detect_grid(*args(t), work=work)
+        assert_same_pairs(got, want)
+        row = work.row[: t["active"].size + 1]
+        np.testing.assert_array_equal(np.diff(row), np.bincount(got.flat_own, minlength=t["active"].size))
+    assert work.cand.shape[1] > cd.GRID_PAIRS
 
 
 def test_mvp_from_pairs_is_mvp_to_the_bit() -> None:
