@@ -34,8 +34,8 @@ the same fixes to BlueSky as monkeypatches):
    ("cannot reshape array of size 9 into shape (3,)"). Fix: ``geo.qdrdist``, one value per pair.
 2. ``hsep = conf.rpz``: the plugin was written when the protected-zone radius was one number;
    in 1.1.1 ``conf.rpz`` is an array with one radius per aircraft, and the comparison with the
-   per-pair distances fails to broadcast ("operands could not be broadcast together with shapes
-   (6,) (4,)"). Fix: the default radius ``conf.rpz_def`` (``ZONER``), the number the name held
+   per-pair distances fails ("operands could not be broadcast together with shapes (6,) (4,)";
+   with as many pairs as aircraft, the masked assignment of the radii fails instead). Fix: the default radius ``conf.rpz_def`` (``ZONER``), the number the name held
    before; per-aircraft zones (``ZONER r acid``) are not used by SSD.
 
 Priority rules: BlueSky's default (``PRIORULES`` never given: an empty priority code) and ``RS1``
