@@ -18,9 +18,18 @@ what ``RESO SSD`` flies:
 
 * the resolution velocity is stored in float32 (the plugin's ``asase``/``asasn`` arrays), so the
   track and ground speed of a resolved aircraft are float32 values;
+* the resolution is the closest point on the *edges* of the attainable set, also when the current
+  velocity is conflict-free already or outside the ring (an aircraft in conflict alone within
+  ADS-B range moves to the nearest circle of the ring);
 * the track of a resolved aircraft is ``atan2`` of that velocity, in (-180, 180] deg, and an
   aircraft without a resolution gets its *heading* back (not its track) and its ground speed;
-* the speed is capped to the CAS envelope ``[vmin, vmax]`` although it is a ground speed (as MVP);
+* the pair (i, j), i < j, is placed by the WGS-84 bearing and distance from i to j; aircraft j
+  sees the mirror image (bearing + 180 deg), not the bearing from j to i;
+* the ring is the CAS envelope ``[vmin, vmax]`` taken as ground speeds, and the resolution speed
+  is capped to it (as MVP);
+* an obstacle triangle reaches ``2 vmax / cos(alpha)`` from its apex (the other aircraft's
+  velocity): an intruder whose ground speed exceeds the ownship's ``vmax`` (high altitudes) may
+  leave part of the ring uncovered that still leads into its zone;
 * the vertical speed and altitude are the aircraft's own (the plugin resolves horizontally only).
 
 BlueSky 1.1.1's plugin does not run: it crashes on its first resolution. Two one-line fixes make
@@ -35,8 +44,9 @@ the same fixes to BlueSky as monkeypatches):
 2. ``hsep = conf.rpz``: the plugin was written when the protected-zone radius was one number;
    in 1.1.1 ``conf.rpz`` is an array with one radius per aircraft, and the comparison with the
    per-pair distances fails ("operands could not be broadcast together with shapes (6,) (4,)";
-   with as many pairs as aircraft, the masked assignment of the radii fails instead). Fix: the default radius ``conf.rpz_def`` (``ZONER``), the number the name held
-   before; per-aircraft zones (``ZONER r acid``) are not used by SSD.
+   with as many pairs as aircraft, the masked assignment of the radii fails instead). Fix: the
+   default radius ``conf.rpz_def`` (``ZONER``), the number the name held before; per-aircraft
+   zones (``ZONER r acid``) are not used by SSD.
 
 Priority rules: BlueSky's default (``PRIORULES`` never given: an empty priority code) and ``RS1``
 (shortest way out, the same resolution) are supported; the other codes (RS2..RS9: turning
@@ -84,7 +94,8 @@ def require_pyclipper() -> ModuleType:
         import pyclipper
     except ImportError as exc:
         raise missing_extra("SSD conflict resolution needs pyclipper", "ssd") from exc
-    return pyclipper
+    module: ModuleType = pyclipper
+    return module
 
 
 def check_priority(priocode: str) -> str:

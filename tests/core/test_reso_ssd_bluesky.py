@@ -31,7 +31,7 @@ pytest.importorskip("bluesky")
 pytest.importorskip("pyclipper")
 
 from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
-from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, detect
+from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, detect
 from bluesky_gym.core.reso_ssd import ssd
 from bluesky_gym.core.resolution import Resolution, ResolutionSettings
 from bluesky_gym.core.units import FT, KTS, NM
