@@ -771,16 +771,9 @@ def detect_statebased(
     (n_envs, n_aircraft).
     """
     n = lat.shape[-1]
-    upper = np.triu(np.ones((n, n), dtype=bool), 1)
     eye = np.eye(n)
     with np.errstate(all="ignore"):
-        if python_geo:
-            qdr, dist_nm = geo.kwikqdrdist_matrix_python(lat, lon)
-        else:
-            q_ij, d_ij = geo.kwikqdrdist(lat[..., :, None], lon[..., :, None], lat[..., None, :], lon[..., None, :])
-            qdr = np.where(upper, q_ij, np.swapaxes(q_ij, -1, -2))  # the matrix form copies i -> j into (j, i)
-            qdr = np.where(eye > 0, 0.0, qdr)
-            dist_nm = np.where(eye > 0, 0.0, np.where(upper, d_ij, np.swapaxes(d_ij, -1, -2)))
+        qdr, dist_nm = geo.kwikqdrdist_matrix(lat, lon, python_geo)
         dist = dist_nm * NM + SELF_PAIR * eye
         qdrrad = np.radians(qdr)
         dx = dist * np.sin(qdrrad)

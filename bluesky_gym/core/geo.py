@@ -239,6 +239,33 @@ def kwikqdrdist_matrix_python(lat: Array, lon: Array) -> tuple[Array, Array]:
     return qdr, dist
 
 
+def kwikqdrdist_matrix(lat: Array, lon: Array, python_geo: bool = False) -> tuple[Array, Array]:
+    """BlueSky 1.1.1's ``geo.kwikqdrdist_matrix`` of every ordered pair (i, j) of each airspace, as its STATEBASED detection calls it.
+
+    The compiled form (BlueSky's default, ``python_geo=False``) computes each pair once, for
+    i < j, and copies it into (j, i): the pair (i, j) with i > j gets the bearing j -> i. The Python
+    form (:func:`kwikqdrdist_matrix_python`) gives every pair its own bearing. The diagonal is 0.
+
+    Args:
+        lat: (..., n) latitudes [deg].
+        lon: (..., n) longitudes [deg].
+        python_geo: BlueSky's Python geo functions instead of its compiled ones.
+
+    Returns:
+        Bearing [deg] and distance [NM], each (..., n, n).
+    """
+    if python_geo:
+        return kwikqdrdist_matrix_python(lat, lon)
+    n = lat.shape[-1]
+    upper = np.triu(np.ones((n, n), dtype=bool), 1)
+    eye = np.eye(n) > 0
+    q_ij, d_ij = kwikqdrdist(lat[..., :, None], lon[..., :, None], lat[..., None, :], lon[..., None, :])
+    qdr = np.where(upper, q_ij, np.swapaxes(q_ij, -1, -2))  # the matrix form copies i -> j into (j, i)
+    qdr = np.where(eye, 0.0, qdr)
+    dist_nm = np.where(eye, 0.0, np.where(upper, d_ij, np.swapaxes(d_ij, -1, -2)))
+    return qdr, dist_nm
+
+
 def kwikpos(latd1: ArrayLike, lond1: ArrayLike, qdr: ArrayLike, dist: ArrayLike) -> tuple[Array, Array]:
     """BlueSky's Python ``geo.kwikpos`` (see :func:`kwikpos_s`), broadcast: (lat, lon) [deg]."""
     return _pairs(4, latd1, lond1, qdr, dist)  # type: ignore[return-value]

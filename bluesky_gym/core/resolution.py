@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -149,16 +149,18 @@ class ResolutionSettings:
 
 @dataclass(frozen=True)
 class AsasConfig:
-    """BlueSky's ASAS switches for one airspace: conflict detection, MVP resolution and their zones.
+    """BlueSky's ASAS switches for one airspace: conflict detection, the resolution method and their zones.
 
     Attributes:
         detector: ``ASAS``/``CDMETHOD``: ``"STATEBASED"`` (what ``ASAS ON`` selects),
             ``"CSTATEBASED"``, or None (off, the default).
-        resolution: ``RESO MVP`` (True) or ``RESO OFF`` (False, the default).
+        resolution: Resolution on (True: ``RESO method``) or ``RESO OFF`` (False, the default).
         settings: ``RMETHH``, ``RMETHV``, ``RFACH``, ``RFACV``.
         rpz: ``ZONER``: protected-zone radius [m].
         hpz: ``ZONEDH``: protected-zone half height [m].
         lookahead: ``DTLOOK``: look-ahead time [s].
+        method: The resolution method's ``RESO`` name, a key of
+            :data:`bluesky_gym.core.resolvers.RESOLVERS` (``"MVP"``, the default, ``"EBY"``, ``"SWARM"``).
     """
 
     detector: str | None = None
@@ -167,10 +169,11 @@ class AsasConfig:
     rpz: float = PZ_RADIUS
     hpz: float = PZ_HEIGHT
     lookahead: float = LOOKAHEAD
+    method: str = "MVP"
 
     @property
     def resolving(self) -> bool:
-        """Whether MVP changes the flight: detection on and ``RESO MVP``."""
+        """Whether resolution changes the flight: detection on and ``RESO method``."""
         return self.detector is not None and self.resolution
 
 
@@ -839,14 +842,23 @@ class ResolutionCommand:
     ended: BoolArray  # the aircraft's last resolution pair ended in this update (BlueSky then sends it DIRECT to its active waypoint)
 
 
-class MVPResolver:
-    """MVP as BlueSky's ASAS runs it, for batches of airspaces: detection, resolution, and when to stop.
+class ConflictResolver:
+    """A conflict-resolution method as BlueSky's ASAS runs it, for batches of airspaces: detection, resolution, and when to stop.
+
+    This is BlueSky's ``ConflictResolution.update`` and ``resumenav``, shared by every method
+    (``RESO MVP``, ``RESO EBY``, ``RESO SWARM``, ...); a method is a subclass that gives
+    :meth:`resolve` (and, for ``pair_search="grid"``, :meth:`resolve_pairs`): BlueSky's
+    ``resolve(conf, ownship, intruder)``, the resolution track, speed, vertical speed and altitude
+    of every aircraft from the conflict picture. The methods are registered by their ``RESO``
+    name in :data:`bluesky_gym.core.resolvers.RESOLVERS`.
 
     Each :meth:`update` detects the conflicts of the current state (:func:`~bluesky_gym.core.conflicts.detect`),
-    computes :func:`mvp` and keeps BlueSky's bookkeeping per airspace: the resolution values are
-    renewed whenever the airspace has a conflict (BlueSky computes them for every aircraft then;
-    an aircraft without a conflict of its own gets its current velocity) and kept otherwise, and an
-    aircraft follows them while one of its pairs is still being resolved (:func:`resume`).
+    calls :meth:`resolve` and keeps BlueSky's bookkeeping per airspace: the resolution values are
+    renewed whenever the airspace has a conflict (BlueSky computes them for every aircraft then)
+    and kept otherwise, and an aircraft follows them while one of its pairs is still being
+    resolved (:func:`resume`). A method with :attr:`follow_all` (Swarm) also makes every aircraft
+    of the airspace follow its values from each resolution on (BlueSky's ``active.fill(True)``),
+    until its own pairs end.
 
     Args:
         settings: RMETH switches and margins (default: BlueSky's after ``RESO MVP``).
@@ -865,8 +877,16 @@ class MVPResolver:
             list of pairs (:func:`~bluesky_gym.core.conflicts.detect_pairs`, CSTATEBASED searched
             on a grid) and the pairs being resolved as sorted keys ``(env * n + own) * n + intruder``
             (:attr:`pair_keys`), so that memory and time grow about linearly with the number of
-            aircraft. Both give the same resolutions to the bit.
+            aircraft. Both give the same resolutions to the bit. A method that needs every pair
+            (:attr:`pair_searches`) refuses ``"grid"``.
     """
+
+    #: The method's ``RESO`` name.
+    name: ClassVar[str] = ""
+    #: After a resolution every aircraft of the airspace follows it (BlueSky's Swarm: ``active.fill(True)``).
+    follow_all: ClassVar[bool] = False
+    #: The pair searches the method supports.
+    pair_searches: ClassVar[tuple[str, ...]] = ("all-pairs", "grid")
 
     def __init__(
         self,
@@ -885,6 +905,9 @@ class MVPResolver:
             raise ValueError(f"conflict detector {detector!r} not known; choose one of {', '.join(DETECTORS)}")
         if pair_search not in ("all-pairs", "grid"):
             raise ValueError(f"pair_search {pair_search!r} not known; choose 'all-pairs' or 'grid'")
+        if pair_search not in self.pair_searches:
+            allowed = " or ".join(repr(p) for p in self.pair_searches)
+            raise ValueError(f"RESO {self.name} needs pair_search {allowed}, got {pair_search!r}")
         self.pair_search = pair_search
         self.pair_keys = np.zeros(0, np.int64)
         self.detector = detector
@@ -894,6 +917,26 @@ class MVPResolver:
         self.vsmin, self.vsmax = vsmin, vsmax
         self.pairs = np.zeros((0, 0, 0), np.bool_)
         self.held = np.zeros((4, 0, 0))  # trk, gs, vs, alt of the last resolution per airspace
+        self.following = np.zeros((0, 0), np.bool_)  # who followed its resolution after the last update (used with follow_all)
+
+    def resolve(self, state: TypedResolutionState, conflicts: Conflicts, vsmin: ArrayLike, vsmax: ArrayLike) -> Resolution:
+        """The method's resolution of every aircraft from the conflict picture (BlueSky's ``resolve``).
+
+        Args:
+            state: The aircraft state the conflicts were detected in.
+            conflicts: The conflict picture of every pair (zone and look-ahead of this resolver).
+            vsmin: Lower vertical-speed limit of every aircraft [m/s] (scalar or per aircraft).
+            vsmax: Upper vertical-speed limit [m/s].
+
+        Returns:
+            Track, speed, vertical speed and altitude of every active aircraft (what BlueSky's
+            ``cr.trk``, ``cr.tas``, ``cr.vs``, ``cr.alt`` take).
+        """
+        raise NotImplementedError(f"{type(self).__name__} does not implement resolve")
+
+    def resolve_pairs(self, state: TypedResolutionState, conflicts: ConflictPairs, vsmin: ArrayLike, vsmax: ArrayLike) -> Resolution:
+        """:meth:`resolve` from the conflicts as a list of pairs (``pair_search="grid"``); the same results."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement resolve_pairs")
 
     def reset(self, envs: NDArray[np.bool_] | NDArray[np.int64] | None = None) -> None:
         """Forget the resolutions of the airspaces ``envs`` (a boolean mask or indices; all when None)."""
@@ -901,6 +944,7 @@ class MVPResolver:
             self.pairs = np.zeros((0, 0, 0), np.bool_)
             self.held = np.zeros((4, 0, 0))
             self.pair_keys = np.zeros(0, np.int64)
+            self.following = np.zeros((0, 0), np.bool_)
             return
         if self.pair_keys.size:
             m = self.held.shape[2]
@@ -911,6 +955,8 @@ class MVPResolver:
             self.held[:, envs] = np.nan
         if self.pairs.size:
             self.pairs[envs] = False
+        if self.following.size:
+            self.following[envs] = False
 
     def update(self, state: TypedResolutionState) -> ResolutionCommand:
         """Detect, resolve and decide who follows a resolution, from the current state (a :class:`~bluesky_gym.core.physics.Physics`)."""
@@ -943,7 +989,7 @@ class MVPResolver:
             self.python_geo,
         )
         vsmin, vsmax = self._limits(state)
-        res = mvp(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
+        res = self.resolve(state, c, vsmin, vsmax)
         candidates = np.array(self.pairs, dtype=np.bool_, order="C")
         held = np.array(self.held, dtype=np.float64, order="C")
         renew_loop(np.ascontiguousarray(c.conflict, dtype=np.bool_), res.trk, res.gs, res.vs, res.alt, candidates, held)
@@ -951,7 +997,18 @@ class MVPResolver:
         self.pairs, follow = resume(state, candidates, rpz=self.rpz, resofach=self.settings.resofach)
         ended = np.empty(shape, np.bool_)
         ended_loop(candidates, follow, np.ascontiguousarray(state.active, dtype=np.bool_), ended, np.zeros(1, np.bool_))
+        if self.follow_all:
+            follow = self._follow_all(state, follow, np.asarray(candidates.any(axis=-1)), np.asarray(c.conflict.any(axis=(-1, -2))))
         return follow, ended
+
+    def _follow_all(self, state: TypedResolutionState, follow: BoolArray, had: BoolArray, renewed: BoolArray) -> BoolArray:
+        """Who follows with :attr:`follow_all`: ``resumenav`` for aircraft with pairs, everyone after a resolution, else as before."""
+        active = np.asarray(state.active, dtype=np.bool_)
+        if self.following.shape != active.shape:
+            self.following = np.zeros(active.shape, np.bool_)
+        kept = np.where(renewed[:, None], True, self.following)
+        self.following = np.where(had, follow, kept) & active
+        return np.array(self.following)
 
     def _limits(self, state: TypedResolutionState) -> tuple[ArrayLike, ArrayLike]:
         vsmin, vsmax = self.vsmin, self.vsmax
@@ -972,7 +1029,7 @@ class MVPResolver:
             state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, active, self.rpz, self.hpz, self.lookahead, self.detector, self.python_geo
         )
         vsmin, vsmax = self._limits(state)
-        res = mvp_pairs(state, c, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
+        res = self.resolve_pairs(state, c, vsmin, vsmax)
         # BlueSky's bookkeeping (renew_loop): airspaces with a conflict take the new resolution of
         # every aircraft, and the current conflicts join the pairs being resolved.
         renew = np.zeros(n_envs, np.bool_)
@@ -1018,9 +1075,24 @@ class MVPResolver:
             )
 
 
+class MVPResolver(ConflictResolver):
+    """``RESO MVP``: :func:`mvp` (and :func:`mvp_pairs` for ``pair_search="grid"``) under :class:`ConflictResolver`'s bookkeeping."""
+
+    name = "MVP"
+
+    def resolve(self, state: TypedResolutionState, conflicts: Conflicts, vsmin: ArrayLike, vsmax: ArrayLike) -> Resolution:
+        """:func:`mvp` with this resolver's settings and zone."""
+        return mvp(state, conflicts, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
+
+    def resolve_pairs(self, state: TypedResolutionState, conflicts: ConflictPairs, vsmin: ArrayLike, vsmax: ArrayLike) -> Resolution:
+        """:func:`mvp_pairs` with this resolver's settings and zone."""
+        return mvp_pairs(state, conflicts, self.settings, rpz=self.rpz, hpz=self.hpz, lookahead=self.lookahead, vsmin=vsmin, vsmax=vsmax)
+
+
 __all__ = [
     "RESO_FACTOR",
     "AsasConfig",
+    "ConflictResolver",
     "MVPResolver",
     "Resolution",
     "ResolutionCommand",

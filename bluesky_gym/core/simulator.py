@@ -25,7 +25,8 @@ from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
-from bluesky_gym.core.resolution import AsasConfig, MVPResolver, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
+from bluesky_gym.core.resolution import AsasConfig, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
+from bluesky_gym.core.resolvers import resolver_class
 from bluesky_gym.core.state import FIELD_INDEX, FLOAT_FIELDS, NON_FLOAT_STATE, STATE_FIELDS, AircraftState, aircraft_index, checked_index
 from bluesky_gym.core.step import MEMO_COLUMNS, post_kernel, pre_kernel, run_kernel, step_kernel
 from bluesky_gym.core.units import ASAS_INTERVAL, BANK_DEFAULT, G0, NM, NO_VALUE, PERFORMANCE_INTERVAL, WIND_MIN_ALT
@@ -157,6 +158,7 @@ class Simulator(AircraftState):
         self._reso_pairs = np.zeros((self.n_envs, m_pairs, m_pairs), dtype=np.bool_)
         self._reso_keys = np.zeros(0, np.int64)
         self._reso_held = np.full((4, self.n_envs, self.max_aircraft), np.nan)
+        self._reso_following = np.zeros((self.n_envs, self.max_aircraft), dtype=np.bool_)  # who follows (methods that make everyone follow)
 
     def _types_loaded(self) -> tuple[list[pf.AircraftPerformance], Array]:
         if self._performance is None:
@@ -203,6 +205,7 @@ class Simulator(AircraftState):
         """Drop the resolutions in progress of airspaces ``idx``."""
         self._reso_pairs[idx] = False
         self._reso_held[:, idx] = np.nan
+        self._reso_following[idx] = False
         if self._reso_keys.size:
             forget = np.zeros(self.n_envs, np.bool_)
             forget[idx] = True
@@ -259,6 +262,7 @@ class Simulator(AircraftState):
         self.vmax[env, slot] = initial[:, 1]
         self.axmax[env, slot] = initial[:, 2]
         self.active[env, slot] = True
+        self._reso_following[env, slot] = False  # a new aircraft does not follow a resolution (BlueSky: cr.active starts False)
         self.lat[env, slot] = lat_a
         self.lon[env, slot] = lon_a
         self.alt[env, slot] = alt_a
@@ -579,11 +583,13 @@ class Simulator(AircraftState):
     # Stepping [docs/dynamics.md §2.1-2.2]
     # ------------------------------------------------------------------------------------------
     def set_conflict_resolution(self, env: ArrayLike, config: AsasConfig) -> None:
-        """Switch BlueSky's ASAS for airspaces ``env``: conflict detection and MVP resolution flown by the aircraft.
+        """Switch BlueSky's ASAS for airspaces ``env``: conflict detection and resolution flown by the aircraft.
 
-        With detection on and ``RESO MVP`` (:attr:`AsasConfig.resolving`), every step detects the
-        conflicts of the start-of-step state after the autopilot, runs MVP
-        (:class:`~bluesky_gym.core.resolution.MVPResolver`) and flies its track, speed, altitude and
+        With detection on and ``RESO MVP`` (or another method of
+        :data:`~bluesky_gym.core.resolvers.RESOLVERS`, :attr:`AsasConfig.method`;
+        :attr:`AsasConfig.resolving`), every step detects the conflicts of the start-of-step state
+        after the autopilot, runs the method (:class:`~bluesky_gym.core.resolution.MVPResolver`,
+        ...) and flies its track, speed, altitude and
         vertical speed wherever BlueSky's ASAS would, as BlueSky 1.1.1's ``APorASAS`` does; an
         aircraft whose resolution ends goes DIRECT to its best active waypoint. A new
         configuration keeps the resolutions in progress. Without ``resolving`` the airspace flies
@@ -591,9 +597,14 @@ class Simulator(AircraftState):
 
         Raises:
             ValueError: ``dt`` is below BlueSky's ASAS interval (1 s; the ASAS would then run every
-                few steps, which is not modelled).
+                few steps, which is not modelled), an unknown method, or a method that does not
+                support this simulator's ``pair_search``.
         """
         envs = checked_index(env, self.n_envs, "environment index")
+        method = resolver_class(config.method)
+        if config.resolving and self.pair_search not in method.pair_searches:
+            allowed = " or ".join(repr(p) for p in method.pair_searches)
+            raise ValueError(f"RESO {config.method} needs pair_search {allowed}, this simulator has {self.pair_search!r}")
         if config.resolving and self.dt < ASAS_INTERVAL - 1e-9:
             raise ValueError(f"conflict resolution needs dt >= {ASAS_INTERVAL} s (BlueSky's asas_dt), got {self.dt} s")
         for e in np.atleast_1d(envs).tolist():
@@ -652,7 +663,7 @@ class Simulator(AircraftState):
         for config, members in groups.items():  # airspaces with the same settings resolve in one batch
             envs = np.array(sorted(members), dtype=np.int64)
             view = _AirspaceView(self, envs)
-            resolver = MVPResolver(
+            resolver = resolver_class(config.method)(
                 config.settings,
                 rpz=config.rpz,
                 hpz=config.hpz,
@@ -664,10 +675,12 @@ class Simulator(AircraftState):
                 pair_search=self.pair_search,
             )
             resolver.pairs, resolver.held = self._reso_pairs[envs], self._reso_held[:, envs]
+            resolver.following = self._reso_following[envs]
             if self.pair_search == "grid":
                 resolver.pair_keys = self._group_keys(envs)
             group_follow, group_ended = resolver.advance(view)
             self._reso_pairs[envs], self._reso_held[:, envs] = resolver.pairs, resolver.held
+            self._reso_following[envs] = resolver.following if resolver.follow_all else False
             if self.pair_search == "grid":
                 self._store_group_keys(envs, resolver.pair_keys)
             follow[envs] = group_follow
@@ -883,7 +896,7 @@ class Simulator(AircraftState):
 
 
 class _AirspaceView:
-    """The state arrays MVP reads of some airspaces of a :class:`Simulator`, shaped (len(envs), max_aircraft).
+    """The state arrays the resolution methods read of some airspaces of a :class:`Simulator`, shaped (len(envs), max_aircraft).
 
     Copies, or views of the simulator's arrays where ``envs`` are all its airspaces (``envs`` is sorted); read only.
     """
@@ -895,6 +908,7 @@ class _AirspaceView:
         self.lat, self.lon, self.alt, self.tas = sim.lat[k], sim.lon[k], sim.alt[k], sim.tas[k]
         self.gs, self.trk, self.vs, self.gseast, self.gsnorth = sim.gs[k], sim.trk[k], sim.vs[k], sim.gseast[k], sim.gsnorth[k]
         self.selalt, self.ap_vs, self.vmin, self.vmax = sim.selalt[k], sim.ap_vs[k], sim.vmin[k], sim.vmax[k]
+        self.cas, self.ap_trk, self.selspd, self.selvs = sim.cas[k], sim.ap_trk[k], sim.selspd[k], sim.selvs[k]  # read by Swarm
         self._sim, self._envs = sim, envs
 
     def aircraft_type(self, env: ArrayLike, slot: ArrayLike) -> list[str]:
@@ -1118,7 +1132,7 @@ class DeviceSimulator(Simulator):
         """The one ASAS configuration of every airspace, which the device runs (see the class docstring)."""
         configs = {self._asas.get(e, AsasConfig()) for e in range(self.n_envs)}
         config = next(iter(configs))
-        if len(configs) > 1 or not config.resolving or config.detector != "CSTATEBASED":
+        if len(configs) > 1 or not config.resolving or config.detector != "CSTATEBASED" or config.method != "MVP":
             raise NotImplementedError(
                 "DeviceSimulator: conflict resolution runs on the device when every airspace has the same CSTATEBASED configuration with RESO MVP"
             )
