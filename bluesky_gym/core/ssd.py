@@ -64,12 +64,12 @@ from types import ModuleType
 from typing import Any, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from bluesky_gym.core import geo
-from bluesky_gym.core.conflicts import PZ_RADIUS, Conflicts, float_array
+from bluesky_gym.core.conflicts import PZ_RADIUS, ConflictPairs, Conflicts, float_array
 from bluesky_gym.core.extras import missing_extra
-from bluesky_gym.core.resolution import NO_VERTICAL_SOLUTION, Resolution, ResolutionSettings, ResolutionState
+from bluesky_gym.core.resolution import NO_VERTICAL_SOLUTION, ConflictResolver, Resolution, ResolutionSettings, ResolutionState, TypedResolutionState
 from bluesky_gym.core.units import NM
 
 Array = NDArray[np.float64]
@@ -287,7 +287,7 @@ def ssd_airspace(
 
 def ssd(
     state: SSDState,
-    conflicts: Conflicts,
+    conflicts: Conflicts | ConflictPairs,
     settings: ResolutionSettings | None = None,
     *,
     rpz: float = PZ_RADIUS,
@@ -299,8 +299,9 @@ def ssd(
     Args:
         state: The aircraft state (a :class:`~bluesky_gym.core.physics.Physics`, or anything with
             its arrays), read as it was when ``conflicts`` was detected.
-        conflicts: :func:`bluesky_gym.core.conflicts.detect` of that state (SSD reads which
-            aircraft are in conflict).
+        conflicts: :func:`bluesky_gym.core.conflicts.detect` of that state, or its pairs
+            (:func:`~bluesky_gym.core.conflicts.detect_pairs`); SSD reads which aircraft are in
+            conflict, and both give the same resolution.
         settings: Resolution settings; SSD reads ``resofach`` (``RFACH``) only.
         rpz: Protected-zone radius [m] (``ZONER``).
         priocode: Priority code (:data:`PRIORITY_CODES`).
@@ -321,11 +322,18 @@ def ssd(
     s = settings or ResolutionSettings()
     active = np.ascontiguousarray(state.active, dtype=np.bool_)
     shape = active.shape
-    if conflicts.conflict.shape != shape + (shape[1],):
-        raise ValueError(f"conflicts are shaped {conflicts.conflict.shape}, the state needs {shape + (shape[1],)}")
+    if isinstance(conflicts, ConflictPairs):
+        if conflicts.n_aircraft != shape[1]:
+            raise ValueError(f"conflicts are of airspaces of {conflicts.n_aircraft} aircraft, the state has {shape[1]}")
+        listed = np.zeros(shape[0] * shape[1], np.bool_)
+        listed[conflicts.flat_own] = True
+        in_conflict = listed.reshape(shape) & active
+    else:
+        if conflicts.conflict.shape != shape + (shape[1],):
+            raise ValueError(f"conflicts are shaped {conflicts.conflict.shape}, the state needs {shape + (shape[1],)}")
+        in_conflict = np.asarray(conflicts.in_conflict, dtype=np.bool_) & active
     names = ("lat", "lon", "hdg", "gs", "gseast", "gsnorth", "vmin", "vmax", "vs", "selalt")
     x = {name: float_array(getattr(state, name), shape) for name in names}
-    in_conflict = np.asarray(conflicts.in_conflict, dtype=np.bool_) & active
     trk, gs, vs, alt = (np.full(shape, np.nan) for _ in range(4))
     dv = np.full((*shape, 3), np.nan)
     tsolv = np.full(shape, np.nan)
@@ -349,4 +357,27 @@ def ssd(
     return Resolution(trk, gs, vs, alt, dv, tsolv, in_conflict)
 
 
-__all__ = ["PRIORITY_CODES", "SSDState", "check_priority", "pair_indices", "require_pyclipper", "ssd", "ssd_airspace"]
+class SSDResolver(ConflictResolver):
+    """``RESO SSD``: :func:`ssd` under :class:`~bluesky_gym.core.resolution.ConflictResolver`'s bookkeeping.
+
+    SSD reads ``resofach`` and the zone radius; it ignores the RMETH switches, ``resofacv``, the
+    zone height and the vertical-speed envelope (it resolves horizontally). Its priority code is
+    :attr:`priocode` (BlueSky's default, RS1). Both pair searches give the same resolutions (SSD
+    needs only which aircraft are in conflict); the diagram of an aircraft still takes every other
+    aircraft of its airspace within ADS-B range, as the plugin does.
+    """
+
+    name = "SSD"
+    #: The priority code (``PRIORULES ON code``), one of :data:`PRIORITY_CODES`.
+    priocode = ""
+
+    def resolve(self, state: TypedResolutionState, conflicts: Conflicts, vsmin: ArrayLike, vsmax: ArrayLike) -> Resolution:
+        """:func:`ssd` with this resolver's zone, ``resofach`` and geo functions."""
+        return ssd(state, conflicts, self.settings, rpz=self.rpz, priocode=self.priocode, python_geo=self.python_geo)  # type: ignore[arg-type]
+
+    def resolve_pairs(self, state: TypedResolutionState, conflicts: ConflictPairs, vsmin: ArrayLike, vsmax: ArrayLike) -> Resolution:
+        """:func:`ssd` of the conflicts as pairs (the same results)."""
+        return ssd(state, conflicts, self.settings, rpz=self.rpz, priocode=self.priocode, python_geo=self.python_geo)  # type: ignore[arg-type]
+
+
+__all__ = ["PRIORITY_CODES", "SSDResolver", "SSDState", "check_priority", "pair_indices", "require_pyclipper", "ssd", "ssd_airspace"]

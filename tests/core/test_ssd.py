@@ -1,7 +1,7 @@
 """SSD conflict resolution on the native core: geometry, batching, priority codes, the missing extra.
 
 The values themselves are checked to the bit against BlueSky 1.1.1's SSD plugin in
-``test_reso_ssd_bluesky.py`` (BlueSky venv); these tests need only the core and pyclipper.
+``test_ssd_bluesky.py`` (BlueSky venv); these tests need only the core and pyclipper.
 """
 
 from __future__ import annotations
@@ -17,8 +17,9 @@ from bluesky_gym.core import Simulator
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS, Conflicts, detect
 from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.core.geo import qdrdist
-from bluesky_gym.core.reso_ssd import ADSB_RANGE, check_priority, pair_indices, ssd
-from bluesky_gym.core.resolution import NO_VERTICAL_SOLUTION, RESO_FACTOR, ResolutionSettings
+from bluesky_gym.core.resolution import NO_VERTICAL_SOLUTION, RESO_FACTOR, AsasConfig, ResolutionSettings
+from bluesky_gym.core.resolvers import RESOLVERS
+from bluesky_gym.core.ssd import ADSB_RANGE, SSDResolver, check_priority, pair_indices, ssd
 from bluesky_gym.core.units import NM
 
 
@@ -178,3 +179,47 @@ def test_missing_pyclipper_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> N
     monkeypatch.setitem(sys.modules, "pyclipper", None)  # import pyclipper fails
     with pytest.raises(MissingDependencyError, match=r"SSD conflict resolution needs pyclipper.*'ssd' extra"):
         ssd(sim, c)
+
+
+def _flown(pair_search: str, method: str = "SSD", steps: int = 240) -> tuple[Simulator, int, float]:
+    """The scene of :func:`_scene` flown with ``RESO method`` (CSTATEBASED).
+
+    Returns:
+        The simulator, the steps in loss of separation and the ownship's largest turn from its track [deg].
+    """
+    sim = Simulator(1, 5, dt=1.0, pair_search=pair_search)
+    sim.create(0, 0, 52.0, 4.0, 90.0, 3000.0, 120.0)
+    sim.creconfs(0, 0, 1, 180.0, 0.0, 200.0)
+    sim.creconfs(0, 0, 2, 90.0, 1.0, 150.0)
+    sim.set_conflict_resolution(0, AsasConfig("CSTATEBASED", True, method=method))
+    los = 0
+    turn = 0.0
+    for _ in range(steps):
+        sim.step()
+        los += int(_detect(sim).los.any())
+        turn = max(turn, abs((sim.trk[0, 0] - 90.0 + 180.0) % 360.0 - 180.0))
+    return sim, los, turn
+
+
+def test_simulator_flies_reso_ssd() -> None:
+    """``RESO SSD`` is a registered method: the simulator flies it and the head-on conflicts end without a loss of separation."""
+    assert RESOLVERS["SSD"] is SSDResolver
+    _, los, turn = _flown("all-pairs")
+    unresolved = Simulator(1, 5, dt=1.0)
+    unresolved.create(0, 0, 52.0, 4.0, 90.0, 3000.0, 120.0)
+    unresolved.creconfs(0, 0, 1, 180.0, 0.0, 200.0)
+    unresolved.creconfs(0, 0, 2, 90.0, 1.0, 150.0)
+    lost = 0
+    for _ in range(240):
+        unresolved.step()
+        lost += int(_detect(unresolved).los.any())
+    assert lost > 0 and los == 0
+    assert turn > 5.0  # the ownship turned away
+
+
+def test_grid_pair_search_flies_the_same() -> None:
+    """SSD from the conflicts as pairs (``pair_search="grid"``) flies the same states to the bit."""
+    a, _, _ = _flown("all-pairs", steps=120)
+    b, _, _ = _flown("grid", steps=120)
+    for name in ("lat", "lon", "trk", "gs", "alt"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)

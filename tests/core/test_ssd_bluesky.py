@@ -3,10 +3,10 @@
 Needs the ``bluesky`` and ``ssd`` extras; skipped when BlueSky or pyclipper cannot be imported.
 
 BlueSky 1.1.1's plugin crashes on its first resolution (first test). The two fixes of
-:mod:`bluesky_gym.core.reso_ssd` are applied to BlueSky as monkeypatches: the plugin module's
+:mod:`bluesky_gym.core.ssd` are applied to BlueSky as monkeypatches: the plugin module's
 ``geo.qdrdist_matrix`` becomes the pairwise ``geo.qdrdist``, and the plugin's ``resolve`` sees
 ``conf.rpz`` as the default zone radius ``conf.rpz_def``. With them BlueSky's ``traf.cr.resolve``
-and the package's :func:`~bluesky_gym.core.reso_ssd.ssd` (on the backend's state arrays, with the
+and the package's :func:`~bluesky_gym.core.ssd.ssd` (on the backend's state arrays, with the
 package's own conflict detection) must give the same track, speed, vertical speed and altitude
 of every aircraft **to the bit** (``assert_array_equal``):
 
@@ -32,8 +32,8 @@ pytest.importorskip("pyclipper")
 
 from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, detect
-from bluesky_gym.core.reso_ssd import ssd
 from bluesky_gym.core.resolution import Resolution, ResolutionSettings
+from bluesky_gym.core.ssd import ssd
 from bluesky_gym.core.units import FT, KTS, NM
 
 pytestmark = [
@@ -81,7 +81,7 @@ class _DefaultZone:
 
 
 def _fix_plugin(monkeypatch: pytest.MonkeyPatch, qdrdist: bool = True, zone: bool = True) -> None:
-    """Apply the fixes of :mod:`bluesky_gym.core.reso_ssd` to BlueSky's SSD plugin for this test."""
+    """Apply the fixes of :mod:`bluesky_gym.core.ssd` to BlueSky's SSD plugin for this test."""
     plugin = _plugin()
     if qdrdist:  # fix 1: one bearing and distance per pair
         from bluesky.tools import geo
