@@ -437,6 +437,11 @@ class BlueSkyPhysics(AircraftState):
         """
         if np.any(np.asarray(env) != 0):
             raise IndexError("the BlueSky backend has one airspace (env 0)")
+        if config.resolution and config.method != "MVP":
+            raise ValueError(
+                f"RESO {config.method} is a BlueSky plugin that crashes on its first resolution in BlueSky 1.1.1; "
+                "the BlueSky backend resolves with RESO MVP (the native core flies it, with the fix, docs/backends.md)"
+            )
         self._asas_methods |= {config.detector or "OFF", "MVP" if config.resolution else "OFF"}
         self.command(command("ASAS", config.detector or "OFF"))
         self.command(command("RESO", "MVP" if config.resolution else "OFF"))

@@ -49,7 +49,11 @@ def add_parser(subparsers: Any) -> None:
     )
     add_env_option(p)
     p.add_argument(
-        "--model", action="append", required=True, metavar="PATH", help="run directory, model .zip, 'random', 'classical' or 'mvp' (repeatable)"
+        "--model",
+        action="append",
+        required=True,
+        metavar="PATH",
+        help="run directory, model .zip, 'random', 'classical', 'mvp', 'eby' or 'swarm' (repeatable)",
     )
     p.add_argument("--algo", type=algorithm, help="algorithm of the model files (default: from the run or the file)")
     p.add_argument("--episodes", type=positive_int, default=100, metavar="N", help="held-out episodes (default: 100)")

@@ -21,7 +21,9 @@ sees). ``--local`` runs them one after the other in this process, without Ray.
 
 At the end, the reference policies are evaluated on the same held-out scenarios (cached in
 ``<out>/references``), and ``<out>/sweep.json`` lists every run with its held-out return and
-normalised score; ``bluesky-gym plot <out>`` draws the figures.
+normalised score; ``bluesky-gym plot <out>`` draws the figures. ``--references eby swarm`` also
+evaluates those reference policies (MVP's mapping flying BlueSky's Eby or Swarm resolution) on the
+environments with traffic.
 
 ``--estimate`` trains nothing: it times every environment (random actions) and every algorithm
 (a short training on ``--probe-env``), and extrapolates the grid's CPU time and wall-clock time
@@ -39,6 +41,7 @@ from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_nega
 from bluesky_gym.cli.train import add_damage_options, add_run_options, check_device, load_config, ppo_rounding, run_overrides
 from bluesky_gym.core.extras import MissingDependencyError
 from bluesky_gym.training import ALGORITHMS
+from bluesky_gym.tasks import RESOLUTION_REFERENCES
 
 
 def add_parser(subparsers: Any) -> None:
@@ -60,6 +63,14 @@ def add_parser(subparsers: Any) -> None:
     where.add_argument("--address", metavar="ADDR", help="Ray cluster to join (default: start Ray locally)")
     p.add_argument("--cpus-per-run", type=float, default=1.0, metavar="C", help="CPUs Ray reserves per run (default: 1)")
     p.add_argument("--quiet", action="store_true", help="fewer messages")
+    p.add_argument(
+        "--references",
+        nargs="+",
+        default=[],
+        choices=tuple(RESOLUTION_REFERENCES),
+        metavar="NAME",
+        help=f"also evaluate these reference policies where an environment has traffic ({', '.join(RESOLUTION_REFERENCES)})",
+    )
     est = p.add_argument_group("estimating the time of a grid (nothing is trained)")
     est.add_argument("--estimate", action="store_true", help="measure steps/s per algorithm and environment and extrapolate the grid's time")
     est.add_argument("--probe-env", metavar="ID", help="environment the algorithms are timed on (default: the first of --env)")
@@ -117,7 +128,8 @@ def run(args: argparse.Namespace) -> int:
             results = run_local(cells, verbose, args.on_damage)
         else:
             results = run_ray(cells, args.address, args.cpus_per_run, verbose, args.on_damage)
-        summary = write_summary(args.out, cells, results, reference_episodes=max(c.spec.eval_episodes for c in cells))
+        episodes = max(c.spec.eval_episodes for c in cells)
+        summary = write_summary(args.out, cells, results, reference_episodes=episodes, extra_references=args.references)
     except (MissingDependencyError, ValueError, FileNotFoundError) as exc:
         print(f"bluesky-gym sweep: error: {exc}", file=sys.stderr)
         return 2

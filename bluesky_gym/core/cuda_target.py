@@ -71,6 +71,10 @@ def _cuda_fmod(a: float, b: float) -> float:
     return libdevice.fmod(a, b)  # type: ignore[no-any-return]
 
 
+def _cuda_fma(a: float, b: float, c: float) -> float:
+    return libdevice.fma(a, b, c)  # type: ignore[no-any-return]
+
+
 def _cuda_rint(x: float) -> float:
     return libdevice.rint(x)  # type: ignore[no-any-return]
 
@@ -96,12 +100,14 @@ def _primitive_forms() -> dict[str, Callable[..., Any]]:
         return {
             "fmod": PRIMITIVES["fmod"],
             "rint": PRIMITIVES["rint"],
+            "fma": PRIMITIVES["fma"],
             "scratch": cuda.jit(device=True)(_sim_scratch),
             "grid_range": cuda.jit(device=True)(_cuda_grid_range),
         }
     return {
         "fmod": cuda.jit(device=True, inline="always")(_cuda_fmod),
         "rint": cuda.jit(device=True, inline="always")(_cuda_rint),
+        "fma": cuda.jit(device=True, inline="always")(_cuda_fma),
         # A local array can only leave a device function that is inlined into its caller.
         "scratch": cuda.jit(device=True, inline="always")(_cuda_scratch),
         "grid_range": cuda.jit(device=True, inline="always")(_cuda_grid_range),

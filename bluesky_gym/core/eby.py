@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike
 
 from bluesky_gym.core.atmosphere import isa
 from bluesky_gym.core.conflicts import PZ_RADIUS, ConflictPairs, Conflicts, float_array
-from bluesky_gym.core.jit import jit
+from bluesky_gym.core.jit import fma, jit
 from bluesky_gym.core.resolution import (
     ConflictResolver,
     Resolution,
@@ -52,6 +52,12 @@ from bluesky_gym.core.units import RHO0
 
 EXACT_COURSE = 10.0  # m: a miss distance at t* under this is an exact collision course
 EBY_ALTITUDE = 1e5  # m: the altitude Eby commands, signed by its vertical speed
+
+
+@jit
+def dot3(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> float:
+    """The ``np.dot`` of two 3-vectors (and ``np.linalg.norm``'s square) as numpy's BLAS ``ddot`` computes it: fused multiply-adds from 0."""
+    return fma(a2, b2, fma(a1, b1, fma(a0, b0, 0.0)))
 
 
 @jit
@@ -94,9 +100,9 @@ def eby_pair(
     v1 = math.cos(t2) * tas_j - math.cos(t1) * tas_i
     v2 = vs_j - vs_i
     r2 = rpz_m * rpz_m
-    dd = d0 * d0 + d1 * d1 + d2 * d2
-    vv = v0 * v0 + v1 * v1 + v2 * v2
-    dv = d0 * v0 + d1 * v1 + d2 * v2
+    dd = dot3(d0, d1, d2, d0, d1, d2)
+    vv = dot3(v0, v1, v2, v0, v1, v2)
+    dv = dot3(d0, d1, d2, v0, v1, v2)
     a = r2 * vv - dv * dv
     b = 2.0 * dv * (r2 - dd)
     c = r2 * dd - dd * dd
@@ -110,14 +116,14 @@ def eby_pair(
     s0 = d0 + v0 * tstar
     s1 = d1 + v1 * tstar
     s2 = d2 + v2 * tstar
-    dstarabs = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    dstarabs = math.sqrt(dot3(s0, s1, s2, s0, s1, s2))
     dif = EXACT_COURSE - dstarabs
     if dif > 0.0:  # exact collision course: move the miss point sideways
-        nperp = math.sqrt(v1 * v1 + v0 * v0 + 0.0 * 0.0)
+        nperp = math.sqrt(dot3(-v1, v0, 0.0, -v1, v0, 0.0))
         s0 = s0 + divide(dif * -v1, nperp)
         s1 = s1 + divide(dif * v0, nperp)
         s2 = s2 + divide(dif * 0.0, nperp)
-        dstarabs = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        dstarabs = math.sqrt(dot3(s0, s1, s2, s0, s1, s2))
     intrusion = rpz_m - dstarabs
     den = dstarabs * tstar
     return divide(intrusion * s0, den), divide(intrusion * s1, den), divide(intrusion * s2, den)

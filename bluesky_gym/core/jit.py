@@ -18,9 +18,11 @@ form the CUDA target gives for that name. No kernel is written twice.
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -156,6 +158,38 @@ def _primitive(fn: F) -> F:
 def fmod(a: float, b: float) -> float:
     """C's ``fmod``: the remainder of ``a / b`` with the sign of ``a`` (exact); NaN for ``b == 0``, as ``np.fmod``."""
     return np.fmod(a, b)  # type: ignore[no-any-return]
+
+
+def fma(a: float, b: float, c: float) -> float:
+    """``a * b + c`` rounded once (a fused multiply-add), as an x86-64 BLAS ``ddot`` with FMA accumulates numpy's ``np.dot``.
+
+    The plain-Python form is exact rational arithmetic (slow; non-finite inputs give ``a * b + c``);
+    the CPU target emits the hardware's ``fma`` instruction, CUDA libdevice's ``fma``.
+    """
+    if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c)):
+        return a * b + c
+    return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+
+PRIMITIVES["fma"] = fma
+if numba is not None:
+    from numba.core import types as _nb_types
+    from numba.core.extending import intrinsic, overload
+
+    @intrinsic
+    def _fma_instruction(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            return builder.fma(*args)
+
+        return _nb_types.float64(_nb_types.float64, _nb_types.float64, _nb_types.float64), codegen
+
+    def _fma_typer(a: Any, b: Any, c: Any) -> Callable[..., Any]:
+        def impl(a: float, b: float, c: float) -> float:
+            return _fma_instruction(float(a), float(b), float(c))  # type: ignore[no-any-return]
+
+        return impl
+
+    overload(fma, target="cpu", inline="always", strict=False)(_fma_typer)
 
 
 @_primitive

@@ -41,7 +41,8 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core.conflicts import PZ_HEIGHT, PZ_RADIUS, detect
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.resolution import MVPResolver, ResolutionSettings
+from bluesky_gym.core.resolution import ConflictResolver, ResolutionSettings
+from bluesky_gym.core.resolvers import resolver_class
 from bluesky_gym.core.units import KTS, NM
 from bluesky_gym.multiagent.base import Array, MultiAgentTask
 from bluesky_gym.tasks.descent import ACTION_2_MS
@@ -234,15 +235,21 @@ class MVPPolicy(Policy):
         mapping: How MVP drives the environment; None: the mapping of the multi-agent task it
             is bound to (:func:`multiagent_mvp_mapping`).
         env_id: The environment the mapping is for; :meth:`bind` refuses another one.
+        method: The resolution method, a ``RESO`` name of :data:`~bluesky_gym.core.resolvers.RESOLVERS`
+            (``"MVP"``, the default; ``"EBY"`` or ``"SWARM"`` give the ``eby`` and ``swarm``
+            policies, the same mapping flying that method's resolution).
     """
 
     name = "mvp"
 
-    def __init__(self, mapping: MVPMapping | None = None, env_id: str | None = None) -> None:
+    def __init__(self, mapping: MVPMapping | None = None, env_id: str | None = None, method: str = "MVP") -> None:
         self.env_id = env_id
+        self.method = method
+        self.name = method.lower()
+        self.resolver_class = resolver_class(method)
         self.from_task = mapping is None  # the mapping comes from the multi-agent task bound
         self.mapping: MVPMapping | None = None
-        self.resolver: MVPResolver | None = None
+        self.resolver: ConflictResolver | None = None
         self.nominal: Policy | None = None
         self.physics: Physics | None = None
         self.task: MultiAgentTask | None = None
@@ -252,7 +259,7 @@ class MVPPolicy(Policy):
     def _use(self, mapping: MVPMapping) -> None:
         self.mapping = mapping
         settings = ResolutionSettings.from_methods(mapping.rmethh, mapping.rmethv)
-        self.resolver = MVPResolver(settings, rpz=mapping.rpz_nm * NM, hpz=mapping.hpz_m)
+        self.resolver = self.resolver_class(settings, rpz=mapping.rpz_nm * NM, hpz=mapping.hpz_m)
         self.nominal = mapping.nominal() if mapping.nominal is not None else None
 
     def bind(self, env: Any) -> None:
@@ -265,7 +272,7 @@ class MVPPolicy(Policy):
         else:
             spec = getattr(getattr(env, "unwrapped", env), "spec", None)
             if task is None or self.env_id is None or getattr(spec, "id", getattr(task, "id", None)) != self.env_id:
-                raise ValueError(f"the mvp policy of {self.env_id} needs that environment, got {env!r}")
+                raise ValueError(f"the {self.name} policy of {self.env_id} needs that environment, got {env!r}")
         self.physics = task.sim
         assert self.resolver is not None
         self.resolver.reset()
@@ -280,7 +287,7 @@ class MVPPolicy(Policy):
     def act(self, obs: Obs) -> Array:
         """Resolution actions where MVP is active, the nominal policy's elsewhere."""
         if self.physics is None or self.resolver is None or self.mapping is None:
-            raise RuntimeError("the mvp policy reads the simulator state: bind(env) it to its environment first")
+            raise RuntimeError(f"the {self.name} policy reads the simulator state: bind(env) it to its environment first")
         m, task = self.mapping, self.task
         if task is not None:  # every agent slot; nominal: steer to the goal, speed unchanged
             assert m.heading_step is not None

@@ -1,20 +1,26 @@
-"""BlueSky 1.1.1's ASAS commands: conflict detection (``ASAS``/``CDMETHOD``) and MVP resolution (``RESO MVP``).
+"""BlueSky 1.1.1's ASAS commands: conflict detection (``ASAS``/``CDMETHOD``) and resolution (``RESO MVP|EBY|SWARM``).
 
 :class:`AsasState` follows what these commands do to BlueSky's settings, command after command, and
 gives the :class:`~bluesky_gym.core.resolution.AsasConfig` the aircraft fly with. It keeps
 BlueSky's bookkeeping: every detection method (off, STATEBASED, CSTATEBASED) keeps its own
-protected zone and look-ahead time, and every resolution method (off, MVP) its own factors and
-switches, starting from the defaults when first selected. So ``ZONER`` before ``ASAS ON`` sets
+protected zone and look-ahead time, and every resolution method (off, MVP, EBY, SWARM: the keys of
+:data:`~bluesky_gym.core.resolvers.RESOLVERS`) its own factors and switches, starting from the
+defaults when first selected. ``RMETHH``/``RMETHV`` change MVP's switches, which SWARM inherits;
+with EBY (or resolution off) BlueSky ignores them. EBY and SWARM are BlueSky plugins (a BlueSky
+scenario loads them with ``PLUGINS LOAD EBY`` first; the core has them built in and ignores
+``PLUGINS``), flown with the fixes that make them run (:mod:`bluesky_gym.core.eby`,
+:mod:`bluesky_gym.core.swarm`). So ``ZONER`` before ``ASAS ON`` sets
 the zone of "detection off" and is forgotten by STATEBASED, and ``RMETHH`` or ``RFACH`` before
 the first ``RESO MVP`` have no effect on MVP. ``RSZONER``/``RSZONEDH`` set the resolution zone as
 an absolute size, which a later ``ZONER``/``ZONEDH`` keeps (as BlueSky does, by rescaling the
 factor).
 
 Not supported (a :class:`ValueError` naming the reason): per-aircraft zones and look-ahead times,
-priority rules (``PRIORULES ON`` while MVP is selected), ``NORESO``/``RESOOFF`` aircraft lists,
-resolution methods other than MVP, and switching resolution off once it was on (BlueSky 1.1.1
-then keeps flying the last resolution of ``RESO OFF``, or finishes the resolutions in progress
-without detection after ``ASAS OFF``).
+priority rules (``PRIORULES ON`` while MVP or SWARM is selected; EBY ignores them, as in
+BlueSky), ``NORESO``/``RESOOFF`` aircraft lists, resolution methods the core does not have (SSD
+until it is added), switching resolution off once it was on (BlueSky 1.1.1 then keeps flying the
+last resolution of ``RESO OFF``, or finishes the resolutions in progress without detection after
+``ASAS OFF``), and switching from one resolution method to another once one flew.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from dataclasses import dataclass, field, replace
 from bluesky_gym.core.command_text import parse_number, parse_time
 from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS
 from bluesky_gym.core.resolution import RESO_FACTOR, RMETHH_VALUES, RMETHV_VALUES, AsasConfig, ResolutionSettings
+from bluesky_gym.core.resolvers import RESOLVERS
 from bluesky_gym.core.units import FT, NM
 
 #: BlueSky command names and their aliases -> the name used here.
@@ -57,8 +64,10 @@ ASAS_COMMANDS = {
     "NORESO": "NORESO",
     "RESOOFF": "RESOOFF",
 }
-#: Resolution methods (``RESO``): the core flies MVP.
-RESOLUTION_METHODS = ("OFF", "MVP")
+#: Resolution methods (``RESO``): off and the core's methods.
+RESOLUTION_METHODS = ("OFF", *RESOLVERS)
+#: The methods whose switches ``RMETHH``/``RMETHV`` set and which follow priority rules (MVP and its subclass Swarm).
+MVP_FAMILY = ("MVP", "SWARM")
 #: ``PRIORULES`` priority codes BlueSky's MVP knows.
 PRIORITY_CODES = ("FF1", "FF2", "FF3", "LAY1", "LAY2")
 
@@ -91,7 +100,8 @@ class AsasState:
     resolution: str = "OFF"
     detection: dict[str, _Detection] = field(default_factory=lambda: {"OFF": _Detection()})
     resolutions: dict[str, _Resolution] = field(default_factory=lambda: {"OFF": _Resolution()})
-    resolving_since: float | None = None  # time [s] from which detection and MVP were both on
+    resolving_since: float | None = None  # time [s] from which detection and resolution were both on
+    flown_method: str | None = None  # the resolution method that flew (since resolving_since)
 
     @property
     def cd(self) -> _Detection:
@@ -105,9 +115,10 @@ class AsasState:
 
     def config(self) -> AsasConfig:
         """What the aircraft fly with now."""
-        mvp = self.resolution == "MVP"
+        on = self.resolution != "OFF"
         s = replace(self.cr.switches, resofach=self.cr.resofach, resofacv=self.cr.resofacv)
-        return AsasConfig(None if self.detector == "OFF" else self.detector, mvp, s, self.cd.rpz, self.cd.hpz, self.cd.lookahead)
+        method = self.resolution if on else "MVP"
+        return AsasConfig(None if self.detector == "OFF" else self.detector, on, s, self.cd.rpz, self.cd.hpz, self.cd.lookahead, method)
 
     def apply(self, name: str, args: list[str], t: float) -> AsasConfig:
         """Run one command (``name`` as in :data:`ASAS_COMMANDS`, its arguments) at time ``t`` [s].
@@ -132,7 +143,7 @@ class AsasState:
         elif name == "RESO":
             if value:
                 if value not in RESOLUTION_METHODS:
-                    raise ValueError(f"resolution method {value!r} is not supported; the core resolves with MVP (RESO MVP or RESO OFF)")
+                    raise ValueError(f"resolution method {value!r} is not supported; choose one of {', '.join(RESOLUTION_METHODS)}")
                 self.resolution = value
                 self.resolutions.setdefault(value, _Resolution())
         elif name in ("ZONER", "ZONEDH", "DTLOOK", "DTNOLOOK"):
@@ -144,12 +155,12 @@ class AsasState:
                 allowed = RMETHH_VALUES if name == "RMETHH" else RMETHV_VALUES
                 if value not in allowed:
                     raise ValueError(f"{value!r} not understood; choose one of {', '.join(allowed)}")
-                if self.resolution == "MVP":  # the switches are MVP's; with resolution off BlueSky ignores them
+                if self.resolution in MVP_FAMILY:  # the switches are MVP's; with EBY or resolution off BlueSky ignores them
                     sw = self.cr.switches
                     self.cr.switches = sw.with_methods(value, None) if name == "RMETHH" else sw.with_methods(None, value)
         elif name == "PRIORULES":
-            if value and value not in ("OFF", "FALSE", "0", "NO") and self.resolution == "MVP":
-                raise ValueError("priority rules are not supported by the core's MVP (PRIORULES OFF, the default, is)")
+            if value and value not in ("OFF", "FALSE", "0", "NO") and self.resolution in MVP_FAMILY:
+                raise ValueError(f"priority rules are not supported by the core's {self.resolution} (PRIORULES OFF, the default, is)")
             code = args[1].strip().upper() if len(args) > 1 else ""
             if code and code not in PRIORITY_CODES:
                 raise ValueError(f"priority code {code!r} not known; choose one of {', '.join(PRIORITY_CODES)}")
@@ -161,10 +172,17 @@ class AsasState:
         now = self.config()
         if now.resolving and not was:
             self.resolving_since = t
-        if was and not now.resolving and self.resolving_since is not None and t > self.resolving_since:
+            self.flown_method = now.method
+        flew = self.resolving_since is not None and t > self.resolving_since
+        if was and not now.resolving and flew:
             raise ValueError("switching conflict resolution off once it flew is not supported (BlueSky 1.1.1 then keeps flying the last resolution)")
+        if now.resolving and flew and now.method != self.flown_method:
+            raise ValueError(f"switching from RESO {self.flown_method} to RESO {now.method} once it flew is not supported")
+        if now.resolving and not flew:
+            self.flown_method = now.method
         if not now.resolving:
             self.resolving_since = None
+            self.flown_method = None
         return now
 
     def _zone(self, name: str, value: str) -> None:

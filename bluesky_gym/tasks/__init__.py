@@ -5,3 +5,7 @@
 #: has traffic. Each environment's registry row (:class:`bluesky_gym.envs.registry.EnvEntry`)
 #: names its own controller and MVP mapping; this tuple is the one spelling of the names.
 REFERENCE_POLICIES: tuple[str, ...] = ("random", "classical", "mvp")
+#: Reference policies that can be selected (``eval``, ``sweep --references``) but are not scored
+#: by default: the ``mvp`` policy's mapping flying another of BlueSky's resolution methods, by its
+#: ``RESO`` name, where the task has ``mvp``.
+RESOLUTION_REFERENCES: dict[str, str] = {"eby": "EBY", "swarm": "SWARM"}

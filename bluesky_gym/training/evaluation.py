@@ -31,7 +31,7 @@ from bluesky_gym.core.extras import require_sb3
 from bluesky_gym.envs.seeds import EVAL_SEED_BASE, eval_seeds
 from bluesky_gym.training import algorithm_class, make_vector_env
 from bluesky_gym.training.io import DamagedFileError, atomic_write_csv, atomic_write_json, file_damage, latest_checkpoint, read_json
-from bluesky_gym.training.policies import REFERENCE_POLICIES, Policy, SB3Policy, reference_names, reference_policy
+from bluesky_gym.training.policies import SELECTABLE_REFERENCES, Policy, SB3Policy, optional_reference_names, reference_names, reference_policy
 
 #: (column, episode-record key, label) of the KPI table.
 KPI_COLUMNS: tuple[tuple[str, str, str], ...] = (
@@ -435,8 +435,8 @@ def load_policy(path: str | Path, algo: str | None = None, device: str = "cpu", 
 
 
 def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
-    """Make a policy from a command-line spec: ``random``, ``classical``, ``mvp`` or a model path."""
-    if spec in REFERENCE_POLICIES:
+    """Make a policy from a command-line spec: ``random``, ``classical``, ``mvp``, ``eby``, ``swarm`` or a model path."""
+    if spec in SELECTABLE_REFERENCES:
         venv = make_vector_env(env_id, 1)
         try:
             space = venv.single_action_space
@@ -447,8 +447,11 @@ def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
 
 
 # --- reference scores ------------------------------------------------------------------------------
-def reference_scores(env_id: str, episodes: int, cache_dir: str | Path | None = None) -> dict[str, dict[str, Any]]:
+def reference_scores(env_id: str, episodes: int, cache_dir: str | Path | None = None, extra: Sequence[str] = ()) -> dict[str, dict[str, Any]]:
     """Summaries of the reference policies (``random``, ``classical``, and ``mvp`` with traffic) on the first ``episodes`` held-out scenarios.
+
+    ``extra`` adds selectable references (``eby``, ``swarm``) where the environment has them
+    (:func:`~bluesky_gym.training.policies.optional_reference_names`; others are skipped).
 
     With ``cache_dir``, results are read from / written to ``<cache_dir>/<env_id>.json`` (reused
     only if computed on the same number of episodes by the same package version).
@@ -459,7 +462,11 @@ def reference_scores(env_id: str, episodes: int, cache_dir: str | Path | None = 
     """
     import bluesky_gym
 
-    names = reference_names(env_id)
+    unknown = [n for n in extra if n not in SELECTABLE_REFERENCES]
+    if unknown:
+        raise ValueError(f"unknown reference policy {unknown[0]!r}; choose from {', '.join(SELECTABLE_REFERENCES)}")
+    optional = optional_reference_names(env_id)
+    names = reference_names(env_id) + tuple(n for n in dict.fromkeys(extra) if n in optional)
     path = Path(cache_dir) / f"{env_id}.json" if cache_dir is not None else None
     if path is not None and path.exists():
         try:

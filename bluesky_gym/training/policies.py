@@ -62,6 +62,7 @@ from bluesky_gym.multiagent.policies import RandomPolicy as RandomPolicy
 from bluesky_gym.multiagent.policies import SB3Policy as SB3Policy
 from bluesky_gym.multiagent.policies import vertical_speed_action
 from bluesky_gym.tasks import REFERENCE_POLICIES as REFERENCE_POLICIES
+from bluesky_gym.tasks import RESOLUTION_REFERENCES as RESOLUTION_REFERENCES
 from bluesky_gym.tasks import horizontal_cr, merge, plan_waypoint, sector_cr, static_obstacle, vertical_cr
 from bluesky_gym.tasks import real_traffic as rt
 from bluesky_gym.tasks.descent import ALT_MEAN, ALT_STD, RWY_DIS_MEAN, RWY_DIS_STD, DescentTask
@@ -468,17 +469,26 @@ class RealTrafficController(Policy):
 RANDOM_POLICY_SEED = 0
 
 
+#: Every reference policy name: the defaults, then the selectable ones.
+SELECTABLE_REFERENCES: tuple[str, ...] = (*REFERENCE_POLICIES, *RESOLUTION_REFERENCES)
+
+
+def optional_reference_names(env_id: str) -> tuple[str, ...]:
+    """The selectable reference policies beyond :func:`reference_names` of an environment: ``eby``, ``swarm`` where it has ``mvp``."""
+    return tuple(RESOLUTION_REFERENCES) if entry(env_id).mvp is not None else ()
+
+
 def reference_names(env_id: str) -> tuple[str, ...]:
     """The reference policies that exist for an environment (its registry row's): ``random``, ``classical``, and ``mvp`` where it has traffic."""
     return entry(env_id).reference_policies
 
 
 def reference_policy(name: str, env_id: str, action_low: Array, action_high: Array) -> Policy:
-    """Make a reference policy (``random``, ``classical`` or ``mvp``) of an environment.
+    """Make a reference policy (``random``, ``classical``, ``mvp``, or ``eby``/``swarm``) of an environment.
 
     Args:
-        name: ``"random"``, ``"classical"`` or ``"mvp"`` (environments with traffic; bind it
-            to its environment with :meth:`Policy.bind` before acting).
+        name: ``"random"``, ``"classical"``, ``"mvp"``, ``"eby"`` or ``"swarm"`` (the last three:
+            environments with traffic; bind it to its environment with :meth:`Policy.bind` before acting).
         env_id: Environment id.
         action_low: Lower bound of the single-environment action box.
         action_high: Upper bound.
@@ -490,7 +500,9 @@ def reference_policy(name: str, env_id: str, action_low: Array, action_high: Arr
         return classical_policy(env_id)
     if name == "mvp":
         return mvp_policy(env_id)
-    raise ValueError(f"unknown reference policy {name!r}; choose one of {', '.join(REFERENCE_POLICIES)}")
+    if name in RESOLUTION_REFERENCES:
+        return mvp_policy(env_id, RESOLUTION_REFERENCES[name])
+    raise ValueError(f"unknown reference policy {name!r}; choose one of {', '.join(SELECTABLE_REFERENCES)}")
 
 
 def classical_policy(env_id: str) -> Policy:
@@ -514,6 +526,12 @@ def mvp_mapping(env_id: str) -> MVPMapping:
     return mapping
 
 
-def mvp_policy(env_id: str) -> MVPPolicy:
-    """The ``mvp`` reference policy of an environment with traffic (bind it to that environment before acting)."""
-    return MVPPolicy(mvp_mapping(env_id), env_id)
+def mvp_policy(env_id: str, method: str = "MVP") -> MVPPolicy:
+    """The ``mvp`` reference policy of an environment with traffic (bind it to that environment before acting).
+
+    Args:
+        env_id: Environment id (its registry row names an MVP mapping).
+        method: The resolution method flown through the same mapping (``"EBY"``, ``"SWARM"``: the
+            ``eby`` and ``swarm`` policies).
+    """
+    return MVPPolicy(mvp_mapping(env_id), env_id, method)

@@ -126,15 +126,20 @@ def run_ray(
             ray.shutdown()
 
 
-def write_summary(out: str | Path, cells: Sequence[Cell], results: Sequence[dict[str, Any]], reference_episodes: int) -> dict[str, Any]:
-    """Compute reference scores and write ``<out>/sweep.json``; return its content."""
+def write_summary(
+    out: str | Path, cells: Sequence[Cell], results: Sequence[dict[str, Any]], reference_episodes: int, extra_references: Sequence[str] = ()
+) -> dict[str, Any]:
+    """Compute reference scores and write ``<out>/sweep.json``; return its content.
+
+    ``extra_references`` (``eby``, ``swarm``) are evaluated too where an environment has them.
+    """
     from bluesky_gym.training.evaluation import normalised_score, reference_returns, reference_scores
 
     out = Path(out)
     refs: dict[str, dict[str, float]] = {}
     if reference_episodes > 0:
         for env_id in dict.fromkeys(c.spec.env_id for c in cells):
-            refs[env_id] = reference_returns(reference_scores(env_id, reference_episodes, out / REFERENCES_DIR))
+            refs[env_id] = reference_returns(reference_scores(env_id, reference_episodes, out / REFERENCES_DIR, extra_references))
     runs = []
     for cell, res in zip(cells, results, strict=True):
         ret = None

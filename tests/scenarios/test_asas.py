@@ -1,4 +1,4 @@
-"""Conflict detection and MVP resolution commands in scenario files: reading, BlueSky's settings bookkeeping, playing."""
+"""Conflict detection and resolution commands (MVP, EBY, SWARM) in scenario files: reading, BlueSky's settings bookkeeping, playing."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from bluesky_gym.core.resolution import RESO_FACTOR, AsasConfig, ResolutionSetti
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.scenarios import ScenarioError, ScenarioPlayer, parse_scenario, read_scenario
 from bluesky_gym.scenarios.parser import Asas
-from bluesky_gym.scenarios.player import slots_needed, waypoints_needed
+from bluesky_gym.scenarios.player import TRAJECTORY_COLUMNS, slots_needed, waypoints_needed
 from tests.core.reference_scenarios import DATA
 
 
@@ -89,7 +89,8 @@ def test_no_ops_are_accepted() -> None:
         (["RESOOFF AC1"], "RESOOFF"),
         (["ZONER 5 AC1"], "per-aircraft values"),
         (["DTLOOK 100 AC1"], "per-aircraft values"),
-        (["RESO EBY"], "resolution method 'EBY' is not supported"),
+        (["RESO SSD"], "resolution method 'SSD' is not supported; choose one of OFF, MVP, EBY, SWARM"),
+        (["RESO SWARM", "PRIORULES ON FF1"], "priority rules are not supported by the core's SWARM"),
         (["ASAS FANCY"], "detection method 'FANCY' not known"),
         (["RESO MVP", "RMETHH SIDEWAYS"], "'SIDEWAYS' not understood"),
         (["RFACH -1"], "RFACH must be > 0"),
@@ -110,6 +111,61 @@ def test_switching_resolution_off_after_it_flew_is_refused(off: str) -> None:
     assert not configs(f"ASAS ON\nRESO MVP\n{off}")[-1].resolving  # before any step: fine
     with pytest.raises(ScenarioError, match=r"t\.scn:3: .*switching conflict resolution off once it flew is not supported"):
         parse_scenario(head + f"00:00:10.00>{off}\n", "t.scn")
+
+
+def test_eby_and_swarm_are_selected_with_their_own_settings() -> None:
+    """RESO EBY|SWARM name the method; RMETH switches reach MVP and SWARM (which inherits them), not EBY (BlueSky ignores them there)."""
+    got = configs(
+        """
+        ASAS ON
+        RESO EBY
+        RMETHH HDG
+        RFACH 1.2
+        PRIORULES ON FF1
+        RESO SWARM
+        RMETHV V/S
+        RESO EBY
+        PLUGINS LOAD SWARM
+        """
+    )
+    assert got[1] == AsasConfig("STATEBASED", True, method="EBY") and got[1].resolving
+    assert got[2].settings == ResolutionSettings()  # RMETHH under EBY: no effect
+    assert got[3].settings.resofach == 1.2 and got[4] == got[3]  # PRIORULES: EBY ignores them
+    assert got[5] == AsasConfig("STATEBASED", True, method="SWARM")  # its own factors, from the defaults
+    assert got[6].settings.mode == 3 and got[6].method == "SWARM"
+    assert got[7].method == "EBY" and got[7].settings.resofach == 1.2 and got[7].settings.mode == 0  # EBY's settings kept
+    assert len(got) == 8  # PLUGINS is not an ASAS command (ignored: the core has the plugins built in)
+
+
+def test_switching_method_after_it_flew_is_refused() -> None:
+    assert configs("ASAS ON\nRESO MVP\nRESO EBY")[-1].method == "EBY"  # before any step: fine
+    with pytest.raises(ScenarioError, match=r"t\.scn:3: .*switching from RESO EBY to RESO SWARM once it flew is not supported"):
+        parse_scenario("00:00:00.00>ASAS ON\n00:00:00.00>RESO EBY\n00:00:05.00>RESO SWARM\n", "t.scn")
+
+
+@pytest.mark.parametrize("method", ["EBY", "SWARM"])
+def test_eby_and_swarm_scenarios_fly_on_the_core(method: str) -> None:
+    """A creconfs conflict flown with RESO EBY|SWARM: the aircraft leave their tracks, and not as MVP would."""
+    text = (
+        "00:00:00.00>ASAS CSTATEBASED\n00:00:00.00>RESO {}\n"
+        "00:00:00.00>CRE OWN A320 52 4 90 FL100 250\n00:00:00.00>CRECONFS INT A320 OWN 60 0.5 120\n"
+    )
+    tracks = {}
+    for m in ("MVP", method):
+        scenario = parse_scenario(text.format(m), "c.scn")
+        sim = _sim(scenario)
+        rows = _replay([scenario], sim, 60)
+        assert sim.conflict_resolution(0).method == m
+        tracks[m] = np.array([r[TRAJECTORY_COLUMNS.index("trk")] for r in rows if r[1] == "OWN"])
+    assert np.max(np.abs(tracks[method] - 90.0)) > 1.0  # the method resolved
+    assert np.max(np.abs(tracks[method] - tracks["MVP"])) > 0.1  # differently from MVP
+
+
+def test_swarm_needs_the_all_pairs_search() -> None:
+    scenario = parse_scenario("00:00:00.00>CRE OWN A320 52 4 90 FL100 250\n00:00:00.00>ASAS ON\n00:00:00.00>RESO SWARM\n", "g.scn")
+    sim = Simulator(1, 4, pair_search="grid")
+    with pytest.raises(ScenarioError, match=r"g\.scn:3: .*RESO SWARM needs pair_search 'all-pairs', this simulator has 'grid'"):
+        ScenarioPlayer([scenario], sim).step()
 
 
 def _replay(scenarios: list[Any], sim: Any, steps: int) -> list[list[object]]:
