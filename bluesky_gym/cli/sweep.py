@@ -21,9 +21,9 @@ sees). ``--local`` runs them one after the other in this process, without Ray.
 
 At the end, the reference policies are evaluated on the same held-out scenarios (cached in
 ``<out>/references``), and ``<out>/sweep.json`` lists every run with its held-out return and
-normalised score; ``bluesky-gym plot <out>`` draws the figures. ``--references eby swarm`` also
-evaluates those reference policies (MVP's mapping flying BlueSky's Eby or Swarm resolution) on the
-environments with traffic.
+normalised score; ``bluesky-gym plot <out>`` draws the figures. ``--references eby swarm ssd`` also
+evaluates those reference policies (MVP's mapping flying BlueSky's Eby, Swarm or SSD resolution)
+on the environments with traffic.
 
 ``--estimate`` trains nothing: it times every environment (random actions) and every algorithm
 (a short training on ``--probe-env``), and extrapolates the grid's CPU time and wall-clock time
@@ -40,8 +40,8 @@ from typing import Any
 from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int, warn
 from bluesky_gym.cli.train import add_damage_options, add_run_options, check_device, load_config, ppo_rounding, run_overrides
 from bluesky_gym.core.extras import MissingDependencyError
-from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.tasks import RESOLUTION_REFERENCES
+from bluesky_gym.training import ALGORITHMS
 
 
 def add_parser(subparsers: Any) -> None:
