@@ -37,7 +37,7 @@ from typing import Any
 from bluesky_gym.cli.arguments import add_env_option, deprecated_alias, non_negative_int, positive_int
 from bluesky_gym.cli.train import algorithm
 from bluesky_gym.core.extras import MissingDependencyError
-from bluesky_gym.tasks import REFERENCE_POLICIES
+from bluesky_gym.tasks import REFERENCE_POLICIES, RESOLUTION_REFERENCES
 
 
 def add_parser(subparsers: Any) -> None:
@@ -65,7 +65,7 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _stem(spec: str) -> str:
-    if spec in REFERENCE_POLICIES:
+    if spec in REFERENCE_POLICIES or spec in RESOLUTION_REFERENCES:
         return f"eval_{spec}"
     p = Path(spec)
     parts = [x for x in (p.parent.parent.name, p.parent.name, p.stem) if x] if p.suffix == ".zip" else [p.parent.name, p.name]

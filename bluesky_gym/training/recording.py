@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bluesky_gym.core.extras import missing_extra
-from bluesky_gym.tasks import REFERENCE_POLICIES
+from bluesky_gym.tasks import REFERENCE_POLICIES, RESOLUTION_REFERENCES
 
 if TYPE_CHECKING:
     from bluesky_gym.training.policies import Policy
@@ -47,11 +47,12 @@ def make_actor(
     if policy == "random":
         rng = np.random.default_rng(seed)
         return FunctionPolicy(lambda obs: rng.uniform(low, high, size=(next(iter(obs.values())).shape[0], *low.shape)), "random")
-    if policy in REFERENCE_POLICIES:
+    if policy in REFERENCE_POLICIES or policy in RESOLUTION_REFERENCES:
         return reference_policy(policy, env_id, low, high)
     path = Path(policy)
     if not path.is_file():
-        raise ValueError(f"--policy must be one of {', '.join(REFERENCE_POLICIES)} or an existing model .zip file, got {policy!r}")
+        names = ", ".join((*REFERENCE_POLICIES, *RESOLUTION_REFERENCES))
+        raise ValueError(f"--policy must be one of {names} or an existing model .zip file, got {policy!r}")
     try:
         import stable_baselines3 as sb3
     except ImportError as exc:

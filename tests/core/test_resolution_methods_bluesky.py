@@ -18,6 +18,8 @@ BlueSky's for the test (``monkeypatch``). On the BlueSky backend with ``ASAS CST
 * The s9 creconfs scenario flown 200 s with each method resolving: every step's resolution
   agrees, and so does who follows it (BlueSky's ``cr.active``: ``resumenav``, and for Swarm its
   ``active.fill(True)``), which the package's resolvers decide.
+* The core's ``Simulator`` with ``RESO EBY|SWARM`` and the patched BlueSky fly s9 (and a Swarm
+  bystander) side by side for 200 s: every state within the reference tolerances.
 """
 
 from __future__ import annotations
@@ -216,3 +218,40 @@ def test_creconfs_scenario_s9(patched: BlueSkyPhysics, method: str, resolver_cls
         following += int(follow.any())
     assert resolving >= 5 and following > 0
     assert abs(patched.trk[0, 0] - 45.0) > 1.0  # the method did act
+
+
+def _s9(sim: Any) -> None:
+    """The s9 creconfs geometry, with a bystander flying alongside the ownship (a Swarm member)."""
+    sim.create(0, 0, 52.0, 4.0, 45.0, 200 * 100 * FT, 250 * KTS)
+    sim.creconfs(0, 0, 1, 90.0, 1.0, 120.0)
+    sim.creconfs(0, 0, 2, 200.0, 0.0, 150.0, None, None, 200 * KTS)
+    sim.creconfs(0, 0, 3, 300.0, 2.0, 100.0, 500.0, 90.0)
+    sim.create(0, 4, 52.03, 3.95, 50.0, 200 * 100 * FT + 300.0, 240 * KTS)
+
+
+@pytest.mark.parametrize("method", ["EBY", "SWARM"])
+def test_core_flies_the_method_as_patched_bluesky(patched: BlueSkyPhysics, method: str) -> None:
+    """The core's Simulator with RESO method and the patched BlueSky fly the same 200 s, state by state."""
+    from bluesky_gym.core import Simulator
+    from bluesky_gym.core.resolution import AsasConfig
+
+    from .test_reference import TOL
+
+    core = Simulator(1, MAX_AC, dt=1.0, pair_search="all-pairs")
+    _select(patched, method)
+    core.set_conflict_resolution(0, AsasConfig("CSTATEBASED", True, method=method))
+    for sim in (core, patched):
+        _s9(sim)
+    slots = np.flatnonzero(patched.active[0])
+    turned = 0.0
+    for t in range(200):
+        core.step()
+        patched.step()
+        for name in ("lat", "lon", "alt", "tas", "gs", "vs", "trk"):
+            ours, theirs = getattr(core, name)[0, slots], getattr(patched, name)[0, slots]
+            err = np.abs(ours - theirs)
+            if name == "trk":
+                err = np.minimum(err, 360.0 - err)
+            assert np.all(err <= TOL[name]), f"{method} t={t + 1} {name}: {ours} vs {theirs}"
+        turned = max(turned, abs((core.trk[0, 0] - 45.0 + 180.0) % 360.0 - 180.0))
+    assert turned > 1.0  # the method did act

@@ -194,3 +194,43 @@ def test_demo_compares_with_mvp_where_it_exists(tmp_path: Path, capsys: pytest.C
     assert json.loads((out / "eval_mvp.json").read_text())["policy"] == "mvp"
     cached = json.loads((out / "references" / "MergeEnv-v0.json").read_text())
     assert {"random", "classical", "mvp"} <= set(cached)  # a complete cache: reference_scores reads it as it is
+
+
+def test_eby_and_swarm_references_are_selectable_not_default(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``eby`` and ``swarm``: the mvp mapping flying BlueSky's Eby or Swarm; in eval and as extra references, not scored by default."""
+    assert reference_names("HorizontalCREnv-v0") == ("random", "classical", "mvp")
+    for name, method in (("eby", "EBY"), ("swarm", "SWARM")):
+        policy = reference_policy(name, "SectorCREnv-v0", np.zeros(2), np.ones(2))
+        assert policy.name == name and policy.method == method and policy.resolver is not None and policy.resolver.name == method
+    with pytest.raises(ValueError, match="no MVP mapping for DescentEnv-v0"):
+        reference_policy("eby", "DescentEnv-v0", np.zeros(1), np.ones(1))
+    refs = reference_scores("HorizontalCREnv-v0", 2, tmp_path, extra=("swarm", "eby"))
+    assert list(refs) == ["random", "classical", "mvp", "swarm", "eby"] and refs["eby"]["policy"] == "eby"
+    assert set(reference_scores("DescentEnv-v0", 1, tmp_path, extra=("eby",))) == {"random", "classical"}
+    with pytest.raises(ValueError, match="unknown reference policy 'ssd'"):
+        reference_scores("HorizontalCREnv-v0", 1, extra=("ssd",))
+    assert main(["eval", "HorizontalCREnv-v0", "--model", "eby", "--model", "swarm", "--episodes", "2", "--out", str(tmp_path)]) == 0
+    assert [line.split()[0] for line in capsys.readouterr().out.splitlines()[2:4]] == ["eby", "swarm"]
+    assert json.loads((tmp_path / "eval_swarm.json").read_text())["policy"] == "swarm"
+
+
+@pytest.mark.parametrize("name", ["eby", "swarm"])
+def test_eby_and_swarm_policies_act_on_a_head_on_conflict(name: str) -> None:
+    """The policy turns the ownship away from a head-on intruder where the nominal policy would not."""
+    env_id = "HorizontalCREnv-v0"
+    venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    policy = make_policy(name, env_id)
+    policy.bind(venv)
+    venv.reset(seed=[0, 1])
+    sim = venv.unwrapped.task.sim
+    for e in range(2):
+        sim.delete(e, np.flatnonzero(sim.active[e, 1:]) + 1)
+        sim.creconfs(e, 0, 1, 180.0, 0.0, 150.0)
+    obs = venv.unwrapped.task.observation()
+    acted = 0.0
+    for _ in range(4):
+        action = policy.act(obs)
+        acted = max(acted, float(np.abs(action - policy.nominal.act(obs)).max()))
+        obs, *_ = venv.step(action)
+    venv.close()
+    assert acted > 0.05
