@@ -213,7 +213,7 @@ def test_read_scenario_names_the_file(tmp_path) -> None:  # type: ignore[no-unty
         ("DIRECT AC1 AC1005", "not in the route"),
         ("LNAV AC1 ON", "no waypoints"),
         ("VNAV AC1 ON", "VNAV ON is not supported"),
-        ("RESO SWARM", "resolution method 'SWARM' is not supported"),
+        ("RESO FANCY", "resolution method 'FANCY' is not supported"),
         ("NOISE ON", "turbulence"),
         ("DT 0", "dt must be > 0"),
         ("DEL", "missing argument"),

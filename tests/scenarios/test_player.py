@@ -157,9 +157,9 @@ def test_replay_cli_writes_the_reference_columns(tmp_path: Path, capsys: pytest.
 
 def test_replay_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bad = tmp_path / "bad.scn"
-    bad.write_text("00:00:00.00>CRE AC1 A320 52 4\n00:00:01.00>RESO SWARM\n")
+    bad.write_text("00:00:00.00>CRE AC1 A320 52 4\n00:00:01.00>RESO FANCY\n")
     assert main(["replay", str(bad), "--duration", "5"]) == 2
-    assert "bad.scn:2: RESO: resolution method 'SWARM' is not supported" in capsys.readouterr().err
+    assert "bad.scn:2: RESO: resolution method 'FANCY' is not supported" in capsys.readouterr().err
     assert main(["replay", "nothing.scn", "--duration", "5"]) == 2
     assert "no shipped scenario" in capsys.readouterr().err
     assert main(["replay", "super8", "--duration", "2.5", "--dt", "1"]) == 2
