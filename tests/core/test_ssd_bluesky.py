@@ -14,7 +14,10 @@ of every aircraft **to the bit** (``assert_array_equal``):
   own speeds, some flown into loss of separation, some in wind, so that heading and track
   differ), under several ``RFACH`` factors and ``ZONER`` radii, with A320s or mixed types
   (different speed envelopes);
-* a creconfs scenario flown for 150 s with SSD resolving in BlueSky, every state compared.
+* a creconfs scenario flown for 150 s with SSD resolving in BlueSky, every state compared, and
+  who follows the resolution after every step (BlueSky's ``cr.active``, ``resumenav``);
+* the core's ``Simulator`` with ``RESO SSD`` and the fixed BlueSky flying a creconfs scenario side
+  by side for 200 s: every state within the tolerances of the recorded reference scenarios.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ pytest.importorskip("pyclipper")
 from bluesky_gym.backends.bluesky_sim import BlueSkyPhysics
 from bluesky_gym.core.conflicts import LOOKAHEAD, PZ_HEIGHT, detect
 from bluesky_gym.core.resolution import Resolution, ResolutionSettings
-from bluesky_gym.core.ssd import ssd
+from bluesky_gym.core.ssd import SSDResolver, ssd
 from bluesky_gym.core.units import FT, KTS, NM
 
 pytestmark = [
@@ -201,12 +204,54 @@ def test_creconfs_scenario_flown_with_ssd(physics: BlueSkyPhysics, monkeypatch: 
     physics.creconfs(0, 0, 1, 90.0, 1.0, 120.0)
     physics.creconfs(0, 0, 2, 200.0, 0.0, 150.0, None, None, 200 * KTS)
     physics.creconfs(0, 0, 3, 300.0, 2.0, 100.0)
-    resolving = 0
+    resolver = SSDResolver(ResolutionSettings(resofach=1.05), python_geo=physics.geo == "python")
+    resolving = following = 0
     for t in range(150):
         theirs = _bluesky_resolution(physics)
         ours = _ours(physics)
         _assert_same(ours, theirs, f"t={t}")
         resolving += int(ours.in_conflict.any())
-        physics.step()
-    assert resolving > 10
+        follow = resolver.update(physics).follow[0]
+        physics.step()  # BlueSky's ASAS sees the same state in this step, then resumenav decides who follows
+        active = np.zeros(physics.max_aircraft, bool)
+        slots = np.flatnonzero(physics.active[0])
+        active[slots] = np.asarray(physics.traffic.cr.active, bool)[physics.traffic.id2idx([physics.acid(s) for s in slots])]
+        np.testing.assert_array_equal(follow, active, err_msg=f"t={t}: who follows the resolution")
+        following += int(follow.any())
+    assert resolving > 10 and following > resolving  # resolutions are held after the conflicts end
     assert abs(physics.trk[0, 0] - 45.0) > 1.0  # SSD did act: the ownship left its track
+
+
+def test_core_flies_ssd_as_patched_bluesky(physics: BlueSkyPhysics, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The core's Simulator with RESO SSD and the fixed BlueSky fly the same 200 s side by side, state by state.
+
+    The tolerances are those of the recorded reference scenarios (``test_reference.TOL``).
+    """
+    from bluesky_gym.core import Simulator
+    from bluesky_gym.core.resolution import AsasConfig
+
+    from .test_reference import TOL
+
+    _fix_plugin(monkeypatch)
+    _configure(physics)
+    core = Simulator(1, MAX_AC, dt=1.0, geo=physics.geo)
+    core.set_conflict_resolution(0, AsasConfig("CSTATEBASED", True, method="SSD"))
+    for sim in (core, physics):
+        sim.create(0, 0, 52.0, 4.0, 45.0, 200 * 100 * FT, 250 * KTS)
+        sim.creconfs(0, 0, 1, 90.0, 1.0, 120.0)
+        sim.creconfs(0, 0, 2, 200.0, 0.0, 150.0, None, None, 200 * KTS)
+        sim.creconfs(0, 0, 3, 300.0, 2.0, 100.0)
+        sim.create(0, 4, 52.03, 3.95, 50.0, 200 * 100 * FT + 300.0, 240 * KTS)
+    slots = np.flatnonzero(physics.active[0])
+    turned = 0.0
+    for t in range(200):
+        core.step()
+        physics.step()
+        for name in ("lat", "lon", "alt", "tas", "gs", "vs", "trk"):
+            ours, theirs = getattr(core, name)[0, slots], getattr(physics, name)[0, slots]
+            err = np.abs(ours - theirs)
+            if name == "trk":
+                err = np.minimum(err, 360.0 - err)
+            assert np.all(err <= TOL[name]), f"t={t + 1} {name}: {ours} vs {theirs}"
+        turned = max(turned, abs((core.trk[0, 0] - 45.0 + 180.0) % 360.0 - 180.0))
+    assert turned > 1.0  # SSD did act
