@@ -207,8 +207,8 @@ def test_eby_and_swarm_references_are_selectable_not_default(tmp_path: Path, cap
     refs = reference_scores("HorizontalCREnv-v0", 2, tmp_path, extra=("swarm", "eby"))
     assert list(refs) == ["random", "classical", "mvp", "swarm", "eby"] and refs["eby"]["policy"] == "eby"
     assert set(reference_scores("DescentEnv-v0", 1, tmp_path, extra=("eby",))) == {"random", "classical"}
-    with pytest.raises(ValueError, match="unknown reference policy 'ssd'"):
-        reference_scores("HorizontalCREnv-v0", 1, extra=("ssd",))
+    with pytest.raises(ValueError, match="unknown reference policy 'fancy'"):
+        reference_scores("HorizontalCREnv-v0", 1, extra=("fancy",))
     assert main(["eval", "HorizontalCREnv-v0", "--model", "eby", "--model", "swarm", "--episodes", "2", "--out", str(tmp_path)]) == 0
     assert [line.split()[0] for line in capsys.readouterr().out.splitlines()[2:4]] == ["eby", "swarm"]
     assert json.loads((tmp_path / "eval_swarm.json").read_text())["policy"] == "swarm"
