@@ -1,4 +1,4 @@
-"""Conflict resolution with the Solution Space Diagram (SSD), BlueSky 1.1.1's ``RESO SSD`` plugin, batched [docs/baselines.md].
+"""Conflict resolution with the Solution Space Diagram (SSD), BlueSky 1.1.1's ``RESO SSD`` plugin, batched [docs/baselines.md §6].
 
 The SSD method of BlueSky's ``plugins/asas/ssd.py`` (Hermes, Mulder, van Paassen et al.) draws
 each aircraft in conflict a velocity-space diagram: the ring of ground speeds between its
@@ -36,7 +36,7 @@ BlueSky 1.1.1's plugin does not run: it crashes on its first resolution. Two one
 it run, and :func:`ssd` computes what the fixed plugin computes (the BlueSky parity tests apply
 the same fixes to BlueSky as monkeypatches):
 
-1. ``geo.qdrdist_matrix`` in place of the pairwise ``geo.qdrdist``: the plugin passes the two
+1. ``geo.qdrdist_matrix`` where the pairwise ``geo.qdrdist`` is meant: the plugin passes the two
    aircraft of every pair as two vectors and expects one bearing and distance per pair;
    BlueSky's compiled ``qdrdist_matrix`` (the default, ``prefer_compiled``) returns the matrix of
    every first against every second aircraft, and the reshape to one value per pair fails
@@ -54,8 +54,9 @@ direction, heading or speed first, rules of the air, sequential) are refused wit
 
 Aircraft are taken in slot order, which is BlueSky's traffic order for the airspaces the package
 builds (pairs, the mirrored VOs of pairs and the order of the clipping paths depend on it).
-Only ``resolve`` is here; when a resolution is followed and when it ends is BlueSky's
-``resumenav``, shared with MVP (:func:`bluesky_gym.core.resolution.resume`).
+:func:`ssd` is the plugin's ``resolve``; :class:`SSDResolver` flies it as ``RESO SSD`` under the
+bookkeeping every method shares (when the values are renewed, BlueSky's ``resumenav``:
+:class:`~bluesky_gym.core.resolution.ConflictResolver`).
 """
 
 from __future__ import annotations
