@@ -34,6 +34,15 @@ zones, settings); :meth:`bluesky_gym.core.Simulator.set_conflict_resolution` fli
 :func:`resume` is BlueSky's ``resumenav`` bookkeeping: which pairs are still being resolved
 (before their closest point of approach, in horizontal loss of separation, or "bouncing"), and
 so which aircraft still follow their resolution.
+
+**Resolution methods.** :class:`ConflictResolver` is the one interface of every method: it runs
+detection and BlueSky's ASAS bookkeeping (renewal, :func:`resume`, waypoint recovery) and asks
+its subclass only for ``resolve(state, conflicts, vsmin, vsmax)`` (and ``resolve_pairs`` for the
+grid search), BlueSky's ``resolve(conf, ownship, intruder)``. :class:`MVPResolver` is the MVP
+subclass; Eby and Swarm are in :mod:`bluesky_gym.core.eby` and :mod:`bluesky_gym.core.swarm`.
+The methods are registered by ``RESO`` name in :data:`bluesky_gym.core.resolvers.RESOLVERS`
+(a new method, e.g. SSD: one subclass and one entry there), and :attr:`AsasConfig.method` names
+the one an airspace flies.
 """
 
 from __future__ import annotations

@@ -64,7 +64,7 @@ def test_primitives_are_numpys_operations_compiled_and_in_python() -> None:
     with np.errstate(invalid="ignore"):
         assert math.isnan(fmod(1.0, 0.0))  # numpy's, where Python's math.fmod raises
     assert list(grid_range(4)) == [0, 1, 2, 3]
-    assert set(PRIMITIVES) == {"fmod", "rint", "scratch", "grid_range"}
+    assert set(PRIMITIVES) == {"fmod", "rint", "fma", "scratch", "grid_range"}
 
 
 def test_every_kernel_of_core_and_tasks_is_registered_once() -> None:

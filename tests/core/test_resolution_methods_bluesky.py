@@ -255,3 +255,16 @@ def test_core_flies_the_method_as_patched_bluesky(patched: BlueSkyPhysics, metho
             assert np.all(err <= TOL[name]), f"{method} t={t + 1} {name}: {ours} vs {theirs}"
         turned = max(turned, abs((core.trk[0, 0] - 45.0 + 180.0) % 360.0 - 180.0))
     assert turned > 1.0  # the method did act
+
+
+def test_bluesky_backend_refuses_the_crashing_plugins(physics: BlueSkyPhysics) -> None:
+    from bluesky_gym.core.resolution import AsasConfig
+
+    for method in ("EBY", "SWARM"):
+        with pytest.raises(ValueError, match=f"RESO {method} is a BlueSky plugin that crashes on its first resolution in BlueSky 1.1.1"):
+            physics.set_conflict_resolution(0, AsasConfig("CSTATEBASED", True, method=method))
+    physics.set_conflict_resolution(0, AsasConfig("CSTATEBASED", True))  # MVP: as before
+    from bluesky.traffic.asas import ConflictResolution
+
+    assert ConflictResolution.selected().__name__ == "MVP"
+    physics.set_conflict_resolution(0, AsasConfig())

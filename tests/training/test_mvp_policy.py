@@ -234,3 +234,14 @@ def test_eby_and_swarm_policies_act_on_a_head_on_conflict(name: str) -> None:
         obs, *_ = venv.step(action)
     venv.close()
     assert acted > 0.05
+
+
+def test_sweep_takes_extra_references(capsys: pytest.CaptureFixture[str]) -> None:
+    from bluesky_gym.cli import build_parser
+
+    args = build_parser().parse_args(["sweep", "--env", "all", "--references", "eby", "swarm"])
+    assert args.references == ["eby", "swarm"]
+    assert build_parser().parse_args(["sweep", "--env", "all"]).references == []
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["sweep", "--env", "all", "--references", "ssd"])
+    assert "invalid choice: 'ssd'" in capsys.readouterr().err
