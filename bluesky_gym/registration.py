@@ -26,7 +26,7 @@ def register_envs() -> None:
     point), and the centralised id of every multi-agent form that has one.
 
     The ids are registered without Gymnasium's time limit: each environment's task owns its limit
-    (``gym.make(id, max_episode_steps=N)`` and ``gym.make_vec(..., max_episode_steps=N)`` set it,
+    (``gym.make(id, time_limit=N)`` and ``gym.make_vec(..., max_episode_steps=N)`` set it,
     ``env.spec.max_episode_steps`` reports it).
     """
     from bluesky_gym.multiagent.registration import register_envs as register_centralised

@@ -179,7 +179,8 @@ _POLICIES = "bluesky_gym.training.policies"
 #: Episode-log column of the mean |altitude - target| [m] while flying (derived by the plots from the altitude reward).
 ALTITUDE_ERROR = "altitude_error_m"
 
-#: The paper's environments (``-v0``) and the recorded-traffic one, in the order of the paper.
+#: The paper's environments (``-v0``) in the order of the paper, then the recorded-traffic one and
+#: the dense-traffic stress test (``DenseSectorCREnv-v0``: SectorCR with traffic entering at a rising rate).
 PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
     EnvEntry(
         id="DescentEnv-v0",
@@ -333,6 +334,33 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         classical=f"{_POLICIES}:RealTrafficController",
         v1=(),
     ),
+    EnvEntry(
+        id="DenseSectorCREnv-v0",
+        task="bluesky_gym.tasks.dense_sector_cr:DenseSectorCRTask",
+        env="bluesky_gym.envs.dense_sector_cr_env:DenseSectorCREnv",
+        vector_env="bluesky_gym.envs.dense_sector_cr_env:DenseSectorCRVectorEnv",
+        scene="bluesky_gym.render.scenes.dense_sector_cr:dense_sector_cr_scene",
+        multiagent=MultiAgentEntry(
+            name="dense_sector_cr_v0",
+            task="bluesky_gym.multiagent.dense_sector_cr:DenseSectorCRMultiAgentTask",
+            parallel_env="bluesky_gym.multiagent.parallel:DenseSectorCRParallelEnv",
+            centralised_id="DenseSectorCRCentralised-v0",
+            centralised_env="bluesky_gym.multiagent.centralised:DenseSectorCRCentralisedEnv",
+            scene="bluesky_gym.multiagent.render:sector_cr_scene",
+            v1=(("flight_level_altitude", True), ("speed_step_in_knots", True)),
+        ),
+        classical=f"{_POLICIES}:SectorCRController",
+        mvp=f"{_POLICIES}:SECTOR_CR_MVP",
+        kpis=(
+            ("return", "episode return"),
+            ("kpi_los_count", "losses of separation / episode"),
+            ("kpi_los_per_flight_hour", "losses of separation / flight-hour"),
+            ("kpi_time_to_first_los_s", "time to the first loss of separation [s]"),
+            ("kpi_min_separation_nm", "minimum separation [NM]"),
+            ("kpi_fuel_kg", "fuel burned [kg]"),
+        ),
+        v1=(("flight_level_altitude", True), ("speed_step_in_knots", True), ("exit_ends_episode", True)),
+    ),
 )
 
 
@@ -351,8 +379,8 @@ def _v1(row: EnvEntry) -> EnvEntry:
     )
 
 
-#: Every environment: the paper's seven (``-v0``) and the recorded-traffic one, then their ``-v1``
-#: versions.
+#: Every environment: the paper's seven (``-v0``), the recorded-traffic one and the dense-traffic
+#: stress test, then their ``-v1`` versions.
 ENVIRONMENTS: tuple[EnvEntry, ...] = (*PAPER_ENVIRONMENTS, *(_v1(row) for row in PAPER_ENVIRONMENTS if row.v1 is not None))
 
 

@@ -5,17 +5,20 @@ physics or of the MDP. Both shells only convert between numpy batches and Gymnas
 
 The task owns the time limit: it truncates an episode after ``max_episode_steps`` decision steps
 (``terminated`` wins over ``truncated`` on the same step), computes the KPIs of that last step,
-and the shell refuses a step after the end. The ids are therefore registered without Gymnasium's
-``TimeLimit`` wrapper, and ``env.spec.max_episode_steps`` reports the task's limit.
+and the shell refuses a step after the end. The limit is part of the MDP (a ``-v1`` reward can
+count the steps left), so it is an ordinary constructor argument: ``max_episode_steps`` (as
+``gym.make_vec``, PettingZoo and direct construction pass it) or its synonym ``time_limit``, which
+``gym.make`` passes on (``gym.make`` keeps its own ``max_episode_steps`` for Gymnasium's
+``TimeLimit`` wrapper and never tells the environment; see :func:`time_limit_of`). The ids are
+registered without that wrapper, and ``env.spec.max_episode_steps`` reports the task's limit.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import sys
 import tracemalloc
 from collections.abc import Mapping
-from types import FrameType, TracebackType
+from types import TracebackType
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -149,32 +152,26 @@ def batch_memory_error(env_id: str, task_class: type[Task], config: Any, num_env
     )
 
 
-def requested_time_limit(max_episode_steps: int | None) -> int | None:
-    """The time limit an environment constructor should give its task.
+def time_limit_of(max_episode_steps: int | None, time_limit: int | None) -> int | None:
+    """The time limit an environment constructor gives its task: either argument, or None (the task's default).
 
-    Its own ``max_episode_steps`` argument if given, else the ``max_episode_steps`` of the
-    :func:`gymnasium.make` call constructing it. Gymnasium keeps that argument for its
-    ``TimeLimit`` wrapper and never passes it to the environment (there is no public channel for
-    it), so it is read from ``make``'s arguments when ``make`` is the direct caller of the
-    constructor chain. The task then ends the episode at that step itself: with its KPIs, with
-    ``terminated`` taking precedence, and with an error on a further step. ``TimeLimit`` still
-    wraps the environment (Gymnasium always adds it for an explicit limit) and then agrees with it,
-    except that, by Gymnasium's convention, it also flags ``truncated`` when the episode
-    terminates exactly on that step.
+    ``time_limit`` is the spelling for ``gym.make``: Gymnasium's ``make`` keeps an argument named
+    ``max_episode_steps`` for its ``TimeLimit`` wrapper, which truncates from outside without telling
+    the environment (the task then keeps its own limit, its KPIs do not come on the wrapper's last
+    step, and a ``-v1`` reward counting the steps left counts them to the task's limit). So
+    ``gym.make(id, time_limit=N)`` sets the environment's own limit, as ``max_episode_steps=N`` does
+    for ``gym.make_vec``, PettingZoo and a directly constructed environment.
 
     Args:
-        max_episode_steps: The constructor's argument (None: not given).
+        max_episode_steps: The constructor's ``max_episode_steps`` (None: not given).
+        time_limit: The constructor's ``time_limit`` (None: not given).
+
+    Raises:
+        ValueError: Both are given and differ.
     """
-    if max_episode_steps is not None:
-        return max_episode_steps
-    frame: FrameType | None = sys._getframe(1)
-    while frame is not None and frame.f_code.co_name == "__init__":  # the constructor chain
-        frame = frame.f_back
-    if frame is not None and frame.f_code is gym.make.__code__:
-        requested = frame.f_locals.get("max_episode_steps")
-        if isinstance(requested, int) and not isinstance(requested, bool) and requested > 0:
-            return requested
-    return None
+    if max_episode_steps is not None and time_limit is not None and max_episode_steps != time_limit:
+        raise ValueError(f"max_episode_steps={max_episode_steps!r} and time_limit={time_limit!r} are the same limit; give one")
+    return time_limit if time_limit is not None else max_episode_steps
 
 
 def made_as(env_id: str | None, task_class: type[Task]) -> str:
@@ -273,6 +270,8 @@ class BlueSkyEnv(MadeIdMixin, gym.Env):
         max_episode_steps: Truncation limit in decision steps (default: the reference's).
         env_id: The id the environment is made as, named by its errors and pictures (registration
             passes it for a ``-v1`` id; default: the task's own id).
+        time_limit: ``max_episode_steps`` under the name ``gym.make`` passes on (see
+            :func:`time_limit_of`).
         **options: Scenario options of the task (see its config dataclass).
     """
 
@@ -280,7 +279,13 @@ class BlueSkyEnv(MadeIdMixin, gym.Env):
     metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}  # noqa: RUF012 - Gymnasium declares it an instance attribute
 
     def __init__(
-        self, render_mode: str | None = None, backend: str = "native", max_episode_steps: int | None = None, env_id: str | None = None, **options: Any
+        self,
+        render_mode: str | None = None,
+        backend: str = "native",
+        max_episode_steps: int | None = None,
+        env_id: str | None = None,
+        time_limit: int | None = None,
+        **options: Any,
     ) -> None:
         env_id = made_as(env_id, self.task_class)
         self._errors = ErrorsNameTheId(env_id, self.task_class.env_id)
@@ -288,7 +293,7 @@ class BlueSkyEnv(MadeIdMixin, gym.Env):
             _check_render_mode(render_mode)
             self.render_mode = render_mode
             self.backend = backend
-            limit = requested_time_limit(max_episode_steps)
+            limit = time_limit_of(max_episode_steps, time_limit)
             self.task = self.task_class(1, _split_kwargs(self.task_class, options), backend=backend, max_episode_steps=limit)
             self._observation_space = (self.task.observation_spec, observation_space(self.task))
             self.action_space = _box(self.task.action_spec, self.task.space_dtype)
@@ -409,6 +414,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         env_id: The id the environment is made as (see :class:`BlueSkyEnv`).
         device: ``"cpu"`` (numpy arrays) or ``"cuda"`` (the physics on a CUDA GPU, torch tensors on
             it; needs the ``gpu`` and ``train`` extras).
+        time_limit: ``max_episode_steps`` under another name (see :func:`time_limit_of`).
         **options: Scenario options of the task.
     """
 
@@ -429,6 +435,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
         max_episode_steps: int | None = None,
         env_id: str | None = None,
         device: str = "cpu",
+        time_limit: int | None = None,
         **options: Any,
     ) -> None:
         env_id = made_as(env_id, self.task_class)
@@ -449,7 +456,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             self.render_mode = render_mode
             self.render_env = int(render_env)
             self.render_grid = int(render_grid)
-            limit = requested_time_limit(max_episode_steps)
+            limit = time_limit_of(max_episode_steps, time_limit)
             config = _split_kwargs(self.task_class, options)
             try:
                 self.task = self.task_class(self.num_envs, config, backend=backend, max_episode_steps=limit)

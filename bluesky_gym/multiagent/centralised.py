@@ -16,8 +16,8 @@ episode seen as a single-agent MDP:
   limit; info: ``total_reward`` (team return), ``agents_active``, ``agents_completed``,
   ``total_intrusions``, ``average_drift`` and at the end of the episode the KPIs ``kpi_*``.
 
-The ids ``SectorCRCentralised-v0``, ``MergeCentralised-v0`` and ``HorizontalCRCentralised-v0``
-are registered by :func:`bluesky_gym.multiagent.register_envs`.
+The ids ``SectorCRCentralised-v0``, ``MergeCentralised-v0``, ``HorizontalCRCentralised-v0`` and
+``DenseSectorCRCentralised-v0`` are registered by :func:`bluesky_gym.multiagent.register_envs`.
 """
 
 from __future__ import annotations
@@ -28,8 +28,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bluesky_gym.envs.shell import TaskSpecMixin, check_reset_options, requested_time_limit
+from bluesky_gym.envs.shell import TaskSpecMixin, check_reset_options, time_limit_of
 from bluesky_gym.multiagent.base import STATE_FEATURES, MultiAgentTask, flatten_observation
+from bluesky_gym.multiagent.dense_sector_cr import DenseSectorCRMultiAgentTask
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.sector_cr import SectorCRMultiAgentTask
@@ -52,6 +53,8 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
     Args:
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         max_episode_steps: Time limit in decision steps (default: the single-agent environment's).
+        time_limit: ``max_episode_steps`` under the name ``gym.make`` passes on
+            (:func:`~bluesky_gym.envs.shell.time_limit_of`).
         **options: Scenario options of the single-agent task.
 
     """
@@ -59,11 +62,11 @@ class CentralisedEnv(TaskSpecMixin, gym.Env):
     task_class: ClassVar[type[MultiAgentTask]]
     metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}  # noqa: RUF012 - Gymnasium declares it an instance attribute
 
-    def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, **options: Any) -> None:
+    def __init__(self, render_mode: str | None = None, max_episode_steps: int | None = None, time_limit: int | None = None, **options: Any) -> None:
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode must be one of {RENDER_MODES} or None, got {render_mode!r}")
         self.render_mode = render_mode
-        self.task = self.task_class(1, self.task_class.make_config(options), max_episode_steps=requested_time_limit(max_episode_steps))
+        self.task = self.task_class(1, self.task_class.make_config(options), max_episode_steps=time_limit_of(max_episode_steps, time_limit))
         m = self.task.n_agents
         low, high = local_bounds(self.task)
         self.observation_space = spaces.Dict(
@@ -148,3 +151,9 @@ class HorizontalCRCentralisedEnv(CentralisedEnv):
     """HorizontalCRCentralised-v0: one agent steers the ownship and its intruders (see the module docstring)."""
 
     task_class = HorizontalCRMultiAgentTask
+
+
+class DenseSectorCRCentralisedEnv(CentralisedEnv):
+    """DenseSectorCRCentralised-v0: one agent steers every aircraft of the sector, those that enter during the episode included."""
+
+    task_class = DenseSectorCRMultiAgentTask

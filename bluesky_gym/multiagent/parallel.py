@@ -38,6 +38,7 @@ from gymnasium.utils import seeding
 from bluesky_gym.envs.registry import multiagent_entry, resolve
 from bluesky_gym.multiagent import make_task, require_pettingzoo
 from bluesky_gym.multiagent.base import MultiAgentTask, agent_action, agent_actions
+from bluesky_gym.multiagent.dense_sector_cr import DenseSectorCRMultiAgentTask
 from bluesky_gym.multiagent.horizontal_cr import HorizontalCRMultiAgentTask
 from bluesky_gym.multiagent.merge import MergeMultiAgentTask
 from bluesky_gym.multiagent.render import agent_name
@@ -260,6 +261,19 @@ class HorizontalCRParallelEnv(BlueSkyParallelEnv):
 
     task_class = HorizontalCRMultiAgentTask
     metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": HorizontalCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
+
+
+class DenseSectorCRParallelEnv(BlueSkyParallelEnv):
+    """Multi-agent DenseSectorCR: every aircraft in the sector is an agent, and agents keep entering.
+
+    See :class:`~bluesky_gym.multiagent.dense_sector_cr.DenseSectorCRMultiAgentTask`. An aircraft
+    that enters during a step appears in that step's dicts with its first observation (reward 0,
+    neither terminated nor truncated, an empty info) and is in ``agents`` from then on. Scenario
+    options are DenseSectorCREnv-v0's (``spawn_rate_start``, ...).
+    """
+
+    task_class = DenseSectorCRMultiAgentTask
+    metadata: dict[str, Any] = {**BlueSkyParallelEnv.metadata, "name": DenseSectorCRMultiAgentTask.name}  # noqa: RUF012 - per instance: the name (_v0 or _v1) is set by __init__
 
 
 def parallel_env(name: str, **kwargs: Any) -> BlueSkyParallelEnv:

@@ -311,6 +311,9 @@ INFO_DISPLAY: dict[str, tuple[str, Any]] = {
     "waypoint_reached": ("reached goal", lambda v: "yes" if v else "no"),
     "crashed": ("restricted area", lambda v: "entered" if v else "clear"),
     "average_route_deviation_nm": ("mean route dev.", lambda v: f"{float(v):.2f} NM"),
+    "traffic": ("traffic now", lambda v: str(int(v))),
+    "spawned": ("entered", lambda v: str(int(v))),
+    "spawns_dropped": ("entries dropped", lambda v: str(int(v))),
 }
 
 

@@ -148,10 +148,9 @@ def record(
             if step % every == 0 or ended.min() >= episodes:
                 stop = emit(env)
     else:
-        if "max_episode_steps" in kwargs:
-            env = gym.make(env_id, render_mode=mode, max_episode_steps=kwargs.pop("max_episode_steps"), **kwargs)
-        else:
-            env = gym.make(env_id, render_mode=mode, **kwargs)
+        if "max_episode_steps" in kwargs:  # gym.make keeps that name for its TimeLimit wrapper
+            kwargs["time_limit"] = kwargs.pop("max_episode_steps")
+        env = gym.make(env_id, render_mode=mode, **kwargs)
         actor = make_actor(policy, env_id, env.action_space, seed, algo, deterministic, env.observation_space)
         actor.bind(env)
         recorder = None

@@ -369,7 +369,7 @@ def run_env_episodes(
     last-bit differences, see ``ulp_sources``), within ``tol`` (scaled) from then on.
 
     Args:
-        env_id: Environment id (made with ``gym.make(env_id, backend=..., max_episode_steps=time_limit)``).
+        env_id: Environment id (made with ``gym.make(env_id, backend=..., time_limit=time_limit)``).
         episodes: (seed, steps) per episode; an episode stops at termination or truncation, or is
             abandoned after ``steps`` decision steps (the next reset then starts a clean episode).
         time_limit: Truncation limit of both environments.
@@ -382,7 +382,7 @@ def run_env_episodes(
     """
     dev = Deviation()
     steps = 0
-    envs = {b: gym.make(env_id, backend=b, max_episode_steps=time_limit, **(options or {})) for b in ("native", "bluesky")}
+    envs = {b: gym.make(env_id, backend=b, time_limit=time_limit, **(options or {})) for b in ("native", "bluesky")}
     sim = envs["native"].unwrapped.task.sim
     bsim = envs["bluesky"].unwrapped.task.sim
     if type(bsim).__name__ != "BlueSkyPhysics":

@@ -125,6 +125,7 @@ EPISODE_PLAN = {
     "SectorCREnv-v1": (60, 6, 10),
     "StaticObstacleEnv-v1": (50, 6, 10),
     "MergeEnv-v1": (25, 6, 8),
+    "DenseSectorCREnv-v0": (80, 6, 15),  # about 20 entries expected in a full episode, and exits
 }
 
 

@@ -40,7 +40,7 @@ def test_measure_rejects_non_positive_arguments(bad: dict[str, float]) -> None:
 
 def test_env_step_rate_single_resets_ended_episodes() -> None:
     # Five decision steps per episode, so the measurement sees several episode ends.
-    env = gym.make("DescentEnv-v0", max_episode_steps=5)
+    env = gym.make("DescentEnv-v0", time_limit=5)
     res = env_step_rate(env, 0.05, seed=1)
     env.close()
     assert res["episodes"] >= 1

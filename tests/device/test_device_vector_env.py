@@ -27,6 +27,10 @@ bluesky_gym.register_envs()
 RTOL, ATOL = 1e-7, 1e-9
 #: Every single-agent id (the recorded-traffic ones play the tests' stand-in collections, tests/conftest.py).
 IDS = env_ids()
+#: Options of the ids whose default slots exceed the device simulator's (65 per airspace): DenseSectorCR
+#: with 27 entries (38 slots of worst-case initial traffic + 27), entering at once (5 per step).
+_DENSE = {"max_spawned": cuda_target.SCRATCH_CAPACITY + 1 - 38, "spawn_rate_start": 3600.0, "spawn_rate_end": 3600.0}
+DEVICE_OPTIONS: dict[str, dict[str, Any]] = {"DenseSectorCREnv-v0": _DENSE, "DenseSectorCREnv-v1": _DENSE}
 
 
 def _host(value: Any) -> np.ndarray:
@@ -57,8 +61,9 @@ def _same_host(device: np.ndarray, cpu: np.ndarray, what: str) -> None:
 @pytest.mark.parametrize("env_id", IDS)
 def test_device_episodes_equal_the_cpu_vector_envs_with_autoreset(env_id: str) -> None:
     """Same seeds, same actions (given to the device as tensors): the same episodes, through a truncation and its autoreset."""
-    cpu = gym.make_vec(env_id, num_envs=2, max_episode_steps=2)
-    dev = gym.make_vec(env_id, num_envs=2, max_episode_steps=2, device="cuda")
+    options = DEVICE_OPTIONS.get(env_id, {})
+    cpu = gym.make_vec(env_id, num_envs=2, max_episode_steps=2, **options)
+    dev = gym.make_vec(env_id, num_envs=2, max_episode_steps=2, device="cuda", **options)
     assert isinstance(dev.unwrapped.task.sim, DeviceSimulator)
     obs_c, _ = cpu.reset(seed=7)
     obs_d, _ = dev.reset(seed=7)

@@ -43,7 +43,7 @@ def kpi_rows(env_id: str) -> dict[str, str]:
 
 def last_info(env_id: str, steps: int) -> dict[str, float]:
     """The info of the last step of a short episode (the limit ends it), random actions."""
-    env = gym.make(env_id, max_episode_steps=steps)
+    env = gym.make(env_id, time_limit=steps)
     env.reset(seed=0)
     env.action_space.seed(0)
     for _ in range(steps):

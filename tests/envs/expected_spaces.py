@@ -138,6 +138,12 @@ ACTION_SHAPE.update({k.replace("-v0", "-v1"): v for k, v in list(ACTION_SHAPE.it
 MAX_EPISODE_STEPS.update({k.replace("-v0", "-v1"): v for k, v in list(MAX_EPISODE_STEPS.items())})
 MAX_EPISODE_STEPS["MergeEnv-v1"] = 100  # the FAF at 200 NM needs up to ~66 steps
 REFERENCE_INFO_KEYS.update({k.replace("-v0", "-v1"): v for k, v in list(REFERENCE_INFO_KEYS.items())})
+# DenseSectorCREnv: SectorCREnv's observation and action, with a traffic flow (its own info keys too).
+for _v in ("-v0", "-v1"):
+    OBSERVATION["DenseSectorCREnv" + _v] = OBSERVATION["SectorCREnv" + _v]
+    ACTION_SHAPE["DenseSectorCREnv" + _v] = (2,)
+    MAX_EPISODE_STEPS["DenseSectorCREnv" + _v] = 200
+    REFERENCE_INFO_KEYS["DenseSectorCREnv" + _v] = {"total_reward", "total_intrusions", "average_drift", "traffic", "spawned", "spawns_dropped"}
 # RealTrafficCREnv: listed and checked whether its recorded data are prepared or not (the tests play
 # synthetic stand-ins of the sample collections, tests/conftest.py).
 OBSERVATION["RealTrafficCREnv-v0"] = {**_k((6,), "ownship"), **_k((5, 7), "intruders")}

@@ -45,7 +45,16 @@ def test_gymnasium_registration_is_the_table() -> None:
 def test_multiagent_forms() -> None:
     import bluesky_gym.multiagent as ma
 
-    assert sorted(ma.names()) == ["horizontal_cr_v0", "horizontal_cr_v1", "merge_v0", "merge_v1", "sector_cr_v0", "sector_cr_v1"]
+    assert sorted(ma.names()) == [
+        "dense_sector_cr_v0",
+        "dense_sector_cr_v1",
+        "horizontal_cr_v0",
+        "horizontal_cr_v1",
+        "merge_v0",
+        "merge_v1",
+        "sector_cr_v0",
+        "sector_cr_v1",
+    ]
     for m in registry.multiagent_entries():
         task = m.task_class()
         assert task.name == m.name.replace("_v1", "_v0") and ma.task_class(m.name) is task
@@ -92,7 +101,7 @@ def test_rows_name_their_reference_policies_and_kpi_panels() -> None:
         if e.mvp is not None:
             assert isinstance(registry.resolve(e.mvp), MVPMapping)
         known = {m for m, _ in CURVE_METRICS} | {registry.ALTITUDE_ERROR, "final_altitude", "waypoints_completed", "kpi_track_distance_km"}
-        known |= {"kpi_extra_track_km", "crashed", "faf_reach"}
+        known |= {"kpi_extra_track_km", "crashed", "faf_reach", "kpi_los_per_flight_hour", "kpi_time_to_first_los_s", "kpi_fuel_kg"}
         assert all(metric in known and label for metric, label in e.kpis), e.id
     for row in registry.PAPER_ENVIRONMENTS:  # a -v1 row: its -v0 row with the -v1 configuration
         if row.v1 is not None:

@@ -34,7 +34,7 @@ def _task(env_id: str, n: int, seed: int = 0, **options: object):
 def test_a_v1_id_for_every_v0_id_and_v0_unchanged() -> None:
     v0 = [e.id for e in ENVIRONMENTS if e.id.endswith("-v0")]
     assert V1 == [i.replace("-v0", "-v1") for i in v0]
-    assert len(V1) == 8  # the paper's seven and RealTrafficCREnv
+    assert len(V1) == 9  # the paper's seven, RealTrafficCREnv and DenseSectorCREnv
     for env_id in V1:
         assert gym.spec(env_id).kwargs["float32_spaces"] is True
         assert gym.spec(env_id).kwargs["env_id"] == env_id  # passed to the constructor, whose errors name it

@@ -12,7 +12,7 @@ from bluesky_gym.multiagent.base import STATE_FEATURES
 from bluesky_gym.multiagent.centralised import HorizontalCRCentralisedEnv
 
 IDS = ma.centralised_ids()
-LIMITS = {"SectorCRCentralised-v0": 200, "MergeCentralised-v0": 50, "HorizontalCRCentralised-v0": 300}
+LIMITS = {"SectorCRCentralised-v0": 200, "MergeCentralised-v0": 50, "HorizontalCRCentralised-v0": 300, "DenseSectorCRCentralised-v0": 200}
 
 
 @pytest.fixture(autouse=True)

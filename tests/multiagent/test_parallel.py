@@ -41,7 +41,7 @@ def test_parallel_seed(name: str) -> None:
 
 
 def test_every_traffic_problem_has_a_v0_and_a_v1_name() -> None:
-    assert sorted(NAMES) == sorted(f"{p}_{v}" for p in ("horizontal_cr", "sector_cr", "merge") for v in ("v0", "v1"))
+    assert sorted(NAMES) == sorted(f"{p}_{v}" for p in ("horizontal_cr", "sector_cr", "merge", "dense_sector_cr") for v in ("v0", "v1"))
 
 
 @pytest.mark.parametrize("name", [n for n in NAMES if n.endswith("_v1")])

@@ -73,7 +73,7 @@ def test_mvp_resolves_a_head_on_conflict(env_id: str) -> None:
 
 
 def test_mvp_exists_for_the_envs_with_traffic_only() -> None:
-    traffic = {"HorizontalCREnv", "VerticalCREnv", "SectorCREnv", "MergeEnv"}
+    traffic = {"HorizontalCREnv", "VerticalCREnv", "SectorCREnv", "MergeEnv", "DenseSectorCREnv"}
     assert {e.id for e in ENVIRONMENTS if e.mvp} == {f"{name}-{v}" for name in traffic for v in ("v0", "v1")}
     # A -v1 id has its -v0 mapping; SectorCR-v1's speed action is in knots (speed_step_in_knots).
     assert mvp_mapping("SectorCREnv-v1").speed_step == SECTOR_CR_MVP.speed_step * KTS

@@ -43,6 +43,7 @@ def test_every_paper_env_has_a_classical_controller() -> None:
         "StaticObstacleEnv-v0",
         "MergeEnv-v0",
         "RealTrafficCREnv-v0",
+        "DenseSectorCREnv-v0",  # SectorCREnv's controller
     }
     # Every row names its controller; the -v1 ids (same observation scales where the controllers
     # read them) use their -v0 row's.
