@@ -243,5 +243,6 @@ def test_sweep_takes_extra_references(capsys: pytest.CaptureFixture[str]) -> Non
     assert args.references == ["eby", "swarm"]
     assert build_parser().parse_args(["sweep", "--env", "all"]).references == []
     with pytest.raises(SystemExit):
-        build_parser().parse_args(["sweep", "--env", "all", "--references", "ssd"])
-    assert "invalid choice: 'ssd'" in capsys.readouterr().err
+        build_parser().parse_args(["sweep", "--env", "all", "--references", "fancy"])
+    assert "invalid choice: 'fancy'" in capsys.readouterr().err
+    assert build_parser().parse_args(["sweep", "--env", "all", "--references", "ssd"]).references == ["ssd"]
