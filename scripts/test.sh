@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up the test environments (idempotent), run the static checks and the whole test suite.
 #   .venv          everything but the BlueSky backend (numpy >= 2.4 allowed), with the gpu extra
-#   .venv-bluesky  the real BlueSky 1.1.1 backend (needs numpy < 2.4) for the parity tests
+#   .venv-bluesky  the real BlueSky 1.1.1 backend (needs numpy < 2.4) for the parity tests, with pyclipper
+#                  (the ssd extra) for BlueSky's SSD plugin
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
@@ -12,7 +13,7 @@ if [ ! -x .venv/bin/python ]; then "$PY" -m venv .venv; fi
 
 if [ ! -x .venv-bluesky/bin/python ]; then "$PY" -m venv .venv-bluesky; fi
 .venv-bluesky/bin/python -m pip install -q --upgrade pip
-.venv-bluesky/bin/python -m pip install -q -e ".[bluesky,test]"
+.venv-bluesky/bin/python -m pip install -q -e ".[bluesky,ssd,test]"
 
 # Lint, format check and type check (scripts/lint.sh).
 PYTHON=.venv/bin/python bash scripts/lint.sh

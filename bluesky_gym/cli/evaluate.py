@@ -53,7 +53,7 @@ def add_parser(subparsers: Any) -> None:
         action="append",
         required=True,
         metavar="PATH",
-        help="run directory, model .zip, 'random', 'classical', 'mvp', 'eby' or 'swarm' (repeatable)",
+        help="run directory, model .zip, 'random', 'classical', 'mvp', 'eby', 'swarm' or 'ssd' (repeatable)",
     )
     p.add_argument("--algo", type=algorithm, help="algorithm of the model files (default: from the run or the file)")
     p.add_argument("--episodes", type=positive_int, default=100, metavar="N", help="held-out episodes (default: 100)")

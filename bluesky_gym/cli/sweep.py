@@ -21,9 +21,9 @@ sees). ``--local`` runs them one after the other in this process, without Ray.
 
 At the end, the reference policies are evaluated on the same held-out scenarios (cached in
 ``<out>/references``), and ``<out>/sweep.json`` lists every run with its held-out return and
-normalised score; ``bluesky-gym plot <out>`` draws the figures. ``--references eby swarm`` also
-evaluates those reference policies (MVP's mapping flying BlueSky's Eby or Swarm resolution) on the
-environments with traffic.
+normalised score; ``bluesky-gym plot <out>`` draws the figures. ``--references eby swarm ssd`` also
+evaluates those reference policies (MVP's mapping flying BlueSky's Eby, Swarm or SSD resolution)
+on the environments with traffic.
 
 ``--estimate`` trains nothing: it times every environment (random actions) and every algorithm
 (a short training on ``--probe-env``), and extrapolates the grid's CPU time and wall-clock time

@@ -11,6 +11,7 @@ for all of them. :class:`~bluesky_gym.core.resolution.AsasConfig` names the meth
 * ``MVP``: :class:`~bluesky_gym.core.resolution.MVPResolver`, BlueSky 1.1.1's Modified Voltage Potential.
 * ``EBY``: :class:`~bluesky_gym.core.eby.EbyResolver`, BlueSky's Eby plugin (with the fix it needs to run).
 * ``SWARM``: :class:`~bluesky_gym.core.swarm.SwarmResolver`, BlueSky's Swarm plugin (with the fixes it needs to run).
+* ``SSD``: :class:`~bluesky_gym.core.ssd.SSDResolver`, BlueSky's SSD plugin (with the fixes it needs to run; pyclipper, the ``ssd`` extra).
 
 Adding a method: write its resolver class (a subclass with ``name = "NAME"`` and ``resolve``;
 ``resolve_pairs`` too if it supports ``pair_search="grid"``, otherwise set
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 from bluesky_gym.core.eby import EbyResolver
 from bluesky_gym.core.resolution import ConflictResolver, MVPResolver
+from bluesky_gym.core.ssd import SSDResolver
 from bluesky_gym.core.swarm import SwarmResolver
 
 #: The resolution methods by ``RESO`` name.
@@ -29,6 +31,7 @@ RESOLVERS: dict[str, type[ConflictResolver]] = {
     "MVP": MVPResolver,
     "EBY": EbyResolver,
     "SWARM": SwarmResolver,
+    "SSD": SSDResolver,
 }
 
 

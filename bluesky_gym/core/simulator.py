@@ -923,6 +923,7 @@ class _AirspaceView:
         self.gs, self.trk, self.vs, self.gseast, self.gsnorth = sim.gs[k], sim.trk[k], sim.vs[k], sim.gseast[k], sim.gsnorth[k]
         self.selalt, self.ap_vs, self.vmin, self.vmax = sim.selalt[k], sim.ap_vs[k], sim.vmin[k], sim.vmax[k]
         self.cas, self.ap_trk, self.selspd, self.selvs = sim.cas[k], sim.ap_trk[k], sim.selspd[k], sim.selvs[k]  # read by Swarm
+        self.hdg = sim.hdg[k]  # read by SSD
         self._sim, self._envs = sim, envs
 
     def aircraft_type(self, env: ArrayLike, slot: ArrayLike) -> list[str]:

@@ -236,8 +236,8 @@ class MVPPolicy(Policy):
             is bound to (:func:`multiagent_mvp_mapping`).
         env_id: The environment the mapping is for; :meth:`bind` refuses another one.
         method: The resolution method, a ``RESO`` name of :data:`~bluesky_gym.core.resolvers.RESOLVERS`
-            (``"MVP"``, the default; ``"EBY"`` or ``"SWARM"`` give the ``eby`` and ``swarm``
-            policies, the same mapping flying that method's resolution).
+            (``"MVP"``, the default; ``"EBY"``, ``"SWARM"`` or ``"SSD"`` give the ``eby``, ``swarm``
+            and ``ssd`` policies, the same mapping flying that method's resolution).
     """
 
     name = "mvp"

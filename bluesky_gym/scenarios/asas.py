@@ -1,15 +1,15 @@
-"""BlueSky 1.1.1's ASAS commands: conflict detection (``ASAS``/``CDMETHOD``) and resolution (``RESO MVP|EBY|SWARM``).
+"""BlueSky 1.1.1's ASAS commands: conflict detection (``ASAS``/``CDMETHOD``) and resolution (``RESO MVP|EBY|SWARM|SSD``).
 
 :class:`AsasState` follows what these commands do to BlueSky's settings, command after command, and
 gives the :class:`~bluesky_gym.core.resolution.AsasConfig` the aircraft fly with. It keeps
 BlueSky's bookkeeping: every detection method (off, STATEBASED, CSTATEBASED) keeps its own
-protected zone and look-ahead time, and every resolution method (off, MVP, EBY, SWARM: the keys of
+protected zone and look-ahead time, and every resolution method (off, MVP, EBY, SWARM, SSD: the keys of
 :data:`~bluesky_gym.core.resolvers.RESOLVERS`) its own factors and switches, starting from the
 defaults when first selected. ``RMETHH``/``RMETHV`` change MVP's switches, which SWARM inherits;
-with EBY (or resolution off) BlueSky ignores them. EBY and SWARM are BlueSky plugins (a BlueSky
-scenario loads them with ``PLUGINS LOAD EBY`` first; the core has them built in and ignores
-``PLUGINS``), flown with the fixes that make them run (:mod:`bluesky_gym.core.eby`,
-:mod:`bluesky_gym.core.swarm`). So ``ZONER`` before ``ASAS ON`` sets
+with EBY, SSD (or resolution off) BlueSky ignores them. EBY, SWARM and SSD are BlueSky plugins (a
+BlueSky scenario loads them with ``PLUGINS LOAD EBY`` first; the core has them built in and
+ignores ``PLUGINS``), flown with the fixes that make them run (:mod:`bluesky_gym.core.eby`,
+:mod:`bluesky_gym.core.swarm`, :mod:`bluesky_gym.core.ssd`). So ``ZONER`` before ``ASAS ON`` sets
 the zone of "detection off" and is forgotten by STATEBASED, and ``RMETHH`` or ``RFACH`` before
 the first ``RESO MVP`` have no effect on MVP. ``RSZONER``/``RSZONEDH`` set the resolution zone as
 an absolute size, which a later ``ZONER``/``ZONEDH`` keeps (as BlueSky does, by rescaling the
@@ -17,8 +17,8 @@ factor).
 
 Not supported (a :class:`ValueError` naming the reason): per-aircraft zones and look-ahead times,
 priority rules (``PRIORULES ON`` while MVP or SWARM is selected; EBY ignores them, as in
-BlueSky), ``NORESO``/``RESOOFF`` aircraft lists, resolution methods the core does not have (SSD
-until it is added), switching resolution off once it was on (BlueSky 1.1.1 then keeps flying the
+BlueSky; SSD takes its default rule RS1 and refuses RS2..RS9), ``NORESO``/``RESOOFF`` aircraft
+lists, resolution methods the core does not have, switching resolution off once it was on (BlueSky 1.1.1 then keeps flying the
 last resolution of ``RESO OFF``, or finishes the resolutions in progress without detection after
 ``ASAS OFF``), and switching from one resolution method to another once one flew.
 """
@@ -31,6 +31,7 @@ from bluesky_gym.core.command_text import parse_number, parse_time
 from bluesky_gym.core.conflicts import DETECTORS, LOOKAHEAD, PZ_HEIGHT, PZ_RADIUS
 from bluesky_gym.core.resolution import RESO_FACTOR, RMETHH_VALUES, RMETHV_VALUES, AsasConfig, ResolutionSettings
 from bluesky_gym.core.resolvers import RESOLVERS
+from bluesky_gym.core.ssd import check_priority
 from bluesky_gym.core.units import FT, NM
 
 #: BlueSky command names and their aliases -> the name used here.
@@ -158,6 +159,12 @@ class AsasState:
                 if self.resolution in MVP_FAMILY:  # the switches are MVP's; with EBY or resolution off BlueSky ignores them
                     sw = self.cr.switches
                     self.cr.switches = sw.with_methods(value, None) if name == "RMETHH" else sw.with_methods(None, value)
+        elif name == "PRIORULES" and self.resolution == "SSD":
+            if value:  # BlueSky's SSD takes the code with ON or OFF and refuses a missing one
+                code = args[1].strip().upper() if len(args) > 1 else ""
+                if not code:
+                    raise ValueError(f"PRIORULES {value} needs a priority code with RESO SSD (RS1, the default rule)")
+                check_priority(code)
         elif name == "PRIORULES":
             if value and value not in ("OFF", "FALSE", "0", "NO") and self.resolution in MVP_FAMILY:
                 raise ValueError(f"priority rules are not supported by the core's {self.resolution} (PRIORULES OFF, the default, is)")

@@ -11,4 +11,4 @@ REFERENCE_POLICIES: tuple[str, ...] = ("random", "classical", "mvp")
 #: Reference policies that can be selected (``eval``, ``sweep --references``) but are not scored
 #: by default: the ``mvp`` policy's mapping flying another of BlueSky's resolution methods, by its
 #: ``RESO`` name, where the task has ``mvp``.
-RESOLUTION_REFERENCES: dict[str, str] = {"eby": "EBY", "swarm": "SWARM"}
+RESOLUTION_REFERENCES: dict[str, str] = {"eby": "EBY", "swarm": "SWARM", "ssd": "SSD"}

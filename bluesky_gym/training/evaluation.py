@@ -435,7 +435,7 @@ def load_policy(path: str | Path, algo: str | None = None, device: str = "cpu", 
 
 
 def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
-    """Make a policy from a command-line spec: ``random``, ``classical``, ``mvp``, ``eby``, ``swarm`` or a model path."""
+    """Make a policy from a command-line spec: ``random``, ``classical``, ``mvp``, ``eby``, ``swarm``, ``ssd`` or a model path."""
     if spec in SELECTABLE_REFERENCES:
         venv = make_vector_env(env_id, 1)
         try:
@@ -450,7 +450,7 @@ def make_policy(spec: str, env_id: str, algo: str | None = None) -> Policy:
 def reference_scores(env_id: str, episodes: int, cache_dir: str | Path | None = None, extra: Sequence[str] = ()) -> dict[str, dict[str, Any]]:
     """Summaries of the reference policies (``random``, ``classical``, and ``mvp`` with traffic) on the first ``episodes`` held-out scenarios.
 
-    ``extra`` adds selectable references (``eby``, ``swarm``) where the environment has them
+    ``extra`` adds selectable references (``eby``, ``swarm``, ``ssd``) where the environment has them
     (:func:`~bluesky_gym.training.policies.optional_reference_names`; others are skipped).
 
     With ``cache_dir``, results are read from / written to ``<cache_dir>/<env_id>.json`` (reused

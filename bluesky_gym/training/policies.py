@@ -204,7 +204,7 @@ SELECTABLE_REFERENCES: tuple[str, ...] = (*REFERENCE_POLICIES, *RESOLUTION_REFER
 
 
 def optional_reference_names(env_id: str) -> tuple[str, ...]:
-    """The selectable reference policies beyond :func:`reference_names` of an environment: ``eby``, ``swarm`` where it has ``mvp``."""
+    """The selectable reference policies beyond :func:`reference_names` of an environment: ``eby``, ``swarm``, ``ssd`` where it has ``mvp``."""
     return tuple(RESOLUTION_REFERENCES) if entry(env_id).mvp is not None else ()
 
 
@@ -214,10 +214,10 @@ def reference_names(env_id: str) -> tuple[str, ...]:
 
 
 def reference_policy(name: str, env_id: str, action_low: Array, action_high: Array) -> Policy:
-    """Make a reference policy (``random``, ``classical``, ``mvp``, or ``eby``/``swarm``) of an environment.
+    """Make a reference policy (``random``, ``classical``, ``mvp``, or ``eby``/``swarm``/``ssd``) of an environment.
 
     Args:
-        name: ``"random"``, ``"classical"``, ``"mvp"``, ``"eby"`` or ``"swarm"`` (the last three:
+        name: ``"random"``, ``"classical"``, ``"mvp"``, ``"eby"``, ``"swarm"`` or ``"ssd"`` (the last four:
             environments with traffic; bind it to its environment with :meth:`Policy.bind` before acting).
         env_id: Environment id.
         action_low: Lower bound of the single-environment action box.
@@ -261,7 +261,7 @@ def mvp_policy(env_id: str, method: str = "MVP") -> MVPPolicy:
 
     Args:
         env_id: Environment id (its registry row names an MVP mapping).
-        method: The resolution method flown through the same mapping (``"EBY"``, ``"SWARM"``: the
-            ``eby`` and ``swarm`` policies).
+        method: The resolution method flown through the same mapping (``"EBY"``, ``"SWARM"``,
+            ``"SSD"``: the ``eby``, ``swarm`` and ``ssd`` policies).
     """
     return MVPPolicy(mvp_mapping(env_id), env_id, method)

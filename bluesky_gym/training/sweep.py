@@ -131,7 +131,7 @@ def write_summary(
 ) -> dict[str, Any]:
     """Compute reference scores and write ``<out>/sweep.json``; return its content.
 
-    ``extra_references`` (``eby``, ``swarm``) are evaluated too where an environment has them.
+    ``extra_references`` (``eby``, ``swarm``, ``ssd``) are evaluated too where an environment has them.
     """
     from bluesky_gym.training.evaluation import normalised_score, reference_returns, reference_scores
 

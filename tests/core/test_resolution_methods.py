@@ -36,11 +36,11 @@ def _traffic(n_envs: int = 2, m: int = 6, seed: int = 3) -> Simulator:
 
 
 def test_the_registry_names_every_method_by_its_reso_name() -> None:
-    assert set(RESOLVERS) == {"MVP", "EBY", "SWARM"}
+    assert set(RESOLVERS) == {"MVP", "EBY", "SWARM", "SSD"}
     for name, cls in RESOLVERS.items():
         assert issubclass(cls, ConflictResolver) and cls.name == name and resolver_class(name) is cls
     assert AsasConfig().method == "MVP" and AsasConfig(resolution=True).resolving is False  # no detector
-    with pytest.raises(ValueError, match="resolution method 'FANCY' not known; choose one of MVP, EBY, SWARM"):
+    with pytest.raises(ValueError, match="resolution method 'FANCY' not known; choose one of MVP, EBY, SWARM, SSD"):
         resolver_class("FANCY")
     with pytest.raises(NotImplementedError, match="does not implement resolve"):
         ConflictResolver().update(_traffic(1))

@@ -1,4 +1,4 @@
-"""Conflict detection and resolution commands (MVP, EBY, SWARM) in scenario files: reading, BlueSky's settings bookkeeping, playing."""
+"""Conflict detection and resolution commands (MVP, EBY, SWARM, SSD) in scenario files: reading, BlueSky's settings bookkeeping, playing."""
 
 from __future__ import annotations
 
@@ -15,6 +15,14 @@ from bluesky_gym.scenarios import ScenarioError, ScenarioPlayer, parse_scenario,
 from bluesky_gym.scenarios.parser import Asas
 from bluesky_gym.scenarios.player import TRAJECTORY_COLUMNS, slots_needed, waypoints_needed
 from tests.core.reference_scenarios import DATA
+
+try:
+    import pyclipper  # noqa: F401  (RESO SSD needs the ssd extra)
+
+    HAVE_PYCLIPPER = True
+except ImportError:
+    HAVE_PYCLIPPER = False
+needs_pyclipper = pytest.mark.skipif(not HAVE_PYCLIPPER, reason="RESO SSD needs pyclipper (the ssd extra)")
 
 
 def configs(text: str) -> list[AsasConfig]:
@@ -89,7 +97,11 @@ def test_no_ops_are_accepted() -> None:
         (["RESOOFF AC1"], "RESOOFF"),
         (["ZONER 5 AC1"], "per-aircraft values"),
         (["DTLOOK 100 AC1"], "per-aircraft values"),
-        (["RESO FANCY"], "resolution method 'FANCY' is not supported; choose one of OFF, MVP, "),
+        (["RESO FANCY"], "resolution method 'FANCY' is not supported; choose one of OFF, MVP, EBY, SWARM, SSD"),
+        (["RESO SSD", "PRIORULES ON RS2"], "SSD priority code 'RS2' is not supported"),
+        (["RESO SSD", "PRIORULES OFF RS7"], "SSD priority code 'RS7' is not supported"),
+        (["RESO SSD", "PRIORULES ON"], "PRIORULES ON needs a priority code with RESO SSD"),
+        (["RESO SSD", "PRIORULES ON FF1"], "SSD priority code 'FF1' not understood"),
         (["RESO SWARM", "PRIORULES ON FF1"], "priority rules are not supported by the core's SWARM"),
         (["ASAS FANCY"], "detection method 'FANCY' not known"),
         (["RESO MVP", "RMETHH SIDEWAYS"], "'SIDEWAYS' not understood"),
@@ -137,15 +149,23 @@ def test_eby_and_swarm_are_selected_with_their_own_settings() -> None:
     assert len(got) == 8  # PLUGINS is not an ASAS command (ignored: the core has the plugins built in)
 
 
+def test_ssd_is_selected_with_its_default_rule() -> None:
+    """RESO SSD names the method; PRIORULES with RS1 (its default rule) is accepted, RMETH switches do not reach it."""
+    got = configs("ASAS CSTATEBASED\nRESO SSD\nPRIORULES ON RS1\nRMETHH HDG\nRFACH 1.2\nPLUGINS LOAD SSD")
+    assert got[1] == AsasConfig("CSTATEBASED", True, method="SSD") and got[1].resolving
+    assert got[2] == got[1] and got[3] == got[1]  # RS1 and RMETHH: no change
+    assert got[4].settings.resofach == 1.2 and got[4].method == "SSD"
+
+
 def test_switching_method_after_it_flew_is_refused() -> None:
     assert configs("ASAS ON\nRESO MVP\nRESO EBY")[-1].method == "EBY"  # before any step: fine
     with pytest.raises(ScenarioError, match=r"t\.scn:3: .*switching from RESO EBY to RESO SWARM once it flew is not supported"):
         parse_scenario("00:00:00.00>ASAS ON\n00:00:00.00>RESO EBY\n00:00:05.00>RESO SWARM\n", "t.scn")
 
 
-@pytest.mark.parametrize("method", ["EBY", "SWARM"])
+@pytest.mark.parametrize("method", ["EBY", "SWARM", pytest.param("SSD", marks=needs_pyclipper)])
 def test_eby_and_swarm_scenarios_fly_on_the_core(method: str) -> None:
-    """A creconfs conflict flown with RESO EBY|SWARM: the aircraft leave their tracks, and not as MVP would."""
+    """A creconfs conflict flown with RESO EBY|SWARM|SSD: the aircraft leave their tracks, and not as MVP would."""
     text = (
         "00:00:00.00>ASAS CSTATEBASED\n00:00:00.00>RESO {}\n"
         "00:00:00.00>CRE OWN A320 52 4 90 FL100 250\n00:00:00.00>CRECONFS INT A320 OWN 60 0.5 120\n"

@@ -29,18 +29,19 @@ HEAD_ON = {
 HEAD_ON.update({env_id.replace("-v0", "-v1"): case for env_id, case in HEAD_ON.items()})
 
 
-def _head_on_separation(env_id: str, resolve: bool, n: int = 3) -> np.ndarray:
+def _head_on_separation(env_id: str, resolve: bool, n: int = 3, method: str = "MVP") -> np.ndarray:
     """Smallest separation (in protected-zone units) between the ownship and a head-on intruder, per episode.
 
     Each episode's traffic is replaced by one intruder on a collision course (``creconfs`` with
     dcpa 0) through the Physics interface; the ownship then flies MVP (``resolve``) or MVP's
-    nominal policy without resolution. The separation is the horizontal distance over the
+    nominal policy without resolution (``method``: the resolution the policy flies, by ``RESO``
+    name). The separation is the horizontal distance over the
     protected-zone radius, for VerticalCR the larger of that and the vertical distance over the
     zone's half height.
     """
     steps, tlosh = HEAD_ON[env_id]
     venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
-    policy = mvp_policy(env_id)
+    policy = mvp_policy(env_id, method)
     policy.bind(venv)
     venv.reset(seed=list(range(n)))
     sim = venv.unwrapped.task.sim
@@ -245,3 +246,4 @@ def test_sweep_takes_extra_references(capsys: pytest.CaptureFixture[str]) -> Non
     with pytest.raises(SystemExit):
         build_parser().parse_args(["sweep", "--env", "all", "--references", "fancy"])
     assert "invalid choice: 'fancy'" in capsys.readouterr().err
+    assert build_parser().parse_args(["sweep", "--env", "all", "--references", "ssd"]).references == ["ssd"]
