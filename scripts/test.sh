@@ -44,7 +44,7 @@ export NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL AVX512_SPR AVX512F AVX512CD A
 # with a floor at the figure measured when it was set (numba-compiled kernel bodies cannot be traced
 # and are left out: [tool.coverage.report] in pyproject.toml). The floor holds for the whole suite
 # only: a run narrowed by arguments (-k, paths) reports coverage.
-COVERAGE_FLOOR=88  # measured over both runs; see the closing figure of a full run
+COVERAGE_FLOOR=91  # measured 91.1% over both runs (18078 statements, 1613 missed), 2026-11-27
 .venv/bin/python -m pytest -n 2 -p no:cacheprovider -m "not bluesky" --cov=bluesky_gym --cov-report= "$@"
 .venv/bin/python -m bluesky_gym bench gpu --compile-only --quiet
 DEVICE_COVERAGE=(--cov=bluesky_gym --cov-append --cov-report=term:skip-covered)

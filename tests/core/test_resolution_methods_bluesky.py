@@ -147,7 +147,9 @@ def _ours(sim: BlueSkyPhysics, method: str, settings: ResolutionSettings) -> Res
     if method == "EBY":
         return eby(sim, conflicts, settings, rpz=PZ_RADIUS)
     vsmin, vsmax = vertical_speed_limits(sim)
-    return swarm(sim, conflicts, mvp(sim, conflicts, settings, vsmin=vsmin, vsmax=vsmax))
+    # Swarm's pair bearings come from BlueSky's geo functions: the Python forms when BlueSky's geo module
+    # was imported before its init (as by an earlier test in the same process), else the compiled ones.
+    return swarm(sim, conflicts, mvp(sim, conflicts, settings, vsmin=vsmin, vsmax=vsmax), python_geo=sim.geo == "python")
 
 
 def _assert_same(ours: Resolution, theirs: tuple[np.ndarray, ...], where: str, tol: float) -> None:
@@ -201,7 +203,7 @@ def test_creconfs_scenario_s9(patched: BlueSkyPhysics, method: str, resolver_cls
     patched.creconfs(0, 0, 1, 90.0, 1.0, 120.0)
     patched.creconfs(0, 0, 2, 200.0, 0.0, 150.0, None, None, 200 * KTS)
     patched.creconfs(0, 0, 3, 300.0, 2.0, 100.0, 500.0, 90.0)
-    resolver = resolver_cls(settings)
+    resolver = resolver_cls(settings, python_geo=patched.geo == "python")
     resolving = following = 0
     for t in range(200):
         was_active = np.array(patched.traffic.cr.active)  # resolve() of Swarm sets it: keep BlueSky's own flight
@@ -237,7 +239,7 @@ def test_core_flies_the_method_as_patched_bluesky(patched: BlueSkyPhysics, metho
 
     from .test_reference import TOL
 
-    core = Simulator(1, MAX_AC, dt=1.0, pair_search="all-pairs")
+    core = Simulator(1, MAX_AC, dt=1.0, pair_search="all-pairs", geo=patched.geo)
     _select(patched, method)
     core.set_conflict_resolution(0, AsasConfig("CSTATEBASED", True, method=method))
     for sim in (core, patched):
