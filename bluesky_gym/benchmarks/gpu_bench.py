@@ -350,9 +350,7 @@ def device_check(budget: float = DEVICE_CHECK_BUDGET, say: Say = None) -> dict[s
     """
     from bluesky_gym.core import cuda_target
 
-    refusal = device_refusal()
-    if refusal is not None:
-        raise RuntimeError(refusal)
+    require_device()
     start = time.perf_counter()
     device = _device_name()
     if say is not None:
@@ -450,6 +448,17 @@ def device_refusal() -> str | None:
     if not cuda_target.device_present():
         return "no CUDA device found (numba-cuda sees no GPU or no driver); run it on a machine with an NVIDIA GPU, or use --compile-only"
     return None
+
+
+def require_device() -> None:
+    """Refuse a device check where it cannot run.
+
+    Raises:
+        RuntimeError: :func:`device_refusal`'s reason.
+    """
+    refusal = device_refusal()
+    if refusal is not None:
+        raise RuntimeError(refusal)
 
 
 def _device_name() -> str:
@@ -711,9 +720,7 @@ def device_envs(budget: float = ENV_CHECK_BUDGET, say: Say = None) -> dict[str, 
     Raises:
         RuntimeError: No CUDA device (or numba-cuda's simulator instead of one).
     """
-    refusal = device_refusal()
-    if refusal is not None:
-        raise RuntimeError(refusal)
+    require_device()
     start = time.perf_counter()
     device = _device_name()
     samples: list[dict[str, Any]] = []
@@ -825,9 +832,7 @@ def device_ppo(budget: float = PPO_CHECK_BUDGET, say: Say = None) -> dict[str, A
     Raises:
         RuntimeError: No CUDA device (or numba-cuda's simulator instead of one).
     """
-    refusal = device_refusal()
-    if refusal is not None:
-        raise RuntimeError(refusal)
+    require_device()
     start = time.perf_counter()
     device = _device_name()
     rates: list[dict[str, Any]] = []
