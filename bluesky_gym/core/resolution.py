@@ -718,31 +718,17 @@ def asas_pairs_kernel(  # type: ignore[no-untyped-def]
     """One ASAS update of MVP from the conflicts as pairs: the resolution, BlueSky's bookkeeping and ``resumenav`` in one pass.
 
     The conflicts are :func:`mvp_pairs_loop`'s (aircraft ``k``'s, flat index, are
-    ``row[k]:row[k + 1]`` by rising intruder; the state flat). Per airspace of ``m`` aircraft with a
-    conflict, ``held`` (4, aircraft: track, ground speed, vertical speed, altitude) takes MVP's
-    resolution of every aircraft (NaN where none is active), as :func:`renew_loop`; elsewhere it
-    keeps the last one. The pairs being resolved, ``keys`` (sorted keys ``own * m + intruder``
-    slot, ``own`` the flat ownship), and the current conflicts are merged, and :func:`resume_pair`
-    decides which go on: those go to ``kept`` (sorted; ``counts[0]`` of them), their ownships
-    ``follow``, and ``ended`` marks the active aircraft that had a pair and follow none.
+    ``row[k]:row[k + 1]`` by rising intruder; the state flat). The pairs being resolved, ``keys``
+    (sorted keys ``own * m + intruder`` slot, ``own`` the flat ownship), and the current conflicts
+    are merged, and :func:`resume_pair` decides which go on: those go to ``kept`` (sorted;
+    ``counts[0]`` of them), their ownships ``follow``, and ``ended`` marks the active aircraft that
+    had a pair and follow none. ``held`` (4, aircraft: track, ground speed, vertical speed,
+    altitude) is then what :func:`renew_loop` and :func:`release_loop` leave: in an airspace with a
+    conflict MVP's resolution of each aircraft that follows one, elsewhere the last one, and NaN
+    for the aircraft that follow none. MVP runs only for the aircraft that follow (in BlueSky it
+    runs for every aircraft, but the others' resolutions are never flown).
     """
     n = active.shape[0]
-    for e in range(n // m):
-        if row[e * m] == row[(e + 1) * m]:
-            continue  # no conflict in the airspace: the last resolution stays
-        for i in range(e * m, (e + 1) * m):
-            if not active[i]:
-                for r in range(4):
-                    held[r, i] = math.nan
-                continue
-            t, g, v, a, _, _, _, _ = mvp_listed(
-                i, row, intruder, qdr, dist, tcpa, tlos, alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin, vsmax,
-                rpz_m, hpz_m, dtlook, mode, horizontal,
-            )  # fmt: skip
-            held[0, i] = t
-            held[1, i] = g
-            held[2, i] = v
-            held[3, i] = a
     for i in range(n):
         follow[i] = False
         ended[i] = False  # here: whether the aircraft has a pair (made "ended" at the end)
@@ -779,6 +765,21 @@ def asas_pairs_kernel(  # type: ignore[no-untyped-def]
     counts[0] = done
     for i in range(n):
         ended[i] = ended[i] and not follow[i] and active[i]
+    for e in range(n // m):
+        renew = row[e * m] != row[(e + 1) * m]  # a conflict in the airspace: the followers take a new resolution
+        for i in range(e * m, (e + 1) * m):
+            if not follow[i]:
+                for r in range(4):
+                    held[r, i] = math.nan
+            elif renew:
+                t, g, v, a, _, _, _, _ = mvp_listed(
+                    i, row, intruder, qdr, dist, tcpa, tlos, alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin, vsmax,
+                    rpz_m, hpz_m, dtlook, mode, horizontal,
+                )  # fmt: skip
+                held[0, i] = t
+                held[1, i] = g
+                held[2, i] = v
+                held[3, i] = a
 
 
 @jit
@@ -816,6 +817,22 @@ def renew_loop(conflict, trk, gs, vs, alt, pairs, held):  # type: ignore[no-unty
                 held[1, e, i] = gs[e, i]
                 held[2, e, i] = vs[e, i]
                 held[3, e, i] = alt[e, i]
+
+
+@jit
+def release_loop(follow, held):  # type: ignore[no-untyped-def]
+    """``held`` (4, n_envs, m) becomes NaN where an aircraft follows no resolution (``follow`` (n_envs, m)), per airspace.
+
+    An aircraft follows a resolution only while it has a pair being resolved, and gains one only
+    with a conflict, which renews the resolutions of its airspace: what ``held`` keeps of an
+    aircraft that follows none is never flown, so it is dropped.
+    """
+    n_envs, m = follow.shape
+    for e in grid_range(n_envs):
+        for i in range(m):
+            if not follow[e, i]:
+                for r in range(4):
+                    held[r, e, i] = math.nan
 
 
 @jit
@@ -1049,11 +1066,17 @@ class ConflictResolver:
     def advance(self, state: TypedResolutionState) -> tuple[BoolArray, BoolArray]:
         """:meth:`update`, giving only who follows its resolution and whose resolution ended (:class:`ResolutionCommand`'s ``follow``, ``ended``).
 
-        The resolution itself is :attr:`held` (track, ground speed, vertical speed, altitude).
+        The resolution itself is :attr:`held` (track, ground speed, vertical speed, altitude; NaN
+        for the aircraft that follow none, :func:`release_loop`).
         """
+        follow, ended = self._advance_pairs(state) if self.pair_search == "grid" else self._advance_all_pairs(state)
+        self.held = np.ascontiguousarray(self.held, dtype=np.float64)  # (the paths above leave an array of their own)
+        release_loop(np.ascontiguousarray(follow, dtype=np.bool_), self.held)
+        return follow, ended
+
+    def _advance_all_pairs(self, state: TypedResolutionState) -> tuple[BoolArray, BoolArray]:
+        """:meth:`advance` with the conflicts of every pair (``pair_search="all-pairs"``)."""
         shape = state.active.shape
-        if self.pair_search == "grid":
-            return self._advance_pairs(state)
         if self.pairs.shape != shape + (shape[1],):
             self.pairs = np.zeros(shape + (shape[1],), np.bool_)
             self.held = np.full((4, *shape), np.nan)

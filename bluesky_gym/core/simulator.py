@@ -25,7 +25,7 @@ from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import vcasormach
 from bluesky_gym.core.conflicts import GridWork, create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
-from bluesky_gym.core.resolution import AsasConfig, ended_loop, mvp_loop, renew_loop, resolution_targets, resume_loop, targets_loop
+from bluesky_gym.core.resolution import AsasConfig, ended_loop, mvp_loop, release_loop, renew_loop, resolution_targets, resume_loop, targets_loop
 from bluesky_gym.core.resolvers import resolver_class
 from bluesky_gym.core.state import (
     FIELD_INDEX,
@@ -1249,6 +1249,7 @@ class DeviceSimulator(Simulator):
         launch(resume_loop, n_envs, candidates, lat, lon, gseast, gsnorth, trk, active, rpz, rpz * s.resofach, d["keep"], d["follow"])
         d["pairs"], d["keep"] = d["keep"], candidates
         launch(ended_loop, n_envs, candidates, d["follow"], active, d["ended"], d["any_ended"])
+        launch(release_loop, n_envs, d["follow"], d["held"])
         launch(targets_loop, n_envs, d["held"], d["targets"])
         follow, targets = d["follow"], d["targets"]
         if d["any_ended"].copy_to_host()[0]:

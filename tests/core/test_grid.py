@@ -182,6 +182,10 @@ def test_simulator_flies_the_same_with_either_pair_search() -> None:
     np.testing.assert_array_equal(grid._reso_held.view(np.int64), every._reso_held.view(np.int64))
     keys = np.flatnonzero(every._reso_pairs.reshape(-1))
     assert keys.size > 0
+    # a resolution is kept only for the aircraft that follow one (they have a pair being resolved)
+    following = every._reso_pairs.any(axis=-1)
+    np.testing.assert_array_equal(np.isnan(every._reso_held).any(axis=0), ~following)
+    np.testing.assert_array_equal(np.isnan(every._reso_held).all(axis=0), ~following)
     np.testing.assert_array_equal(grid._reso_keys, keys)
     assert grid._reso_pairs.size == 0
 

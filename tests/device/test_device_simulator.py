@@ -178,8 +178,8 @@ def test_a_device_step_is_a_fixed_number_of_launches_whatever_the_number_of_airs
         before = cuda_target.launches()
         dev.step()
         counts[n_envs, "no ASAS"] = cuda_target.launches() - before
-    # LNAV, autopilot, detection, MVP, bookkeeping, resumenav, ended, targets, kinematics; LNAV and the step without ASAS.
-    assert counts == {2: 27, 8: 27, (2, "no ASAS"): 2, (8, "no ASAS"): 2}
+    # LNAV, autopilot, detection, MVP, bookkeeping, resumenav, ended, release, targets, kinematics; LNAV and the step without ASAS.
+    assert counts == {2: 30, 8: 30, (2, "no ASAS"): 2, (8, "no ASAS"): 2}
 
 
 def test_reset_on_host_moves_only_the_reset_airspaces_and_equals_the_cpu() -> None:
