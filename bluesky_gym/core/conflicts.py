@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from bluesky_gym.core import geo
 from bluesky_gym.core.atmosphere import casormach2tas, isa_layered, tas2cas_at
 from bluesky_gym.core.geo import kwikpos_s
-from bluesky_gym.core.jit import fmod, grid_range, jit, jit_inline
+from bluesky_gym.core.jit import fmod, grid_range, jit, jit_inline, scratch
 from bluesky_gym.core.scalar import DEG, RAD, divide, maximum, minimum, sign
 from bluesky_gym.core.state import aircraft_index
 from bluesky_gym.core.units import DEG2RAD, FT, M2NM, NM, R_EARTH, RAD2DEG
@@ -476,36 +476,17 @@ def record_pair(i, j, lat, lon, alt, gs, trk, vs, rpz, hpz, lookahead, pair_ij, 
 
 
 @jit_inline
-def scan_cell(  # type: ignore[no-untyped-def]
-    p, s, t, full, reach_deg, cell_cos, order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts,
+def scan_window(  # type: ignore[no-untyped-def]
+    p, a, t, hi, full, order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts,
 ):  # fmt: skip
-    """The candidate pairs of the aircraft at grid position ``p`` with those at ``s .. t-1`` (one cell's, by longitude).
+    """The candidate pairs of the aircraft at grid position ``p`` with those at ``a .. t-1`` up to longitude ``hi`` (one cell's, by longitude).
 
-    See :func:`grid_detect_kernel`.
-
-    In the window of longitude the reach spans at the smallest cosine of latitude, where
-    :func:`may_conflict` allows (everywhere in a ``full`` airspace), the pair (flat indices) is a
-    candidate: appended to ``cand`` (2, room) as far as it has room, and counted in ``counts[1]``.
+    Where :func:`may_conflict` allows (everywhere in a ``full`` airspace), the pair (flat indices)
+    is a candidate: appended to ``cand`` (2, room) as far as it has room, and counted in ``counts[1]``.
     """
-    hi = math.inf
-    if not full:
-        c = minimum(s_cos[p], cell_cos)
-        if c > 0.0 and reach_deg < 180.0 * c:
-            w = reach_deg / c
-            hi = s_lon[p] + w
-            lo_lon = s_lon[p] - w
-            a = s
-            z = t if s > p else s  # (the later positions of p's own cell are at lon >= lon_p already)
-            while a < z:  # the first position with lon >= lo_lon
-                mid = (a + z) >> 1
-                if s_lon[mid] < lo_lon:
-                    a = mid + 1
-                else:
-                    z = mid
-            s = a
     i = order[p]
     lat_p, lon_p, alt_p, vs_p, u_p, v_p, cos_p = s_lat[p], s_lon[p], s_alt[p], s_vs[p], s_u[p], s_v[p], s_cos[p]
-    for q in range(s, t):
+    for q in range(a, t):
         if not full:
             if s_lon[q] > hi:
                 break
@@ -518,6 +499,58 @@ def scan_cell(  # type: ignore[no-untyped-def]
             cand[0, k] = i
             cand[1, k] = order[q]
         counts[1] = k + 1
+
+
+@jit_inline
+def half_width(reach_deg, c):  # type: ignore[no-untyped-def]
+    """The longitude [deg] that the reach ``reach_deg`` spans where the cosine of latitude is at least ``c``; infinite near the poles."""
+    if c > 0.0 and reach_deg < 180.0 * c:
+        return reach_deg / c
+    return math.inf
+
+
+@jit_inline
+def scan_cell(  # type: ignore[no-untyped-def]
+    p, s, t, own, full, reach_deg, cell_cos, order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts,
+):  # fmt: skip
+    """:func:`scan_window` of the aircraft at grid position ``p`` with the cell at ``s .. t-1`` (``own``: the later aircraft of p's own cell).
+
+    See :func:`grid_detect_kernel`. The window is the longitude the reach spans at the smallest
+    cosine of latitude of the two (the cell's bound ``cell_cos``), found by bisection; the later
+    aircraft of p's own cell lie at ``lon >= lon_p`` already.
+    """
+    hi = math.inf
+    a = s
+    if not full:
+        w = half_width(reach_deg, minimum(s_cos[p], cell_cos))
+        hi = s_lon[p] + w
+        lo_lon = s_lon[p] - w
+        z = s if own else t
+        while a < z:  # the first position with lon >= lo_lon
+            mid = (a + z) >> 1
+            if s_lon[mid] < lo_lon:
+                a = mid + 1
+            else:
+                z = mid
+    scan_window(p, a, t, hi, full, order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
+
+
+@jit_inline
+def sweep_cell(  # type: ignore[no-untyped-def]
+    p, k, ptr, wid, t, order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts,
+):  # fmt: skip
+    """:func:`scan_window` of the aircraft at grid position ``p`` with the ``k``-th neighbour cell of its cell, ending at ``t``.
+
+    The aircraft of a cell come by rising longitude, so the first position of the neighbour's
+    window (half width ``wid[k]``, the reach at the smaller cosine bound of the two cells) only
+    moves forward: ``ptr[k]`` keeps it from one aircraft of the cell to the next.
+    """
+    a = ptr[k]
+    lo_lon = s_lon[p] - wid[k]
+    while a < t and s_lon[a] < lo_lon:
+        a += 1
+    ptr[k] = a
+    scan_window(p, a, t, s_lon[p] + wid[k], False, order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
 
 
 @jit
@@ -539,7 +572,9 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
     those of the next band's such cell, and the level aircraft of every layer of its band and of
     the bands on either side: each unordered pair of neighbouring cells once, within the window of
     longitude the reach spans at the band's smallest cosine of latitude, where
-    :func:`may_conflict` allows (:func:`scan_cell`). A pair more than one band or one layer apart
+    :func:`may_conflict` allows (:func:`scan_cell`; a level aircraft's windows in the neighbour
+    cells start where the previous aircraft of its cell left them, :func:`sweep_cell`, since both
+    cells come by longitude). A pair more than one band or one layer apart
     cannot be in conflict. An airspace with a non-finite state or ``|lat| > 90`` is one cell whose
     pairs are all evaluated. The candidates, in both orders, go through :func:`detect_pair`.
 
@@ -686,6 +721,9 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
     counts[0] = 0
     counts[1] = 0
     s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos = sw[0], sw[1], sw[2], sw[3], sw[4], sw[5], sw[6]
+    ptr = scratch(4, np.int64)  # a level aircraft's neighbour cells: the first position of each one's window ...
+    wid = scratch(4, np.float64)  # ... and its half width in longitude
+    end = scratch(4, np.int64)  # ... and its end (0 where the cell does not exist)
     for p in range(placed):
         c = pcell[p]
         e = cell_info[0, c]
@@ -695,127 +733,33 @@ def grid_detect_kernel(  # type: ignore[no-untyped-def]
         nb = env_i[1, e]
         nl = env_i[2, e]
         reach = env_f[0, e]
-        scan_cell(
-            p,
-            p + 1,
-            cell_start[c + 1],
-            full,
-            reach,
-            cell_cos[c],
-            order,
-            s_lat,
-            s_lon,
-            s_alt,
-            s_vs,
-            s_u,
-            s_v,
-            s_cos,
-            rpz,
-            hpz,
-            lookahead,
-            cand,
-            counts,
-        )
+        scan_cell(p, p + 1, cell_start[c + 1], True, full, reach, cell_cos[c], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos,
+                  rpz, hpz, lookahead, cand, counts)  # fmt: skip
         if full:
             continue
         c0 = env_i[3, e]
         if la < nl:  # level: the layer above, and the three nearest layers of the next band
-            if la + 1 < nl:
-                d = c + 1
-                scan_cell(
-                    p,
-                    cell_start[d],
-                    cell_start[d + 1],
-                    full,
-                    reach,
-                    cell_cos[d],
-                    order,
-                    s_lat,
-                    s_lon,
-                    s_alt,
-                    s_vs,
-                    s_u,
-                    s_v,
-                    s_cos,
-                    rpz,
-                    hpz,
-                    lookahead,
-                    cand,
-                    counts,
-                )
-            if b + 1 < nb:
-                for l2 in range(max(la - 1, 0), min(la + 2, nl)):
-                    d = c0 + (b + 1) * (nl + 1) + l2
-                    scan_cell(
-                        p,
-                        cell_start[d],
-                        cell_start[d + 1],
-                        full,
-                        reach,
-                        cell_cos[d],
-                        order,
-                        s_lat,
-                        s_lon,
-                        s_alt,
-                        s_vs,
-                        s_u,
-                        s_v,
-                        s_cos,
-                        rpz,
-                        hpz,
-                        lookahead,
-                        cand,
-                        counts,
-                    )
+            if p == cell_start[c]:  # the cell's first aircraft: its neighbours' windows start at their first aircraft
+                for k in range(4):
+                    d = c + 1 if k == 0 else c0 + (b + 1) * (nl + 1) + la - 2 + k
+                    there = la + 1 < nl if k == 0 else b + 1 < nb and 0 <= la - 2 + k < nl
+                    end[k] = cell_start[d + 1] if there else 0
+                    ptr[k] = cell_start[d] if there else 0
+                    wid[k] = half_width(reach, minimum(cell_cos[c], cell_cos[d])) if there else 0.0
+            for k in range(4):
+                if end[k] > 0:
+                    sweep_cell(p, k, ptr, wid, end[k], order, s_lat, s_lon, s_alt, s_vs, s_u, s_v, s_cos, rpz, hpz, lookahead, cand, counts)
             continue
         # Climbing or descending: the next band's such aircraft, and the level aircraft of every layer of this band and its two neighbours.
         if b + 1 < nb:
             d = c0 + (b + 1) * (nl + 1) + nl
-            scan_cell(
-                p,
-                cell_start[d],
-                cell_start[d + 1],
-                full,
-                reach,
-                cell_cos[d],
-                order,
-                s_lat,
-                s_lon,
-                s_alt,
-                s_vs,
-                s_u,
-                s_v,
-                s_cos,
-                rpz,
-                hpz,
-                lookahead,
-                cand,
-                counts,
-            )
+            scan_cell(p, cell_start[d], cell_start[d + 1], False, full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u,
+                      s_v, s_cos, rpz, hpz, lookahead, cand, counts)  # fmt: skip
         for b2 in range(max(b - 1, 0), min(b + 2, nb)):
             for l2 in range(nl):
                 d = c0 + b2 * (nl + 1) + l2
-                scan_cell(
-                    p,
-                    cell_start[d],
-                    cell_start[d + 1],
-                    full,
-                    reach,
-                    cell_cos[d],
-                    order,
-                    s_lat,
-                    s_lon,
-                    s_alt,
-                    s_vs,
-                    s_u,
-                    s_v,
-                    s_cos,
-                    rpz,
-                    hpz,
-                    lookahead,
-                    cand,
-                    counts,
-                )
+                scan_cell(p, cell_start[d], cell_start[d + 1], False, full, reach, cell_cos[d], order, s_lat, s_lon, s_alt, s_vs, s_u,
+                          s_v, s_cos, rpz, hpz, lookahead, cand, counts)  # fmt: skip
     if counts[1] > cand.shape[1]:
         return  # no room for all candidates (the caller makes room and calls again)
     # 6. Both orders of each candidate pair through detect_pair (the conflict buffers hold twice the candidates).
@@ -895,6 +839,41 @@ class GridWork:
         self.pair_f, self.out_f = np.empty((5, pairs)), np.empty((5, pairs))
         self.pair_los, self.out_los = np.empty(pairs, np.bool_), np.empty(pairs, np.bool_)
 
+    def detect(
+        self,
+        lat: Array,
+        lon: Array,
+        alt: Array,
+        gs: Array,
+        trk: Array,
+        vs: Array,
+        active: NDArray[np.bool_],
+        rpz: float,
+        hpz: float,
+        lookahead: float,
+    ) -> int:
+        """:func:`grid_detect_kernel` of the state (shaped (n_envs, n_aircraft), as :func:`detect_grid`'s); the number of conflicts found.
+
+        The conflicts are left in the arrays: :attr:`row`, :attr:`out_ij`, :attr:`out_f`,
+        :attr:`out_los` (see :func:`grid_detect_kernel`).
+        """
+        active = np.ascontiguousarray(active, dtype=np.bool_)
+        n_envs, m = active.shape
+        lat, lon, alt, gs, trk, vs = (float_array(x, active.shape).reshape(-1) for x in (lat, lon, alt, gs, trk, vs))
+        self.fit(n_envs, m)
+        prev, out = self.order[: self.n_order], self.spare
+        while True:
+            grid_detect_kernel(
+                m, active.reshape(-1), lat, lon, alt, gs, trk, vs, float(rpz), float(hpz), float(lookahead), prev, self.env_f,
+                self.env_i, self.cell_start, self.cell_cos, self.cell_info, self.cell_of, out, self.pcell, self.sorted_state,
+                self.cand, self.pair_ij, self.pair_f, self.pair_los, self.row, self.out_ij, self.out_f, self.out_los, self.counts,
+            )  # fmt: skip
+            if self.counts[1] <= self.cand.shape[1]:
+                break
+            self.reserve(2 * int(self.counts[1]))  # a crowded airspace: again with room for all
+        self.order, self.spare, self.n_order = out, self.order, int(self.counts[2])
+        return int(self.counts[0])
+
     @property
     def evaluated(self) -> int:
         """How many ordered pairs the last call evaluated with :func:`detect_pair` (both orders of each candidate)."""
@@ -935,23 +914,9 @@ def detect_grid(
         work: Work arrays to reuse from call to call (None: new ones); after the call its ``row``
             gives each aircraft's conflicts (flat index ``k``: entries ``row[k]:row[k + 1]``).
     """
-    active = np.ascontiguousarray(active, dtype=np.bool_)
-    n_envs, m = active.shape
-    lat, lon, alt, gs, trk, vs = (float_array(x, active.shape).reshape(-1) for x in (lat, lon, alt, gs, trk, vs))
     w = GridWork() if work is None else work
-    w.fit(n_envs, m)
-    prev, out = w.order[: w.n_order], w.spare
-    while True:
-        grid_detect_kernel(
-            m, active.reshape(-1), lat, lon, alt, gs, trk, vs, float(rpz), float(hpz), float(lookahead), prev, w.env_f, w.env_i,
-            w.cell_start, w.cell_cos, w.cell_info, w.cell_of, out, w.pcell, w.sorted_state,
-            w.cand, w.pair_ij, w.pair_f, w.pair_los, w.row, w.out_ij, w.out_f, w.out_los, w.counts,
-        )  # fmt: skip
-        if w.counts[1] <= w.cand.shape[1]:
-            break
-        w.reserve(2 * int(w.counts[1]))  # a crowded airspace: again with room for all
-    found = int(w.counts[0])
-    w.order, w.spare, w.n_order = out, w.order, int(w.counts[2])
+    found = w.detect(lat, lon, alt, gs, trk, vs, active, rpz, hpz, lookahead)
+    m = w.shape[1]
     own = w.out_ij[0, :found].copy()
     f = w.out_f[:, :found]
     return ConflictPairs(m, own // m, own % m, w.out_ij[1, :found] % m, w.out_los[:found].copy(), *(f[r].copy() for r in range(5)))

@@ -1207,14 +1207,16 @@ class MVPResolver(ConflictResolver):
         if self.held.shape != (4, n_envs, m):
             self.pair_keys = np.zeros(0, np.int64)
             self.held = np.full((4, n_envs, m), np.nan)
-        c = detect_pairs(
-            state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, active, self.rpz, self.hpz, self.lookahead, self.detector,
-            self.python_geo, self.grid_work,
-        )  # fmt: skip
         if self.detector == "CSTATEBASED":  # the grid's own sorted buffers
             w = self.grid_work
+            found = w.detect(state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, active, self.rpz, self.hpz, self.lookahead)
             row, intruder, qdr, dist, tcpa, tlos = w.row, w.out_ij[1], w.out_f[0], w.out_f[1], w.out_f[2], w.out_f[4]
         else:
+            c = detect_pairs(
+                state.lat, state.lon, state.alt, state.gs, state.trk, state.vs, active, self.rpz, self.hpz, self.lookahead, self.detector,
+                self.python_geo,
+            )  # fmt: skip
+            found = c.env.size
             row = np.zeros(n + 1, np.int64)
             np.cumsum(np.bincount(c.flat_own, minlength=n), out=row[1:])
             intruder = c.env * m + c.intruder
@@ -1222,7 +1224,7 @@ class MVPResolver(ConflictResolver):
         vsmin, vsmax = self._limits(state)
         s, _, floats = _mvp_inputs(state, self.settings, vsmin, vsmax)
         held = np.array(self.held, dtype=np.float64, order="C")
-        kept = np.empty(self.pair_keys.size + c.env.size, np.int64)
+        kept = np.empty(self.pair_keys.size + found, np.int64)
         follow, ended = np.empty(n, np.bool_), np.empty(n, np.bool_)
         alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin_a, vsmax_a = (x.reshape(-1) for x in floats)
         lat, lon = (float_array(x, active.shape).reshape(-1) for x in (state.lat, state.lon))

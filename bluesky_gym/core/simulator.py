@@ -23,9 +23,19 @@ from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import vcasormach
-from bluesky_gym.core.conflicts import GridWork, create_conflicts, detect_loop, resolve_pair_search
+from bluesky_gym.core.conflicts import create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
-from bluesky_gym.core.resolution import AsasConfig, ended_loop, mvp_loop, release_loop, renew_loop, resolution_targets, resume_loop, targets_loop
+from bluesky_gym.core.resolution import (
+    AsasConfig,
+    ConflictResolver,
+    ended_loop,
+    mvp_loop,
+    release_loop,
+    renew_loop,
+    resolution_targets,
+    resume_loop,
+    targets_loop,
+)
 from bluesky_gym.core.resolvers import resolver_class
 from bluesky_gym.core.state import (
     FIELD_INDEX,
@@ -169,8 +179,10 @@ class Simulator(AircraftState):
         self._reso_keys = np.zeros(0, np.int64)
         self._reso_held = np.full((4, self.n_envs, self.max_aircraft), np.nan)
         self._reso_following = np.zeros((self.n_envs, self.max_aircraft), dtype=np.bool_)  # who follows (methods that make everyone follow)
-        # The grid's work arrays per ASAS configuration (a cache: any content gives the same flight).
-        self._grid_works: dict[AsasConfig, GridWork] = {}
+        # One resolver per ASAS configuration, kept from step to step for its work arrays (the grid's;
+        # a cache: the resolution state above is handed to it at each step).
+        self._resolvers: dict[AsasConfig, ConflictResolver] = {}
+        self._vs_limits_cache: tuple[int, Array, Array] = (0, np.zeros(0), np.zeros(0))
 
     def _types_loaded(self) -> tuple[list[pf.AircraftPerformance], Array]:
         if self._performance is None:
@@ -666,32 +678,32 @@ class Simulator(AircraftState):
         shape = (self.n_envs, self.max_aircraft)
         follow = np.zeros(shape, dtype=np.bool_)
         targets = np.zeros((4, *shape))  # track, ground speed, altitude, vertical speed
-        vsmin = np.array([p.vsmin for p in self._type_perf])
-        vsmax = np.array([p.vsmax for p in self._type_perf])
+        vsmin, vsmax = self._vs_limits()
         groups: dict[AsasConfig, list[int]] = {}
         for e, config in self._asas.items():
             if config.resolving:
                 groups.setdefault(config, []).append(e)
         for config, members in groups.items():  # airspaces with the same settings resolve in one batch
             envs = np.array(sorted(members), dtype=np.int64)
-            sel: slice | IntArray = slice(None) if envs.size == self.n_envs else envs  # views where the group is every airspace
-            view = _AirspaceView(self, envs)
-            resolver = resolver_class(config.method)(
-                config.settings,
-                rpz=config.rpz,
-                hpz=config.hpz,
-                lookahead=config.lookahead,
-                vsmin=vsmin[view.type_index],
-                vsmax=vsmax[view.type_index],
-                detector=str(config.detector),
-                python_geo=self.geo == "python",
-                pair_search=self.pair_search,
-            )
+            every = envs.size == self.n_envs
+            sel: slice | IntArray = slice(None) if every else envs  # views where the group is every airspace
+            view: Simulator | _AirspaceView = self if every else _AirspaceView(self, envs)
+            resolver = self._resolvers.get(config)
+            if resolver is None:
+                resolver = self._resolvers[config] = resolver_class(config.method)(
+                    config.settings,
+                    rpz=config.rpz,
+                    hpz=config.hpz,
+                    lookahead=config.lookahead,
+                    detector=str(config.detector),
+                    python_geo=self.geo == "python",
+                    pair_search=self.pair_search,
+                )
+            resolver.vsmin, resolver.vsmax = vsmin[view.type_index], vsmax[view.type_index]
             resolver.pairs, resolver.held = self._reso_pairs[sel], self._reso_held[:, sel]
             resolver.following = self._reso_following[sel]
             if self.pair_search == "grid":
                 resolver.pair_keys = self._group_keys(envs)
-                resolver.grid_work = self._grid_works.setdefault(config, resolver.grid_work)
             group_follow, group_ended = resolver.advance(view)
             self._reso_pairs[sel], self._reso_held[:, sel] = resolver.pairs, resolver.held
             self._reso_following[sel] = resolver.following if resolver.follow_all else False
@@ -720,6 +732,15 @@ class Simulator(AircraftState):
             follow.reshape(-1),
             *(np.ascontiguousarray(t).reshape(-1) for t in targets),
         )
+
+    def _vs_limits(self) -> tuple[Array, Array]:
+        """The vertical-speed limits of each type in use, by row (vsmin, vsmax) [m/s]; types are only ever added."""
+        n, vsmin, vsmax = self._vs_limits_cache
+        perf = self._type_perf
+        if n != len(perf):
+            vsmin, vsmax = np.array([p.vsmin for p in perf]), np.array([p.vsmax for p in perf])
+            self._vs_limits_cache = (len(perf), vsmin, vsmax)
+        return vsmin, vsmax
 
     def _group_keys(self, envs: IntArray) -> NDArray[np.int64]:
         """The pair keys of airspaces ``envs`` (sorted), renumbered as a resolver of those airspaces sees them."""
@@ -1182,8 +1203,7 @@ class DeviceSimulator(Simulator):
         up = self._cuda.to_device
         shape = (self.n_envs, self.max_aircraft)
         pairs = (*shape, self.max_aircraft)
-        vsmin = np.array([p.vsmin for p in self._type_perf])[self.type_index]
-        vsmax = np.array([p.vsmax for p in self._type_perf])[self.type_index]
+        vsmin, vsmax = (limit[self.type_index] for limit in self._vs_limits())
         return {
             "conflict": up(np.zeros(pairs, np.bool_)),
             "los": up(np.zeros(pairs, np.bool_)),
