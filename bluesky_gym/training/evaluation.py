@@ -39,6 +39,8 @@ KPI_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("success", "kpi_success", "success"),
     ("los", "kpi_los_count", "LoS/ep"),
     ("min_sep_nm", "kpi_min_separation_nm", "min sep [NM]"),
+    ("los_per_hour", "kpi_los_per_flight_hour", "LoS/flight-h"),
+    ("first_los_s", "kpi_time_to_first_los_s", "first LoS [s]"),
     ("drift_deg", "kpi_mean_abs_drift_deg", "drift [deg]"),
     ("time_to_goal_s", "kpi_time_to_goal_s", "time to goal [s]"),
     ("fuel_kg", "kpi_fuel_kg", "fuel [kg]"),

@@ -74,6 +74,18 @@ def test_summary_table_and_files(tmp_path: Path) -> None:
     assert again.summary == clas.summary and len(again.episodes) == 8
 
 
+def test_the_table_shows_an_environments_own_kpis_where_it_has_them() -> None:
+    """DenseSectorCR's losses per flight-hour and time to the first loss are columns of its table, and of no other."""
+    dense = "DenseSectorCREnv-v0"
+    res = evaluate(dense, make_policy("random", dense), 4)
+    assert res.summary["los_per_hour"]["n"] == 4 and res.summary["los_per_hour"]["mean"] >= 0.0
+    first = [e["kpi_time_to_first_los_s"] for e in res.episodes]
+    assert res.summary["first_los_s"]["n"] == sum(math.isfinite(x) for x in first) > 0  # episodes without a loss are left out
+    table = format_table([res])
+    assert "LoS/flight-h" in table and "first LoS [s]" in table
+    assert "LoS/flight-h" not in format_table([evaluate(ENV, make_policy("random", ENV), 2)])
+
+
 def test_summarise_ignores_missing_values() -> None:
     eps = [
         {"return": 1.0, "length": 10, "kpi_time_to_goal_s": 100.0, "kpi_min_separation_nm": 3.0, "kpi_los_count": 1.0},
