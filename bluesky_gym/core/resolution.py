@@ -1223,7 +1223,7 @@ class MVPResolver(ConflictResolver):
             qdr, dist, tcpa, tlos = c.qdr, c.dist, c.tcpa, c.tlos
         vsmin, vsmax = self._limits(state)
         s, _, floats = _mvp_inputs(state, self.settings, vsmin, vsmax)
-        held = np.array(self.held, dtype=np.float64, order="C")
+        held = np.ascontiguousarray(self.held, dtype=np.float64)  # written in place: the resolver's own (or its simulator's)
         kept = np.empty(self.pair_keys.size + found, np.int64)
         follow, ended = np.empty(n, np.bool_), np.empty(n, np.bool_)
         alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin_a, vsmax_a = (x.reshape(-1) for x in floats)

@@ -712,10 +712,11 @@ class Simulator(AircraftState):
             follow[sel] = group_follow
             targets[:, sel] = resolution_targets(resolver.held)
             # BlueSky's waypoint recovery: an aircraft whose resolution ended goes DIRECT to its best waypoint.
-            for k, s in zip(*np.nonzero(group_ended & (self.nwp[sel] > 0))):
-                e = int(envs[k])
-                self.iactwp[e, s] = self._find_active(e, int(s))
-                self._direct(np.array([e]), np.array([s]))
+            if group_ended.any():
+                for k, s in zip(*np.nonzero(group_ended & (self.nwp[sel] > 0))):
+                    e = int(envs[k])
+                    self.iactwp[e, s] = self._find_active(e, int(s))
+                    self._direct(np.array([e]), np.array([s]))
         wn, we, haswind, any_wind = self._wind_args()
         post_kernel(
             self._float_flat,
