@@ -13,7 +13,7 @@ The step, written out (:meth:`Task.step`)::
     obs = observe(g)                   # observation dict, key -> (rows, *shape)
     reward, terminated, parts = reward(g)
     record(g, reward)                  # episode statistics / KPIs from g
-    truncation = time limit | truncate(g); info
+    truncated = truncation(terminated, g)   # the time limit or truncate(g), unless terminated; info
 
 A concrete task supplies:
 
@@ -65,6 +65,16 @@ from bluesky_gym.tasks.geometry import wrap180 as wrap180  # re-exported for the
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 _EMPTY = np.empty(0)
+#: The KPIs of every task, in the order :func:`~bluesky_gym.tasks.compiled.episode_kpis` writes them.
+KPI_KEYS = (
+    "kpi_los_count",
+    "kpi_los_steps",
+    "kpi_min_separation_nm",
+    "kpi_mean_abs_drift_deg",
+    "kpi_track_distance_km",
+    "kpi_fuel_kg",
+    "kpi_episode_time_s",
+)
 
 
 @dataclass(frozen=True)
@@ -447,6 +457,7 @@ class Task(abc.ABC):
         #: Per-episode effects (:meth:`add_effect`) and extra observation entries (:meth:`add_observation_terms`).
         self.effects: list[Effect] = []
         self.observation_terms: list[ObservationTerms] = []
+        self._observation_bounds: tuple[dict[str, BoxSpec], dict[str, tuple[Array, Array]]] | None = None
         self.allocate()
         if self.config.wind is not None:
             self.add_wind(self.config.wind)
@@ -619,8 +630,30 @@ class Task(abc.ABC):
 
         The bounds are chosen to hold for the task's reachable states; the clip keeps the
         contract for the rare state beyond them (an aircraft far outside the scenario's area).
+        Each entry is clipped by the kernel :func:`~bluesky_gym.tasks.compiled.clip_to_bounds`
+        (the values of one row as its columns, against :meth:`observation_bounds`).
         """
-        return {k: np.minimum(np.maximum(v, self.observation_spec[k].low), self.observation_spec[k].high) for k, v in obs.items()}
+        bounds = self.observation_bounds()
+        out = {}
+        for k, v in obs.items():
+            low, high = bounds[k]
+            clipped = np.empty(v.shape)
+            if clipped.size:
+                compiled.clip_to_bounds(v.reshape(-1, low.size), low, high, clipped.reshape(-1, low.size))
+            out[k] = clipped
+        return out
+
+    def observation_bounds(self) -> dict[str, tuple[Array, Array]]:
+        """The declared (low, high) of every observation entry, one float64 value per element of its shape (flat, contiguous)."""
+        spec = self.observation_spec
+        cached = self._observation_bounds
+        if cached is None or cached[0] is not spec:
+            flat = {
+                k: tuple(np.ascontiguousarray(np.broadcast_to(np.asarray(b, dtype=np.float64), box.shape)).reshape(-1) for b in (box.low, box.high))
+                for k, box in spec.items()
+            }
+            cached = self._observation_bounds = (spec, flat)  # type: ignore[assignment]
+        return cached[1]  # type: ignore[return-value]
 
     @property
     def space_dtype(self) -> type[np.floating[Any]]:
@@ -673,7 +706,7 @@ class Task(abc.ABC):
         obs = self.with_observation_terms(self.observe(g))
         reward, terminated, components = self.reward(g)
         self.record(g, reward)
-        truncated = ~terminated & (self.time_up() | self.truncate(g))
+        truncated = self.truncation(terminated, g)
         ended = self.end_step(terminated, truncated)
         info = self.episode_info()
         info.update({f"reward_{k}": v for k, v in components.items()})
@@ -684,9 +717,15 @@ class Task(abc.ABC):
             self.reset(np.flatnonzero(ended))
         return result
 
-    def time_up(self) -> BoolArray:
-        """Rows at the time limit after this step's :meth:`record`: (n_envs,) here."""
-        return self.stats.steps >= self.time_limit
+    def truncation(self, terminated: BoolArray, g: StepGeometry) -> BoolArray:
+        """(n_envs,) episodes truncated by this step: at the time limit or cut by :meth:`truncate`, unless terminated.
+
+        The kernel :func:`~bluesky_gym.tasks.compiled.truncation`, after this step's :meth:`record`
+        (the time limit counts the step).
+        """
+        out = np.empty(self.n_envs, bool)
+        compiled.truncation(self.stats.steps, self.time_limit, terminated, self.truncate(g), out)
+        return out
 
     def end_step(self, terminated: BoolArray, truncated: BoolArray) -> BoolArray:
         """Close the step (the multi-agent layout removes the agents that left); return the (n_envs,) episodes that ended."""
@@ -728,21 +767,28 @@ class Task(abc.ABC):
         )
 
     def kpis(self) -> dict[str, Array]:
-        """Air-traffic KPIs of the current episodes, (n_envs,) each."""
+        """Air-traffic KPIs of the current episodes, (n_envs,) each.
+
+        The common ones (:data:`KPI_KEYS`) come from the kernel :func:`~bluesky_gym.tasks.compiled.episode_kpis`;
+        a task with a goal adds ``kpi_success``, ``kpi_time_to_goal_s`` and ``kpi_extra_track_km``.
+        """
         st = self.stats
-        with np.errstate(invalid="ignore"):
-            avg_drift = np.where(st.drift_n > 0, st.drift_sum / np.maximum(st.drift_n, 1), np.nan)
-        reached = ~np.isnan(st.time_to_goal)
-        out = {
-            "kpi_los_count": st.los_count.astype(np.float64),
-            "kpi_los_steps": st.los_steps.astype(np.float64),
-            "kpi_min_separation_nm": st.min_separation.copy(),
-            "kpi_mean_abs_drift_deg": avg_drift,
-            "kpi_track_distance_km": self.sim.distflown[:, 0] / 1000.0,
-            "kpi_fuel_kg": self.sim.fuelburn[:, 0].copy(),
-            "kpi_episode_time_s": st.steps * self.dt * self.action_frequency,
-        }
+        out = {key: np.empty(self.n_envs) for key in KPI_KEYS}
+        compiled.episode_kpis(
+            st.steps,
+            st.los_count,
+            st.los_steps,
+            st.min_separation,
+            st.drift_sum,
+            st.drift_n,
+            self.sim.distflown,
+            self.sim.fuelburn,
+            self.dt,
+            self.action_frequency,
+            *out.values(),
+        )
         if self.has_goal:
+            reached = ~np.isnan(st.time_to_goal)
             out["kpi_success"] = reached.astype(np.float64)
             out["kpi_time_to_goal_s"] = st.time_to_goal.copy()
             out["kpi_extra_track_km"] = self.extra_track_km()
