@@ -646,14 +646,13 @@ class Task(abc.ABC):
     def observation_bounds(self) -> dict[str, tuple[Array, Array]]:
         """The declared (low, high) of every observation entry, one float64 value per element of its shape (flat, contiguous)."""
         spec = self.observation_spec
-        cached = self._observation_bounds
-        if cached is None or cached[0] is not spec:
-            flat = {
-                k: tuple(np.ascontiguousarray(np.broadcast_to(np.asarray(b, dtype=np.float64), box.shape)).reshape(-1) for b in (box.low, box.high))
-                for k, box in spec.items()
-            }
-            cached = self._observation_bounds = (spec, flat)  # type: ignore[assignment]
-        return cached[1]  # type: ignore[return-value]
+        if self._observation_bounds is None or self._observation_bounds[0] is not spec:  # computed again when the spec changes
+
+            def flat(bound: float | Array, shape: tuple[int, ...]) -> Array:
+                return np.array(np.broadcast_to(np.asarray(bound, dtype=np.float64), shape)).reshape(-1)  # a writable copy
+
+            self._observation_bounds = (spec, {k: (flat(box.low, box.shape), flat(box.high, box.shape)) for k, box in spec.items()})
+        return self._observation_bounds[1]
 
     @property
     def space_dtype(self) -> type[np.floating[Any]]:

@@ -236,18 +236,19 @@ class SectorCRDeviceStep:
         cuda_target.launch(compiled.record_step, p, *launch_args)
 
     def _observation(self, g: sc.SectorGeometry) -> dict[str, Any]:
-        """:meth:`~bluesky_gym.tasks.base.Task.with_observation_terms` of :func:`~bluesky_gym.environments.sector_cr.task.observation`, in the space's dtype.
+        """The task's observation (:func:`~bluesky_gym.environments.sector_cr.task.observation`) in the space's dtype.
 
-        ``-v1``: the measured features and intruders are clipped to the declared bounds first
-        (:meth:`~bluesky_gym.tasks.base.Task.bounded`'s kernel, in place: two launches).
+        ``-v1``: the measured features and intruders are clipped to the declared bounds first, as
+        :meth:`~bluesky_gym.tasks.base.Task.bounded` clips them on the CPU (its kernel, in place: two launches).
         """
         f, intruders = g.features, g.intruders
         if self.task.config.float32_spaces:
             k, p = self._k, int(f.shape[0])
-            for block, values in (("features", f), ("intruders", intruders.view(p, len(sc.INTRUDER_KEYS) * sc.NUM_AC_STATE))):
+            for block, values in (("features", f), ("intruders", intruders.reshape(p, len(sc.INTRUDER_KEYS) * sc.NUM_AC_STATE))):
                 low, high = self.bounds[block]
                 cuda_target.launch(compiled.clip_to_bounds, p, k(values), k(low), k(high), k(values))
-        return {key: v.to(self.obs_dtype).contiguous() for key, v in sc.observation(g).items()}
+        obs: dict[str, Any] = sc.observation(g)  # views of the geometry's tensors
+        return {key: v.to(self.obs_dtype).contiguous() for key, v in obs.items()}
 
     def _episode_info(self) -> dict[str, Any]:
         """:meth:`bluesky_gym.environments.sector_cr.task.SectorCRTask.episode_info` on the device (one launch)."""
