@@ -347,6 +347,23 @@ class StepGeometry:
     goal_reached: BoolArray
 
 
+def flat_bounds(box: BoxSpec) -> tuple[Array, Array]:
+    """A Box's (low, high) as :func:`~bluesky_gym.tasks.compiled.clip_to_bounds` takes them: one float64 value per element, flat."""
+    low, high = (np.array(np.broadcast_to(np.asarray(b, dtype=np.float64), box.shape)).reshape(-1) for b in (box.low, box.high))
+    return low, high
+
+
+def clipped(values: Array, low: Array, high: Array) -> Array:
+    """``values`` (rows, *shape) clipped to a Box's :func:`flat_bounds`: ``np.minimum(np.maximum(values, low), high)``, a new float64 array.
+
+    The kernel :func:`~bluesky_gym.tasks.compiled.clip_to_bounds`, with one row's elements as its columns.
+    """
+    out = np.empty(np.shape(values))
+    if out.size:
+        compiled.clip_to_bounds(values.reshape(-1, low.size), low, high, out.reshape(-1, low.size))
+    return out
+
+
 def kwik_separation(
     sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], intrusion_nm: float, vertical_m: float | None = None
 ) -> tuple[Array, BoolArray]:
@@ -458,6 +475,7 @@ class Task(abc.ABC):
         self.effects: list[Effect] = []
         self.observation_terms: list[ObservationTerms] = []
         self._observation_bounds: tuple[dict[str, BoxSpec], dict[str, tuple[Array, Array]]] | None = None
+        self._action_bounds: tuple[BoxSpec, tuple[Array, Array]] | None = None
         self.allocate()
         if self.config.wind is not None:
             self.add_wind(self.config.wind)
@@ -634,25 +652,20 @@ class Task(abc.ABC):
         (the values of one row as its columns, against :meth:`observation_bounds`).
         """
         bounds = self.observation_bounds()
-        out = {}
-        for k, v in obs.items():
-            low, high = bounds[k]
-            clipped = np.empty(v.shape)
-            if clipped.size:
-                compiled.clip_to_bounds(v.reshape(-1, low.size), low, high, clipped.reshape(-1, low.size))
-            out[k] = clipped
-        return out
+        return {k: clipped(v, *bounds[k]) for k, v in obs.items()}
 
     def observation_bounds(self) -> dict[str, tuple[Array, Array]]:
-        """The declared (low, high) of every observation entry, one float64 value per element of its shape (flat, contiguous)."""
+        """The declared bounds of every observation entry (:func:`flat_bounds`), computed again when :attr:`observation_spec` changes."""
         spec = self.observation_spec
-        if self._observation_bounds is None or self._observation_bounds[0] is not spec:  # computed again when the spec changes
-
-            def flat(bound: float | Array, shape: tuple[int, ...]) -> Array:
-                return np.array(np.broadcast_to(np.asarray(bound, dtype=np.float64), shape)).reshape(-1)  # a writable copy
-
-            self._observation_bounds = (spec, {k: (flat(box.low, box.shape), flat(box.high, box.shape)) for k, box in spec.items()})
+        if self._observation_bounds is None or self._observation_bounds[0] is not spec:
+            self._observation_bounds = (spec, {k: flat_bounds(box) for k, box in spec.items()})
         return self._observation_bounds[1]
+
+    def action_bounds(self) -> tuple[Array, Array]:
+        """The bounds of the action space (:func:`flat_bounds`), computed again when :attr:`action_spec` changes."""
+        if self._action_bounds is None or self._action_bounds[0] is not self.action_spec:
+            self._action_bounds = (self.action_spec, flat_bounds(self.action_spec))
+        return self._action_bounds[1]
 
     @property
     def space_dtype(self) -> type[np.floating[Any]]:
@@ -685,7 +698,7 @@ class Task(abc.ABC):
             raise ValueError(f"action has shape {a.shape}, expected {(self.n_envs, *spec.shape)} for {self.id}")
         if not np.isfinite(a).all():
             raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
-        return np.minimum(np.maximum(a, spec.low), spec.high)  # np.clip's result, for finite values
+        return clipped(a, *self.action_bounds())  # np.clip's result, for finite values
 
     def step(self, action: Any) -> Any:
         """Apply a batch of actions, run the physics sub-steps and evaluate the controlled rows.

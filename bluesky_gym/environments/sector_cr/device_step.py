@@ -81,8 +81,7 @@ class SectorCRDeviceStep:
         self.nothing = torch.zeros(0, dtype=torch.float64, device=dev)
         spec = task.action_spec
         self.action_shape = (n, *spec.shape)
-        self.action_low = torch.as_tensor(np.broadcast_to(spec.low, spec.shape).astype(np.float64), device=dev)
-        self.action_high = torch.as_tensor(np.broadcast_to(spec.high, spec.shape).astype(np.float64), device=dev)
+        self.action_low, self.action_high = (torch.as_tensor(b, device=dev) for b in task.action_bounds())
         self.obs_dtype = torch.float32 if task.config.float32_spaces else torch.float64
         # -v1: the declared bounds of the own-aircraft entries (the columns of the measured features)
         # and of the intruders' (the 7 x NUM_AC_STATE columns of the intruder block), for clip_to_bounds.
@@ -326,7 +325,17 @@ class SectorCRDeviceStep:
             raise ValueError(f"action has shape {tuple(a.shape)}, expected {self.action_shape} for {self.task.id}")
         if not bool(torch.isfinite(a).all()):
             raise ValueError("action contains NaN or infinite values")
-        return torch.minimum(torch.maximum(a, self.action_low), self.action_high).contiguous()
+        clipped = self._empty(*self.action_shape)  # Task.clip_action's kernel (never in place: the caller's tensor stays as it is)
+        n = self.action_shape[0]
+        cuda_target.launch(
+            compiled.clip_to_bounds,
+            n,
+            self._k(a.contiguous().view(n, -1)),
+            self._k(self.action_low),
+            self._k(self.action_high),
+            self._k(clipped.view(n, -1)),
+        )
+        return clipped
 
     def step(self, actions: Any) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any], np.ndarray]:
         """One step of every episode, ended episodes reset in the same call (SAME_STEP autoreset).
