@@ -4,8 +4,9 @@ With ``gym.make_vec(id, device="cuda")`` the physics always runs on the device
 (:class:`~bluesky_gym.core.DeviceSimulator`). For SectorCR (``-v0`` and ``-v1``, without wind; its
 registry row's ``device_step``) the rest of the step runs there too (:class:`SectorCRDeviceStep`):
 
-* the actions (a tensor on the device) are clipped and given as autopilot commands by one launch
-  (:func:`bluesky_gym.tasks.compiled.command_heading_speed`);
+* the actions (a tensor on the device) are clipped (:func:`~bluesky_gym.tasks.compiled.clip_to_bounds`)
+  and given as autopilot commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`), one
+  launch each;
 * the physics sub-steps: one launch of the run kernel;
 * measure: the task's own kernels (:func:`~bluesky_gym.tasks.compiled.sector_observe`,
   :func:`~bluesky_gym.tasks.compiled.kwik_separation`,
