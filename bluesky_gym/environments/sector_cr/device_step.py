@@ -349,7 +349,7 @@ class SectorCRDeviceStep:
         c = t.config
         n = self.n
         a = self._actions(actions)
-        d_speed = sc.D_VELOCITY * sc.KTS if c.speed_step_in_knots else sc.D_VELOCITY
+        d_speed = sc.speed_change(c)
         hdg, cas, ap_trk, selspd, swlnav, swvnavspd = self.sim.device_arrays("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd")
         launch(compiled.command_heading_speed, n, k(self.envs), k(self.own), k(a), hdg, cas, sc.D_HEADING, d_speed, ap_trk, swlnav, selspd, swvnavspd)
         t.advance()

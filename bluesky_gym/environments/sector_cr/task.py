@@ -186,6 +186,11 @@ def observation_scales(config: SectorCRConfig) -> tuple[float, ...]:
     return _OBS_SCALES_V1 if config.flight_level_altitude else _OBS_SCALES
 
 
+def speed_change(config: SectorCRConfig) -> float:
+    """CAS change per unit of the speed action: 20/3 m/s (``-v0``, the reference's "kts" added to m/s), 20/3 kt with ``speed_step_in_knots``."""
+    return D_VELOCITY * KTS if config.speed_step_in_knots else D_VELOCITY
+
+
 def bounds_v1(key: str) -> tuple[float, float]:
     """The ``-v1`` declared (low, high) of an observation entry of SectorCR (its multi-agent form too)."""
     return {
@@ -465,8 +470,7 @@ class SectorCRTask(Task):
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt (docs/environments-v0.md §5)."""
-        d_speed = D_VELOCITY * KTS if self.config.speed_step_in_knots else D_VELOCITY
-        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, d_speed)
+        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, speed_change(self.config))
 
     # --- the step -----------------------------------------------------------------------------
     def measure(self, envs: NDArray[np.int64] | None = None) -> SectorGeometry:
