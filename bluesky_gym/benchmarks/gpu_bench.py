@@ -115,7 +115,8 @@ def _exercise_env(gym: Any, env_id: str) -> None:
     for _ in range(3):
         env.step(env.action_space.sample())
     env.close()
-    venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    # Episodes of 2 steps: they end (the KPIs) and are reset within the 3 steps.
+    venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=2)
     venv.action_space.seed(0)
     venv.reset(seed=0)
     for _ in range(3):

@@ -486,6 +486,10 @@ class MultiAgentTask(Task):
         """(n_envs, n_agents) acting agents of running episodes at the time limit."""
         return self.acting & ((~self.finished) & (self.stats.steps >= self.time_limit))[:, None]
 
+    def truncation(self, terminated: BoolArray, g: StepGeometry) -> BoolArray:
+        """(n_envs, n_agents) agents truncated by this step: at the time limit (:meth:`time_up`) or leaving (:meth:`truncate`), unless terminated."""
+        return ~terminated & (self.time_up() | self.truncate(g))
+
     def truncate(self, g: StepGeometry) -> BoolArray:
         """(n_envs, n_agents) agents the task removes after this step without a goal (:meth:`leaving`)."""
         return self._leaving

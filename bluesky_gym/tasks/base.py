@@ -13,7 +13,7 @@ The step, written out (:meth:`Task.step`)::
     obs = observe(g)                   # observation dict, key -> (rows, *shape)
     reward, terminated, parts = reward(g)
     record(g, reward)                  # episode statistics / KPIs from g
-    truncation = time limit | truncate(g); info
+    truncated = truncation(terminated, g)   # the time limit or truncate(g), unless terminated; info
 
 A concrete task supplies:
 
@@ -65,6 +65,16 @@ from bluesky_gym.tasks.geometry import wrap180 as wrap180  # re-exported for the
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 _EMPTY = np.empty(0)
+#: The KPIs of every task, in the order :func:`~bluesky_gym.tasks.compiled.episode_kpis` writes them.
+KPI_KEYS = (
+    "kpi_los_count",
+    "kpi_los_steps",
+    "kpi_min_separation_nm",
+    "kpi_mean_abs_drift_deg",
+    "kpi_track_distance_km",
+    "kpi_fuel_kg",
+    "kpi_episode_time_s",
+)
 
 
 @dataclass(frozen=True)
@@ -337,6 +347,23 @@ class StepGeometry:
     goal_reached: BoolArray
 
 
+def flat_bounds(box: BoxSpec) -> tuple[Array, Array]:
+    """A Box's (low, high) as :func:`~bluesky_gym.tasks.compiled.clip_to_bounds` takes them: one float64 value per element, flat."""
+    low, high = (np.array(np.broadcast_to(np.asarray(b, dtype=np.float64), box.shape)).reshape(-1) for b in (box.low, box.high))
+    return low, high
+
+
+def clipped(values: Array, low: Array, high: Array) -> Array:
+    """``values`` (rows, *shape) clipped to a Box's :func:`flat_bounds`: ``np.minimum(np.maximum(values, low), high)``, a new float64 array.
+
+    The kernel :func:`~bluesky_gym.tasks.compiled.clip_to_bounds`, with one row's elements as its columns.
+    """
+    out = np.empty(np.shape(values))
+    if out.size:
+        compiled.clip_to_bounds(values.reshape(-1, low.size), low, high, out.reshape(-1, low.size))
+    return out
+
+
 def kwik_separation(
     sim: Physics, envs: NDArray[np.int64], own: NDArray[np.int64], intrusion_nm: float, vertical_m: float | None = None
 ) -> tuple[Array, BoolArray]:
@@ -447,6 +474,8 @@ class Task(abc.ABC):
         #: Per-episode effects (:meth:`add_effect`) and extra observation entries (:meth:`add_observation_terms`).
         self.effects: list[Effect] = []
         self.observation_terms: list[ObservationTerms] = []
+        self._observation_bounds: tuple[dict[str, BoxSpec], dict[str, tuple[Array, Array]]] | None = None
+        self._action_bounds: tuple[BoxSpec, tuple[Array, Array]] | None = None
         self.allocate()
         if self.config.wind is not None:
             self.add_wind(self.config.wind)
@@ -619,8 +648,24 @@ class Task(abc.ABC):
 
         The bounds are chosen to hold for the task's reachable states; the clip keeps the
         contract for the rare state beyond them (an aircraft far outside the scenario's area).
+        Each entry is clipped by the kernel :func:`~bluesky_gym.tasks.compiled.clip_to_bounds`
+        (the values of one row as its columns, against :meth:`observation_bounds`).
         """
-        return {k: np.minimum(np.maximum(v, self.observation_spec[k].low), self.observation_spec[k].high) for k, v in obs.items()}
+        bounds = self.observation_bounds()
+        return {k: clipped(v, *bounds[k]) for k, v in obs.items()}
+
+    def observation_bounds(self) -> dict[str, tuple[Array, Array]]:
+        """The declared bounds of every observation entry (:func:`flat_bounds`), computed again when :attr:`observation_spec` changes."""
+        spec = self.observation_spec
+        if self._observation_bounds is None or self._observation_bounds[0] is not spec:
+            self._observation_bounds = (spec, {k: flat_bounds(box) for k, box in spec.items()})
+        return self._observation_bounds[1]
+
+    def action_bounds(self) -> tuple[Array, Array]:
+        """The bounds of the action space (:func:`flat_bounds`), computed again when :attr:`action_spec` changes."""
+        if self._action_bounds is None or self._action_bounds[0] is not self.action_spec:
+            self._action_bounds = (self.action_spec, flat_bounds(self.action_spec))
+        return self._action_bounds[1]
 
     @property
     def space_dtype(self) -> type[np.floating[Any]]:
@@ -653,7 +698,7 @@ class Task(abc.ABC):
             raise ValueError(f"action has shape {a.shape}, expected {(self.n_envs, *spec.shape)} for {self.id}")
         if not np.isfinite(a).all():
             raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
-        return np.minimum(np.maximum(a, spec.low), spec.high)  # np.clip's result, for finite values
+        return clipped(a, *self.action_bounds())  # np.clip's result, for finite values
 
     def step(self, action: Any) -> Any:
         """Apply a batch of actions, run the physics sub-steps and evaluate the controlled rows.
@@ -673,7 +718,7 @@ class Task(abc.ABC):
         obs = self.with_observation_terms(self.observe(g))
         reward, terminated, components = self.reward(g)
         self.record(g, reward)
-        truncated = ~terminated & (self.time_up() | self.truncate(g))
+        truncated = self.truncation(terminated, g)
         ended = self.end_step(terminated, truncated)
         info = self.episode_info()
         info.update({f"reward_{k}": v for k, v in components.items()})
@@ -684,9 +729,15 @@ class Task(abc.ABC):
             self.reset(np.flatnonzero(ended))
         return result
 
-    def time_up(self) -> BoolArray:
-        """Rows at the time limit after this step's :meth:`record`: (n_envs,) here."""
-        return self.stats.steps >= self.time_limit
+    def truncation(self, terminated: BoolArray, g: StepGeometry) -> BoolArray:
+        """(n_envs,) episodes truncated by this step: at the time limit or cut by :meth:`truncate`, unless terminated.
+
+        The kernel :func:`~bluesky_gym.tasks.compiled.truncation`, after this step's :meth:`record`
+        (the time limit counts the step).
+        """
+        out = np.empty(self.n_envs, bool)
+        compiled.truncation(self.stats.steps, self.time_limit, terminated, self.truncate(g), out)
+        return out
 
     def end_step(self, terminated: BoolArray, truncated: BoolArray) -> BoolArray:
         """Close the step (the multi-agent layout removes the agents that left); return the (n_envs,) episodes that ended."""
@@ -728,21 +779,28 @@ class Task(abc.ABC):
         )
 
     def kpis(self) -> dict[str, Array]:
-        """Air-traffic KPIs of the current episodes, (n_envs,) each."""
+        """Air-traffic KPIs of the current episodes, (n_envs,) each.
+
+        The common ones (:data:`KPI_KEYS`) come from the kernel :func:`~bluesky_gym.tasks.compiled.episode_kpis`;
+        a task with a goal adds ``kpi_success``, ``kpi_time_to_goal_s`` and ``kpi_extra_track_km``.
+        """
         st = self.stats
-        with np.errstate(invalid="ignore"):
-            avg_drift = np.where(st.drift_n > 0, st.drift_sum / np.maximum(st.drift_n, 1), np.nan)
-        reached = ~np.isnan(st.time_to_goal)
-        out = {
-            "kpi_los_count": st.los_count.astype(np.float64),
-            "kpi_los_steps": st.los_steps.astype(np.float64),
-            "kpi_min_separation_nm": st.min_separation.copy(),
-            "kpi_mean_abs_drift_deg": avg_drift,
-            "kpi_track_distance_km": self.sim.distflown[:, 0] / 1000.0,
-            "kpi_fuel_kg": self.sim.fuelburn[:, 0].copy(),
-            "kpi_episode_time_s": st.steps * self.dt * self.action_frequency,
-        }
+        out = {key: np.empty(self.n_envs) for key in KPI_KEYS}
+        compiled.episode_kpis(
+            st.steps,
+            st.los_count,
+            st.los_steps,
+            st.min_separation,
+            st.drift_sum,
+            st.drift_n,
+            self.sim.distflown,
+            self.sim.fuelburn,
+            self.dt,
+            self.action_frequency,
+            *out.values(),
+        )
         if self.has_goal:
+            reached = ~np.isnan(st.time_to_goal)
             out["kpi_success"] = reached.astype(np.float64)
             out["kpi_time_to_goal_s"] = st.time_to_goal.copy()
             out["kpi_extra_track_km"] = self.extra_track_km()

@@ -605,6 +605,18 @@ def add_samples(total: Array, count: IntArray, value: Array, times: IntArray) ->
         count[e] += times[e]
 
 
+@jit_inline
+def _mean(total, count, empty):  # type: ignore[no-untyped-def]
+    """``total / count``, the mean of ``count`` samples summed in ``total``; ``empty`` without a sample."""
+    return total / count if count > 0 else empty
+
+
+@jit_inline
+def _episode_time(steps, dt, action_frequency):  # type: ignore[no-untyped-def]
+    """Simulated time [s] of ``steps`` decision steps of ``action_frequency`` physics steps of ``dt`` [s]."""
+    return steps * dt * action_frequency
+
+
 # --- episode statistics -------------------------------------------------------------------------
 @jit
 def record_step(  # type: ignore[no-untyped-def]
@@ -663,4 +675,77 @@ def record_step(  # type: ignore[no-untyped-def]
             drift_sum[e] += abs(drift[r])
             drift_n[e] += 1
         if goal[r] and time_to_goal[e] != time_to_goal[e]:
-            time_to_goal[e] = steps[e] * dt * action_frequency
+            time_to_goal[e] = _episode_time(steps[e], dt, action_frequency)
+
+
+# --- the step's end: truncation, episode outputs, the -v1 observation bounds -----------------------
+@jit
+def truncation(steps, time_limit, terminated, cut, truncated_out):  # type: ignore[no-untyped-def]
+    """:meth:`bluesky_gym.tasks.base.Task.step`'s truncation of each episode ``e``.
+
+    Truncated: not terminated, and at the time limit (``steps[e] >= time_limit``, the decision
+    steps counted by this step's :func:`record_step`) or cut by the task (``cut[e]``,
+    :meth:`~bluesky_gym.tasks.base.Task.truncate`).
+    """
+    for e in grid_range(truncated_out.shape[0]):
+        truncated_out[e] = not terminated[e] and (steps[e] >= time_limit or cut[e])
+
+
+@jit
+def sample_means(total, count, empty, out):  # type: ignore[no-untyped-def]
+    """The mean ``total[e] / count[e]`` of the samples an episode summed, or ``empty`` where it has none (``count[e] == 0``)."""
+    for e in grid_range(out.shape[0]):
+        out[e] = _mean(total[e], count[e], empty)
+
+
+@jit
+def episode_kpis(  # type: ignore[no-untyped-def]
+    steps,
+    los_count,
+    los_steps,
+    min_sep,
+    drift_sum,
+    drift_n,
+    distflown,
+    fuelburn,
+    dt,
+    action_frequency,
+    los_count_out,
+    los_steps_out,
+    min_sep_out,
+    drift_out,
+    track_out,
+    fuel_out,
+    time_out,
+):
+    """The KPIs every task reports (:meth:`bluesky_gym.tasks.base.Task.kpis`), from the episode statistics of :func:`record_step`.
+
+    Per episode ``e``: losses of separation and steps in one (as floats), the smallest separation
+    [NM], the mean |drift| [deg] (NaN without a sample), the ownship's (slot 0) distance flown
+    [km] (``distflown`` [m]) and fuel burned [kg], and the episode's simulated time [s].
+    """
+    for e in grid_range(steps.shape[0]):
+        los_count_out[e] = los_count[e]
+        los_steps_out[e] = los_steps[e]
+        min_sep_out[e] = min_sep[e]
+        drift_out[e] = _mean(drift_sum[e], drift_n[e], np.nan)
+        track_out[e] = distflown[e, 0] / _M_PER_KM
+        fuel_out[e] = fuelburn[e, 0]
+        time_out[e] = _episode_time(steps[e], dt, action_frequency)
+
+
+@jit
+def clip_to_bounds(values, low, high, out):  # type: ignore[no-untyped-def]
+    """``values`` (rows, k) clipped to ``[low[j], high[j]]`` in column j: ``np.minimum(np.maximum(values, low), high)``.
+
+    As numpy's: NaN stays NaN, and a value equal to a bound gives the bound (its sign of zero).
+    ``out`` may be ``values``.
+    """
+    for r in grid_range(values.shape[0]):
+        for j in range(values.shape[1]):
+            v = values[r, j]
+            if not (v > low[j] or v != v):
+                v = low[j]
+            if not (v < high[j] or v != v):
+                v = high[j]
+            out[r, j] = v

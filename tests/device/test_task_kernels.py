@@ -149,3 +149,34 @@ def test_task_kernels_on_the_device_state_of_seeded_steps_with_conflict_resoluti
                 assert_agree(got.copy_to_host(), want, 1e-9)
         assert int(stats[3].sum()) > 0, "the scenario must count losses of separation"
     assert set(launched.values()) == {4}, launched  # one launch per kernel, whatever the number of airspaces
+
+
+def test_step_end_kernels() -> None:
+    """Truncation, the episode means, the KPIs and the -v1 clip of the device step against their CPU calls."""
+    rng = np.random.default_rng(14)
+    steps, terminated, cut = rng.integers(0, 6, N), rng.uniform(size=N) < 0.4, rng.uniform(size=N) < 0.4
+    args = [steps, 4, terminated, cut, np.empty(N, dtype=np.bool_)]
+    cpu = _fresh(args)
+    compiled.truncation(*cpu)
+    assert_agree(_launch(compiled.truncation, N, _fresh(args), (4,))[0], cpu[4], 0.0)
+    total, count = rng.uniform(0, 9, N), np.array([0, 1, 3, 0, 2])
+    args = [total, count, 0.0, np.empty(N)]
+    cpu = _fresh(args)
+    compiled.sample_means(*cpu)
+    assert_agree(_launch(compiled.sample_means, N, _fresh(args), (3,))[0], cpu[3], 1e-12)
+    stats = [steps, rng.integers(0, 4, N), rng.integers(0, 4, N), rng.uniform(0, 9, N), total, count,
+             rng.uniform(0, 3e5, (N, M)), rng.uniform(0, 900, (N, M)), 5.0, 12]  # fmt: skip
+    args = [*stats, *(np.empty(N) for _ in range(7))]
+    cpu = _fresh(args)
+    compiled.episode_kpis(*cpu)
+    outputs = tuple(range(10, 17))
+    for i, got in zip(outputs, _launch(compiled.episode_kpis, N, _fresh(args), outputs)):
+        assert_agree(got, cpu[i], 1e-12)
+    values = rng.uniform(-3, 3, (N, 7))
+    values[0] = (-0.0, 0.0, np.nan, np.inf, -np.inf, 1.0, -1.0)
+    args = [values, np.array([0.0, 0.0, -1, -1, -1, -1, -1]), np.array([0.0, 0.0, 1, 1, 1, 1, 1]), np.empty_like(values)]
+    cpu = _fresh(args)
+    compiled.clip_to_bounds(*cpu)
+    got = _launch(compiled.clip_to_bounds, N, _fresh(args), (3,))[0]
+    assert_agree(got, cpu[3], 0.0)
+    np.testing.assert_array_equal(np.signbit(got), np.signbit(cpu[3]))

@@ -133,3 +133,34 @@ def horizontal_cr_observation(sim, wpt_lat: Array, wpt_lon: Array) -> dict[str, 
         "cos_drift": np.cos(np.deg2rad(drift))[:, None],
         "sin_drift": np.sin(np.deg2rad(drift))[:, None],
     }
+
+
+# --- the step's end (bluesky_gym.tasks.compiled: truncation, sample_means, episode_kpis, clip_to_bounds) ---
+def truncation(steps: Array, time_limit: int, terminated: Array, cut: Array) -> Array:
+    """Truncated episodes: at the time limit or cut by the task, never a terminated one."""
+    return ~terminated & ((steps >= time_limit) | cut)  # type: ignore[no-any-return]
+
+
+def sample_means(total: Array, count: Array, empty: float) -> Array:
+    """``total / count``, ``empty`` where ``count`` is 0."""
+    with np.errstate(invalid="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), empty)
+
+
+def episode_kpis(steps: Array, los_count: Array, los_steps: Array, min_sep: Array, drift_sum: Array, drift_n: Array,
+                 distflown: Array, fuelburn: Array, dt: float, action_frequency: int) -> list[Array]:  # fmt: skip
+    """The common KPIs, in the order of ``bluesky_gym.tasks.base.KPI_KEYS``."""
+    return [
+        los_count.astype(np.float64),
+        los_steps.astype(np.float64),
+        min_sep.copy(),
+        sample_means(drift_sum, drift_n, np.nan),
+        distflown[:, 0] / 1000.0,
+        fuelburn[:, 0].copy(),
+        steps * dt * action_frequency,
+    ]
+
+
+def clip_to_bounds(values: Array, low: Array, high: Array) -> Array:
+    """numpy's clip of every row to the bounds of its columns."""
+    return np.minimum(np.maximum(values, low), high)  # type: ignore[no-any-return]

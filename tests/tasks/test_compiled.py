@@ -7,6 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from bluesky_gym.core.jit import python_form
 from bluesky_gym.environments.horizontal_cr.task import HorizontalCRTask
 from bluesky_gym.environments.merge import task as mg
 from bluesky_gym.environments.merge.task import MergeTask
@@ -14,6 +15,7 @@ from bluesky_gym.environments.sector_cr import task as sc
 from bluesky_gym.environments.sector_cr.task import SectorCRTask
 from bluesky_gym.environments.vertical_cr.task import VerticalCRTask, intruder_relative_state
 from bluesky_gym.tasks import compiled
+from bluesky_gym.tasks.base import KPI_KEYS
 from tests.oracle import tasks as oracle
 from tests.oracle.geometry import points_in_polygons, ref_kwikdist, ref_kwikdist_matrix
 
@@ -253,3 +255,48 @@ def test_kwik_functions_equal_the_numpy_oracle_for_scalars_and_broadcast_arrays(
             np.testing.assert_array_equal(got, want, strict=True)
         for got, want in zip(geometry.ref_kwikqdrdist(*args), oracle_geometry.ref_kwikqdrdist(*args), strict=True):
             np.testing.assert_array_equal(got, want, strict=True)
+
+
+@pytest.mark.parametrize("form", ["compiled", "python"])
+def test_step_end_kernels_equal_the_numpy_oracle(form: str) -> None:
+    """Truncation, the episode means, the KPIs and the -v1 clip, compiled and as plain Python, to the last bit."""
+    k = {name: getattr(compiled, name) for name in ("truncation", "sample_means", "episode_kpis", "clip_to_bounds")}
+    if form == "python":
+        k = {name: python_form(fn) for name, fn in k.items()}
+    rng = np.random.default_rng(9)
+    n = 40
+    steps = rng.integers(0, 12, n)
+    terminated, cut = rng.uniform(size=n) < 0.3, rng.uniform(size=n) < 0.3
+    got = np.empty(n, bool)
+    k["truncation"](steps, 8, terminated, cut, got)
+    want = oracle.truncation(steps, 8, terminated, cut)
+    np.testing.assert_array_equal(got, want, strict=True)
+    assert want.any() and (terminated & ((steps >= 8) | cut)).any()  # terminated ones at the limit or cut are not truncated
+
+    total, count = rng.uniform(0, 30, n), rng.integers(0, 4, n)
+    for empty in (0.0, np.nan):
+        got_mean = np.empty(n)
+        k["sample_means"](total, count, empty, got_mean)
+        np.testing.assert_array_equal(got_mean, oracle.sample_means(total, count, empty), strict=True)
+    assert (count == 0).any() and (count > 0).any()
+
+    m = 5
+    stats = (steps, rng.integers(0, 5, n), rng.integers(0, 5, n), np.where(rng.uniform(size=n) < 0.2, np.inf, rng.uniform(0, 9, n)),
+             total, count, rng.uniform(0, 3e5, (n, m)), rng.uniform(0, 900, (n, m)), 5.0, 12)  # fmt: skip
+    outs = [np.empty(n) for _ in range(7)]
+    k["episode_kpis"](*stats, *outs)
+    for got_kpi, want_kpi, key in zip(outs, oracle.episode_kpis(*stats), KPI_KEYS, strict=True):
+        np.testing.assert_array_equal(got_kpi, want_kpi, err_msg=key, strict=True)
+
+    # Signed zeros on a zero bound, values equal to a bound, NaN and infinities, beyond the bounds on both sides.
+    special = np.array([-0.0, 0.0, -1.0, 1.0, np.nan, np.inf, -np.inf, -7.5, 7.5, 0.25])
+    values = np.concatenate([np.tile(special, (3, 1)), rng.uniform(-3, 3, (20, special.size))])
+    low = np.array([0.0, 0.0, -1.0, -1.0, -1.0, -2.0, -2.0, -4.0, -np.inf, -0.0])
+    high = np.array([0.0, -0.0, 1.0, 1.0, 1.0, 2.0, 2.0, 50.0, 5.0, 0.0])
+    clipped = np.empty_like(values)
+    k["clip_to_bounds"](values, low, high, clipped)
+    want_clip = oracle.clip_to_bounds(values, low, high)
+    np.testing.assert_array_equal(clipped, want_clip, strict=True)
+    np.testing.assert_array_equal(np.signbit(clipped), np.signbit(want_clip))  # the sign of every zero too
+    k["clip_to_bounds"](values, low, high, values)  # in place
+    np.testing.assert_array_equal(values, want_clip, strict=True)

@@ -4,8 +4,9 @@ With ``gym.make_vec(id, device="cuda")`` the physics always runs on the device
 (:class:`~bluesky_gym.core.DeviceSimulator`). For SectorCR (``-v0`` and ``-v1``, without wind; its
 registry row's ``device_step``) the rest of the step runs there too (:class:`SectorCRDeviceStep`):
 
-* the actions (a tensor on the device) are clipped and given as autopilot commands by one launch
-  (:func:`bluesky_gym.tasks.compiled.command_heading_speed`);
+* the actions (a tensor on the device) are clipped (:func:`~bluesky_gym.tasks.compiled.clip_to_bounds`)
+  and given as autopilot commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`), one
+  launch each;
 * the physics sub-steps: one launch of the run kernel;
 * measure: the task's own kernels (:func:`~bluesky_gym.tasks.compiled.sector_observe`,
   :func:`~bluesky_gym.tasks.compiled.kwik_separation`,
@@ -13,12 +14,21 @@ registry row's ``device_step``) the rest of the step runs there too (:class:`Sec
 * reward and the episode sums (:func:`~bluesky_gym.tasks.compiled.sector_reward`,
   :func:`~bluesky_gym.tasks.compiled.sector_episode_reward`) and the statistics
   (:func:`~bluesky_gym.tasks.compiled.record_step`), one launch each;
-* the observation's layout and dtype, termination, truncation, the info entries and KPIs:
-  elementwise tensor operations on the device.
+* ``-v1``: the observation clipped to its declared bounds
+  (:func:`~bluesky_gym.tasks.compiled.clip_to_bounds`, one launch for the own-aircraft entries and
+  one for the intruders');
+* the truncation (:func:`~bluesky_gym.tasks.compiled.truncation`, with the task's own
+  :meth:`~bluesky_gym.environments.sector_cr.task.SectorCRTask.truncate` and
+  :meth:`~bluesky_gym.tasks.base.Task.end_step` applied to the step's tensors), the info's
+  ``average_drift`` (:func:`~bluesky_gym.tasks.compiled.sample_means`) and, in a step where an
+  episode ends, the KPIs (:func:`~bluesky_gym.tasks.compiled.episode_kpis`), one launch each;
+* the observation's layout and dtype and the copies of the info's sums: tensor views, copies
+  and casts on the device.
 
 These are the kernels the CPU task runs (their CUDA forms, :mod:`bluesky_gym.core.cuda_target`),
-launched over every episode at once: a step is a fixed number of launches whatever the number of
-episodes. One thing comes to the host per step: which episodes ended (a boolean per episode).
+launched over every episode at once: no rule of the task is written here a second time, and a step
+is a fixed number of launches whatever the number of episodes. One thing comes to the host per
+step: which episodes ended (a boolean per episode).
 Their new scenarios are drawn on the host from each episode's own generator, in the reference's
 order (:meth:`~bluesky_gym.tasks.base.Task.generate`, as on the CPU), and only those episodes'
 aircraft and scenario arrays are uploaded (:meth:`~bluesky_gym.core.DeviceSimulator.reset_on_host`);
@@ -38,7 +48,7 @@ import numpy as np
 from bluesky_gym.core import DeviceSimulator, cuda_target
 from bluesky_gym.environments.sector_cr import task as sc
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.base import Task, numeric_action
+from bluesky_gym.tasks.base import KPI_KEYS, Task, numeric_action
 
 __all__ = ["SectorCRDeviceStep"]
 
@@ -72,10 +82,15 @@ class SectorCRDeviceStep:
         self.nothing = torch.zeros(0, dtype=torch.float64, device=dev)
         spec = task.action_spec
         self.action_shape = (n, *spec.shape)
-        self.action_low = torch.as_tensor(np.broadcast_to(spec.low, spec.shape).astype(np.float64), device=dev)
-        self.action_high = torch.as_tensor(np.broadcast_to(spec.high, spec.shape).astype(np.float64), device=dev)
+        self.action_low, self.action_high = (torch.as_tensor(b, device=dev) for b in task.action_bounds())
         self.obs_dtype = torch.float32 if task.config.float32_spaces else torch.float64
-        self.bounds = {k: (float(v.low), float(v.high)) for k, v in task.observation_spec.items()}
+        # -v1: the declared bounds of the own-aircraft entries (the columns of the measured features)
+        # and of the intruders' (the 7 x NUM_AC_STATE columns of the intruder block), for clip_to_bounds.
+        bounds = task.observation_bounds()
+        self.bounds = {
+            block: tuple(torch.as_tensor(np.concatenate([bounds[key][i] for key in keys]), device=dev) for i in (0, 1))
+            for block, keys in (("features", sc.OWN_KEYS), ("intruders", sc.INTRUDER_KEYS))
+        }
         # The episode statistics (Task.stats) and SectorCR's info sums, kept on the device.
         z = dict(device=dev)
         self.stats = {
@@ -147,16 +162,20 @@ class SectorCRDeviceStep:
             arr[...] = s[k].cpu().numpy()
 
     # --- the task's kernels ---------------------------------------------------------------------
-    def _measure(self, envs: Any, own: Any) -> dict[str, Any]:
-        """:func:`bluesky_gym.environments.sector_cr.task.measure` of rows ``envs`` on the device (three launches)."""
+    def _measure(self, envs: Any, own: Any) -> sc.SectorGeometry:
+        """:func:`bluesky_gym.environments.sector_cr.task.measure` of rows ``envs`` on the device (three launches).
+
+        Returns:
+            The task's geometry, its arrays tensors on the device.
+        """
         t, k, launch = self.task, self._k, cuda_target.launch
         p, m = int(envs.shape[0]), self.m
         lat, lon, hdg, tas, alt, active = self.sim.device_arrays("lat", "lon", "hdg", "tas", "alt", "active")
         sc_ = self.scenario
         g = {
             "drift": self._empty(p),
-            "features": self._empty(p, 3),
-            "intruders": self._empty(p, 7, sc.NUM_AC_STATE),
+            "features": self._empty(p, len(sc.OWN_KEYS)),
+            "intruders": self._empty(p, len(sc.INTRUDER_KEYS), sc.NUM_AC_STATE),
             "n_others": self._empty(p, dtype=self.torch.int64),
             "separation": self._empty(p, m),
             "los": self._empty(p, m, dtype=self.torch.bool),
@@ -185,21 +204,23 @@ class SectorCRDeviceStep:
         )
         launch(compiled.kwik_separation, p, k(envs), k(own), lat, lon, alt, active, sc.INTRUSION_DISTANCE, np.nan, k(g["separation"]), k(g["los"]))
         launch(compiled.slots_in_polygons, p, k(envs), k(own), lat, lon, k(sc_["poly_lat"]), k(sc_["poly_lon"]), k(sc_["n_vertices"]), k(g["inside"]))
-        return g
+        return sc.SectorGeometry(
+            envs, g["separation"], g["los"], g["drift"], self.no_goal[:p], own, g["features"], g["intruders"], g["n_others"], g["inside"]
+        )
 
-    def _record(self, envs: Any, g: dict[str, Any], reward: Any | None) -> None:
-        """:meth:`~bluesky_gym.tasks.base.Task.record` of rows ``envs`` on the device (one launch)."""
+    def _record(self, g: sc.SectorGeometry, reward: Any | None) -> None:
+        """:meth:`~bluesky_gym.tasks.base.Task.record` of rows ``g.envs`` on the device (one launch)."""
         s, k, t = self.stats, self._k, self.task
         stepped = reward is not None
-        p = int(envs.shape[0])
+        p = int(g.envs.shape[0])
         launch_args = (
-            k(envs),
-            k(g["separation"]),
-            k(g["los"]),
+            k(g.envs),
+            k(g.separation_nm),
+            k(g.los),
             stepped,
             k(reward if stepped else self.nothing),
-            k(g["drift"]),
-            k(self.no_goal[:p]),
+            k(g.drift_deg),
+            k(g.goal_reached),
             float(t.dt),
             int(t.action_frequency),
             k(s["in_los"]),
@@ -214,42 +235,51 @@ class SectorCRDeviceStep:
         )
         cuda_target.launch(compiled.record_step, p, *launch_args)
 
-    def _observation(self, g: dict[str, Any]) -> dict[str, Any]:
-        """:func:`bluesky_gym.environments.sector_cr.task.observation` in the space's dtype (``-v1``: clipped to the declared bounds first)."""
-        f, intruders = g["features"], g["intruders"]
-        obs = {"cos(drift)": f[:, 0:1], "sin(drift)": f[:, 1:2], "airspeed": f[:, 2:3]}
-        obs.update({key: intruders[:, i] for i, key in enumerate(sc.INTRUDER_KEYS)})
+    def _observation(self, g: sc.SectorGeometry) -> dict[str, Any]:
+        """The task's observation (:func:`~bluesky_gym.environments.sector_cr.task.observation`) in the space's dtype.
+
+        ``-v1``: the measured features and intruders are clipped to the declared bounds first, as
+        :meth:`~bluesky_gym.tasks.base.Task.bounded` clips them on the CPU (its kernel, in place: two launches).
+        """
+        f, intruders = g.features, g.intruders
         if self.task.config.float32_spaces:
-            torch = self.torch
-            obs = {
-                key: torch.minimum(torch.maximum(v, v.new_tensor(self.bounds[key][0])), v.new_tensor(self.bounds[key][1])) for key, v in obs.items()
-            }
+            k, p = self._k, int(f.shape[0])
+            for block, values in (("features", f), ("intruders", intruders.reshape(p, len(sc.INTRUDER_KEYS) * sc.NUM_AC_STATE))):
+                low, high = self.bounds[block]
+                cuda_target.launch(compiled.clip_to_bounds, p, k(values), k(low), k(high), k(values))
+        obs: dict[str, Any] = sc.observation(g)  # views of the geometry's tensors
         return {key: v.to(self.obs_dtype).contiguous() for key, v in obs.items()}
 
     def _episode_info(self) -> dict[str, Any]:
-        """:meth:`bluesky_gym.environments.sector_cr.task.SectorCRTask.episode_info` on the device."""
-        s, torch = self.stats, self.torch
-        n = s["drift_rad_n"]
-        return {
-            "total_reward": s["total_reward"].clone(),
-            "total_intrusions": s["total_intrusions"].clone(),
-            "average_drift": torch.where(n > 0, s["drift_rad_sum"] / torch.clamp(n, min=1), 0.0),
-        }
+        """:meth:`bluesky_gym.environments.sector_cr.task.SectorCRTask.episode_info` on the device (one launch)."""
+        s = self.stats
+        average_drift = self._empty(self.n)
+        cuda_target.launch(
+            compiled.sample_means, self.n, self._k(s["drift_rad_sum"]), self._k(s["drift_rad_n"]), sc.AVERAGE_DRIFT_EMPTY, self._k(average_drift)
+        )
+        return {"total_reward": s["total_reward"].clone(), "total_intrusions": s["total_intrusions"].clone(), "average_drift": average_drift}
 
     def _kpis(self) -> dict[str, Any]:
-        """:meth:`bluesky_gym.tasks.base.Task.kpis` on the device (SectorCR has no goal)."""
-        s, torch, t = self.stats, self.torch, self.task
+        """:meth:`bluesky_gym.tasks.base.Task.kpis` on the device (SectorCR has no goal; one launch)."""
+        s, t, k = self.stats, self.task, self._k
         distflown, fuelburn = self.sim.device_arrays("distflown", "fuelburn")
-        avg = torch.where(s["drift_n"] > 0, s["drift_sum"] / torch.clamp(s["drift_n"], min=1), np.nan)
-        return {
-            "kpi_los_count": s["los_count"].to(torch.float64),
-            "kpi_los_steps": s["los_steps"].to(torch.float64),
-            "kpi_min_separation_nm": s["min_sep"].clone(),
-            "kpi_mean_abs_drift_deg": avg,
-            "kpi_track_distance_km": self.io.tensor(distflown)[:, 0] / 1000.0,
-            "kpi_fuel_kg": self.io.tensor(fuelburn)[:, 0].clone(),
-            "kpi_episode_time_s": s["steps"].to(torch.float64) * t.dt * t.action_frequency,
-        }
+        out = {key: self._empty(self.n) for key in KPI_KEYS}
+        cuda_target.launch(
+            compiled.episode_kpis,
+            self.n,
+            k(s["steps"]),
+            k(s["los_count"]),
+            k(s["los_steps"]),
+            k(s["min_sep"]),
+            k(s["drift_sum"]),
+            k(s["drift_n"]),
+            distflown,
+            fuelburn,
+            float(t.dt),
+            int(t.action_frequency),
+            *(k(v) for v in out.values()),
+        )
+        return out
 
     # --- reset and step -------------------------------------------------------------------------
     def _start(self, rows: np.ndarray | None) -> tuple[Any, dict[str, Any]]:
@@ -270,7 +300,7 @@ class SectorCRDeviceStep:
         idx = self.envs if rows is None else self._long(rows)
         self._clear_stats(idx)
         g = self._measure(idx, self.own[: int(idx.shape[0])])
-        self._record(idx, g, None)
+        self._record(g, None)
         return idx, self._observation(g)
 
     def reset(self) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -296,7 +326,17 @@ class SectorCRDeviceStep:
             raise ValueError(f"action has shape {tuple(a.shape)}, expected {self.action_shape} for {self.task.id}")
         if not bool(torch.isfinite(a).all()):
             raise ValueError("action contains NaN or infinite values")
-        return torch.minimum(torch.maximum(a, self.action_low), self.action_high).contiguous()
+        clipped = self._empty(*self.action_shape)  # Task.clip_action's kernel (never in place: the caller's tensor stays as it is)
+        n = self.action_shape[0]
+        cuda_target.launch(
+            compiled.clip_to_bounds,
+            n,
+            self._k(a.contiguous().view(n, -1)),
+            self._k(self.action_low),
+            self._k(self.action_high),
+            self._k(clipped.view(n, -1)),
+        )
+        return clipped
 
     def step(self, actions: Any) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any], np.ndarray]:
         """One step of every episode, ended episodes reset in the same call (SAME_STEP autoreset).
@@ -309,7 +349,7 @@ class SectorCRDeviceStep:
         c = t.config
         n = self.n
         a = self._actions(actions)
-        d_speed = sc.D_VELOCITY * sc.KTS if c.speed_step_in_knots else sc.D_VELOCITY
+        d_speed = sc.speed_change(c)
         hdg, cas, ap_trk, selspd, swlnav, swvnavspd = self.sim.device_arrays("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd")
         launch(compiled.command_heading_speed, n, k(self.envs), k(self.own), k(a), hdg, cas, sc.D_HEADING, d_speed, ap_trk, swlnav, selspd, swvnavspd)
         t.advance()
@@ -319,8 +359,8 @@ class SectorCRDeviceStep:
         launch(
             compiled.sector_reward,
             n,
-            k(g["drift"]),
-            k(g["los"]),
+            k(g.drift_deg),
+            k(g.los),
             sc.DRIFT_PENALTY,
             sc.INTRUSION_PENALTY,
             k(reward),
@@ -335,9 +375,9 @@ class SectorCRDeviceStep:
             compiled.sector_episode_reward,
             n,
             k(self.envs),
-            k(g["drift"]),
+            k(g.drift_deg),
             k(count),
-            k(g["inside"]),
+            k(g.inside),
             lat,
             lon,
             k(sc_["wpt_lat"]),
@@ -354,10 +394,10 @@ class SectorCRDeviceStep:
             k(exit_c),
             k(terminated),
         )
-        self._record(self.envs, g, reward)
-        time_up = s["steps"] >= t.time_limit
-        truncated = ~terminated & (time_up if c.exit_ends_episode else (time_up | ~g["inside"]))
-        done = terminated | truncated
+        self._record(g, reward)
+        truncated = self._empty(n, dtype=torch.bool)
+        launch(compiled.truncation, n, k(s["steps"]), int(t.time_limit), k(terminated), k(t.truncate(g)), k(truncated))
+        done: Any = t.end_step(terminated, truncated)
         info: dict[str, Any] = self._episode_info()
         info.update({"reward_drift": drift_c, "reward_intrusion": intrusion_c})
         if c.exit_ends_episode:

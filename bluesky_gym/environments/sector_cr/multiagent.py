@@ -20,7 +20,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from bluesky_gym.core.units import KTS
 from bluesky_gym.environments.sector_cr import task as sc
 from bluesky_gym.multiagent.base import Array, BoolArray, IntArray, MultiAgentTask, mask_padding, padding_mask
 from bluesky_gym.multiagent.centralised import CentralisedEnv
@@ -85,8 +84,7 @@ class SectorCRMultiAgentTask(MultiAgentTask):
 
     def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt, for every acting agent."""
-        d_speed = sc.D_VELOCITY * KTS if self.config.speed_step_in_knots else sc.D_VELOCITY
-        self.command_heading_and_speed(action, sc.D_HEADING, d_speed)
+        self.command_heading_and_speed(action, sc.D_HEADING, sc.speed_change(self.config))
 
     def targets(self) -> tuple[Array, Array]:
         """Each aircraft's exit point."""

@@ -47,6 +47,7 @@ INTRUSION_DISTANCE = 5.0  # NM, horizontal only
 NUM_AC_STATE = 4  # intruders in the observation (the closest ones)
 MIN_AIRCRAFT = NUM_AC_STATE + 1  # at least this many aircraft (agent included) per episode
 DRIFT_PENALTY = -0.1  # per rad of |drift|, per step
+AVERAGE_DRIFT_EMPTY = 0.0  # rad: the average_drift info before the first step (the reference's mean of nothing is NaN)
 INTRUSION_PENALTY = -1.0  # per intruder within INTRUSION_DISTANCE, per step
 D_HEADING = 22.5  # deg of heading change per unit action
 D_VELOCITY = 20 / 3  # per unit action; the reference calls it kts but adds it to CAS in m/s
@@ -174,6 +175,8 @@ def worst_case_aircraft(config: SectorCRConfig) -> int:
     return max(math.ceil(config.density_cap() * float(config.poly_area_range[1])), MIN_AIRCRAFT)
 
 
+#: The observation entries of the agent's own features (:attr:`SectorGeometry.features`' columns) and of its intruders.
+OWN_KEYS = ("cos(drift)", "sin(drift)", "airspeed")
 INTRUDER_KEYS = ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")
 _OBS_SCALES_V1 = (AIRSPEED_MEAN_V1, AIRSPEED_STD_V1, *_OBS_SCALES[2:])
 
@@ -181,6 +184,11 @@ _OBS_SCALES_V1 = (AIRSPEED_MEAN_V1, AIRSPEED_STD_V1, *_OBS_SCALES[2:])
 def observation_scales(config: SectorCRConfig) -> tuple[float, ...]:
     """The normalisation constants of the compiled observation for ``config`` (airspeed's differ at FL350)."""
     return _OBS_SCALES_V1 if config.flight_level_altitude else _OBS_SCALES
+
+
+def speed_change(config: SectorCRConfig) -> float:
+    """CAS change per unit of the speed action: 20/3 m/s (``-v0``, the reference's "kts" added to m/s), 20/3 kt with ``speed_step_in_knots``."""
+    return D_VELOCITY * KTS if config.speed_step_in_knots else D_VELOCITY
 
 
 def bounds_v1(key: str) -> tuple[float, float]:
@@ -252,10 +260,10 @@ def measure(sim: Physics, sector: SectorCRTask, envs: NDArray[np.int64], own: ND
 
 def observation(g: SectorGeometry) -> dict[str, Array]:
     """SectorCREnv-v0's observation of every row (the reference's padding when fewer intruders are active)."""
-    f = g.features
-    # airspeed is kept as in the reference although it leaves the declared [-1, 1] bound.
-    obs = {"cos(drift)": f[:, 0:1], "sin(drift)": f[:, 1:2], "airspeed": f[:, 2:3]}
-    obs.update(zip(INTRUDER_KEYS, g.intruders.transpose(1, 0, 2)))
+    # airspeed is kept as in the reference although it leaves the declared [-1, 1] bound. (Views of
+    # g's arrays, by indexing alone: the device step gives it its tensors.)
+    obs = {key: g.features[:, i : i + 1] for i, key in enumerate(OWN_KEYS)}
+    obs.update({key: g.intruders[:, i] for i, key in enumerate(INTRUDER_KEYS)})
     return obs
 
 
@@ -290,8 +298,8 @@ class SectorCRTask(Task):
 
     def build_observation_spec(self) -> dict[str, BoxSpec]:
         """Declare the reference's keys; cos/sin(drift) and airspeed are bounded by [-1, 1]."""
-        spec = {k: BoxSpec((1,), -1.0, 1.0) for k in ("cos(drift)", "sin(drift)", "airspeed")}
-        spec.update({k: BoxSpec((NUM_AC_STATE,)) for k in ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")})
+        spec = {k: BoxSpec((1,), -1.0, 1.0) for k in OWN_KEYS}
+        spec.update({k: BoxSpec((NUM_AC_STATE,)) for k in INTRUDER_KEYS})
         if self.config.float32_spaces:
             spec = {k: BoxSpec(v.shape, *bounds_v1(k)) for k, v in spec.items()}
         return spec
@@ -462,8 +470,7 @@ class SectorCRTask(Task):
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
         """HDG wrap180(hdg + 22.5 a0); SPD (CAS + 20/3 a1) * 1.94384 kt (docs/environments-v0.md §5)."""
-        d_speed = D_VELOCITY * KTS if self.config.speed_step_in_knots else D_VELOCITY
-        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, d_speed)
+        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, speed_change(self.config))
 
     # --- the step -----------------------------------------------------------------------------
     def measure(self, envs: NDArray[np.int64] | None = None) -> SectorGeometry:
@@ -515,10 +522,14 @@ class SectorCRTask(Task):
         return ref_kwikdist(self.sim.lat[:, 0], self.sim.lon[:, 0], self.wpt_lat[:, 0], self.wpt_lon[:, 0])
 
     def truncate(self, g: StepGeometry) -> BoolArray:
-        """``-v0``: truncate when the agent has left the sector (the reference's ``truncated``); ``-v1`` terminates instead."""
+        """The agent has left the sector: ``-v0`` truncates there (the reference's ``truncated``).
+
+        ``-v1`` terminates there (:meth:`reward`), and a terminated episode is never truncated.
+        The device step (:mod:`~bluesky_gym.environments.sector_cr.device_step`) calls it with its
+        geometry's tensors.
+        """
         assert isinstance(g, SectorGeometry)
-        inside: BoolArray = g.inside
-        return np.zeros(self.n_envs, bool) if self.config.exit_ends_episode else ~inside
+        return ~g.inside
 
     def agent_inside(self) -> BoolArray:
         """(n_envs,) whether the agent is inside its sector now (2-D even-odd test on lat/lon)."""
@@ -532,10 +543,10 @@ class SectorCRTask(Task):
 
     def episode_info(self) -> dict[str, Array]:
         """Info keys of the reference, (n_envs,) each."""
-        # The reference's mean of an empty array is NaN at reset; v0 reports 0.0 until a sample exists.
-        n = self.drift_rad_n
+        average_drift = np.empty(self.n_envs)  # mean |drift| [rad] of the episode's steps
+        compiled.sample_means(self.drift_rad_sum, self.drift_rad_n, AVERAGE_DRIFT_EMPTY, average_drift)
         return {
             "total_reward": self.stats.total_reward.copy(),
-            "total_intrusions": self.total_intrusions.copy(),
-            "average_drift": np.where(n > 0, self.drift_rad_sum / np.maximum(n, 1), 0.0),
+            "total_intrusions": self.total_intrusions.copy(),  # type: ignore[dict-item]  # a count among the float entries
+            "average_drift": average_drift,
         }
