@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bluesky_gym.core.extras import require_rliable
-from bluesky_gym.tasks import REFERENCE_POLICIES
+from bluesky_gym.tasks import REFERENCE_POLICIES, RESOLUTION_REFERENCES
 from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.training.evaluation import KPI_COLUMNS, format_number, normalised_score
 from bluesky_gym.training.io import atomic_path, read_csv_rows, read_json
@@ -44,6 +44,12 @@ if TYPE_CHECKING:
 
 #: Bootstrap resamples of every confidence interval on the page.
 BOOTSTRAP = 2000
+#: The reference policies a page scores, in table order: ``random`` and ``classical`` (the
+#: normalised score's 0 and 1), then the conflict resolution methods of the environments with
+#: traffic, ``mvp`` and BlueSky's other methods ``eby``, ``swarm``, ``ssd``.
+PAGE_REFERENCES: tuple[str, ...] = (*REFERENCE_POLICIES, *RESOLUTION_REFERENCES)
+#: The columns of a reference policy's per-episode record (the seed and the KPIs the page reads).
+REFERENCE_RECORD_COLUMNS: tuple[str, ...] = ("seed", *dict.fromkeys(key for _, key, _ in KPI_COLUMNS))
 #: The command that reproduces the paper's full grid on a Ray cluster.
 PAPER_GRID_COMMAND = "bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6 --address ray://HEAD:10001 --out sweeps/paper"
 
@@ -121,6 +127,13 @@ def seed_episode_bootstrap(groups: Sequence[np.ndarray], rng: np.random.Generato
     return (point, float(lo), float(hi))
 
 
+def page_reference_names(env_id: str) -> tuple[str, ...]:
+    """The reference policies the page scores on an environment: ``random``, ``classical``, and ``mvp``, ``eby``, ``swarm``, ``ssd`` where it has ``mvp``."""
+    from bluesky_gym.training.policies import optional_reference_names, reference_names
+
+    return reference_names(env_id) + optional_reference_names(env_id)
+
+
 def reference_episode_dir(sweep_dir: str | Path) -> Path:
     """Where the per-episode records of a sweep's reference policies are kept."""
     return Path(sweep_dir) / "references" / "episodes"
@@ -139,33 +152,40 @@ def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None =
 
     A sweep caches the summaries of ``random`` and ``classical`` per environment; the page needs
     their per-episode records (for its intervals) and every reference policy that applies (one
-    added after the sweep too). Those missing are evaluated on the first held-out episodes, as
-    many as the runs' evaluations (or ``episodes``), and written to ``references/episodes/``.
-    A record another of the sweeps already keeps (with at least as many episodes) is not evaluated
-    again: the page reads the first sweep's that has it.
+    added after the sweep too): ``random``, ``classical``, and where an environment has ``mvp``,
+    ``mvp`` and the other resolution methods ``eby``, ``swarm`` and ``ssd``. Those missing are
+    evaluated on the first held-out episodes, as many as the runs' evaluations (or ``episodes``),
+    and written to ``references/episodes/`` as soon as each is done, one record per environment
+    and policy, so an interrupted run resumes where it stopped. The work goes policy by policy in
+    :data:`PAGE_REFERENCES` order (the slow ``ssd`` last, environment by environment). A record
+    keeps the columns the page reads (:data:`REFERENCE_RECORD_COLUMNS`). A record another of the
+    sweeps already keeps (with at least as many episodes) is not evaluated again: the page reads
+    the first sweep's that has it.
 
     Returns:
         One line per evaluation made, for the user.
 
     """
-    from bluesky_gym.training.evaluation import evaluate, make_policy, save_result
-    from bluesky_gym.training.policies import reference_names
+    from bluesky_gym.training.evaluation import EvalResult, evaluate, make_policy, save_result
 
     done = []
     dirs = [Path(d) for d in sweep_dirs]
+    todo: list[tuple[int, Path, str, str, int]] = []  # (policy's place, sweep, env, policy, episodes)
     for d in dirs:
         runs = [load_run(r) for r in find_runs([d])]
         for env_id in sorted({r.env_id for r in runs}):
             n = episodes
             if n is None:
                 n = max(int(read_json(r.path / "config.json").get("eval_episodes", 0)) for r in runs if r.env_id == env_id) or 50
-            for name in reference_names(env_id):
-                kept = _reference_table(dirs, env_id, name)
-                if kept is not None and len(next(iter(kept.values()), ())) >= n:
-                    continue  # this sweep's or an earlier one's: the same first held-out episodes
-                result = evaluate(env_id, make_policy(name, env_id), n)
-                save_result(result, reference_episode_dir(d), stem=f"{env_id}_{name}")
-                done.append(f"{env_id}: evaluated {name} on {n} held-out episodes -> {reference_episode_dir(d)}")
+            todo += [(PAGE_REFERENCES.index(name), d, env_id, name, n) for name in page_reference_names(env_id)]
+    for _, d, env_id, name, n in sorted(todo, key=lambda t: t[0]):
+        kept = _reference_table(dirs, env_id, name)
+        if kept is not None and len(next(iter(kept.values()), ())) >= n:
+            continue  # this sweep's or an earlier one's: the same first held-out episodes
+        result = evaluate(env_id, make_policy(name, env_id), n)
+        records = [{k: e[k] for k in REFERENCE_RECORD_COLUMNS if k in e} for e in result.episodes]
+        save_result(EvalResult(env_id, name, records, result.wall_time_s), reference_episode_dir(d), stem=f"{env_id}_{name}")
+        done.append(f"{env_id}: evaluated {name} on {n} held-out episodes in {result.wall_time_s:.0f} s -> {reference_episode_dir(d)}")
     return done
 
 
