@@ -6,8 +6,10 @@ generated, never edited by hand: it names the command that made it, and regenera
 same directories gives the same text.
 
 Per environment the page has a KPI table: one row per reference policy (``random``,
-``classical`` and, where it exists, ``mvp``) and per trained algorithm, each cell the mean with a
-95% confidence interval. For a reference policy the interval is over the held-out episodes (the
+``classical`` and, where the environment has traffic, the conflict resolution methods ``mvp``,
+``eby``, ``swarm`` and ``ssd``: :data:`PAGE_REFERENCES`) and per trained algorithm, each cell the
+mean with a 95% confidence interval; a reference that applies but has no record yet is named
+below the table as not evaluated. For a reference policy the interval is over the held-out episodes (the
 policies are deterministic given the scenario); for a trained algorithm it is a two-level
 bootstrap over seeds and, within each resampled seed, over its held-out episodes, so both
 sources of variation are in it. Below the table, the learning curves of the environment (mean
@@ -72,6 +74,7 @@ class EnvResults:
     rows: list[Row]
     runs: list[Run]
     references: dict[str, float]  # reference policy -> mean held-out return
+    missing: list[str] = field(default_factory=list)  # reference policies that apply but have no record yet
 
 
 def episode_table(run_dir: Path, name: str = "eval_episodes.csv") -> dict[str, np.ndarray] | None:
@@ -132,6 +135,14 @@ def page_reference_names(env_id: str) -> tuple[str, ...]:
     from bluesky_gym.training.policies import optional_reference_names, reference_names
 
     return reference_names(env_id) + optional_reference_names(env_id)
+
+
+def _expected_references(env_id: str) -> tuple[str, ...]:
+    """:func:`page_reference_names` of a registered environment; none for another id (nothing to say is missing)."""
+    try:
+        return page_reference_names(env_id)
+    except ValueError:
+        return ()
 
 
 def reference_episode_dir(sweep_dir: str | Path) -> Path:
@@ -214,9 +225,12 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
     for env_id in sorted(by_env):
         rows = []
         ref_returns = {}
-        for name in REFERENCE_POLICIES:
+        missing = []
+        for name in PAGE_REFERENCES:
             table = _reference_table(dirs, env_id, name)
             if table is None:
+                if name in _expected_references(env_id):
+                    missing.append(name)
                 continue
             row = Row(name, 1, len(next(iter(table.values()))))
             for col, key, _ in KPI_COLUMNS:
@@ -237,7 +251,7 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
                 if any(len(g) for g in groups):
                     row.kpis[col] = seed_episode_bootstrap(groups, rng, reps)
             rows.append(row)
-        out.append(EnvResults(env_id, rows, [r for r, _ in by_env[env_id]], ref_returns))
+        out.append(EnvResults(env_id, rows, [r for r, _ in by_env[env_id]], ref_returns, missing))
     return out
 
 
@@ -393,8 +407,10 @@ def kpi_table(er: EnvResults) -> list[str]:
     lines = ["| policy | seeds | episodes | " + " | ".join(label for _, label in cols) + " |"]
     lines.append("|---|---:|---:|" + "---:|" * len(cols))
     for r in er.rows:
-        seeds = "–" if r.policy in REFERENCE_POLICIES else str(r.runs)
+        seeds = "–" if r.policy in PAGE_REFERENCES else str(r.runs)
         lines.append(f"| {r.policy} | {seeds} | {r.episodes} | " + " | ".join(_cell(r.kpis.get(c)) for c, _ in cols) + " |")
+    if er.missing:
+        lines += ["", f"Not evaluated yet (no held-out record): {', '.join(er.missing)}; `bluesky-gym results` evaluates it when run again."]
     return lines
 
 
@@ -478,14 +494,15 @@ def budgets_section(results: Sequence[EnvResults]) -> list[str]:
     if not multi:
         return []
     lines = ["## Scale: the same algorithm at other budgets", ""]
+    refs = [n for n in PAGE_REFERENCES if any(n in er.references for er in results)]
     for algo in multi:
         mine = [a for a in labels if algorithm_of(a) == algo]
         lines += [
             f"Normalised held-out score of {algo} per budget (mean over seeds; 0 = random, 1 = classical), and the held-out return of"
             " the reference policies:",
             "",
-            "| environment | " + " | ".join(mine) + " | random | classical | mvp |",
-            "|---|" + "---:|" * (len(mine) + 3),
+            "| environment | " + " | ".join([*mine, *refs]) + " |",
+            "|---|" + "---:|" * (len(mine) + len(refs)),
         ]
         for er in results:
             if "random" not in er.references or "classical" not in er.references:
@@ -498,8 +515,8 @@ def budgets_section(results: Sequence[EnvResults]) -> list[str]:
                     if r.algo == label and r.final_return is not None
                 ]
                 cells.append(f"{np.mean(scores):.2f} ({len(scores)} seed{'s' if len(scores) != 1 else ''})" if scores else "–")
-            refs = [format_number(er.references[n]) if n in er.references else "–" for n in REFERENCE_POLICIES]
-            lines.append(f"| {er.env_id} | " + " | ".join(cells) + " | " + " | ".join(refs) + " |")
+            cells += [format_number(er.references[n]) if n in er.references else "–" for n in refs]
+            lines.append(f"| {er.env_id} | " + " | ".join(cells) + " |")
         lines.append("")
     return lines
 
@@ -669,7 +686,15 @@ def build_results(
         " never used in training), the same ones for every policy. Cells are means with 95% confidence intervals in brackets:"
         " over the held-out episodes for the reference policies, and a two-level bootstrap over seeds and their held-out"
         " episodes for trained agents. KPIs that are undefined in an episode (no traffic: no separation; goal not reached: no"
-        " time to goal) are left out of that KPI's statistics; `–` means the environment has no such KPI.",
+        " time to goal) are left out of that KPI's statistics; `–` means the environment has no such KPI (or the policy's"
+        " record was made before the environment reported it).",
+        "",
+        "Each environment's table starts with the reference policies, evaluated on the same held-out episodes as the trained"
+        " agents (seeds `–`: they are deterministic given the scenario). `random` (uniform random actions) and `classical`"
+        " (the environment's hand-written controller) fix the normalised score, 0 and 1. On the environments with traffic,"
+        " BlueSky's conflict resolution methods follow, each flown through the environment's action mapping: `mvp`"
+        " (Modified Voltage Potential), `eby` (Eby's method), `swarm` (Swarm) and `ssd` (Solution Space Diagram). They are"
+        " classical CD&R baselines beside the trained agents, not part of the normalised score.",
         "",
         "## What was run",
         "",
