@@ -131,7 +131,7 @@ def seed_episode_bootstrap(groups: Sequence[np.ndarray], rng: np.random.Generato
 
 
 def page_reference_names(env_id: str) -> tuple[str, ...]:
-    """The reference policies the page scores on an environment: ``random``, ``classical``, and ``mvp``, ``eby``, ``swarm``, ``ssd`` where it has ``mvp``."""
+    """The reference policies the page scores on an environment: ``random``, ``classical``, and the four resolution methods where it has ``mvp``."""
     from bluesky_gym.training.policies import optional_reference_names, reference_names
 
     return reference_names(env_id) + optional_reference_names(env_id)

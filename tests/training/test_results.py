@@ -263,7 +263,8 @@ def test_the_resolution_methods_are_reference_rows_beside_mvp_and_a_missing_one_
     root = tmp_path / "sweep"
     kept = {"random": 0, "classical": 10, "mvp": 6, "eby": 7, "swarm": 3}
     for name, value in kept.items():
-        save_result(EvalResult("SectorCREnv-v0", name, _episodes([value] * 4, min_sep=[5.0] * 4), 0.1), reference_episode_dir(root), stem=f"SectorCREnv-v0_{name}")
+        result = EvalResult("SectorCREnv-v0", name, _episodes([value] * 4, min_sep=[5.0] * 4), 0.1)
+        save_result(result, reference_episode_dir(root), stem=f"SectorCREnv-v0_{name}")
     for s in range(2):
         _run(root, "SectorCREnv-v0", "PPO", s, [5.0] * 4)
     (er,) = collect([root], reps=50)
