@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import shlex
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -145,6 +146,15 @@ def _expected_references(env_id: str) -> tuple[str, ...]:
         return ()
 
 
+def row_generator(seed: int, env_id: str, policy: str) -> np.random.Generator:
+    """The bootstrap generator of one row of a KPI table, from the page's seed, the environment and the row's policy.
+
+    Each row draws from its own stream, so a row added to the page (a new reference policy, a new
+    algorithm) leaves the intervals of the others as they were.
+    """
+    return np.random.default_rng([seed, zlib.crc32(env_id.encode()), zlib.crc32(policy.encode())])
+
+
 def reference_episode_dir(sweep_dir: str | Path) -> Path:
     """Where the per-episode records of a sweep's reference policies are kept."""
     return Path(sweep_dir) / "references" / "episodes"
@@ -214,7 +224,6 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
     run_dirs = find_runs(dirs)
     if not run_dirs:
         raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, dirs))}")
-    rng = np.random.default_rng(seed)
     loaded = [load_run(d, artifact) for d in run_dirs]
     labels = page_labels(loaded)
     by_env: dict[str, list[tuple[Run, dict[str, np.ndarray] | None]]] = {}
@@ -233,6 +242,7 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
                     missing.append(name)
                 continue
             row = Row(name, 1, len(next(iter(table.values()))))
+            rng = row_generator(seed, env_id, name)
             for col, key, _ in KPI_COLUMNS:
                 values = _kpi_values(table, key)
                 if len(values):
@@ -246,6 +256,7 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
         for algo in sorted(by_algo):
             tables = by_algo[algo]
             row = Row(algo, len(tables), sum(len(next(iter(t.values()))) for t in tables))
+            rng = row_generator(seed, env_id, algo)
             for col, key, _ in KPI_COLUMNS:
                 groups = [_kpi_values(t, key) for t in tables]
                 if any(len(g) for g in groups):

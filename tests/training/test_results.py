@@ -331,3 +331,18 @@ def test_missing_references_are_evaluated_cheap_methods_first_and_kept_small(tmp
     assert complete_references([sweep], episodes=2) == [] and calls == []
     (reference_episode_dir(sweep) / "SectorCREnv-v0_ssd_episodes.csv").unlink()
     assert [line.split(":")[0] for line in complete_references([sweep], episodes=2)] == ["SectorCREnv-v0"] and calls == [("SectorCREnv-v0", "ssd")]
+
+
+def test_a_reference_added_to_the_page_leaves_the_other_rows_intervals_as_they_were(tmp_path: Path) -> None:
+    root = tmp_path / "sweep"
+    rng = np.random.default_rng(1)
+    for name in ("random", "classical", "mvp", "swarm"):
+        result = EvalResult("MergeEnv-v0", name, _episodes(rng.normal(size=8), min_sep=rng.uniform(1, 9, size=8)), 0.1)
+        save_result(result, reference_episode_dir(root), stem=f"MergeEnv-v0_{name}")
+    _run(root, "MergeEnv-v0", "PPO", 0, rng.normal(size=4))
+    before = {r.policy: r.kpis for r in collect([root], reps=200)[0].rows}
+    save_result(EvalResult("MergeEnv-v0", "eby", _episodes(rng.normal(size=8)), 0.1), reference_episode_dir(root), stem="MergeEnv-v0_eby")
+    after = {r.policy: r.kpis for r in collect([root], reps=200)[0].rows}
+    assert list(after) == ["random", "classical", "mvp", "eby", "swarm", "PPO"]
+    assert before["random"]["return"][1] < before["random"]["return"][2]  # a real interval, not a collapsed one
+    assert {k: v for k, v in after.items() if k != "eby"} == before
