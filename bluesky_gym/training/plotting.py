@@ -57,11 +57,12 @@ CURVE_METRICS: tuple[tuple[str, str], ...] = (
     ("length", "episode length [steps]"),
 )
 #: Colour and line style of each reference policy's line: the conflict resolution methods (``mvp``
-#: and BlueSky's others) share the dash-dot line, one colour each.
+#: and BlueSky's others) share the dash-dot line, one colour each (BlueSky's others in colours
+#: outside matplotlib's default cycle, which the trained agents' curves draw from).
 REFERENCE_STYLES: dict[str, tuple[str, str]] = dict(
     zip(
         (*REFERENCE_POLICIES, *RESOLUTION_REFERENCES),
-        (("grey", ":"), ("black", "--"), ("tab:purple", "-."), ("tab:brown", "-."), ("tab:olive", "-."), ("tab:cyan", "-.")),
+        (("grey", ":"), ("black", "--"), ("tab:purple", "-."), ("darkgoldenrod", "-."), ("teal", "-."), ("magenta", "-.")),
         strict=True,
     )
 )
