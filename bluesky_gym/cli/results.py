@@ -5,7 +5,8 @@ Examples::
     bluesky-gym results results/v0-ppo results/v1-ppo --out docs/results.md
 
 For every environment in the sweeps: a KPI table of the reference policies (``random``,
-``classical``, ``mvp`` where it applies) and of every trained algorithm, with 95% confidence
+``classical``, and where the environment has traffic the conflict resolution methods ``mvp``,
+``eby``, ``swarm`` and ``ssd``) and of every trained algorithm, with 95% confidence
 intervals over seeds and held-out episodes; its learning curves and KPI curves; and per
 environment version an aggregate of the normalised held-out scores (IQM, mean, median,
 optimality gap, probability of improvement; ``rliable``). Figures go to a directory named after
@@ -14,7 +15,8 @@ rerunning the command on the same directories reproduces it.
 
 The reference policies are evaluated on the same held-out scenarios as the runs (as many
 episodes as the runs' evaluations, or ``--reference-episodes N``) where a sweep does not hold
-their per-episode records yet, and kept in its ``references/episodes/`` for the next time.
+their per-episode records yet, and kept in its ``references/episodes/`` for the next time, each
+record as soon as it is made (an interrupted run resumes; ``ssd``, the slow one, comes last).
 
 The repository keeps run summaries (``bluesky-gym runs DIR --summarise``); what a summary drops
 (models, checkpoints, TensorBoard and raw episode logs) is a release asset made by ``results

@@ -10,5 +10,5 @@ Each task lives in its environment's folder (``bluesky_gym.environments.<name>.t
 REFERENCE_POLICIES: tuple[str, ...] = ("random", "classical", "mvp")
 #: Reference policies that can be selected (``eval``, ``sweep --references``) but are not scored
 #: by default: the ``mvp`` policy's mapping flying another of BlueSky's resolution methods, by its
-#: ``RESO`` name, where the task has ``mvp``.
+#: ``RESO`` name, where the task has ``mvp``. The results pages score them beside ``mvp``.
 RESOLUTION_REFERENCES: dict[str, str] = {"eby": "EBY", "swarm": "SWARM", "ssd": "SSD"}

@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.envs.registry import ALTITUDE_ERROR, ENVIRONMENTS
-from bluesky_gym.tasks import REFERENCE_POLICIES
+from bluesky_gym.tasks import REFERENCE_POLICIES, RESOLUTION_REFERENCES
 from bluesky_gym.training.io import DamagedFileError, atomic_path, atomic_write_json, read_csv_rows, read_csv_text, read_json
 
 if TYPE_CHECKING:
@@ -56,8 +56,16 @@ CURVE_METRICS: tuple[tuple[str, str], ...] = (
     ("kpi_time_to_goal_s", "time to goal [s]"),
     ("length", "episode length [steps]"),
 )
-#: Colour and line style of each reference policy's line.
-REFERENCE_STYLES = dict(zip(REFERENCE_POLICIES, (("grey", ":"), ("black", "--"), ("tab:purple", "-.")), strict=True))
+#: Colour and line style of each reference policy's line: the conflict resolution methods (``mvp``
+#: and BlueSky's others) share the dash-dot line, one colour each (BlueSky's others in colours
+#: outside matplotlib's default cycle, which the trained agents' curves draw from).
+REFERENCE_STYLES: dict[str, tuple[str, str]] = dict(
+    zip(
+        (*REFERENCE_POLICIES, *RESOLUTION_REFERENCES),
+        (("grey", ":"), ("black", "--"), ("tab:purple", "-."), ("darkgoldenrod", "-."), ("teal", "-."), ("magenta", "-.")),
+        strict=True,
+    )
+)
 GRID_POINTS = 100
 WINDOW_FRACTION = 0.05
 BOOTSTRAP = 2000
@@ -542,7 +550,7 @@ def find_references(run_dirs: Sequence[Path], env_ids: Sequence[str]) -> dict[st
                 if env_id not in found and p.exists():
                     try:
                         data = read_json(p)
-                        found[env_id] = reference_returns({k: data[k] for k in REFERENCE_POLICIES if k in data})
+                        found[env_id] = reference_returns({k: data[k] for k in REFERENCE_STYLES if k in data})
                     except (DamagedFileError, KeyError, TypeError):
                         continue  # a damaged cache: the scores are computed again
     return found

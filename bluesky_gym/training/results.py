@@ -6,8 +6,10 @@ generated, never edited by hand: it names the command that made it, and regenera
 same directories gives the same text.
 
 Per environment the page has a KPI table: one row per reference policy (``random``,
-``classical`` and, where it exists, ``mvp``) and per trained algorithm, each cell the mean with a
-95% confidence interval. For a reference policy the interval is over the held-out episodes (the
+``classical`` and, where the environment has traffic, the conflict resolution methods ``mvp``,
+``eby``, ``swarm`` and ``ssd``: :data:`PAGE_REFERENCES`) and per trained algorithm, each cell the
+mean with a 95% confidence interval; a reference that applies but has no record yet is named
+below the table as not evaluated. For a reference policy the interval is over the held-out episodes (the
 policies are deterministic given the scenario); for a trained algorithm it is a two-level
 bootstrap over seeds and, within each resampled seed, over its held-out episodes, so both
 sources of variation are in it. Below the table, the learning curves of the environment (mean
@@ -25,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import shlex
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bluesky_gym.core.extras import require_rliable
-from bluesky_gym.tasks import REFERENCE_POLICIES
+from bluesky_gym.tasks import REFERENCE_POLICIES, RESOLUTION_REFERENCES
 from bluesky_gym.training import ALGORITHMS
 from bluesky_gym.training.evaluation import KPI_COLUMNS, format_number, normalised_score
 from bluesky_gym.training.io import atomic_path, read_csv_rows, read_json
@@ -44,6 +47,12 @@ if TYPE_CHECKING:
 
 #: Bootstrap resamples of every confidence interval on the page.
 BOOTSTRAP = 2000
+#: The reference policies a page scores, in table order: ``random`` and ``classical`` (the
+#: normalised score's 0 and 1), then the conflict resolution methods of the environments with
+#: traffic, ``mvp`` and BlueSky's other methods ``eby``, ``swarm``, ``ssd``.
+PAGE_REFERENCES: tuple[str, ...] = (*REFERENCE_POLICIES, *RESOLUTION_REFERENCES)
+#: The columns of a reference policy's per-episode record (the seed and the KPIs the page reads).
+REFERENCE_RECORD_COLUMNS: tuple[str, ...] = ("seed", *dict.fromkeys(key for _, key, _ in KPI_COLUMNS))
 #: The command that reproduces the paper's full grid on a Ray cluster.
 PAPER_GRID_COMMAND = "bluesky-gym sweep --env all --algos all --seeds 0 1 2 --steps 2e6 --address ray://HEAD:10001 --out sweeps/paper"
 
@@ -66,6 +75,7 @@ class EnvResults:
     rows: list[Row]
     runs: list[Run]
     references: dict[str, float]  # reference policy -> mean held-out return
+    missing: list[str] = field(default_factory=list)  # reference policies that apply but have no record yet
 
 
 def episode_table(run_dir: Path, name: str = "eval_episodes.csv") -> dict[str, np.ndarray] | None:
@@ -121,6 +131,30 @@ def seed_episode_bootstrap(groups: Sequence[np.ndarray], rng: np.random.Generato
     return (point, float(lo), float(hi))
 
 
+def page_reference_names(env_id: str) -> tuple[str, ...]:
+    """The reference policies the page scores on an environment: ``random``, ``classical``, and the four resolution methods where it has ``mvp``."""
+    from bluesky_gym.training.policies import optional_reference_names, reference_names
+
+    return reference_names(env_id) + optional_reference_names(env_id)
+
+
+def _expected_references(env_id: str) -> tuple[str, ...]:
+    """:func:`page_reference_names` of a registered environment; none for another id (nothing to say is missing)."""
+    try:
+        return page_reference_names(env_id)
+    except ValueError:
+        return ()
+
+
+def row_generator(seed: int, env_id: str, policy: str) -> np.random.Generator:
+    """The bootstrap generator of one row of a KPI table, from the page's seed, the environment and the row's policy.
+
+    Each row draws from its own stream, so a row added to the page (a new reference policy, a new
+    algorithm) leaves the intervals of the others as they were.
+    """
+    return np.random.default_rng([seed, zlib.crc32(env_id.encode()), zlib.crc32(policy.encode())])
+
+
 def reference_episode_dir(sweep_dir: str | Path) -> Path:
     """Where the per-episode records of a sweep's reference policies are kept."""
     return Path(sweep_dir) / "references" / "episodes"
@@ -139,33 +173,40 @@ def complete_references(sweep_dirs: Sequence[str | Path], episodes: int | None =
 
     A sweep caches the summaries of ``random`` and ``classical`` per environment; the page needs
     their per-episode records (for its intervals) and every reference policy that applies (one
-    added after the sweep too). Those missing are evaluated on the first held-out episodes, as
-    many as the runs' evaluations (or ``episodes``), and written to ``references/episodes/``.
-    A record another of the sweeps already keeps (with at least as many episodes) is not evaluated
-    again: the page reads the first sweep's that has it.
+    added after the sweep too): ``random``, ``classical``, and where an environment has ``mvp``,
+    ``mvp`` and the other resolution methods ``eby``, ``swarm`` and ``ssd``. Those missing are
+    evaluated on the first held-out episodes, as many as the runs' evaluations (or ``episodes``),
+    and written to ``references/episodes/`` as soon as each is done, one record per environment
+    and policy, so an interrupted run resumes where it stopped. The work goes policy by policy in
+    :data:`PAGE_REFERENCES` order (the slow ``ssd`` last, environment by environment). A record
+    keeps the columns the page reads (:data:`REFERENCE_RECORD_COLUMNS`). A record another of the
+    sweeps already keeps (with at least as many episodes) is not evaluated again: the page reads
+    the first sweep's that has it.
 
     Returns:
         One line per evaluation made, for the user.
 
     """
-    from bluesky_gym.training.evaluation import evaluate, make_policy, save_result
-    from bluesky_gym.training.policies import reference_names
+    from bluesky_gym.training.evaluation import EvalResult, evaluate, make_policy, save_result
 
     done = []
     dirs = [Path(d) for d in sweep_dirs]
+    todo: list[tuple[int, Path, str, str, int]] = []  # (policy's place, sweep, env, policy, episodes)
     for d in dirs:
         runs = [load_run(r) for r in find_runs([d])]
         for env_id in sorted({r.env_id for r in runs}):
             n = episodes
             if n is None:
                 n = max(int(read_json(r.path / "config.json").get("eval_episodes", 0)) for r in runs if r.env_id == env_id) or 50
-            for name in reference_names(env_id):
-                kept = _reference_table(dirs, env_id, name)
-                if kept is not None and len(next(iter(kept.values()), ())) >= n:
-                    continue  # this sweep's or an earlier one's: the same first held-out episodes
-                result = evaluate(env_id, make_policy(name, env_id), n)
-                save_result(result, reference_episode_dir(d), stem=f"{env_id}_{name}")
-                done.append(f"{env_id}: evaluated {name} on {n} held-out episodes -> {reference_episode_dir(d)}")
+            todo += [(PAGE_REFERENCES.index(name), d, env_id, name, n) for name in page_reference_names(env_id)]
+    for _, d, env_id, name, n in sorted(todo, key=lambda t: t[0]):
+        kept = _reference_table(dirs, env_id, name)
+        if kept is not None and len(next(iter(kept.values()), ())) >= n:
+            continue  # this sweep's or an earlier one's: the same first held-out episodes
+        result = evaluate(env_id, make_policy(name, env_id), n)
+        records = [{k: e[k] for k in REFERENCE_RECORD_COLUMNS if k in e} for e in result.episodes]
+        save_result(EvalResult(env_id, name, records, result.wall_time_s), reference_episode_dir(d), stem=f"{env_id}_{name}")
+        done.append(f"{env_id}: evaluated {name} on {n} held-out episodes in {result.wall_time_s:.0f} s -> {reference_episode_dir(d)}")
     return done
 
 
@@ -183,7 +224,6 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
     run_dirs = find_runs(dirs)
     if not run_dirs:
         raise FileNotFoundError(f"no run directories (with config.json) below {', '.join(map(str, dirs))}")
-    rng = np.random.default_rng(seed)
     loaded = [load_run(d, artifact) for d in run_dirs]
     labels = page_labels(loaded)
     by_env: dict[str, list[tuple[Run, dict[str, np.ndarray] | None]]] = {}
@@ -194,11 +234,15 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
     for env_id in sorted(by_env):
         rows = []
         ref_returns = {}
-        for name in REFERENCE_POLICIES:
+        missing = []
+        for name in PAGE_REFERENCES:
             table = _reference_table(dirs, env_id, name)
             if table is None:
+                if name in _expected_references(env_id):
+                    missing.append(name)
                 continue
             row = Row(name, 1, len(next(iter(table.values()))))
+            rng = row_generator(seed, env_id, name)
             for col, key, _ in KPI_COLUMNS:
                 values = _kpi_values(table, key)
                 if len(values):
@@ -212,12 +256,13 @@ def collect(sweep_dirs: Sequence[str | Path], seed: int = 0, reps: int = BOOTSTR
         for algo in sorted(by_algo):
             tables = by_algo[algo]
             row = Row(algo, len(tables), sum(len(next(iter(t.values()))) for t in tables))
+            rng = row_generator(seed, env_id, algo)
             for col, key, _ in KPI_COLUMNS:
                 groups = [_kpi_values(t, key) for t in tables]
                 if any(len(g) for g in groups):
                     row.kpis[col] = seed_episode_bootstrap(groups, rng, reps)
             rows.append(row)
-        out.append(EnvResults(env_id, rows, [r for r, _ in by_env[env_id]], ref_returns))
+        out.append(EnvResults(env_id, rows, [r for r, _ in by_env[env_id]], ref_returns, missing))
     return out
 
 
@@ -373,8 +418,10 @@ def kpi_table(er: EnvResults) -> list[str]:
     lines = ["| policy | seeds | episodes | " + " | ".join(label for _, label in cols) + " |"]
     lines.append("|---|---:|---:|" + "---:|" * len(cols))
     for r in er.rows:
-        seeds = "–" if r.policy in REFERENCE_POLICIES else str(r.runs)
+        seeds = "–" if r.policy in PAGE_REFERENCES else str(r.runs)
         lines.append(f"| {r.policy} | {seeds} | {r.episodes} | " + " | ".join(_cell(r.kpis.get(c)) for c, _ in cols) + " |")
+    if er.missing:
+        lines += ["", f"Not evaluated yet (no held-out record): {', '.join(er.missing)}; `bluesky-gym results` evaluates it when run again."]
     return lines
 
 
@@ -458,14 +505,15 @@ def budgets_section(results: Sequence[EnvResults]) -> list[str]:
     if not multi:
         return []
     lines = ["## Scale: the same algorithm at other budgets", ""]
+    refs = [n for n in PAGE_REFERENCES if any(n in er.references for er in results)]
     for algo in multi:
         mine = [a for a in labels if algorithm_of(a) == algo]
         lines += [
             f"Normalised held-out score of {algo} per budget (mean over seeds; 0 = random, 1 = classical), and the held-out return of"
             " the reference policies:",
             "",
-            "| environment | " + " | ".join(mine) + " | random | classical | mvp |",
-            "|---|" + "---:|" * (len(mine) + 3),
+            "| environment | " + " | ".join([*mine, *refs]) + " |",
+            "|---|" + "---:|" * (len(mine) + len(refs)),
         ]
         for er in results:
             if "random" not in er.references or "classical" not in er.references:
@@ -478,8 +526,8 @@ def budgets_section(results: Sequence[EnvResults]) -> list[str]:
                     if r.algo == label and r.final_return is not None
                 ]
                 cells.append(f"{np.mean(scores):.2f} ({len(scores)} seed{'s' if len(scores) != 1 else ''})" if scores else "–")
-            refs = [format_number(er.references[n]) if n in er.references else "–" for n in REFERENCE_POLICIES]
-            lines.append(f"| {er.env_id} | " + " | ".join(cells) + " | " + " | ".join(refs) + " |")
+            cells += [format_number(er.references[n]) if n in er.references else "–" for n in refs]
+            lines.append(f"| {er.env_id} | " + " | ".join(cells) + " |")
         lines.append("")
     return lines
 
@@ -649,7 +697,15 @@ def build_results(
         " never used in training), the same ones for every policy. Cells are means with 95% confidence intervals in brackets:"
         " over the held-out episodes for the reference policies, and a two-level bootstrap over seeds and their held-out"
         " episodes for trained agents. KPIs that are undefined in an episode (no traffic: no separation; goal not reached: no"
-        " time to goal) are left out of that KPI's statistics; `–` means the environment has no such KPI.",
+        " time to goal) are left out of that KPI's statistics; `–` means the environment has no such KPI (or the policy's"
+        " record was made before the environment reported it).",
+        "",
+        "Each environment's table starts with the reference policies, evaluated on the same held-out episodes as the trained"
+        " agents (seeds `–`: they are deterministic given the scenario). `random` (uniform random actions) and `classical`"
+        " (the environment's hand-written controller) fix the normalised score, 0 and 1. On the environments with traffic,"
+        " BlueSky's conflict resolution methods follow, each flown through the environment's action mapping: `mvp`"
+        " (Modified Voltage Potential), `eby` (Eby's method), `swarm` (Swarm) and `ssd` (Solution Space Diagram). They are"
+        " classical CD&R baselines beside the trained agents, not part of the normalised score.",
         "",
         "## What was run",
         "",

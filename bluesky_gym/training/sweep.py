@@ -304,7 +304,6 @@ def format_summary(summary: dict[str, Any]) -> str:
         norm_s = f"{norms.mean():.2f} ± {norms.std():.2f}" if norms.size else "-"
         lines.append(f"{env_id:<22} {algo:<5} {len(ok):>4} {len(rs) - len(ok):>6} {ret_s:>22} {norm_s:>16}")
     for env_id, ref in summary["references"].items():
-        mvp = f", mvp {ref['mvp']:.2f}" if "mvp" in ref else ""
-        lines.append(f"reference {env_id}: random {ref['random']:.2f}, classical {ref['classical']:.2f}{mvp}")
+        lines.append(f"reference {env_id}: " + ", ".join(f"{name} {value:.2f}" for name, value in ref.items()))
     lines.append("(mean ± standard deviation over seeds; normalised: 0 = random, 1 = classical controller)")
     return "\n".join(lines)

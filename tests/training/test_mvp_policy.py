@@ -247,3 +247,11 @@ def test_sweep_takes_extra_references(capsys: pytest.CaptureFixture[str]) -> Non
         build_parser().parse_args(["sweep", "--env", "all", "--references", "fancy"])
     assert "invalid choice: 'fancy'" in capsys.readouterr().err
     assert build_parser().parse_args(["sweep", "--env", "all", "--references", "ssd"]).references == ["ssd"]
+
+
+def test_the_sweep_summary_prints_every_reference_it_evaluated() -> None:
+    from bluesky_gym.training.sweep import format_summary
+
+    refs = {"random": -3.0, "classical": 1.0, "mvp": 0.5, "eby": 0.25, "ssd": 0.75}
+    text = format_summary({"runs": [], "references": {"SectorCREnv-v0": refs}})
+    assert "reference SectorCREnv-v0: random -3.00, classical 1.00, mvp 0.50, eby 0.25, ssd 0.75" in text.splitlines()

@@ -253,3 +253,96 @@ def test_runs_that_differ_in_their_trainer_alone_are_compared_as_trainers_not_as
     text = out.read_text()
     assert "## Trainers compared" in text and "| MergeEnv-v0 | PPO |" in text.split("## Trainers compared")[1]
     assert "## Scale" not in text
+
+
+def test_the_resolution_methods_are_reference_rows_beside_mvp_and_a_missing_one_is_named(tmp_path: Path, monkeypatch) -> None:
+    """A fixture sweep of an environment with traffic: eby and swarm are scored beside mvp, ssd (no record) is named as not evaluated."""
+    from bluesky_gym.training.plotting import REFERENCE_STYLES
+    from bluesky_gym.training.results import PAGE_REFERENCES, kpi_table
+
+    root = tmp_path / "sweep"
+    kept = {"random": 0, "classical": 10, "mvp": 6, "eby": 7, "swarm": 3}
+    for name, value in kept.items():
+        result = EvalResult("SectorCREnv-v0", name, _episodes([value] * 4, min_sep=[5.0] * 4), 0.1)
+        save_result(result, reference_episode_dir(root), stem=f"SectorCREnv-v0_{name}")
+    for s in range(2):
+        _run(root, "SectorCREnv-v0", "PPO", s, [5.0] * 4)
+    (er,) = collect([root], reps=50)
+    assert [r.policy for r in er.rows] == ["random", "classical", "mvp", "eby", "swarm", "PPO"]
+    assert er.references == {name: float(value) for name, value in kept.items()}
+    assert er.missing == ["ssd"]
+    table = kpi_table(er)
+    assert table[4].startswith("| mvp | – | 4 | 6.000 [6.000, 6.000] |")
+    assert table[5].startswith("| eby | – | 4 | 7.000 [7.000, 7.000] |") and table[6].startswith("| swarm | – | 4 | 3.000 [3.000, 3.000] |")
+    assert table[7].startswith("| PPO | 2 | 8 |")
+    assert table[-1] == "Not evaluated yet (no held-out record): ssd; `bluesky-gym results` evaluates it when run again."
+    assert not any(line.startswith("| ssd") for line in table)
+
+    import bluesky_gym.training.results as results_module
+
+    drawn: dict[str, dict[str, float]] = {}
+    plot = results_module.plot_learning_curves
+
+    def spy(runs, out_dir, seed=0, references=None):
+        drawn.update(references or {})
+        return plot(runs, out_dir, seed=seed, references=references)
+
+    monkeypatch.setattr(results_module, "plot_learning_curves", spy)
+    out = tmp_path / "page.md"
+    text = build_results([root], out, ["bluesky-gym", "results", str(root), "--out", str(out)], reps=50).read_text()
+    assert list(drawn["SectorCREnv-v0"]) == ["random", "classical", "mvp", "eby", "swarm"]  # lines in the learning curves
+    assert "`eby` (Eby's method), `swarm` (Swarm) and `ssd` (Solution Space Diagram)" in text
+    assert "| eby | – | 4 |" in text and "Not evaluated yet (no held-out record): ssd" in text
+    # the normalised score stays 0 = random, 1 = classical: PPO's 5 is 0.5 whatever the resolution methods score
+    line = next(ln for ln in text.splitlines() if ln.startswith("| PPO | 2 | 1 |"))
+    assert line.split("|")[4].strip().startswith("0.500")
+    # every page reference has a line style of its own colour; the resolution methods share the dash-dot line
+    assert set(PAGE_REFERENCES) <= set(REFERENCE_STYLES)
+    assert len({REFERENCE_STYLES[n][0] for n in PAGE_REFERENCES}) == len(PAGE_REFERENCES)
+    assert {REFERENCE_STYLES[n][1] for n in ("mvp", "eby", "swarm", "ssd")} == {"-."}
+
+
+def test_missing_references_are_evaluated_cheap_methods_first_and_kept_small(tmp_path: Path, monkeypatch) -> None:
+    """complete_references: every page reference of an environment with mvp, policy by policy (ssd last), resumable."""
+    import bluesky_gym.training.evaluation as evaluation
+    from bluesky_gym.training.results import REFERENCE_RECORD_COLUMNS, complete_references
+
+    calls: list[tuple[str, str]] = []
+
+    def fake_evaluate(env_id, policy, episodes):
+        calls.append((env_id, policy))
+        episodes_ = [{**e, "reward_drift": -1.0, "total_reward": e["return"]} for e in _episodes([1.0] * episodes, min_sep=[5.0] * episodes)]
+        return EvalResult(env_id, policy, episodes_, 0.1)
+
+    monkeypatch.setattr(evaluation, "evaluate", fake_evaluate)
+    monkeypatch.setattr(evaluation, "make_policy", lambda name, env_id: name)
+    sweep = tmp_path / "sweep"
+    for env_id in ("SectorCREnv-v0", "DescentEnv-v0", "MergeEnv-v0"):
+        _run(sweep, env_id, "PPO", 0, [1.0, 2.0])
+    save_result(EvalResult("MergeEnv-v0", "eby", _episodes([1.0] * 2), 0.1), reference_episode_dir(sweep), stem="MergeEnv-v0_eby")
+    complete_references([sweep], episodes=2)
+    order = [policy for _, policy in calls]
+    assert order == ["random"] * 3 + ["classical"] * 3 + ["mvp"] * 2 + ["eby"] + ["swarm"] * 2 + ["ssd"] * 2
+    assert calls[-2:] == [("MergeEnv-v0", "ssd"), ("SectorCREnv-v0", "ssd")]  # the slow one last, environment by environment
+    assert ("MergeEnv-v0", "eby") not in calls  # kept already
+    header = (reference_episode_dir(sweep) / "SectorCREnv-v0_ssd_episodes.csv").read_text().splitlines()[0].split(",")
+    assert "seed" in header and "return" in header and set(header) <= set(REFERENCE_RECORD_COLUMNS)  # reward components dropped
+    calls.clear()
+    assert complete_references([sweep], episodes=2) == [] and calls == []
+    (reference_episode_dir(sweep) / "SectorCREnv-v0_ssd_episodes.csv").unlink()
+    assert [line.split(":")[0] for line in complete_references([sweep], episodes=2)] == ["SectorCREnv-v0"] and calls == [("SectorCREnv-v0", "ssd")]
+
+
+def test_a_reference_added_to_the_page_leaves_the_other_rows_intervals_as_they_were(tmp_path: Path) -> None:
+    root = tmp_path / "sweep"
+    rng = np.random.default_rng(1)
+    for name in ("random", "classical", "mvp", "swarm"):
+        result = EvalResult("MergeEnv-v0", name, _episodes(rng.normal(size=8), min_sep=rng.uniform(1, 9, size=8)), 0.1)
+        save_result(result, reference_episode_dir(root), stem=f"MergeEnv-v0_{name}")
+    _run(root, "MergeEnv-v0", "PPO", 0, rng.normal(size=4))
+    before = {r.policy: r.kpis for r in collect([root], reps=200)[0].rows}
+    save_result(EvalResult("MergeEnv-v0", "eby", _episodes(rng.normal(size=8)), 0.1), reference_episode_dir(root), stem="MergeEnv-v0_eby")
+    after = {r.policy: r.kpis for r in collect([root], reps=200)[0].rows}
+    assert list(after) == ["random", "classical", "mvp", "eby", "swarm", "PPO"]
+    assert before["random"]["return"][1] < before["random"]["return"][2]  # a real interval, not a collapsed one
+    assert {k: v for k, v in after.items() if k != "eby"} == before
