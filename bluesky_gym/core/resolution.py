@@ -927,7 +927,7 @@ class ResolutionCommand:
     """What MVP asks of every aircraft, (n_envs, n_aircraft), as BlueSky's ASAS would fly it now.
 
     Where ``follow`` is False the aircraft follows its own autopilot (no resolution active); the
-    other arrays are NaN or stale there.
+    other arrays are NaN there (:func:`release_loop`).
     """
 
     follow: BoolArray  # the aircraft follows its resolution (BlueSky ``cr.active``)
