@@ -722,11 +722,11 @@ def asas_pairs_kernel(  # type: ignore[no-untyped-def]
     (sorted keys ``own * m + intruder`` slot, ``own`` the flat ownship), and the current conflicts
     are merged, and :func:`resume_pair` decides which go on: those go to ``kept`` (sorted;
     ``counts[0]`` of them), their ownships ``follow``, and ``ended`` marks the active aircraft that
-    had a pair and follow none. ``held`` (4, aircraft: track, ground speed, vertical speed,
-    altitude) is then what :func:`renew_loop` and :func:`release_loop` leave: in an airspace with a
-    conflict MVP's resolution of each aircraft that follows one, elsewhere the last one, and NaN
-    for the aircraft that follow none. MVP runs only for the aircraft that follow (in BlueSky it
-    runs for every aircraft, but the others' resolutions are never flown).
+    had a pair and follow none. In an airspace with a conflict, ``held`` (4, aircraft: track,
+    ground speed, vertical speed, altitude) takes MVP's resolution of each aircraft that follows
+    one, as :func:`renew_loop`; elsewhere it keeps the last one. MVP runs only for the aircraft
+    that follow (in BlueSky it runs for every aircraft, but the others' resolutions are never
+    flown, and :func:`release_loop` drops them afterwards).
     """
     n = active.shape[0]
     for i in range(n):
@@ -766,12 +766,10 @@ def asas_pairs_kernel(  # type: ignore[no-untyped-def]
     for i in range(n):
         ended[i] = ended[i] and not follow[i] and active[i]
     for e in range(n // m):
-        renew = row[e * m] != row[(e + 1) * m]  # a conflict in the airspace: the followers take a new resolution
+        if row[e * m] == row[(e + 1) * m]:
+            continue  # no conflict in the airspace: the last resolution stays
         for i in range(e * m, (e + 1) * m):
-            if not follow[i]:
-                for r in range(4):
-                    held[r, i] = math.nan
-            elif renew:
+            if follow[i]:
                 t, g, v, a, _, _, _, _ = mvp_listed(
                     i, row, intruder, qdr, dist, tcpa, tlos, alt, gseast, gsnorth, vs, trk, gs, selalt, ap_vs, vmin, vmax, vsmin, vsmax,
                     rpz_m, hpz_m, dtlook, mode, horizontal,
