@@ -800,10 +800,9 @@ class Task(abc.ABC):
             *out.values(),
         )
         if self.has_goal:
-            reached = ~np.isnan(st.time_to_goal)
-            out["kpi_success"] = reached.astype(np.float64)
-            out["kpi_time_to_goal_s"] = st.time_to_goal.copy()
-            out["kpi_extra_track_km"] = self.extra_track_km()
+            success, time_to_goal = np.empty(self.n_envs), np.empty(self.n_envs)
+            compiled.goal_kpis(st.time_to_goal, success, time_to_goal)
+            out.update({"kpi_success": success, "kpi_time_to_goal_s": time_to_goal, "kpi_extra_track_km": self.extra_track_km()})
         return out
 
     def extra_track_km(self) -> Array:

@@ -735,6 +735,19 @@ def episode_kpis(  # type: ignore[no-untyped-def]
 
 
 @jit
+def goal_kpis(time_to_goal, success_out, time_out):  # type: ignore[no-untyped-def]
+    """The KPIs of a task with a goal (:meth:`bluesky_gym.tasks.base.Task.kpis`).
+
+    Per episode: 1.0 where the goal was reached (it has a time to the goal), else 0.0, and that
+    time [s] (NaN: not reached).
+    """
+    for e in grid_range(time_to_goal.shape[0]):
+        t = time_to_goal[e]
+        success_out[e] = 0.0 if t != t else 1.0
+        time_out[e] = t
+
+
+@jit
 def clip_to_bounds(values, low, high, out):  # type: ignore[no-untyped-def]
     """``values`` (rows, k) clipped to ``[low[j], high[j]]`` in column j: ``np.minimum(np.maximum(values, low), high)``.
 
