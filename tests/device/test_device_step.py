@@ -17,30 +17,14 @@ import numpy as np
 import pytest
 
 import bluesky_gym
-from bluesky_gym.core import DeviceSimulator, cuda_target
+from bluesky_gym.core import cuda_target
 from bluesky_gym.environments.sector_cr.device_step import SectorCRDeviceStep
 
-from .conftest import needs_device
+from .conftest import ON, compare_device_step, needs_device
 
 torch = pytest.importorskip("torch")
 pytestmark = needs_device
 bluesky_gym.register_envs()
-ON = "cpu" if cuda_target.SIMULATOR else "cuda"
-
-
-def _np(value: Any) -> np.ndarray:
-    assert isinstance(value, torch.Tensor), type(value)
-    assert value.device.type == ON
-    return value.cpu().numpy()
-
-
-def _same(device: Any, cpu: np.ndarray, what: str) -> None:
-    got = _np(device)
-    assert got.dtype == cpu.dtype and got.shape == cpu.shape, (what, got.dtype, cpu.dtype, got.shape, cpu.shape)
-    if cuda_target.SIMULATOR or cpu.dtype == np.bool_:
-        np.testing.assert_array_equal(got, cpu, err_msg=what)
-    else:  # on a GPU: within the physics' rounding (float32 observations: their last bit)
-        np.testing.assert_allclose(got, cpu, rtol=max(1e-7, 4 * float(np.finfo(cpu.dtype).eps)), atol=1e-9, err_msg=what)
 
 
 @pytest.mark.parametrize(
@@ -55,46 +39,11 @@ def _same(device: Any, cpu: np.ndarray, what: str) -> None:
 def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(env_id: str, options: dict[str, Any], monkeypatch: pytest.MonkeyPatch) -> None:
     """Same seeds, same actions: the same outputs, every info entry included, through terminations, truncations and autoresets."""
     options = {"max_episode_steps": 3, **options}
-    cpu = gym.make_vec(env_id, num_envs=3, **options)
-    dev = gym.make_vec(env_id, num_envs=3, device="cuda", **options)
-    assert isinstance(dev.unwrapped._device_step, SectorCRDeviceStep)
-    sim = dev.unwrapped.task.sim
-    assert isinstance(sim, DeviceSimulator)
-    obs_c, info_c = cpu.reset(seed=11)
-    obs_d, info_d = dev.reset(seed=11)
-    for k in obs_c:
-        _same(obs_d[k], obs_c[k], f"reset {k}")
-    for k in info_c:
-        _same(info_d[k], info_c[k], f"reset info {k}")
-    pulls = []
-    original = DeviceSimulator._to_host
-    monkeypatch.setattr(DeviceSimulator, "_to_host", lambda self: (pulls.append(1), original(self))[1])
-    rng = np.random.default_rng(2)
-    ended = terminated = 0
-    for step in range(9):
-        a = rng.uniform(-1.5, 1.5, cpu.action_space.shape).astype(cpu.action_space.dtype)  # beyond the bounds: clipped
-        oc, rc, tc, uc, ic = cpu.step(a)
-        od, rd, td, ud, idev = dev.step(torch.as_tensor(a, device=ON))
-        for k in oc:
-            _same(od[k], oc[k], f"step {step} obs {k}")
-        _same(rd, rc, f"step {step} reward")
-        _same(td, tc, f"step {step} terminated")
-        _same(ud, uc, f"step {step} truncated")
-        assert set(idev) == set(ic), set(idev) ^ set(ic)
-        for k, v in ic.items():
-            if k in ("final_obs", "final_info"):
-                assert set(idev[k]) == set(v)
-                for key in v:
-                    _same(idev[k][key], v[key], f"step {step} {k} {key}")
-            else:
-                _same(idev[k], v, f"step {step} info {k}")
-        ended += int((tc | uc).sum())
-        terminated += int(tc.sum())
+    ended, terminated, cpu, dev = compare_device_step(env_id, options, SectorCRDeviceStep, monkeypatch)
     if options["max_episode_steps"] > 9:
         assert terminated >= 1, "an agent must leave its small sector (-v1: terminated) and be reset"
     else:
         assert ended >= 4, "episodes must end (time limit 3, the sector left) and be reset on the way"
-    assert not pulls, "the aircraft state came back to the host whole during a step"
     # The episodes' scenarios on the host are those of the CPU environment (drawn from the same generators).
     np.testing.assert_array_equal(dev.unwrapped.task.wpt_lat, cpu.unwrapped.task.wpt_lat)
     cpu.close()
