@@ -43,13 +43,14 @@ INSTALL_HINT = "pip install numba"
 _warned = False
 
 _PACKAGE_DIR = Path(__file__).resolve().parent.parent
-#: The folders whose modules define kernels; a change to any of them invalidates every cached kernel.
-_KERNEL_DIRS = (_PACKAGE_DIR / "core", _PACKAGE_DIR / "tasks")
+#: The folders whose modules define kernels (the environment folders' tasks too); a change to any
+#: of their modules invalidates every cached kernel.
+_KERNEL_DIRS = (_PACKAGE_DIR / "core", _PACKAGE_DIR / "tasks", _PACKAGE_DIR / "environments")
 
 
 def _kernel_sources_stamp() -> tuple[tuple[str, float, int], ...]:
     """Name, modification time and size of every kernel-defining module."""
-    return tuple((str(p), p.stat().st_mtime, p.stat().st_size) for d in _KERNEL_DIRS for p in sorted(d.glob("*.py")))
+    return tuple((str(p), p.stat().st_mtime, p.stat().st_size) for d in _KERNEL_DIRS for p in sorted(d.rglob("*.py")))
 
 
 if numba is not None:

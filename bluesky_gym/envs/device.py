@@ -275,7 +275,7 @@ class DeviceStep:
         return self.torch.empty(shape, dtype=self.torch.float64 if dtype is None else dtype, device=self.io.device)
 
     def launch(self, kernel: Any, rows: int, *args: Any) -> None:
-        """Launch ``kernel`` over ``rows`` rows, tensors among ``args`` passed without a copy."""
+        """Launch ``kernel`` over ``rows`` rows, tensors among ``args`` passed without a copy (they must be contiguous)."""
         torch = self.torch
         cuda_target.launch(kernel, rows, *(self.kernel_array(a) if isinstance(a, torch.Tensor) else a for a in args))
 
@@ -325,7 +325,7 @@ class DeviceStep:
             g.los,
             stepped,
             reward if stepped else self.nothing,
-            self.nothing if g.drift_deg is None else g.drift_deg,
+            self.nothing if g.drift_deg is None else g.drift_deg.contiguous(),  # (a view of a geometry's column, for some tasks)
             g.goal_reached,
             float(t.dt),
             int(t.action_frequency),

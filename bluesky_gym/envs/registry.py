@@ -310,6 +310,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.merge.env:MergeEnv",
         vector_env="bluesky_gym.environments.merge.env:MergeVectorEnv",
         scene="bluesky_gym.environments.merge.scene:merge_scene",
+        device_step="bluesky_gym.environments.merge.device_step:MergeDeviceStep",
         multiagent=MultiAgentEntry(
             name="merge_v0",
             task="bluesky_gym.environments.merge.multiagent:MergeMultiAgentTask",

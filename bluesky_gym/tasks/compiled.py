@@ -553,6 +553,125 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
             intruder_out[r, 6, i] = key[q] / d_scale
 
 
+@jit
+def merge_targets(after, faf_lat, faf_lon, rwy_lat, rwy_lon, lat_out, lon_out):  # type: ignore[no-untyped-def]
+    """Merge's current target of each row: the FAF, then the runway once the FAF was reached (``after[r]``) [deg]."""
+    for r in grid_range(after.shape[0]):
+        if after[r]:
+            lat_out[r] = rwy_lat
+            lon_out[r] = rwy_lon
+        else:
+            lat_out[r] = faf_lat
+            lon_out[r] = faf_lon
+
+
+@jit
+def merge_faf_now(after, own, faf_margin, faf_now_out, after_out):  # type: ignore[no-untyped-def]
+    """``-v1``'s FAF reached in this step: rows not past the FAF within ``faf_margin`` [NM] of it; ``after_out`` adds them.
+
+    ``own`` is :func:`merge_observe`'s ``own_out`` (column 1: the distance to the target [NM]).
+    """
+    for r in grid_range(after.shape[0]):
+        now = not after[r] and own[r, 1] < faf_margin
+        faf_now_out[r] = now
+        after_out[r] = after[r] or now
+
+
+@jit
+def merge_goal(after, own, faf_now, goal_margin, reached_out):  # type: ignore[no-untyped-def]
+    """The runway goal of each row: past the FAF and within ``goal_margin`` [NM] of the target (``own[r, 1]``).
+
+    Under ``-v1`` (``faf_now`` has a value per row) not in the step the FAF was reached: the goal
+    counts from the next step, as in ``-v0``.
+    """
+    for r in grid_range(after.shape[0]):
+        reached = after[r] and own[r, 1] < goal_margin
+        if faf_now.shape[0] > 0 and faf_now[r]:
+            reached = False
+        reached_out[r] = reached
+
+
+@jit
+def merge_reward(  # type: ignore[no-untyped-def]
+    own,
+    after,
+    faf_now,
+    goal,
+    los,
+    faf_margin,
+    reach_reward,
+    drift_penalty,
+    intrusion_penalty,
+    reward_out,
+    reach_out,
+    drift_out,
+    intrusion_out,
+    reach_faf_out,
+    near_runway_out,
+    count_out,
+):
+    """Merge's reward of each row: FAF reach, drift and intrusion penalties.
+
+    The FAF is reached now where ``faf_now[r]`` (``-v1``; ``faf_now`` empty: ``-v0``, a row not
+    past the FAF within ``faf_margin`` [NM] of it); the runway where the goal is reached
+    (``goal[r]``) and the FAF is not reached now. The reward is ``reach_reward`` on reaching the
+    FAF, plus ``drift_penalty`` |drift| [rad] (``own[r, 0]`` [deg]), plus ``intrusion_penalty``
+    per intruder in LoS. Out: the reward, its three components, the two reach flags and the
+    intruder count.
+    """
+    for r in grid_range(after.shape[0]):
+        if faf_now.shape[0] > 0:
+            reach_faf = faf_now[r]
+        else:
+            reach_faf = own[r, 1] < faf_margin and not after[r]
+        count = 0
+        for j in range(los.shape[1]):
+            if los[r, j]:
+                count += 1
+        reach = reach_reward if reach_faf else 0.0
+        d = abs(own[r, 0] * _RAD) * drift_penalty
+        intrusion = count * intrusion_penalty + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
+        reach_out[r] = reach
+        drift_out[r] = d
+        intrusion_out[r] = intrusion
+        reach_faf_out[r] = reach_faf
+        near_runway_out[r] = not reach_faf and goal[r]
+        count_out[r] = count
+        reward_out[r] = reach + d + intrusion
+
+
+@jit
+def merge_episode_sums(envs, own, reach_faf, near_runway, count, wpt_reach, faf_reached, drift_rad_sum, drift_rad_n, total_intrusions):  # type: ignore[no-untyped-def]
+    """Merge's episode side of the reward of rows ``envs`` (the ownship): the FAF flags and the info sums.
+
+    ``wpt_reach[e]`` becomes 1 when the FAF is reached; ``faf_reached[e]`` 1 then, or 2 on
+    reaching the runway; |drift| [rad] (``own[r, 0]`` [deg]) and the intruder count are added to
+    the episode sums.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        if reach_faf[r]:
+            wpt_reach[e] = 1
+            faf_reached[e] = 1
+        elif near_runway[r]:
+            faf_reached[e] = 2
+        drift_rad_sum[e] += abs(own[r, 0] * _RAD)
+        drift_rad_n[e] += 1
+        total_intrusions[e] += count[r]
+
+
+@jit
+def merge_extra_track(distflown, start_lat, start_lon, faf_lat, faf_lon, faf_to_runway_nm, goal_margin_nm, out):  # type: ignore[no-untyped-def]
+    """Merge's extra track of each episode [km]: the ownship's distance flown (``distflown[e, 0]`` [m]) minus the nominal route.
+
+    The nominal route: kwik distance from the start to the FAF, plus ``faf_to_runway_nm``, less
+    ``goal_margin_nm`` (the episode ends that far from the runway) [NM].
+    """
+    for e in grid_range(out.shape[0]):
+        nominal_km = (_kwikdist(start_lat[e], start_lon[e], faf_lat, faf_lon) + faf_to_runway_nm - goal_margin_nm) * NM2KM
+        out[e] = distflown[e, 0] / _M_PER_KM - nominal_km
+
+
 # --- array forms of the scenario and kwik geometry (tasks/geometry.py wraps these) -------------
 @jit_inline
 def _point_at_distance(lat: float, lon: float, d_km: float, bearing: float, radius_km: float) -> tuple[float, float]:

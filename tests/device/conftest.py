@@ -57,13 +57,25 @@ def same_tensor(device: Any, cpu: np.ndarray, what: str) -> None:
 
 
 def compare_device_step(
-    env_id: str, options: dict[str, Any], step_class: type, monkeypatch: pytest.MonkeyPatch, *, steps: int = 9, num_envs: int = 3, seed: int = 11
+    env_id: str,
+    options: dict[str, Any],
+    step_class: type,
+    monkeypatch: pytest.MonkeyPatch,
+    *,
+    steps: int = 9,
+    num_envs: int = 3,
+    seed: int = 11,
+    cpu_infos: list[dict[str, Any]] | None = None,
 ) -> tuple[int, int, Any, Any]:
     """Step the device and the CPU vector environments of ``env_id`` with the same seeds and actions, comparing every output.
 
     Observations, reward, terminated, truncated, every info entry and the final observations and
     infos of ended episodes, at the reset and at each step (random actions beyond the bounds:
     clipped); the aircraft state must never come back to the host whole during a step.
+
+    Args:
+        cpu_infos: Where given, the CPU environment's info of each step is appended to it (for the
+            caller to check which events happened).
 
     Returns:
         The episodes that ended and those terminated over the steps, and both environments (still open).
@@ -107,6 +119,8 @@ def compare_device_step(
                 same_tensor(idev[k], v, f"step {step} info {k}")
         ended += int((tc | uc).sum())
         terminated += int(tc.sum())
+        if cpu_infos is not None:
+            cpu_infos.append(ic)
     assert not pulls, "the aircraft state came back to the host whole during a step"
     monkeypatch.setattr(DeviceSimulator, "_to_host", original)
     return ended, terminated, cpu, dev

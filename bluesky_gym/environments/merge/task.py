@@ -54,6 +54,7 @@ DISTANCE_MARGIN = 10.0  # NM (commented km in the reference, compared against NM
 GOAL_MARGIN = 2 * DISTANCE_MARGIN  # NM from the runway after the FAF: episode done
 REACH_REWARD = 1.0
 DRIFT_PENALTY = -0.1  # per rad of |drift|, per step
+AVERAGE_DRIFT_EMPTY = 0.0  # rad: the average_drift info before the first step (the reference's mean of nothing is NaN)
 INTRUSION_PENALTY = -1.0  # per intruder within INTRUSION_DISTANCE, per step
 INTRUSION_DISTANCE = 4.0  # NM, horizontal only (all aircraft share one altitude)
 D_HEADING = 15.0  # deg of heading change per unit action
@@ -65,6 +66,7 @@ SPEED_SCALE = 150.0  # m/s: vx_r, vy_r
 M_PER_KM = 1000.0
 
 _OBS_SCALES = (POSITION_SCALE, SPEED_SCALE, WAYPOINT_DIST_SCALE)  # for the compiled observation
+_NO_ROWS = np.zeros(0, bool)  # an empty per-row flag array: -v0 has no faf_now
 INTRUDER_KEYS = ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")
 MAX_NUM_AC = 200  # largest supported traffic count
 ALT_MAX = 11060.0  # m: the A320's altitude ceiling
@@ -199,9 +201,17 @@ def airspace(config: MergeConfig) -> Airspace:
     return Airspace(faf[0], faf[1], margin, 2 * margin)
 
 
+def faf_to_runway_nm(space: Airspace) -> float:
+    """Kwik distance from the FAF to the runway [NM] (the nominal route's second leg)."""
+    return float(ref_kwikdist(space.faf_lat, space.faf_lon, RWY_LAT, RWY_LON))
+
+
 def target(after_faf: BoolArray, space: Airspace = AIRSPACE_V0) -> tuple[Array, Array]:
-    """Lat, lon [deg] of the current target: the FAF, then the runway once the FAF was reached."""
-    return np.where(after_faf, RWY_LAT, space.faf_lat), np.where(after_faf, RWY_LON, space.faf_lon)
+    """Lat, lon [deg] of the current target: the FAF, then the runway once the FAF was reached (:func:`~bluesky_gym.tasks.compiled.merge_targets`)."""
+    after = np.ascontiguousarray(after_faf, dtype=bool)
+    lat, lon = np.empty(after.shape), np.empty(after.shape)
+    compiled.merge_targets(after.reshape(-1), space.faf_lat, space.faf_lon, RWY_LAT, RWY_LON, lat.reshape(-1), lon.reshape(-1))
+    return lat, lon
 
 
 def measure(
@@ -212,7 +222,9 @@ def measure(
     BlueSky's Python kwik forms (bearing mod 360, degrees subtracted first), which the reference
     runs use; intruders sorted by ``kwikdist_matrix``; separation by kwik distance, 4 NM.
     With ``faf_same_step`` (``-v1``) a row within the FAF's capture radius is measured again
-    against the runway, its next target, and flagged in ``faf_now``.
+    against the runway, its next target, and flagged in ``faf_now``
+    (:func:`~bluesky_gym.tasks.compiled.merge_faf_now`); the runway goal is
+    :func:`~bluesky_gym.tasks.compiled.merge_goal`.
     """
     n = len(envs)
     tlat, tlon = target(after_faf, space)
@@ -222,50 +234,72 @@ def measure(
     compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, _OBS_SCALES, features, intruders, n_others)
     faf_now = None
     if faf_same_step:
-        faf_now = ~after_faf & (features[:, 1] < space.faf_margin_nm)
+        faf_now, after_now = np.empty(n, bool), np.empty(n, bool)
+        compiled.merge_faf_now(after_faf, features, space.faf_margin_nm, faf_now, after_now)
+        after_faf = after_now
         if faf_now.any():
-            after_faf = after_faf | faf_now
             tlat, tlon = target(after_faf, space)
             compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, _OBS_SCALES, features, intruders, n_others)
     separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
-    dist = features[:, 1]
-    reached = after_faf & (dist < space.goal_margin_nm)
-    if faf_now is not None:
-        reached &= ~faf_now  # the runway goal counts from the step after the FAF, as in -v0
+    reached = np.empty(n, bool)
+    compiled.merge_goal(after_faf, features, _NO_ROWS if faf_now is None else faf_now, space.goal_margin_nm, reached)
     return MergeGeometry(
-        envs, separation, los, features[:, 0], reached, own, after_faf, dist, features, sim.tas[envs, own], intruders, n_others, faf_now
+        envs, separation, los, features[:, 0], reached, own, after_faf, features[:, 1], features, sim.tas[envs, own], intruders, n_others, faf_now
     )
 
 
 def observation(g: MergeGeometry) -> dict[str, Array]:
-    """MergeEnv-v0's observation of every row (the reference's padding when fewer intruders are active)."""
+    """MergeEnv-v0's observation of every row (the reference's padding when fewer intruders are active).
+
+    Views and arithmetic of the geometry's arrays, numpy's or the device step's tensors alike.
+    """
     f = g.features
     obs = {
         "cos(drift)": f[:, 2:3],
         "sin(drift)": f[:, 3:4],
         "airspeed": g.airspeed[:, None],  # m/s, not normalised (reference)
         "waypoint_dist": f[:, 1:2] / WAYPOINT_DIST_SCALE,
-        # The reach flag as it was before this step's reward (one-step lag, docs/environments-v0.md §7).
-        "faf_reached": g.after_faf[:, None].astype(np.float64),
+        # The reach flag as it was before this step's reward (one-step lag, docs/environments-v0.md §7);
+        # 0 or 1 (exact in any float dtype).
+        "faf_reached": g.after_faf[:, None] * 1.0,
     }
-    obs.update(zip(INTRUDER_KEYS, g.intruders.transpose(1, 0, 2)))
+    obs.update({key: g.intruders[:, i] for i, key in enumerate(INTRUDER_KEYS)})
     return obs
 
 
+def normalised_airspeed(airspeed: Array) -> Array:
+    """``-v1``'s airspeed observation: (TAS - 150) / 150 (numpy's arrays or tensors alike)."""
+    return (airspeed - SPEED_SCALE) / SPEED_SCALE
+
+
 def reward(g: MergeGeometry, space: Airspace = AIRSPACE_V0) -> tuple[Array, BoolArray, BoolArray, NDArray[np.int64], dict[str, Array]]:
-    """FAF reach reward, drift and intrusion penalties of every row.
+    """FAF reach reward, drift and intrusion penalties of every row (:func:`~bluesky_gym.tasks.compiled.merge_reward`).
 
     Returns:
         Reward, FAF reached now, runway goal reached now (termination), intrusion count, components.
     """
-    reach_faf = g.faf_now if g.faf_now is not None else (g.target_nm < space.faf_margin_nm) & ~g.after_faf
-    near_runway = ~reach_faf & g.goal_reached
-    reach = np.where(reach_faf, REACH_REWARD, 0.0)
-    assert g.drift_deg is not None
-    drift_reward = np.abs(np.deg2rad(g.drift_deg)) * DRIFT_PENALTY
-    count = g.los.sum(axis=1)
-    intrusion = count * INTRUSION_PENALTY + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
-    return reach + drift_reward + intrusion, reach_faf, near_runway, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+    n = len(g.envs)
+    r, reach, drift_reward, intrusion = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    reach_faf, near_runway, count = np.empty(n, bool), np.empty(n, bool), np.empty(n, np.int64)
+    compiled.merge_reward(
+        g.features,
+        g.after_faf,
+        _NO_ROWS if g.faf_now is None else g.faf_now,
+        g.goal_reached,
+        g.los,
+        space.faf_margin_nm,
+        REACH_REWARD,
+        DRIFT_PENALTY,
+        INTRUSION_PENALTY,
+        r,
+        reach,
+        drift_reward,
+        intrusion,
+        reach_faf,
+        near_runway,
+        count,
+    )
+    return r, reach_faf, near_runway, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
 
 
 def bounds_v1(key: str) -> tuple[float, float]:
@@ -391,28 +425,36 @@ class MergeTask(Task):
         """Ownship drift, airspeed and target distance, and the 5 closest intruders by kwik distance."""
         obs = observation(self.measure() if g is None else g)  # type: ignore[arg-type]
         if self.config.normalise_airspeed:
-            obs["airspeed"] = (obs["airspeed"] - SPEED_SCALE) / SPEED_SCALE
+            obs["airspeed"] = normalised_airspeed(obs["airspeed"])
         return obs
 
     def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
         """FAF reach reward, runway goal, drift and intrusion penalties."""
-        r, reach_faf, near_runway, count, components = reward(g, self.airspace)  # type: ignore[arg-type]
-        self.wpt_reach = np.where(reach_faf, 1, self.wpt_reach)
-        self.faf_reached = np.where(reach_faf, 1, np.where(near_runway, 2, self.faf_reached))
-        assert g.drift_deg is not None
-        self.drift_rad_sum += np.abs(np.deg2rad(g.drift_deg))
-        self.drift_rad_n += 1
-        self.total_intrusions += count
+        assert isinstance(g, MergeGeometry)
+        r, reach_faf, near_runway, count, components = reward(g, self.airspace)
+        compiled.merge_episode_sums(
+            g.envs,
+            g.features,
+            reach_faf,
+            near_runway,
+            count,
+            self.wpt_reach,
+            self.faf_reached,
+            self.drift_rad_sum,
+            self.drift_rad_n,
+            self.total_intrusions,
+        )
         return r, near_runway, components
 
     def episode_info(self) -> dict[str, Array]:
         """Info keys of the reference, (n_envs,) each."""
         # The reference's mean of an empty list is NaN at reset; v0 reports 0.0 until a sample exists.
-        n = self.drift_rad_n
+        average_drift = np.empty(self.n_envs)
+        compiled.sample_means(self.drift_rad_sum, self.drift_rad_n, AVERAGE_DRIFT_EMPTY, average_drift)
         return {
             "total_reward": self.stats.total_reward.copy(),
             "faf_reach": self.faf_reached.copy(),
-            "average_drift": np.where(n > 0, self.drift_rad_sum / np.maximum(n, 1), 0.0),
+            "average_drift": average_drift,
             "total_intrusions": self.total_intrusions.copy(),
         }
 
@@ -420,7 +462,7 @@ class MergeTask(Task):
     def extra_track_km(self) -> Array:
         """(n_envs,) distance flown minus the nominal route start -> FAF -> 20 NM before the runway [km]."""
         a = self.airspace
-        to_faf = ref_kwikdist(self.start_lat, self.start_lon, a.faf_lat, a.faf_lon)
-        faf_to_rwy = ref_kwikdist(a.faf_lat, a.faf_lon, RWY_LAT, RWY_LON)
-        nominal_km = (to_faf + faf_to_rwy - a.goal_margin_nm) * NM2KM
-        return self.sim.distflown[:, 0] / M_PER_KM - nominal_km
+        out = np.empty(self.n_envs)
+        leg_nm = faf_to_runway_nm(a)
+        compiled.merge_extra_track(self.sim.distflown, self.start_lat, self.start_lon, a.faf_lat, a.faf_lon, leg_nm, a.goal_margin_nm, out)
+        return out
