@@ -49,6 +49,6 @@ COVERAGE_FLOOR=91  # measured 91.1% over both runs (18078 statements, 1613 misse
 .venv/bin/python -m bluesky_gym bench gpu --compile-only --quiet
 DEVICE_COVERAGE=(--cov=bluesky_gym --cov-append --cov-report=term:skip-covered)
 if [ $# -eq 0 ]; then DEVICE_COVERAGE+=(--cov-fail-under="$COVERAGE_FLOOR"); fi
-NUMBA_ENABLE_CUDASIM=1 .venv/bin/python -m pytest -p no:cacheprovider "${DEVICE_COVERAGE[@]}" tests/device
+NUMBA_ENABLE_CUDASIM=1 .venv/bin/python -m pytest -n 2 -p no:cacheprovider "${DEVICE_COVERAGE[@]}" tests/device
 # BlueSky backend: parity with the native core, episode by episode.
 .venv-bluesky/bin/python -m pytest -n 2 -p no:cacheprovider -m bluesky "$@"

@@ -17,8 +17,8 @@ How the batches travel (:class:`TensorIO`):
   or ``__dlpack__``) are copied to the host once per step: the actions become autopilot
   commands, which the task gives on the host.
 
-Where the task's whole step runs on the device (:mod:`bluesky_gym.environments.sector_cr.device_step`: SectorCR),
-neither copy happens: the actions stay on the device, the kernels write into tensors
+Where the task's whole step runs on the device (:class:`DeviceStep`, a subclass per task in its
+folder's ``device_step.py``: SectorCR, Merge), neither copy happens: the actions stay on the device, the kernels write into tensors
 (:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
 
 Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the device arrays are numpy arrays in
@@ -28,7 +28,7 @@ same code path, so that the environment's logic is tested without a GPU.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
@@ -325,7 +325,7 @@ class DeviceStep:
             g.los,
             stepped,
             reward if stepped else self.nothing,
-            self.nothing if g.drift_deg is None else g.drift_deg.contiguous(),  # (a view of a geometry's column, for some tasks)
+            self.nothing if g.drift_deg is None else cast(Any, g.drift_deg).contiguous(),  # (a view of a geometry's column, for some tasks)
             g.goal_reached,
             float(t.dt),
             int(t.action_frequency),

@@ -410,8 +410,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     draws, observation, reward) runs on the host as with ``device="cpu"``, so episode ``i`` draws
     the same scenarios as a single environment with seed ``s + i``; its physics agrees with the
     CPU's within the GPU's rounding (docs/backends.md). For a task whose
-    registry row names a ``device_step`` (SectorCR without wind:
-    :mod:`bluesky_gym.environments.sector_cr.device_step`) the whole step runs on the device
+    registry row names a ``device_step`` (a :class:`~bluesky_gym.envs.device.DeviceStep`: SectorCR and
+    Merge, without wind) the whole step runs on the device
     instead, every info entry is a tensor there, and only the resets' draws run on the host.
 
     Args:
@@ -577,7 +577,7 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
             return obs, res.reward, res.terminated, res.truncated, info
 
     def _step_on_device(self, actions: Any) -> tuple[dict[str, Any], Any, Any, Any, dict[str, Any]]:
-        """A step with the task on the device (:mod:`bluesky_gym.environments.sector_cr.device_step`): tensors in, tensors out."""
+        """A step with the task on the device (:class:`~bluesky_gym.envs.device.DeviceStep`): tensors in, tensors out."""
         assert self._device_step is not None
         obs, reward, terminated, truncated, info, _ended = self._device_step.step(actions)
         if self.render_mode is not None:  # the pictures read the host (copies made for them only)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -261,7 +261,7 @@ def observation(g: MergeGeometry) -> dict[str, Array]:
         "waypoint_dist": f[:, 1:2] / WAYPOINT_DIST_SCALE,
         # The reach flag as it was before this step's reward (one-step lag, docs/environments-v0.md §7);
         # 0 or 1 (exact in any float dtype).
-        "faf_reached": g.after_faf[:, None] * 1.0,
+        "faf_reached": cast(Array, g.after_faf[:, None] * 1.0),
     }
     obs.update({key: g.intruders[:, i] for i, key in enumerate(INTRUDER_KEYS)})
     return obs
@@ -453,9 +453,9 @@ class MergeTask(Task):
         compiled.sample_means(self.drift_rad_sum, self.drift_rad_n, AVERAGE_DRIFT_EMPTY, average_drift)
         return {
             "total_reward": self.stats.total_reward.copy(),
-            "faf_reach": self.faf_reached.copy(),
+            "faf_reach": self.faf_reached.copy(),  # type: ignore[dict-item]  # counts among the float entries
             "average_drift": average_drift,
-            "total_intrusions": self.total_intrusions.copy(),
+            "total_intrusions": self.total_intrusions.copy(),  # type: ignore[dict-item]
         }
 
     # --- KPIs -----------------------------------------------------------------------------------
