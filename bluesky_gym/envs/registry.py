@@ -193,6 +193,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.descent.env:DescentEnv",
         vector_env="bluesky_gym.environments.descent.env:DescentVectorEnv",
         scene="bluesky_gym.environments.descent.scene:descent_scene",
+        device_step="bluesky_gym.environments.descent.device_step:DescentDeviceStep",
         classical="bluesky_gym.environments.descent.controller:DescentController",
         kpis=(
             ("return", "episode return"),
@@ -208,6 +209,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.vertical_cr.env:VerticalCREnv",
         vector_env="bluesky_gym.environments.vertical_cr.env:VerticalCRVectorEnv",
         scene="bluesky_gym.environments.vertical_cr.scene:vertical_cr_scene",
+        device_step="bluesky_gym.environments.vertical_cr.device_step:VerticalCRDeviceStep",
         classical="bluesky_gym.environments.vertical_cr.controller:VerticalCRController",
         mvp="bluesky_gym.environments.vertical_cr.controller:VERTICAL_CR_MVP",
         kpis=(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bluesky_gym.environments.descent.task import DescentTask, descent_outcome
+from bluesky_gym.environments.descent.task import DescentTask
 from bluesky_gym.environments.plan_waypoint.task import PlanWaypointTask
 from bluesky_gym.environments.static_obstacle.task import StaticObstacleTask
 from bluesky_gym.environments.vertical_cr.task import VerticalCRTask
@@ -53,13 +53,12 @@ def test_reward_flying_crash_and_runway() -> None:
     s.alt[:, 0] = [2700.0, -1.0, 600.0]
     s.lat[2, 0] = 52.0 + np.degrees(201_000.0 / R_EARTH)  # past the runway
     g = task.measure()
-    flying, crashed, at_runway = descent_outcome(g)
-    assert flying.tolist() == [True, False, False] and crashed.tolist() == [False, True, False] and at_runway.tolist() == [False, False, True]
-    reward, terminated, parts = task.reward(g)
+    reward, terminated, parts = task.reward(g)  # flying on, crashed, at the runway
     np.testing.assert_allclose(reward, [-(5 / 3000) * 300.0, -100.0, -(50 / 3000) * 600.0], rtol=1e-12)
     np.testing.assert_array_equal(terminated, [False, True, True])
     np.testing.assert_allclose(parts["altitude"], [-0.5, 0.0, 0.0], rtol=1e-12)
     np.testing.assert_array_equal(parts["crash"], [0.0, -100.0, 0.0])
+    np.testing.assert_allclose(parts["runway"], [0.0, 0.0, -(50 / 3000) * 600.0], rtol=1e-12)
     np.testing.assert_array_equal(task.final_altitude, [0.0, -100.0, 600.0])
     np.testing.assert_array_equal(g.goal_reached, [False, False, True])
 

@@ -8,9 +8,10 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from bluesky_gym.core.units import NM2KM, VS_SELECT_EPS
+from bluesky_gym.core.jit import grid_range, jit, jit_inline
+from bluesky_gym.core.units import KM, NM2KM, VS_SELECT_EPS
 from bluesky_gym.tasks.base import DEFAULT_TYPES, Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range, typed
-from bluesky_gym.tasks.geometry import ref_kwikdist
+from bluesky_gym.tasks.compiled import _kwikdist
 
 ALT_MEAN = 1500.0  # m
 ALT_STD = 3000.0  # m
@@ -21,6 +22,7 @@ RWY_DIS_STD = 200.0  # km
 ACTION_2_MS = 12.5  # m/s of vertical speed per unit action
 ALT_DIF_REWARD_SCALE = -5 / 3000  # per m off the target altitude
 CRASH_PENALTY = -100.0
+CRASH_FINAL_ALTITUDE = -100.0  # m: the final_altitude info of a crashed episode (the reference's marker)
 RWY_ALT_DIF_REWARD_SCALE = -50 / 3000  # per m above the runway at its threshold
 AC_SPD = 150.0  # m/s CAS
 DEFAULT_RWY_DIS = 200.0  # km from the start point to the runway
@@ -128,75 +130,177 @@ class DescentTask(Task):
 
     # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """Vertical speed 12.5 a m/s: the reference's direct ``selalt``/``selvs`` writes."""
-        v = action[:, 0] * ACTION_2_MS
-        selalt = np.where(v >= 0, CLIMB_TARGET, 0.0)
-        if self.config.hold_altitude_at_zero:
-            # BlueSky replaces |selvs| <= 0.1 m/s by its default 7.62 m/s towards selalt: select
-            # the current altitude instead, so that such an action holds it.
-            selalt = np.where(np.abs(v) <= VS_SELECT_EPS, self.sim.alt[:, 0], selalt)
-        self.sim.set_autopilot(self.all_envs, 0, selalt=selalt, selvs=v)
+        """Vertical speed 12.5 a m/s: the reference's direct ``selalt``/``selvs`` writes (:func:`vertical_speed_targets`)."""
+        selalt, selvs = np.empty(self.n_envs), np.empty(self.n_envs)
+        vertical_speed_targets(self.all_envs, self.ownship, action, self.sim.alt, self.config.hold_altitude_at_zero, selalt, selvs)
+        self.sim.set_autopilot(self.all_envs, 0, selalt=selalt, selvs=selvs)
 
     # --- measure --------------------------------------------------------------------------------
     def runway_distance(self, envs: NDArray[np.int64] | slice | None = None) -> Array:
         """Km left to the runway along the 200 km leg, of episodes ``envs`` (all when None)."""
-        rows = slice(None) if envs is None else envs
-        d = ref_kwikdist(RWY_LAT, RWY_LON, self.sim.lat[rows, 0], self.sim.lon[rows, 0])
-        return self.config.runway_distance_km - d * NM2KM
+        ids = self.all_envs[slice(None) if envs is None else envs]
+        return self.measure(ids).runway_km
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> DescentMeasurement:
-        """Altitude, vertical speed and runway distance of episodes ``envs`` (all when None)."""
+        """Altitude, vertical speed and runway distance of episodes ``envs`` (all when None; :func:`descent_measure`)."""
         ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
-        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
         s = self.sim
-        runway_km = self.runway_distance(rows)
-        shape = (ids.size, s.max_aircraft)
+        p = ids.size
+        alt, vs, runway_km, goal = np.empty(p), np.empty(p), np.empty(p), np.empty(p, bool)
+        descent_measure(ids, self.ownship[ids], s.lat, s.lon, s.alt, s.vs, self.config.runway_distance_km, alt, vs, runway_km, goal)
+        shape = (p, s.max_aircraft)
         return DescentMeasurement(
             envs=ids,
             separation_nm=np.full(shape, np.inf),
             los=np.zeros(shape, bool),
             drift_deg=None,
-            goal_reached=runway_km <= 0,
-            alt=s.alt[rows, 0],
-            vs=s.vs[rows, 0],
+            goal_reached=goal,
+            alt=alt,
+            vs=vs,
             runway_km=runway_km,
         )
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
-        """Normalised altitude, vertical speed, target and runway distance of the rows ``g.envs``."""
+        """Normalised altitude, vertical speed, target and runway distance of the rows ``g.envs`` (:func:`observation`)."""
         g = self.measure() if g is None else g
         assert isinstance(g, DescentMeasurement)
-        return {
-            "altitude": ((g.alt - ALT_MEAN) / ALT_STD)[:, None],
-            "vz": ((g.vs - VZ_MEAN) / VZ_STD)[:, None],
-            "target_altitude": ((self.target_alt[g.envs] - ALT_MEAN) / ALT_STD)[:, None],
-            "runway_distance": ((g.runway_km - RWY_DIS_MEAN) / RWY_DIS_STD)[:, None],
-        }
+        return observation(g, self.target_alt)
 
     # --- reward and termination -----------------------------------------------------------------
     def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Altitude tracking while flying, else the crash or runway term; records ``final_altitude`` (all episodes)."""
+        """Altitude tracking while flying, else the crash or runway term; records ``final_altitude`` (all episodes; :func:`descent_reward`)."""
         assert isinstance(g, DescentMeasurement)
-        flying, crashed, at_runway = descent_outcome(g)
-        altitude = np.where(flying, np.abs(self.target_alt - g.alt) * ALT_DIF_REWARD_SCALE, 0.0)
-        crash = np.where(crashed, CRASH_PENALTY, 0.0)
-        runway = np.where(at_runway, g.alt * RWY_ALT_DIF_REWARD_SCALE, 0.0)
-        self.final_altitude = np.where(crashed, -100.0, np.where(at_runway, g.alt, self.final_altitude))
-        reward = np.where(flying, altitude, np.where(crashed, crash, runway))
-        return reward, crashed | at_runway, {"altitude": altitude, "crash": crash, "runway": runway}
+        n = g.envs.size
+        reward, terminated = np.empty(n), np.empty(n, bool)
+        altitude, crash, runway = np.empty(n), np.empty(n), np.empty(n)
+        descent_reward(g.envs, g.alt, g.runway_km, self.target_alt, self.final_altitude, reward, terminated, altitude, crash, runway)
+        return reward, terminated, {"altitude": altitude, "crash": crash, "runway": runway}
 
     def episode_info(self) -> dict[str, Array]:
         """``total_reward`` and ``final_altitude``."""
         return {"total_reward": self.stats.total_reward.copy(), "final_altitude": self.final_altitude.copy()}
 
     def extra_track_km(self) -> Array:
-        """Distance flown beyond the runway leg [km]."""
-        return self.sim.distflown[:, 0] / 1000.0 - self.config.runway_distance_km
+        """Distance flown beyond the runway leg [km] (:func:`extra_track`)."""
+        out = np.empty(self.n_envs)
+        extra_track(self.sim.distflown, self.config.runway_distance_km, out)
+        return out
 
 
-def descent_outcome(g: DescentMeasurement) -> tuple[BoolArray, BoolArray, BoolArray]:
-    """(n_envs,) flags of a step, exactly one set per episode: flying on, crashed (alt <= 0), at the runway."""
-    flying = (g.runway_km > 0) & (g.alt > 0)
-    crashed = ~flying & (g.alt <= 0)
-    return flying, crashed, ~flying & ~crashed & (g.runway_km <= 0)
+def observation(g: DescentMeasurement, target_alt: Array) -> dict[str, Array]:
+    """The descent entries of rows ``g.envs`` from the measured values and the episodes' target altitudes [m].
+
+    Elementwise scalings of the measurement: numpy arrays on the CPU, torch tensors in the device
+    step (:mod:`bluesky_gym.environments.descent.device_step`), the same operations on both.
+    """
+    return {
+        "altitude": ((g.alt - ALT_MEAN) / ALT_STD)[:, None],
+        "vz": ((g.vs - VZ_MEAN) / VZ_STD)[:, None],
+        "target_altitude": ((target_alt[g.envs] - ALT_MEAN) / ALT_STD)[:, None],
+        "runway_distance": ((g.runway_km - RWY_DIS_MEAN) / RWY_DIS_STD)[:, None],
+    }
+
+
+# --- kernels: the task's rules, run by the CPU task and launched by the device step ------------------
+@jit_inline
+def _vertical_speed(a, alt, hold):  # type: ignore[no-untyped-def]
+    """Selected altitude [m] and vertical speed [m/s] of the action ``a``, the ownship at altitude ``alt`` [m].
+
+    v = 12.5 a m/s; the selected altitude is the climb target for v >= 0, else 0 m; with ``hold``
+    (``-v1``'s ``hold_altitude_at_zero``) |v| <= 0.1 m/s selects the current altitude instead:
+    BlueSky replaces such a vertical speed by its default 7.62 m/s towards the selected altitude.
+    """
+    v = a * ACTION_2_MS
+    selalt = CLIMB_TARGET if v >= 0 else 0.0
+    if hold and abs(v) <= VS_SELECT_EPS:
+        selalt = alt
+    return selalt, v
+
+
+@jit
+def vertical_speed_targets(envs, own, action, alt, hold, selalt_out, selvs_out):  # type: ignore[no-untyped-def]
+    """The selected altitude and vertical speed of the clipped ``action`` (p, 1) of each row (:func:`_vertical_speed`).
+
+    Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``; ``alt`` (n, m) [m].
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        selalt_out[r], selvs_out[r] = _vertical_speed(action[r, 0], alt[e, o], hold)
+
+
+@jit
+def command_vertical_speed(envs, own, action, alt, hold, selalt, selvs):  # type: ignore[no-untyped-def]
+    """:func:`vertical_speed_targets` written into the autopilot's ``selalt``/``selvs`` (n, m), as :meth:`DescentTask.apply_action` does.
+
+    The device step (:mod:`bluesky_gym.environments.descent.device_step`) launches it on the
+    simulator's device state.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        selalt[e, o], selvs[e, o] = _vertical_speed(action[r, 0], alt[e, o], hold)
+
+
+@jit_inline
+def _runway_km(lat, lon, runway_distance_km):  # type: ignore[no-untyped-def]
+    """Km left to the runway: ``runway_distance_km`` minus the kwik distance from the start point (RWY_LAT, RWY_LON)."""
+    return runway_distance_km - _kwikdist(RWY_LAT, RWY_LON, lat, lon) * NM2KM
+
+
+@jit_inline
+def _measure_row(r, e, o, lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out):  # type: ignore[no-untyped-def]
+    """Row ``r`` of :func:`descent_measure`: ownship slot ``o`` of episode ``e``."""
+    alt_out[r] = alt[e, o]
+    vs_out[r] = vs[e, o]
+    rk = _runway_km(lat[e, o], lon[e, o], runway_distance_km)
+    runway_out[r] = rk
+    goal_out[r] = rk <= 0
+
+
+@jit
+def descent_measure(envs, own, lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out):  # type: ignore[no-untyped-def]
+    """Altitude [m], vertical speed [m/s], km left to the runway and runway reached of ownship slot ``own[r]`` of episode ``envs[r]``."""
+    for r in grid_range(envs.shape[0]):
+        _measure_row(r, envs[r], own[r], lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out)
+
+
+@jit_inline
+def _descent_reward(alt, runway_km, target_alt, final_altitude):  # type: ignore[no-untyped-def]
+    """One episode's descent step: reward, terminated, its components (altitude, crash, runway) and the new final altitude.
+
+    Flying on (runway ahead and alt > 0): -(5/3000) |target - alt|; else crashed (alt <= 0):
+    -100, the final altitude -100; else at the runway: -(50/3000) alt, the final altitude alt.
+    The episode terminates when crashed or at the runway; each component is 0 where its case does
+    not hold.
+    """
+    flying = runway_km > 0 and alt > 0
+    crashed = not flying and alt <= 0
+    at_runway = not flying and not crashed and runway_km <= 0
+    altitude = abs(target_alt - alt) * ALT_DIF_REWARD_SCALE if flying else 0.0
+    crash = CRASH_PENALTY if crashed else 0.0
+    runway = alt * RWY_ALT_DIF_REWARD_SCALE if at_runway else 0.0
+    if crashed:
+        final_altitude = CRASH_FINAL_ALTITUDE
+    elif at_runway:
+        final_altitude = alt
+    reward = altitude if flying else (crash if crashed else runway)
+    return reward, crashed or at_runway, altitude, crash, runway, final_altitude
+
+
+@jit
+def descent_reward(envs, alt, runway_km, target_alt, final_altitude, reward_out, terminated_out, altitude_out, crash_out, runway_out):  # type: ignore[no-untyped-def]
+    """:func:`_descent_reward` of rows (episode ``envs[r]``) from the measured ``alt``/``runway_km`` (p,), ``final_altitude`` (n,) updated."""
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        reward_out[r], terminated_out[r], altitude_out[r], crash_out[r], runway_out[r], final_altitude[e] = _descent_reward(
+            alt[r], runway_km[r], target_alt[e], final_altitude[e]
+        )
+
+
+@jit
+def extra_track(distflown, route_km, out):  # type: ignore[no-untyped-def]
+    """Distance flown by each episode's ownship (slot 0; ``distflown`` [m]) beyond a route of ``route_km`` [km]."""
+    for e in grid_range(out.shape[0]):
+        out[e] = distflown[e, 0] / KM - route_km

@@ -9,7 +9,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import atmosphere as isa
-from bluesky_gym.core.units import FT
+from bluesky_gym.core.jit import grid_range, jit
+from bluesky_gym.core.units import FT, KM
+from bluesky_gym.environments.descent import task as descent
 from bluesky_gym.environments.descent.task import (
     AC_SPD,
     ACTION_2_MS,
@@ -20,6 +22,8 @@ from bluesky_gym.environments.descent.task import (
     DescentConfig,
     DescentMeasurement,
     DescentTask,
+    _descent_reward,
+    _measure_row,
 )
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
@@ -44,7 +48,6 @@ VERTICAL_MARGIN = 1000 * FT  # m (304.8), half height of the intrusion cylinder
 INTRUDER_DISTANCE_SCALE = DEFAULT_RWY_DIS  # km: intruder_distance is divided by 200 km
 SPEED_SCALE = AC_SPD  # m/s: x/y_difference_speed are divided by 150
 TLOSV = 1e11  # s: vertical time to loss of separation given to creconfs (intruder vs ~ 0)
-KM = 1000.0  # m per km
 INTRUDER_STATE = ("dist_km", "cos_bearing", "sin_bearing", "x_dif", "y_dif")  # rows of compiled.intruder_relative_state
 # -v1 declared bounds: intruders within 5 x 200 km, altitude differences within 15000 m, speed
 # differences within twice the fastest TAS (about 270 m/s), vertical ones within 2 x 20 m/s.
@@ -264,57 +267,68 @@ class VerticalCRTask(DescentTask):
 
     # --- measure --------------------------------------------------------------------------------
     def measure(self, envs: NDArray[np.int64] | None = None) -> VerticalCRMeasurement:
-        """The descent quantities, the intruders' relative state and the intrusion cylinder test, of episodes ``envs``."""
-        d = super().measure(envs)
-        ids = d.envs
-        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
+        """The descent quantities, the intruders' relative state and the intrusion cylinder test, of episodes ``envs``.
+
+        Kernels :func:`vertical_cr_measure`,
+        :func:`~bluesky_gym.tasks.compiled.kwik_separation` and
+        :func:`~bluesky_gym.tasks.compiled.intruder_relative_state`.
+        """
+        ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
         s = self.sim
-        own = self.ownship[rows]
+        p, k = ids.size, s.max_aircraft - 1
+        own = self.ownship[ids]
+        alt, vs, runway_km, goal = np.empty(p), np.empty(p), np.empty(p), np.empty(p, bool)
+        alt_difference, vs_difference = np.empty((p, k)), np.empty((p, k))
+        vertical_cr_measure(
+            ids, own, s.lat, s.lon, s.alt, s.vs, self.config.runway_distance_km, alt, vs, runway_km, goal, alt_difference, vs_difference
+        )
         separation_nm, los = kwik_separation(s, ids, own, INTRUSION_DISTANCE, VERTICAL_MARGIN)
-        alt, vs = s.alt[rows], s.vs[rows]
-        intruders = np.empty((5, ids.size, s.max_aircraft - 1))
-        compiled.intruder_relative_state(ids, own, s.lat, s.lon, s.hdg, s.gs, s.active, False, intruders, np.empty(ids.size, np.int64))
+        intruders = np.empty((5, p, k))
+        compiled.intruder_relative_state(ids, own, s.lat, s.lon, s.hdg, s.gs, s.active, False, intruders, np.empty(p, np.int64))
         return VerticalCRMeasurement(
             envs=ids,
             separation_nm=separation_nm,
             los=los,
             drift_deg=None,
-            goal_reached=d.goal_reached,
-            alt=d.alt,
-            vs=d.vs,
-            runway_km=d.runway_km,
+            goal_reached=goal,
+            alt=alt,
+            vs=vs,
+            runway_km=runway_km,
             intruders=dict(zip(INTRUDER_STATE, intruders)),
-            alt_difference=alt[:, 1:] - alt[:, :1],
-            vs_difference=vs[:, 1:] - vs[:, :1],
+            alt_difference=alt_difference,
+            vs_difference=vs_difference,
         )
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
-        """The descent entries, then the intruders in creation order (slots 1..n, no sorting; docs/environments-v0.md §2)."""
+        """The descent entries, then the intruders in creation order (slots 1..n, no sorting; docs/environments-v0.md §2; :func:`observation`)."""
         g = self.measure() if g is None else g
         assert isinstance(g, VerticalCRMeasurement)
-        obs = super().observe(g)
-        rel = g.intruders
-        obs["intruder_distance"] = rel["dist_km"] / INTRUDER_DISTANCE_SCALE
-        obs["cos_difference_pos"] = rel["cos_bearing"]
-        obs["sin_difference_pos"] = rel["sin_bearing"]
-        obs["altitude_difference"] = g.alt_difference / ALT_STD
-        obs["x_difference_speed"] = rel["x_dif"] / SPEED_SCALE
-        obs["y_difference_speed"] = rel["y_dif"] / SPEED_SCALE
-        # m/s, not normalised in -v0 (reference quirk); -v1 divides by vz's 5 m/s.
-        obs["z_difference_speed"] = g.vs_difference / VZ_STD if self.config.normalise_vertical_speed else g.vs_difference
-        return obs
+        return observation(g, self.target_alt, self.config.normalise_vertical_speed)
 
     # --- reward ---------------------------------------------------------------------------------
     def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """Descent reward and termination plus -50 per intruder inside the 5 NM / 1000 ft cylinder."""
+        """Descent reward and termination plus -50 per intruder inside the 5 NM / 1000 ft cylinder (:func:`vertical_cr_reward`)."""
         assert isinstance(g, VerticalCRMeasurement)
-        descent_reward, terminated, components = super().reward(g)
-        count = g.los[:, 1:].sum(axis=1)
-        intrusion = count * INTRUSION_PENALTY
-        self.total_intrusions += count
-        components["intrusion"] = intrusion
-        return descent_reward + intrusion, terminated, components
+        n = g.envs.size
+        reward, terminated = np.empty(n), np.empty(n, bool)
+        altitude, crash, runway, intrusion = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        vertical_cr_reward(
+            g.envs,
+            g.alt,
+            g.runway_km,
+            g.los,
+            self.target_alt,
+            self.final_altitude,
+            self.total_intrusions,
+            reward,
+            terminated,
+            altitude,
+            crash,
+            runway,
+            intrusion,
+        )
+        return reward, terminated, {"altitude": altitude, "crash": crash, "runway": runway, "intrusion": intrusion}
 
     def episode_info(self) -> dict[str, Array]:
         """Info keys of the reference, (n_envs,) each."""
@@ -323,3 +337,79 @@ class VerticalCRTask(DescentTask):
             "total_intrusions": self.total_intrusions.copy(),  # type: ignore[dict-item]  # an int count, as the reference reports it
             "final_altitude": self.final_altitude.copy(),
         }
+
+
+def observation(g: VerticalCRMeasurement, target_alt: Array, normalise_vertical_speed: bool) -> dict[str, Array]:
+    """The descent entries, then the intruder entries of rows ``g.envs`` (scalings of the measurement).
+
+    numpy arrays on the CPU, torch tensors in the device step
+    (:mod:`bluesky_gym.environments.vertical_cr.device_step`), the same operations on both.
+    """
+    obs = descent.observation(g, target_alt)
+    rel = g.intruders
+    obs["intruder_distance"] = rel["dist_km"] / INTRUDER_DISTANCE_SCALE
+    obs["cos_difference_pos"] = rel["cos_bearing"]
+    obs["sin_difference_pos"] = rel["sin_bearing"]
+    obs["altitude_difference"] = g.alt_difference / ALT_STD
+    obs["x_difference_speed"] = rel["x_dif"] / SPEED_SCALE
+    obs["y_difference_speed"] = rel["y_dif"] / SPEED_SCALE
+    # m/s, not normalised in -v0 (reference quirk); -v1 divides by vz's 5 m/s.
+    obs["z_difference_speed"] = g.vs_difference / VZ_STD if normalise_vertical_speed else g.vs_difference
+    return obs
+
+
+# --- kernels: the task's rules, run by the CPU task and launched by the device step ------------------
+@jit
+def vertical_cr_measure(  # type: ignore[no-untyped-def]
+    envs, own, lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out, alt_difference_out, vs_difference_out
+):
+    """:func:`~bluesky_gym.environments.descent.task.descent_measure` of each row, and the other slots' altitude and vertical speed differences.
+
+    Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``; ``alt_difference_out`` [m] and
+    ``vs_difference_out`` [m/s] (p, m - 1): each other slot in slot order minus the ownship.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        _measure_row(r, e, o, lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out)
+        alt0, vs0 = alt[e, o], vs[e, o]
+        for i in range(alt_difference_out.shape[1]):
+            j = i if i < o else i + 1
+            alt_difference_out[r, i] = alt[e, j] - alt0
+            vs_difference_out[r, i] = vs[e, j] - vs0
+
+
+@jit
+def vertical_cr_reward(  # type: ignore[no-untyped-def]
+    envs,
+    alt,
+    runway_km,
+    los,
+    target_alt,
+    final_altitude,
+    total_intrusions,
+    reward_out,
+    terminated_out,
+    altitude_out,
+    crash_out,
+    runway_out,
+    intrusion_out,
+):
+    """The descent step (:func:`~bluesky_gym.environments.descent.task.descent_reward`) plus -50 per intruder in the intrusion cylinder.
+
+    Row ``r`` (episode ``envs[r]``): ``los`` (p, m) the intrusion flags (False for the ownship);
+    their count is added to ``total_intrusions[e]``.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        reward, terminated_out[r], altitude_out[r], crash_out[r], runway_out[r], final_altitude[e] = _descent_reward(
+            alt[r], runway_km[r], target_alt[e], final_altitude[e]
+        )
+        count = 0
+        for j in range(los.shape[1]):
+            if los[r, j]:
+                count += 1
+        intrusion = count * INTRUSION_PENALTY
+        intrusion_out[r] = intrusion
+        reward_out[r] = reward + intrusion
+        total_intrusions[e] += count
