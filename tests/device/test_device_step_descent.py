@@ -1,0 +1,115 @@
+"""Descent's step on the device (:mod:`bluesky_gym.environments.descent.device_step`).
+
+Under numba-cuda's simulator every output (observations, reward, terminated, truncated, every
+info entry, the final observations and infos of ended episodes) must equal the CPU vector
+environment's bit for bit, through truncations, crashes, runways reached and autoresets; and a
+step's launches must not grow with the number of episodes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import bluesky_gym
+from bluesky_gym.core import cuda_target
+from bluesky_gym.environments.descent import task as dt
+from bluesky_gym.environments.descent.device_step import DescentDeviceStep
+
+from .conftest import ON, compare_device_step, needs_device, same_tensor
+
+torch = pytest.importorskip("torch")
+pytestmark = needs_device
+bluesky_gym.register_envs()
+
+#: A short, low leg: random actions crash some episodes and bring others to the runway within a few steps.
+SHORT_LOW_LEG = {"runway_distance_km": 12.0, "alt_min": 300, "alt_max": 400, "target_alt_dif": 100}
+
+
+def outcomes_of_the_cpu_task(monkeypatch: pytest.MonkeyPatch, task_class: type) -> dict[str, int]:
+    """Count, over the CPU task's steps, the episodes that crashed and those that reached the runway (their reward components)."""
+    seen = {"crash": 0, "runway": 0}
+    original = task_class.reward
+
+    def reward(self: Any, g: Any) -> Any:
+        out = original(self, g)
+        if not isinstance(out[0], np.ndarray):  # the device step's tensors
+            return out
+        seen["crash"] += int((out[2]["crash"] != 0).sum())
+        seen["runway"] += int((out[2]["runway"] != 0).sum())
+        return out
+
+    monkeypatch.setattr(task_class, "reward", reward)
+    return seen
+
+
+@pytest.mark.parametrize(
+    ("env_id", "options"),
+    [
+        ("DescentEnv-v0", {"max_episode_steps": 3}),
+        ("DescentEnv-v1", {"max_episode_steps": 3}),
+        ("DescentEnv-v0", {**SHORT_LOW_LEG, "max_episode_steps": 50}),
+        ("DescentEnv-v1", {**SHORT_LOW_LEG, "max_episode_steps": 50}),
+    ],
+)
+def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(env_id: str, options: dict[str, Any], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Same seeds, same actions: the same outputs, every info entry included, through truncations, crashes, runways and autoresets."""
+    seen = outcomes_of_the_cpu_task(monkeypatch, dt.DescentTask)
+    ended, terminated, cpu, dev = compare_device_step(env_id, options, DescentDeviceStep, monkeypatch, steps=10)
+    if options["max_episode_steps"] == 3:
+        assert ended >= 6 and terminated == 0, "every episode must be truncated at the time limit and reset, several times"
+    else:
+        assert terminated >= 3, "episodes must end on the short, low leg and be reset"
+        assert seen["crash"] >= 1 and seen["runway"] >= 1, seen
+    # The episodes' scenarios on the host are those of the CPU environment (drawn from the same generators).
+    np.testing.assert_array_equal(dev.unwrapped.task.target_alt, cpu.unwrapped.task.target_alt)
+    cpu.close()
+    dev.close()
+
+
+def test_v1_zero_action_holds_the_altitude_on_the_device_as_on_the_cpu() -> None:
+    """``hold_altitude_at_zero``: a = 0 selects the current altitude (the command kernel's branch), as on the CPU."""
+    cpu = gym.make_vec("DescentEnv-v1", num_envs=2)
+    dev = gym.make_vec("DescentEnv-v1", num_envs=2, device="cuda")
+    cpu.reset(seed=5)
+    dev.reset(seed=5)
+    for step in range(2):
+        oc, *_ = cpu.step(np.zeros((2, 1), np.float32))
+        od, *_ = dev.step(torch.zeros((2, 1), dtype=torch.float32, device=ON))
+        for k in oc:
+            same_tensor(od[k], oc[k], f"step {step} obs {k}")
+    assert np.abs(oc["vz"]).max() < 0.05, "the altitude is held, not climbed at BlueSky's default 7.62 m/s"
+    np.testing.assert_array_equal(dev.unwrapped.task.sim.selalt[:, 0], cpu.unwrapped.task.sim.selalt[:, 0])
+    cpu.close()
+    dev.close()
+
+
+def _launches_of_step(env_id: str, n: int, ends: bool) -> int:
+    env = gym.make_vec(env_id, num_envs=n, max_episode_steps=1 if ends else 50, device="cuda")
+    assert env.unwrapped._device_step is not None
+    env.reset(seed=0)
+    before = cuda_target.launches()
+    _, _, terminated, truncated, _ = env.step(torch.zeros((n, 1), device=ON))
+    assert bool((terminated | truncated).all()) == ends
+    env.close()
+    return cuda_target.launches() - before
+
+
+@pytest.mark.parametrize("env_id", ["DescentEnv-v0", "DescentEnv-v1"])
+def test_a_step_is_a_fixed_number_of_launches_whatever_the_number_of_episodes(env_id: str) -> None:
+    assert _launches_of_step(env_id, 2, False) == _launches_of_step(env_id, 5, False)
+    assert _launches_of_step(env_id, 2, True) == _launches_of_step(env_id, 5, True) > _launches_of_step(env_id, 2, False)
+
+
+def test_wind_keeps_the_task_step_on_the_host() -> None:
+    """An uncovered configuration (wind) falls back to the host step, the physics on the device."""
+    windy = gym.make_vec("DescentEnv-v0", num_envs=2, device="cuda", wind={"lat": [52.0], "lon": [4.4], "vnorth": [5.0], "veast": [0.0]})
+    assert windy.unwrapped._device_step is None
+    assert not DescentDeviceStep.supports(windy.unwrapped.task)
+    windy.close()
+    calm = gym.make_vec("DescentEnv-v1", num_envs=2, device="cuda")
+    assert isinstance(calm.unwrapped._device_step, DescentDeviceStep)
+    calm.close()
