@@ -172,21 +172,24 @@ def _exercise_core() -> None:
 def _exercise_device_only() -> None:
     """The kernels only the device runs, on host arrays of the layouts the device gives them.
 
-    The device step's commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`) and
+    The device steps' commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`,
+    :func:`bluesky_gym.environments.descent.task.command_vertical_speed`) and
     :meth:`bluesky_gym.core.DeviceSimulator.reset_on_host`'s scatters of each state dtype.
     """
     from bluesky_gym.core import Simulator
     from bluesky_gym.core.state import scatter_columns, scatter_rows
+    from bluesky_gym.environments.descent import task as descent
     from bluesky_gym.tasks import compiled
 
     sim = Simulator(2, 3, dt=1.0)
     sim.create([0, 1], 0, 52.0, 4.0, 90.0, 3000.0, 150.0)
     flat = sim.n_envs * sim.max_aircraft
-    field = {k: np.ascontiguousarray(getattr(sim, k)) for k in ("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd")}
+    field = {k: np.ascontiguousarray(getattr(sim, k)) for k in ("hdg", "cas", "ap_trk", "selspd", "swlnav", "swvnavspd", "alt", "selalt", "selvs")}
     envs, own = np.arange(2), np.zeros(2, np.int64)
     compiled.command_heading_speed(
         envs, own, np.zeros((2, 2)), field["hdg"], field["cas"], 22.5, 6.0, *(field[k] for k in ("ap_trk", "swlnav", "selspd", "swvnavspd"))
     )
+    descent.command_vertical_speed(envs, own, np.zeros((2, 1)), field["alt"], True, field["selalt"], field["selvs"])
     rows = np.arange(sim.max_aircraft)
     for flat_array in (np.ascontiguousarray(sim._float_flat), sim.phase.reshape(1, flat), sim.active.reshape(1, flat), sim.iactwp.reshape(1, flat)):
         scatter_columns(rows, np.ascontiguousarray(flat_array[:, rows]), flat_array.copy())

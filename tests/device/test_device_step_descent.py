@@ -30,7 +30,7 @@ SHORT_LOW_LEG = {"runway_distance_km": 12.0, "alt_min": 300, "alt_max": 400, "ta
 
 
 def outcomes_of_the_cpu_task(monkeypatch: pytest.MonkeyPatch, task_class: type) -> dict[str, int]:
-    """Count, over the CPU task's steps, the episodes where each reward component is not 0 (crashed: ``crash``, the runway reached: ``runway``, ...)."""
+    """Count, over the CPU task's steps, the episodes where each reward component is not 0 (``crash``: crashed, ``runway``: landed, ...)."""
     seen: dict[str, int] = {}
     original = task_class.reward
 

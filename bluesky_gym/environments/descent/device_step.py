@@ -77,7 +77,9 @@ class DescentDeviceStep(DeviceStep):
         n, a = self.n, self.arrays
         reward, terminated = self.empty(n), self.empty(n, dtype=self.torch.bool)
         altitude, crash, runway = self.empty(n), self.empty(n), self.empty(n)
-        self.launch(dt.descent_reward, n, g.envs, g.alt, g.runway_km, a["target_alt"], a["final_altitude"], reward, terminated, altitude, crash, runway)
+        self.launch(
+            dt.descent_reward, n, g.envs, g.alt, g.runway_km, a["target_alt"], a["final_altitude"], reward, terminated, altitude, crash, runway
+        )
         return reward, terminated, {"altitude": altitude, "crash": crash, "runway": runway}
 
     def episode_info(self) -> dict[str, Any]:

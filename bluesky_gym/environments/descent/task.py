@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core.jit import grid_range, jit, jit_inline
 from bluesky_gym.core.units import KM, NM2KM, VS_SELECT_EPS
 from bluesky_gym.tasks.base import DEFAULT_TYPES, Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range, typed
-from bluesky_gym.tasks.compiled import _kwikdist
+from bluesky_gym.tasks.compiled import IntArray, _kwikdist
 
 ALT_MEAN = 1500.0  # m
 ALT_STD = 3000.0  # m
@@ -204,7 +204,7 @@ def observation(g: DescentMeasurement, target_alt: Array) -> dict[str, Array]:
 
 # --- kernels: the task's rules, run by the CPU task and launched by the device step ------------------
 @jit_inline
-def _vertical_speed(a, alt, hold):  # type: ignore[no-untyped-def]
+def _vertical_speed(a: float, alt: float, hold: bool) -> tuple[float, float]:
     """Selected altitude [m] and vertical speed [m/s] of the action ``a``, the ownship at altitude ``alt`` [m].
 
     v = 12.5 a m/s; the selected altitude is the climb target for v >= 0, else 0 m; with ``hold``
@@ -219,7 +219,7 @@ def _vertical_speed(a, alt, hold):  # type: ignore[no-untyped-def]
 
 
 @jit
-def vertical_speed_targets(envs, own, action, alt, hold, selalt_out, selvs_out):  # type: ignore[no-untyped-def]
+def vertical_speed_targets(envs: IntArray, own: IntArray, action: Array, alt: Array, hold: bool, selalt_out: Array, selvs_out: Array) -> None:
     """The selected altitude and vertical speed of the clipped ``action`` (p, 1) of each row (:func:`_vertical_speed`).
 
     Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``; ``alt`` (n, m) [m].
@@ -231,7 +231,7 @@ def vertical_speed_targets(envs, own, action, alt, hold, selalt_out, selvs_out):
 
 
 @jit
-def command_vertical_speed(envs, own, action, alt, hold, selalt, selvs):  # type: ignore[no-untyped-def]
+def command_vertical_speed(envs: IntArray, own: IntArray, action: Array, alt: Array, hold: bool, selalt: Array, selvs: Array) -> None:
     """:func:`vertical_speed_targets` written into the autopilot's ``selalt``/``selvs`` (n, m), as :meth:`DescentTask.apply_action` does.
 
     The device step (:mod:`bluesky_gym.environments.descent.device_step`) launches it on the
@@ -244,13 +244,26 @@ def command_vertical_speed(envs, own, action, alt, hold, selalt, selvs):  # type
 
 
 @jit_inline
-def _runway_km(lat, lon, runway_distance_km):  # type: ignore[no-untyped-def]
+def _runway_km(lat: float, lon: float, runway_distance_km: float) -> float:
     """Km left to the runway: ``runway_distance_km`` minus the kwik distance from the start point (RWY_LAT, RWY_LON)."""
     return runway_distance_km - _kwikdist(RWY_LAT, RWY_LON, lat, lon) * NM2KM
 
 
 @jit_inline
-def _measure_row(r, e, o, lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out):  # type: ignore[no-untyped-def]
+def _measure_row(
+    r: int,
+    e: int,
+    o: int,
+    lat: Array,
+    lon: Array,
+    alt: Array,
+    vs: Array,
+    runway_distance_km: float,
+    alt_out: Array,
+    vs_out: Array,
+    runway_out: Array,
+    goal_out: BoolArray,
+) -> None:
     """Row ``r`` of :func:`descent_measure`: ownship slot ``o`` of episode ``e``."""
     alt_out[r] = alt[e, o]
     vs_out[r] = vs[e, o]
@@ -260,14 +273,26 @@ def _measure_row(r, e, o, lat, lon, alt, vs, runway_distance_km, alt_out, vs_out
 
 
 @jit
-def descent_measure(envs, own, lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out):  # type: ignore[no-untyped-def]
+def descent_measure(
+    envs: IntArray,
+    own: IntArray,
+    lat: Array,
+    lon: Array,
+    alt: Array,
+    vs: Array,
+    runway_distance_km: float,
+    alt_out: Array,
+    vs_out: Array,
+    runway_out: Array,
+    goal_out: BoolArray,
+) -> None:
     """Altitude [m], vertical speed [m/s], km left to the runway and runway reached of ownship slot ``own[r]`` of episode ``envs[r]``."""
     for r in grid_range(envs.shape[0]):
         _measure_row(r, envs[r], own[r], lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out)
 
 
 @jit_inline
-def _descent_reward(alt, runway_km, target_alt, final_altitude):  # type: ignore[no-untyped-def]
+def _descent_reward(alt: float, runway_km: float, target_alt: float, final_altitude: float) -> tuple[float, bool, float, float, float, float]:
     """One episode's descent step: reward, terminated, its components (altitude, crash, runway) and the new final altitude.
 
     Flying on (runway ahead and alt > 0): -(5/3000) |target - alt|; else crashed (alt <= 0):
@@ -290,7 +315,18 @@ def _descent_reward(alt, runway_km, target_alt, final_altitude):  # type: ignore
 
 
 @jit
-def descent_reward(envs, alt, runway_km, target_alt, final_altitude, reward_out, terminated_out, altitude_out, crash_out, runway_out):  # type: ignore[no-untyped-def]
+def descent_reward(
+    envs: IntArray,
+    alt: Array,
+    runway_km: Array,
+    target_alt: Array,
+    final_altitude: Array,
+    reward_out: Array,
+    terminated_out: BoolArray,
+    altitude_out: Array,
+    crash_out: Array,
+    runway_out: Array,
+) -> None:
     """:func:`_descent_reward` of rows (episode ``envs[r]``) from the measured ``alt``/``runway_km`` (p,), ``final_altitude`` (n,) updated."""
     for r in grid_range(envs.shape[0]):
         e = envs[r]
@@ -300,7 +336,7 @@ def descent_reward(envs, alt, runway_km, target_alt, final_altitude, reward_out,
 
 
 @jit
-def extra_track(distflown, route_km, out):  # type: ignore[no-untyped-def]
+def extra_track(distflown: Array, route_km: float, out: Array) -> None:
     """Distance flown by each episode's ownship (slot 0; ``distflown`` [m]) beyond a route of ``route_km`` [km]."""
     for e in grid_range(out.shape[0]):
         out[e] = distflown[e, 0] / KM - route_km

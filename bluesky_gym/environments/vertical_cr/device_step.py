@@ -57,7 +57,9 @@ class VerticalCRDeviceStep(DescentDeviceStep):
         alt_r, vs_r, runway_km, goal = self.empty(p), self.empty(p), self.empty(p), self.empty(p, dtype=torch.bool)
         alt_difference, vs_difference = self.empty(p, k), self.empty(p, k)
         runway_distance_km = float(self.task.config.runway_distance_km)
-        self.launch(vt.vertical_cr_measure, p, envs, own, lat, lon, alt, vs, runway_distance_km, alt_r, vs_r, runway_km, goal, alt_difference, vs_difference)
+        self.launch(
+            vt.vertical_cr_measure, p, envs, own, lat, lon, alt, vs, runway_distance_km, alt_r, vs_r, runway_km, goal, alt_difference, vs_difference
+        )
         separation, los = self.empty(p, m), self.empty(p, m, dtype=torch.bool)
         self.launch(compiled.kwik_separation, p, envs, own, lat, lon, alt, active, vt.INTRUSION_DISTANCE, vt.VERTICAL_MARGIN, separation, los)
         intruders, count = self.empty(len(vt.INTRUDER_STATE), p, k), self.empty(p, dtype=torch.int64)
@@ -109,4 +111,8 @@ class VerticalCRDeviceStep(DescentDeviceStep):
     def episode_info(self) -> dict[str, Any]:
         """:meth:`~bluesky_gym.environments.vertical_cr.task.VerticalCRTask.episode_info` on the device."""
         a = self.arrays
-        return {"total_reward": self.stats["total_reward"].clone(), "total_intrusions": a["total_intrusions"].clone(), "final_altitude": a["final_altitude"].clone()}
+        return {
+            "total_reward": self.stats["total_reward"].clone(),
+            "total_intrusions": a["total_intrusions"].clone(),
+            "final_altitude": a["final_altitude"].clone(),
+        }

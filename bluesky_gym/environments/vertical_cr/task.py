@@ -41,6 +41,7 @@ from bluesky_gym.tasks.base import (
     kwik_separation,
     typed,
 )
+from bluesky_gym.tasks.compiled import IntArray
 
 INTRUSION_PENALTY = -50.0  # per intruder inside the intrusion cylinder, per step
 INTRUSION_DISTANCE = 5.0  # NM, horizontal radius of the intrusion cylinder
@@ -360,9 +361,21 @@ def observation(g: VerticalCRMeasurement, target_alt: Array, normalise_vertical_
 
 # --- kernels: the task's rules, run by the CPU task and launched by the device step ------------------
 @jit
-def vertical_cr_measure(  # type: ignore[no-untyped-def]
-    envs, own, lat, lon, alt, vs, runway_distance_km, alt_out, vs_out, runway_out, goal_out, alt_difference_out, vs_difference_out
-):
+def vertical_cr_measure(
+    envs: IntArray,
+    own: IntArray,
+    lat: Array,
+    lon: Array,
+    alt: Array,
+    vs: Array,
+    runway_distance_km: float,
+    alt_out: Array,
+    vs_out: Array,
+    runway_out: Array,
+    goal_out: BoolArray,
+    alt_difference_out: Array,
+    vs_difference_out: Array,
+) -> None:
     """:func:`~bluesky_gym.environments.descent.task.descent_measure` of each row, and the other slots' altitude and vertical speed differences.
 
     Row ``r``: ownship slot ``own[r]`` of episode ``envs[r]``; ``alt_difference_out`` [m] and
@@ -380,21 +393,21 @@ def vertical_cr_measure(  # type: ignore[no-untyped-def]
 
 
 @jit
-def vertical_cr_reward(  # type: ignore[no-untyped-def]
-    envs,
-    alt,
-    runway_km,
-    los,
-    target_alt,
-    final_altitude,
-    total_intrusions,
-    reward_out,
-    terminated_out,
-    altitude_out,
-    crash_out,
-    runway_out,
-    intrusion_out,
-):
+def vertical_cr_reward(
+    envs: IntArray,
+    alt: Array,
+    runway_km: Array,
+    los: BoolArray,
+    target_alt: Array,
+    final_altitude: Array,
+    total_intrusions: IntArray,
+    reward_out: Array,
+    terminated_out: BoolArray,
+    altitude_out: Array,
+    crash_out: Array,
+    runway_out: Array,
+    intrusion_out: Array,
+) -> None:
     """The descent step (:func:`~bluesky_gym.environments.descent.task.descent_reward`) plus -50 per intruder in the intrusion cylinder.
 
     Row ``r`` (episode ``envs[r]``): ``los`` (p, m) the intrusion flags (False for the ownship);
