@@ -132,7 +132,8 @@ class DescentTask(Task):
     def apply_action(self, action: Array) -> None:
         """Vertical speed 12.5 a m/s: the reference's direct ``selalt``/``selvs`` writes (:func:`vertical_speed_targets`)."""
         selalt, selvs = np.empty(self.n_envs), np.empty(self.n_envs)
-        vertical_speed_targets(self.all_envs, self.ownship, action, self.sim.alt, self.config.hold_altitude_at_zero, selalt, selvs)
+        a = np.ascontiguousarray(action, dtype=np.float64)
+        vertical_speed_targets(self.all_envs, self.ownship, a, self.sim.alt, self.config.hold_altitude_at_zero, selalt, selvs)
         self.sim.set_autopilot(self.all_envs, 0, selalt=selalt, selvs=selvs)
 
     # --- measure --------------------------------------------------------------------------------

@@ -284,7 +284,7 @@ class VerticalCRTask(DescentTask):
             ids, own, s.lat, s.lon, s.alt, s.vs, self.config.runway_distance_km, alt, vs, runway_km, goal, alt_difference, vs_difference
         )
         separation_nm, los = kwik_separation(s, ids, own, INTRUSION_DISTANCE, VERTICAL_MARGIN)
-        intruders = np.empty((5, p, k))
+        intruders = np.empty((len(INTRUDER_STATE), p, k))
         compiled.intruder_relative_state(ids, own, s.lat, s.lon, s.hdg, s.gs, s.active, False, intruders, np.empty(p, np.int64))
         return VerticalCRMeasurement(
             envs=ids,
