@@ -220,7 +220,7 @@ class CompileResult:
 
 
 def kernels_in_scope() -> list[Any]:
-    """The kernels of ``bluesky_gym.core``, ``bluesky_gym.tasks`` and the environment folders' tasks (:class:`bluesky_gym.core.jit.Kernel`), in definition order."""
+    """The kernels (:class:`bluesky_gym.core.jit.Kernel`) of the core, the tasks and the environment folders' tasks, in definition order."""
     import importlib
     import importlib.util
     import pkgutil

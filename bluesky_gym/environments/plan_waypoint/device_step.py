@@ -72,7 +72,9 @@ class PlanWaypointDeviceStep(DeviceStep):
         dist_km, drift = self.empty(p, w), self.empty(p, w)
         before, new, goal = self.empty(p, w, dtype=bool_), self.empty(p, w, dtype=bool_), self.empty(p, dtype=bool_)
         margin = float(self.task.config.distance_margin_km)
-        self.launch(pw.waypoint_measure, p, envs, lat, lon, hdg, a["wpt_lat"], a["wpt_lon"], a["wpt_reached"], margin, dist_km, drift, before, new, goal)
+        self.launch(
+            pw.waypoint_measure, p, envs, lat, lon, hdg, a["wpt_lat"], a["wpt_lon"], a["wpt_reached"], margin, dist_km, drift, before, new, goal
+        )
         return pw.PlanWaypointMeasurement(
             envs=envs,
             separation_nm=self.no_separation[:p],
@@ -91,7 +93,17 @@ class PlanWaypointDeviceStep(DeviceStep):
         c = self.task.config
         rows, w = (int(s) for s in g.dist_km.shape)
         out = {key: self.empty(rows, w) for key in pw.OBSERVATION_KEYS}
-        self.launch(pw.waypoint_observation, rows, g.dist_km, g.drift, g.reached_before, g.newly_reached, c.reach_same_step, float(c.waypoint_distance_max), *out.values())
+        self.launch(
+            pw.waypoint_observation,
+            rows,
+            g.dist_km,
+            g.drift,
+            g.reached_before,
+            g.newly_reached,
+            c.reach_same_step,
+            float(c.waypoint_distance_max),
+            *out.values(),
+        )
         return out
 
     def reward(self, g: StepGeometry) -> tuple[Any, Any, dict[str, Any]]:

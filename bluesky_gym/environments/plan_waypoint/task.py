@@ -11,7 +11,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -185,7 +185,19 @@ class PlanWaypointTask(Task):
         reached_before, new, goal = np.empty(shape, bool), np.empty(shape, bool), np.empty(ids.size, bool)
         s = self.sim
         waypoint_measure(
-            ids, s.lat, s.lon, s.hdg, self.wpt_lat, self.wpt_lon, self.wpt_reached, float(self.config.distance_margin_km), dist_km, drift, reached_before, new, goal
+            ids,
+            s.lat,
+            s.lon,
+            s.hdg,
+            self.wpt_lat,
+            self.wpt_lon,
+            self.wpt_reached,
+            float(self.config.distance_margin_km),
+            dist_km,
+            drift,
+            reached_before,
+            new,
+            goal,
         )
         separation = (ids.size, s.max_aircraft)
         return PlanWaypointMeasurement(
@@ -207,7 +219,13 @@ class PlanWaypointTask(Task):
         assert isinstance(g, PlanWaypointMeasurement)
         out = {key: np.empty(g.dist_km.shape) for key in OBSERVATION_KEYS}
         waypoint_observation(
-            g.dist_km, g.drift, g.reached_before, g.newly_reached, self.config.reach_same_step, float(self.config.waypoint_distance_max), *out.values()
+            g.dist_km,
+            g.drift,
+            g.reached_before,
+            g.newly_reached,
+            self.config.reach_same_step,
+            float(self.config.waypoint_distance_max),
+            *out.values(),
         )
         return out
 
@@ -221,7 +239,7 @@ class PlanWaypointTask(Task):
 
     def episode_info(self) -> dict[str, Array]:
         """``total_reward`` and ``waypoints_completed`` (:func:`count_reached`)."""
-        completed = np.empty(self.n_envs, np.int64)
+        completed: NDArray[Any] = np.empty(self.n_envs, np.int64)
         count_reached(self.wpt_reached, completed)
         return {"total_reward": self.stats.total_reward.copy(), "waypoints_completed": completed}
 
@@ -238,20 +256,20 @@ class PlanWaypointTask(Task):
 
 # --- kernels: the step's rules, for the CPU and the device step ------------------------------------
 @jit_inline
-def _heading_target(hdg, action, d_heading):  # type: ignore[no-untyped-def]
+def _heading_target(hdg, action, d_heading):
     """The HDG commanded by a heading action: hdg + d_heading a [deg], not wrapped."""
     return hdg + action * d_heading
 
 
 @jit
-def heading_targets(hdg, action, d_heading, out):  # type: ignore[no-untyped-def]
+def heading_targets(hdg, action, d_heading, out):
     """(n,) the heading [deg] commanded to each episode's aircraft (slot 0 of ``hdg`` (n, m)) by the clipped ``action`` (n, 1)."""
     for e in grid_range(out.shape[0]):
         out[e] = _heading_target(hdg[e, 0], action[e, 0], d_heading)
 
 
 @jit
-def command_heading(hdg, action, d_heading, ap_trk, swlnav):  # type: ignore[no-untyped-def]
+def command_heading(hdg, action, d_heading, ap_trk, swlnav):
     """:func:`heading_targets` given as the native core's HDG command to slot 0, written into its autopilot state.
 
     What :meth:`~bluesky_gym.core.Simulator.cmd_heading` does in an airspace without wind: the
@@ -264,7 +282,7 @@ def command_heading(hdg, action, d_heading, ap_trk, swlnav):  # type: ignore[no-
 
 
 @jit
-def waypoint_measure(envs, lat, lon, hdg, wpt_lat, wpt_lon, wpt_reached, margin_km, dist_out, drift_out, before_out, new_out, goal_out):  # type: ignore[no-untyped-def]
+def waypoint_measure(envs, lat, lon, hdg, wpt_lat, wpt_lon, wpt_reached, margin_km, dist_out, drift_out, before_out, new_out, goal_out):
     """The waypoint geometry of episodes ``envs`` (rows): :class:`PlanWaypointMeasurement`'s arrays.
 
     Args:
@@ -300,7 +318,7 @@ def waypoint_measure(envs, lat, lon, hdg, wpt_lat, wpt_lon, wpt_reached, margin_
 
 
 @jit
-def waypoint_observation(dist_km, drift, before, new, same_step, distance_scale, distance_out, cos_out, sin_out, reached_out):  # type: ignore[no-untyped-def]
+def waypoint_observation(dist_km, drift, before, new, same_step, distance_scale, distance_out, cos_out, sin_out, reached_out):
     """The observation of :func:`waypoint_measure`'s rows: masked distance and drift per waypoint, and the reach flags.
 
     A waypoint shows as reached when it was reached in an earlier step, or with ``same_step``
@@ -320,7 +338,7 @@ def waypoint_observation(dist_km, drift, before, new, same_step, distance_scale,
 
 
 @jit
-def waypoint_reward(envs, new, reach_reward, wpt_reached, reward_out, reach_out):  # type: ignore[no-untyped-def]
+def waypoint_reward(envs, new, reach_reward, wpt_reached, reward_out, reach_out):
     """``reach_reward`` per waypoint newly reached by row ``r`` (episode ``envs[r]``), flagged as reached in ``wpt_reached`` (n, w)."""
     for r in grid_range(envs.shape[0]):
         e = envs[r]
@@ -335,7 +353,7 @@ def waypoint_reward(envs, new, reach_reward, wpt_reached, reward_out, reach_out)
 
 
 @jit
-def count_reached(wpt_reached, out):  # type: ignore[no-untyped-def]
+def count_reached(wpt_reached, out):
     """(n,) the waypoints each episode has reached (``wpt_reached`` (n, w))."""
     for e in grid_range(out.shape[0]):
         count = 0
@@ -346,7 +364,7 @@ def count_reached(wpt_reached, out):  # type: ignore[no-untyped-def]
 
 
 @jit
-def extra_track(distflown, tour_km, out):  # type: ignore[no-untyped-def]
+def extra_track(distflown, tour_km, out):
     """(n,) the aircraft's (slot 0) distance flown (``distflown`` [m]) minus the episode's shortest tour ``tour_km`` [km], in km."""
     for e in grid_range(out.shape[0]):
         out[e] = distflown[e, 0] / KM - tour_km[e]
