@@ -13,7 +13,6 @@ import pytest
 import bluesky_gym
 from bluesky_gym.environments.plan_waypoint.env import PlanWaypointEnv
 from bluesky_gym.environments.plan_waypoint.task import PlanWaypointConfig, PlanWaypointTask
-
 from tests.oracle import plan_waypoint as oracle
 
 from .conftest import R_KM, great_circle, kwik, seeded_task
