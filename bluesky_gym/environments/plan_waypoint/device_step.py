@@ -15,6 +15,10 @@ kernel of :mod:`bluesky_gym.environments.plan_waypoint.task`:
 * the info's ``waypoints_completed``: :func:`~bluesky_gym.environments.plan_waypoint.task.count_reached`;
 * the ``kpi_extra_track_km`` of ended episodes: :func:`~bluesky_gym.environments.plan_waypoint.task.extra_track`.
 
+Every option of the task runs there (any number of waypoints, distances, capture radius,
+``airborne_start``, ``reach_same_step``, the ``-v1`` bounds); a ``wind`` option, effects or added
+observation terms keep the task's step on the host (:meth:`~bluesky_gym.envs.device.DeviceStep.supports`).
+
 These are the kernels the CPU task runs (their CUDA forms): no rule of the task is written here a
 second time. The waypoints and the shortest tour of new episodes are drawn on the host
 (:meth:`~bluesky_gym.environments.plan_waypoint.task.PlanWaypointTask.generate`) and uploaded for
