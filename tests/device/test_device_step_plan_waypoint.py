@@ -40,11 +40,14 @@ def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(
     env_id: str, options: dict[str, Any], goals: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Same seeds, same actions: the same outputs, every info entry included, through terminations, truncations and autoresets."""
-    ended, terminated, cpu, dev = compare_device_step(env_id, options, PlanWaypointDeviceStep, monkeypatch, num_envs=4)
+    infos: list[dict[str, Any]] = []
+    ended, terminated, cpu, dev = compare_device_step(env_id, options, PlanWaypointDeviceStep, monkeypatch, num_envs=4, cpu_infos=infos)
     assert ended >= 8, "episodes must end (time limit 3 or 4, goals reached) and be reset on the way"
     if goals:
         assert terminated >= 2, "some episodes must reach every waypoint (terminated) and be reset"
         assert ended > terminated, "and some must hit the time limit"
+        successes = sum(int(i["final_info"]["kpi_success"][i["_final_info"]].sum()) for i in infos if "final_info" in i)
+        assert successes == terminated, "every terminated episode reached its goal (kpi_success 1)"
     else:
         assert terminated == 0
     # The episodes' scenarios on the host are those of the CPU environment (drawn from the same generators),
