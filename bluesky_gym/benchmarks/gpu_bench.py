@@ -173,12 +173,14 @@ def _exercise_device_only() -> None:
     """The kernels only the device runs, on host arrays of the layouts the device gives them.
 
     The device steps' commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`,
-    :func:`bluesky_gym.environments.descent.task.command_vertical_speed`) and
+    :func:`bluesky_gym.environments.descent.task.command_vertical_speed`,
+    :func:`bluesky_gym.environments.plan_waypoint.task.command_heading`) and
     :meth:`bluesky_gym.core.DeviceSimulator.reset_on_host`'s scatters of each state dtype.
     """
     from bluesky_gym.core import Simulator
     from bluesky_gym.core.state import scatter_columns, scatter_rows
     from bluesky_gym.environments.descent import task as descent
+    from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
     from bluesky_gym.tasks import compiled
 
     sim = Simulator(2, 3, dt=1.0)
@@ -190,6 +192,7 @@ def _exercise_device_only() -> None:
         envs, own, np.zeros((2, 2)), field["hdg"], field["cas"], 22.5, 6.0, *(field[k] for k in ("ap_trk", "swlnav", "selspd", "swvnavspd"))
     )
     descent.command_vertical_speed(envs, own, np.zeros((2, 1)), field["alt"], True, field["selalt"], field["selvs"])
+    plan_waypoint.command_heading(field["hdg"], np.zeros((2, 1)), 45.0, field["ap_trk"], field["swlnav"])
     rows = np.arange(sim.max_aircraft)
     for flat_array in (np.ascontiguousarray(sim._float_flat), sim.phase.reshape(1, flat), sim.active.reshape(1, flat), sim.iactwp.reshape(1, flat)):
         scatter_columns(rows, np.ascontiguousarray(flat_array[:, rows]), flat_array.copy())
@@ -220,13 +223,19 @@ class CompileResult:
 
 
 def kernels_in_scope() -> list[Any]:
-    """The kernels of ``bluesky_gym.core`` and ``bluesky_gym.tasks`` (:class:`bluesky_gym.core.jit.Kernel`), in definition order."""
+    """The kernels (:class:`bluesky_gym.core.jit.Kernel`) of the core, the tasks and the environment folders' tasks, in definition order."""
     import importlib
+    import importlib.util
+    import pkgutil
 
+    import bluesky_gym.environments as environments
     from bluesky_gym.core.jit import KERNELS
 
     for module in ("bluesky_gym.core.simulator", "bluesky_gym.tasks.compiled"):
         importlib.import_module(module)
+    for folder in pkgutil.iter_modules(environments.__path__):
+        if folder.ispkg and importlib.util.find_spec(f"{environments.__name__}.{folder.name}.task") is not None:
+            importlib.import_module(f"{environments.__name__}.{folder.name}.task")
     return [k for k in KERNELS.values() if k.name.startswith(KERNEL_PACKAGES)]
 
 

@@ -227,6 +227,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.plan_waypoint.env:PlanWaypointEnv",
         vector_env="bluesky_gym.environments.plan_waypoint.env:PlanWaypointVectorEnv",
         scene="bluesky_gym.environments.plan_waypoint.scene:plan_waypoint_scene",
+        device_step="bluesky_gym.environments.plan_waypoint.device_step:PlanWaypointDeviceStep",
         classical="bluesky_gym.environments.plan_waypoint.controller:PlanWaypointController",
         kpis=(
             ("return", "episode return"),

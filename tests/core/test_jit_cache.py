@@ -21,6 +21,14 @@ def test_cached_kernels_are_stamped_with_every_kernel_module(tmp_path: Path) -> 
     stamped = {Path(name).name for name, _mtime, _size in locator.get_source_stamp()}
     assert {"atmosphere.py", "geo.py", "performance.py", "step.py", "units.py", "compiled.py"} <= stamped
 
+    # A kernel of an environment folder's task is stamped with the same modules.
+    from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
+
+    measure = plan_waypoint.waypoint_measure.py_func
+    env_locator = locator_class.from_function(measure, inspect.getsourcefile(measure))
+    assert env_locator is not None
+    assert {"compiled.py", "task.py"} <= {Path(name).name for name, _mtime, _size in env_locator.get_source_stamp()}
+
     # A function outside the package keeps numba's own locator.
     outside = tmp_path / "mod.py"
     outside.write_text("def f():\n    return 1\n")

@@ -13,6 +13,7 @@ import pytest
 import bluesky_gym
 from bluesky_gym.environments.plan_waypoint.env import PlanWaypointEnv
 from bluesky_gym.environments.plan_waypoint.task import PlanWaypointConfig, PlanWaypointTask
+from tests.oracle import plan_waypoint as oracle
 
 from .conftest import R_KM, great_circle, kwik, seeded_task
 
@@ -227,3 +228,47 @@ def test_shortest_tour_in_chunks_for_eight_waypoints() -> None:
         lon = [4.0, *task.wpt_lon[e]]
         drawn = sum(kwik(lat[j], lon[j], lat[j + 1], lon[j + 1])[1] for j in range(8))
         assert task.tour_km[e] <= drawn + 1e-9
+
+
+# --- the kernels against the numpy oracle ----------------------------------------------------------
+@pytest.mark.parametrize("env_options", [{}, {"airborne_start": True, "reach_same_step": True}])
+def test_step_kernels_equal_the_numpy_oracle_through_episodes(env_options: dict) -> None:
+    """Measure, observation, reward, reach flags, ``waypoints_completed`` and the extra track, to the last bit (signed zeros too)."""
+    n = 8
+    task = _task(seeds=list(range(n)), num_waypoints=2, waypoint_distance_max=9, **env_options)
+    task.time_limit = 12
+    c = task.config
+    rng = np.random.default_rng(4)
+    reached = goals = ended = 0
+    for step in range(60):
+        s = task.sim
+        flags = task.wpt_reached.copy()
+        want = oracle.measure(s.lat, s.lon, s.hdg, task.wpt_lat, task.wpt_lon, flags, c.distance_margin_km)
+        g = task.measure()
+        for got, key in (
+            (g.dist_km, "dist_km"),
+            (g.drift, "drift"),
+            (g.reached_before, "before"),
+            (g.newly_reached, "new"),
+            (g.goal_reached, "goal"),
+        ):
+            np.testing.assert_array_equal(got, want[key], err_msg=f"step {step} {key}", strict=True)
+        obs, want_obs = task.observe(g), oracle.observation(want, c.reach_same_step, c.waypoint_distance_max)
+        assert list(obs) == list(want_obs)
+        for key in obs:
+            np.testing.assert_array_equal(obs[key], want_obs[key], err_msg=f"step {step} {key}", strict=True)
+            np.testing.assert_array_equal(np.signbit(obs[key]), np.signbit(want_obs[key]), err_msg=f"step {step} {key}: signed zeros")
+        r, te, comp = task.reward(g)
+        np.testing.assert_array_equal(r, oracle.reward(want, 1.0), strict=True)
+        np.testing.assert_array_equal(comp["reach"], r, strict=True)
+        np.testing.assert_array_equal(te, want["goal"], strict=True)
+        np.testing.assert_array_equal(task.wpt_reached, flags | want["new"])
+        np.testing.assert_array_equal(task.episode_info()["waypoints_completed"], task.wpt_reached.sum(axis=1), strict=True)
+        np.testing.assert_array_equal(task.extra_track_km(), oracle.extra_track_km(s.distflown, task.tour_km), strict=True)
+        reached += int(want["new"].sum())
+        goals += int(want["goal"].sum())
+        res = task.step(rng.uniform(-1.5, 1.5, (n, 1)))
+        done = np.flatnonzero(res.terminated | res.truncated)
+        ended += done.size
+        task.reset(done)
+    assert reached > 0 and goals > 0 and ended > goals  # reaches, goals and time limits covered

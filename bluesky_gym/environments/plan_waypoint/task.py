@@ -1,19 +1,28 @@
-"""PlanWaypointEnv-v0: fly over as many of five scattered waypoints as possible (docs/environments-v0.md §4)."""
+"""PlanWaypointEnv-v0: fly over as many of five scattered waypoints as possible (docs/environments-v0.md §4).
+
+The step's rules (the heading command, the waypoint geometry, the observation, the reward and
+the reach flags, the info's count and the extra-track KPI) are the kernels at the end of this
+module: the task calls them on the CPU, and the vector environment's device step
+(:mod:`bluesky_gym.environments.plan_waypoint.device_step`) launches their CUDA forms.
+"""
 
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
-from bluesky_gym.core.units import NM2KM
+from bluesky_gym.core.jit import grid_range, jit, jit_inline
+from bluesky_gym.core.units import KM, NM2KM
 from bluesky_gym.environments.horizontal_cr.task import AIRBORNE_ALT
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
-from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikqdrdist, wrap180
+from bluesky_gym.tasks.compiled import _RAD, _kwikqdrdist, _wrap180
+from bluesky_gym.tasks.geometry import point_at_distance
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
 AC_HDG = 0.0  # deg: creation heading (BlueSky's default, north)
@@ -28,6 +37,8 @@ TOUR_CHUNK = 1 << 20  # leg lengths evaluated at once by the tour KPI (bounds it
 # -v1: how far the aircraft can get from a waypoint beyond the farthest draw in 300 steps of 10 s
 # at 250 m/s [km]; waypoint_distance's declared bound follows from it.
 WANDER_KM = 750.0
+#: The observation's keys, in the reference's order.
+OBSERVATION_KEYS = ("waypoint_distance", "cos_difference", "sin_difference", "waypoint_reached")
 
 
 @dataclass(frozen=True)
@@ -152,31 +163,49 @@ class PlanWaypointTask(Task):
 
     # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """Heading target hdg + 45 a (the reference's "HDG" command, not wrapped)."""
-        self.sim.cmd_heading(self.all_envs, 0, self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
+        """Heading target hdg + 45 a (the reference's "HDG" command, not wrapped): :func:`heading_targets`."""
+        target = np.empty(self.n_envs)
+        heading_targets(self.sim.hdg, np.ascontiguousarray(action), D_HEADING, target)
+        self.sim.cmd_heading(self.all_envs, 0, target)
 
     # --- measure --------------------------------------------------------------------------------
-    def waypoint_geometry(self, envs: NDArray[np.int64] | slice | None = None) -> tuple[Array, Array]:
+    def waypoint_geometry(self, envs: NDArray[np.int64] | None = None) -> tuple[Array, Array]:
         """(rows, num_waypoints) kwik distance [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
-        rows = slice(None) if envs is None else envs
-        s = self.sim
-        qdr, dist = ref_kwikqdrdist(s.lat[rows, :1], s.lon[rows, :1], self.wpt_lat[rows], self.wpt_lon[rows])
-        return dist * NM2KM, wrap180(s.hdg[rows, :1] - qdr)
+        g = self.measure(envs)
+        return g.dist_km, g.drift
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> PlanWaypointMeasurement:
-        """Distance and drift to every waypoint, and which ones the aircraft is within the capture radius of, for episodes ``envs``."""
+        """Distance and drift to every waypoint, and which ones the aircraft is within the capture radius of, for episodes ``envs``.
+
+        The kernel :func:`waypoint_measure`.
+        """
         ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
-        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
-        dist_km, drift = self.waypoint_geometry(rows)
-        reached_before = self.wpt_reached[rows].copy()  # the reward updates the flags
-        new = (dist_km < self.config.distance_margin_km) & ~reached_before
-        shape = (ids.size, self.sim.max_aircraft)
+        shape = (ids.size, self.config.num_waypoints)
+        dist_km, drift = np.empty(shape), np.empty(shape)
+        reached_before, new, goal = np.empty(shape, bool), np.empty(shape, bool), np.empty(ids.size, bool)
+        s = self.sim
+        waypoint_measure(
+            ids,
+            s.lat,
+            s.lon,
+            s.hdg,
+            self.wpt_lat,
+            self.wpt_lon,
+            self.wpt_reached,
+            float(self.config.distance_margin_km),
+            dist_km,
+            drift,
+            reached_before,
+            new,
+            goal,
+        )
+        separation = (ids.size, s.max_aircraft)
         return PlanWaypointMeasurement(
             envs=ids,
-            separation_nm=np.full(shape, np.inf),
-            los=np.zeros(shape, bool),
+            separation_nm=np.full(separation, np.inf),
+            los=np.zeros(separation, bool),
             drift_deg=None,
-            goal_reached=np.asarray((reached_before | new).all(axis=1)),
+            goal_reached=goal,
             dist_km=dist_km,
             drift=drift,
             reached_before=reached_before,
@@ -185,38 +214,157 @@ class PlanWaypointTask(Task):
 
     # --- observation ----------------------------------------------------------------------------
     def observe(self, g: StepGeometry | None = None) -> dict[str, Array]:
-        """Masked distance and drift per waypoint, and the reach flags as floats, of the rows ``g.envs``."""
+        """Masked distance and drift per waypoint, and the reach flags as floats, of the rows ``g.envs``: :func:`waypoint_observation`."""
         g = self.measure() if g is None else g
         assert isinstance(g, PlanWaypointMeasurement)
-        # The reference masks with the integer (1 - reached), so a masked entry is 0.0 times the
-        # value: -0.0 where the value is negative (docs/environments-v0.md §4). A waypoint reached in this step still
-        # shows as unreached (the one-step lag, docs/environments-v0.md §4).
-        # -v1 shows this step's reaches at once.
-        reached = g.reached_before | g.newly_reached if self.config.reach_same_step else g.reached_before
-        m = np.where(reached, 0.0, 1.0)
-        rad = np.deg2rad(g.drift)
-        return {
-            "waypoint_distance": m * g.dist_km / self.config.waypoint_distance_max,
-            "cos_difference": m * np.cos(rad),
-            "sin_difference": m * np.sin(rad),
-            "waypoint_reached": reached.astype(np.float64),
-        }
+        out = {key: np.empty(g.dist_km.shape) for key in OBSERVATION_KEYS}
+        waypoint_observation(
+            g.dist_km,
+            g.drift,
+            g.reached_before,
+            g.newly_reached,
+            self.config.reach_same_step,
+            float(self.config.waypoint_distance_max),
+            *out.values(),
+        )
+        return out
 
     # --- reward and termination -----------------------------------------------------------------
     def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
-        """+1 per newly reached waypoint (recorded); terminated when all are reached (all episodes)."""
+        """+1 per newly reached waypoint, recorded in the reach flags (:func:`waypoint_reward`); terminated when all are reached."""
         assert isinstance(g, PlanWaypointMeasurement)
-        self.wpt_reached |= g.newly_reached
-        reach = g.newly_reached.sum(axis=1) * REACH_REWARD
-        return reach, g.goal_reached, {"reach": reach}
+        reward, reach = np.empty(g.envs.size), np.empty(g.envs.size)
+        waypoint_reward(g.envs, g.newly_reached, REACH_REWARD, self.wpt_reached, reward, reach)
+        return reward, g.goal_reached, {"reach": reach}
 
     def episode_info(self) -> dict[str, Array]:
-        """``total_reward`` and ``waypoints_completed``."""
-        return {"total_reward": self.stats.total_reward.copy(), "waypoints_completed": self.wpt_reached.sum(axis=1)}
+        """``total_reward`` and ``waypoints_completed`` (:func:`count_reached`)."""
+        completed: NDArray[Any] = np.empty(self.n_envs, np.int64)
+        count_reached(self.wpt_reached, completed)
+        return {"total_reward": self.stats.total_reward.copy(), "waypoints_completed": completed}
 
     def extra_track_km(self) -> Array:
         """Distance flown minus the shortest polyline from the start through all waypoint centres.
 
-        It can be negative: a waypoint counts as reached anywhere within the capture radius.
+        It can be negative: a waypoint counts as reached anywhere within the capture radius. The
+        kernel :func:`extra_track`.
         """
-        return self.sim.distflown[:, 0] / 1000.0 - self.tour_km
+        out = np.empty(self.n_envs)
+        extra_track(self.sim.distflown, self.tour_km, out)
+        return out
+
+
+# --- kernels: the step's rules, for the CPU and the device step ------------------------------------
+@jit_inline
+def _heading_target(hdg, action, d_heading):
+    """The HDG commanded by a heading action: hdg + d_heading a [deg], not wrapped."""
+    return hdg + action * d_heading
+
+
+@jit
+def heading_targets(hdg, action, d_heading, out):
+    """(n,) the heading [deg] commanded to each episode's aircraft (slot 0 of ``hdg`` (n, m)) by the clipped ``action`` (n, 1)."""
+    for e in grid_range(out.shape[0]):
+        out[e] = _heading_target(hdg[e, 0], action[e, 0], d_heading)
+
+
+@jit
+def command_heading(hdg, action, d_heading, ap_trk, swlnav):
+    """:func:`heading_targets` given as the native core's HDG command to slot 0, written into its autopilot state.
+
+    What :meth:`~bluesky_gym.core.Simulator.cmd_heading` does in an airspace without wind: the
+    track selected is the heading, LNAV is switched off. The device step launches it on the
+    simulator's device state.
+    """
+    for e in grid_range(ap_trk.shape[0]):
+        ap_trk[e, 0] = _heading_target(hdg[e, 0], action[e, 0], d_heading)
+        swlnav[e, 0] = False
+
+
+@jit
+def waypoint_measure(envs, lat, lon, hdg, wpt_lat, wpt_lon, wpt_reached, margin_km, dist_out, drift_out, before_out, new_out, goal_out):
+    """The waypoint geometry of episodes ``envs`` (rows): :class:`PlanWaypointMeasurement`'s arrays.
+
+    Args:
+        envs: (p,) the episode of each row.
+        lat: (n, m) latitudes [deg] (the aircraft: slot 0).
+        lon: (n, m) longitudes [deg].
+        hdg: (n, m) headings [deg].
+        wpt_lat: (n, w) waypoint latitudes [deg].
+        wpt_lon: (n, w) waypoint longitudes [deg].
+        wpt_reached: (n, w) the waypoints reached in earlier steps.
+        margin_km: Capture radius [km].
+        dist_out: (p, w) kwik distance to each waypoint [km].
+        drift_out: (p, w) wrap180(hdg - kwik bearing) [deg].
+        before_out: (p, w) reached in an earlier step.
+        new_out: (p, w) within the capture radius for the first time.
+        goal_out: (p,) every waypoint reached, this step's included.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        goal = True
+        for i in range(wpt_lat.shape[1]):
+            qdr, dist = _kwikqdrdist(lat[e, 0], lon[e, 0], wpt_lat[e, i], wpt_lon[e, i])
+            d = dist * NM2KM
+            before = wpt_reached[e, i]
+            new = d < margin_km and not before
+            dist_out[r, i] = d
+            drift_out[r, i] = _wrap180(hdg[e, 0] - qdr)
+            before_out[r, i] = before
+            new_out[r, i] = new
+            if not (before or new):
+                goal = False
+        goal_out[r] = goal
+
+
+@jit
+def waypoint_observation(dist_km, drift, before, new, same_step, distance_scale, distance_out, cos_out, sin_out, reached_out):
+    """The observation of :func:`waypoint_measure`'s rows: masked distance and drift per waypoint, and the reach flags.
+
+    A waypoint shows as reached when it was reached in an earlier step, or with ``same_step``
+    (``-v1``) also in this one. The reference masks with the integer (1 - reached), so a masked
+    entry is 0.0 times the value: -0.0 where the value is negative (docs/environments-v0.md §4).
+    Distances are divided by ``distance_scale`` [km].
+    """
+    for r in grid_range(dist_km.shape[0]):
+        for i in range(dist_km.shape[1]):
+            reached = before[r, i] or (same_step and new[r, i])
+            m = 0.0 if reached else 1.0
+            rad = drift[r, i] * _RAD
+            distance_out[r, i] = m * dist_km[r, i] / distance_scale
+            cos_out[r, i] = m * math.cos(rad)
+            sin_out[r, i] = m * math.sin(rad)
+            reached_out[r, i] = 1.0 if reached else 0.0
+
+
+@jit
+def waypoint_reward(envs, new, reach_reward, wpt_reached, reward_out, reach_out):
+    """``reach_reward`` per waypoint newly reached by row ``r`` (episode ``envs[r]``), flagged as reached in ``wpt_reached`` (n, w)."""
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        count = 0
+        for i in range(new.shape[1]):
+            if new[r, i]:
+                count += 1
+                wpt_reached[e, i] = True
+        reach = count * reach_reward
+        reward_out[r] = reach
+        reach_out[r] = reach
+
+
+@jit
+def count_reached(wpt_reached, out):
+    """(n,) the waypoints each episode has reached (``wpt_reached`` (n, w))."""
+    for e in grid_range(out.shape[0]):
+        count = 0
+        for i in range(wpt_reached.shape[1]):
+            if wpt_reached[e, i]:
+                count += 1
+        out[e] = count
+
+
+@jit
+def extra_track(distflown, tour_km, out):
+    """(n,) the aircraft's (slot 0) distance flown (``distflown`` [m]) minus the episode's shortest tour ``tour_km`` [km], in km."""
+    for e in grid_range(out.shape[0]):
+        out[e] = distflown[e, 0] / KM - tour_km[e]
