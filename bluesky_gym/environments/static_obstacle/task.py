@@ -366,7 +366,10 @@ class StaticObstacleTask(Task):
         return out
 
     def measure(self, envs: NDArray[np.int64] | None = None) -> StaticObstacleMeasurement:
-        """Waypoint and obstacle geometry now, the obstacles around the aircraft, the stale waypoint terms, of episodes ``envs`` (:func:`obstacle_measure`)."""
+        """Waypoint and obstacle geometry now, the obstacles around the aircraft, the stale waypoint terms, of episodes ``envs``.
+
+        The kernel :func:`obstacle_measure`; all episodes when ``envs`` is None.
+        """
         ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
         s, c = self.sim, self.config
         rows, k = ids.size, c.num_obstacles
@@ -589,19 +592,19 @@ class SubstepEnd:
 
 # --- kernels: the task's rules, compiled for the CPU and for CUDA (the device step launches them) ---
 @jit_inline
-def _newly_within(distance_km, reached, margin_km):  # type: ignore[no-untyped-def]
+def _newly_within(distance_km, reached, margin_km):
     """A waypoint not reached before and within the capture radius at ``distance_km`` [km]."""
     return distance_km < margin_km and not reached
 
 
 @jit_inline
-def _abs_rad(deg):  # type: ignore[no-untyped-def]
+def _abs_rad(deg):
     """|angle| [rad] of an angle [deg] (numpy's ``abs(deg2rad(deg))``): the drift the reward charges."""
     return abs(deg * _RAD)
 
 
 @jit_inline
-def _inside_any(lat, lon, poly_lat, poly_lon, n_vertices):  # type: ignore[no-untyped-def]
+def _inside_any(lat, lon, poly_lat, poly_lon, n_vertices):
     """Whether any of an episode's polygons ``poly_*`` (K, V) contains the point (lat, lon)."""
     for k in range(n_vertices.shape[0]):
         if _polygon_contains(lat, lon, poly_lat[k], poly_lon[k], n_vertices[k]):
@@ -610,7 +613,7 @@ def _inside_any(lat, lon, poly_lat, poly_lon, n_vertices):  # type: ignore[no-un
 
 
 @jit
-def obstacle_measure(  # type: ignore[no-untyped-def]
+def obstacle_measure(
     envs,
     lat,
     lon,
@@ -684,7 +687,7 @@ def obstacle_measure(  # type: ignore[no-untyped-def]
 
 
 @jit
-def obstacle_reward(  # type: ignore[no-untyped-def]
+def obstacle_reward(
     envs,
     newly_reached,
     count,
@@ -735,7 +738,7 @@ def obstacle_reward(  # type: ignore[no-untyped-def]
 
 
 @jit
-def obstacle_substep_end(lat_track, lon_track, first, poly_lat, poly_lon, n_vertices, stale_goal, last_wpt_km, wpt_reached, margin_km, ended_at):  # type: ignore[no-untyped-def]
+def obstacle_substep_end(lat_track, lon_track, first, poly_lat, poly_lon, n_vertices, stale_goal, last_wpt_km, wpt_reached, margin_km, ended_at):
     """The sub-step at which each episode ends, for the episodes that have not (``ended_at[e] == 0``).
 
     ``lat_track``/``lon_track`` (k, n_envs, m): the positions after sub-steps ``first`` ..
@@ -754,7 +757,7 @@ def obstacle_substep_end(lat_track, lon_track, first, poly_lat, poly_lon, n_vert
 
 
 @jit
-def obstacle_drift_samples(last_drift, ended_at, substeps, drift_sum_rad, drift_count):  # type: ignore[no-untyped-def]
+def obstacle_drift_samples(last_drift, ended_at, substeps, drift_sum_rad, drift_count):
     """``-v0``: one sample of the last observation's |drift| [rad] per evaluated sub-step (``ended_at[e]``, or all ``substeps``)."""
     for e in grid_range(drift_sum_rad.shape[0]):
         times = ended_at[e] if ended_at[e] > 0 else substeps
@@ -765,14 +768,14 @@ def obstacle_drift_samples(last_drift, ended_at, substeps, drift_sum_rad, drift_
 
 
 @jit
-def obstacle_extra_track(distflown, start_wpt_km, out):  # type: ignore[no-untyped-def]
+def obstacle_extra_track(distflown, start_wpt_km, out):
     """The ownship's (slot 0) distance flown [m] in km minus the start-to-waypoint kwik distance [km], per episode."""
     for e in grid_range(out.shape[0]):
         out[e] = distflown[e, 0] / KM - start_wpt_km[e]
 
 
 @jit
-def hold_ended(ended_at, substep, state, held):  # type: ignore[no-untyped-def]
+def hold_ended(ended_at, substep, state, held):
     """The device step's sub-steps: keep the state (fields, n_envs, m) of the episodes that ended at ``substep`` in ``held``."""
     for e in grid_range(ended_at.shape[0]):
         if ended_at[e] == substep:
@@ -782,7 +785,7 @@ def hold_ended(ended_at, substep, state, held):  # type: ignore[no-untyped-def]
 
 
 @jit
-def restore_ended(ended_at, substeps, state, held):  # type: ignore[no-untyped-def]
+def restore_ended(ended_at, substeps, state, held):
     """The device step's sub-steps: give the episodes that ended before the last of ``substeps`` their state :func:`hold_ended` kept."""
     for e in grid_range(ended_at.shape[0]):
         if 0 < ended_at[e] < substeps:
