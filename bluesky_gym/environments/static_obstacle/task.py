@@ -604,12 +604,23 @@ def _abs_rad(deg):
 
 
 @jit_inline
-def _inside_any(lat, lon, poly_lat, poly_lon, n_vertices):
-    """Whether any of an episode's polygons ``poly_*`` (K, V) contains the point (lat, lon)."""
-    for k in range(n_vertices.shape[0]):
-        if _polygon_contains(lat, lon, poly_lat[k], poly_lon[k], n_vertices[k]):
-            return True
-    return False
+def _first_inside(lat_track, lon_track, e, poly_lat, poly_lon, nv, limit):
+    """The first of the track's first ``limit`` positions of episode ``e``'s ownship inside a polygon (1-based), or 0.
+
+    A point outside the polygon's latitude range crosses no edge, so the even-odd test says
+    "outside" for it: only the others are tested.
+    """
+    if nv == 0:
+        return 0
+    lo = hi = poly_lat[0]
+    for v in range(1, nv):
+        lo = min(lo, poly_lat[v])
+        hi = max(hi, poly_lat[v])
+    for k in range(limit):
+        y = lat_track[k, e, 0]
+        if lo <= y < hi and _polygon_contains(y, lon_track[k, e, 0], poly_lat, poly_lon, nv):
+            return k + 1
+    return 0
 
 
 @jit
@@ -749,11 +760,16 @@ def obstacle_substep_end(lat_track, lon_track, first, poly_lat, poly_lon, n_vert
     for e in grid_range(ended_at.shape[0]):
         if ended_at[e] > 0:
             continue
-        anyway = stale_goal and (wpt_reached[e] or _newly_within(last_wpt_km[e], wpt_reached[e], margin_km))
-        for k in range(lat_track.shape[0]):
-            if anyway or _inside_any(lat_track[k, e, 0], lon_track[k, e, 0], poly_lat[e], poly_lon[e], n_vertices[e]):
-                ended_at[e] = first + k
-                break
+        if stale_goal and (wpt_reached[e] or _newly_within(last_wpt_km[e], wpt_reached[e], margin_km)):
+            ended_at[e] = first
+            continue
+        best = lat_track.shape[0] + 1  # the earliest position inside an obstacle so far (1-based; beyond the track: none)
+        for j in range(n_vertices.shape[1]):
+            hit = _first_inside(lat_track, lon_track, e, poly_lat[e, j], poly_lon[e, j], n_vertices[e, j], best - 1)
+            if hit > 0:
+                best = hit
+        if best <= lat_track.shape[0]:
+            ended_at[e] = first + best - 1
 
 
 @jit
