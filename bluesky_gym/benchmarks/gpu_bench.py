@@ -174,13 +174,16 @@ def _exercise_device_only() -> None:
 
     The device steps' commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`,
     :func:`bluesky_gym.environments.descent.task.command_vertical_speed`,
-    :func:`bluesky_gym.environments.plan_waypoint.task.command_heading`) and
-    :meth:`bluesky_gym.core.DeviceSimulator.reset_on_host`'s scatters of each state dtype.
+    :func:`bluesky_gym.environments.plan_waypoint.task.command_heading`),
+    :meth:`bluesky_gym.core.DeviceSimulator.reset_on_host`'s scatters of each state dtype, and
+    StaticObstacle's device step holding the state of the episodes stopped within a decision step
+    (:func:`~bluesky_gym.environments.static_obstacle.task.hold_ended`, :func:`~bluesky_gym.environments.static_obstacle.task.restore_ended`).
     """
     from bluesky_gym.core import Simulator
     from bluesky_gym.core.state import scatter_columns, scatter_rows
     from bluesky_gym.environments.descent import task as descent
     from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
+    from bluesky_gym.environments.static_obstacle.task import hold_ended, restore_ended
     from bluesky_gym.tasks import compiled
 
     sim = Simulator(2, 3, dt=1.0)
@@ -197,6 +200,10 @@ def _exercise_device_only() -> None:
     for flat_array in (np.ascontiguousarray(sim._float_flat), sim.phase.reshape(1, flat), sim.active.reshape(1, flat), sim.iactwp.reshape(1, flat)):
         scatter_columns(rows, np.ascontiguousarray(flat_array[:, rows]), flat_array.copy())
     scatter_rows(rows, np.ascontiguousarray(sim._memo[rows]), sim._memo.copy())
+    state = np.ascontiguousarray(sim._float_block)  # (fields, n_envs, max_aircraft), as DeviceSimulator.device_state
+    ended_at, held = np.array([1, 0]), np.empty_like(state)
+    hold_ended(ended_at, 1, state, held)
+    restore_ended(ended_at, 10, state, held)
 
 
 @dataclass(frozen=True)

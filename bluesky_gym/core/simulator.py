@@ -1058,6 +1058,15 @@ class DeviceSimulator(Simulator):
                 raise KeyError(f"device_arrays: {name!r} is not a float state field, 'active' or one of {DEVICE_SWITCHES}")
         return tuple(out)
 
+    def device_state(self) -> Any:
+        """The device's float state block (fields, n_envs, max_aircraft): every float field of every aircraft (:data:`FLOAT_FIELDS`' order).
+
+        For kernels that keep and give back the state of whole airspaces (a task's device step
+        that stops some airspaces within a decision step); current, and writable, as
+        :meth:`device_arrays`' views.
+        """
+        return self._to_device()["F"].reshape(len(FLOAT_FIELDS), self.n_envs, self.max_aircraft)
+
     def reset_on_host(self, envs: NDArray[np.int64], reset: Callable[[], None]) -> None:
         """Run ``reset`` (new scenarios of airspaces ``envs``) on the host, moving only those airspaces' aircraft.
 

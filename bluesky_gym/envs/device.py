@@ -18,7 +18,7 @@ How the batches travel (:class:`TensorIO`):
   commands, which the task gives on the host.
 
 Where the task's whole step runs on the device (:class:`DeviceStep`, a subclass per task in its
-folder's ``device_step.py``: SectorCR, Merge), neither copy happens: the actions stay on the device, the kernels write into tensors
+folder's ``device_step.py``: SectorCR, Merge, StaticObstacle), neither copy happens: the actions stay on the device, the kernels write into tensors
 (:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
 
 Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the device arrays are numpy arrays in
@@ -148,7 +148,7 @@ class DeviceStep:
 
     A task's subclass (its folder's ``device_step.py``, named by its registry row) supplies the
     stages that differ: :meth:`measure`, :meth:`observe`, :meth:`reward`, :meth:`episode_info`,
-    and where they apply :meth:`command`, :meth:`cut` and :meth:`extra_track_km`. Every output
+    and where they apply :meth:`command`, :meth:`advance`, :meth:`cut` and :meth:`extra_track_km`. Every output
     is a torch tensor on the device, the info entries included.
 
     Args:
@@ -256,6 +256,10 @@ class DeviceStep:
     def episode_info(self) -> dict[str, Any]:
         """The task's info entries (:meth:`~bluesky_gym.tasks.base.Task.episode_info`), tensors on the device."""
         return {"total_reward": self.stats["total_reward"].clone()}
+
+    def advance(self) -> None:
+        """The physics sub-steps of a decision step: the task's :meth:`~bluesky_gym.tasks.base.Task.advance` by default."""
+        self.task.advance()
 
     def extra_track_km(self) -> Any:
         """(n_envs,) a task with a goal: the distance flown beyond the nominal route [km] (:meth:`~bluesky_gym.tasks.base.Task.extra_track_km`)."""
@@ -428,7 +432,7 @@ class DeviceStep:
         """
         t, n = self.task, self.n
         self.command(self.actions(actions))
-        t.advance()
+        self.advance()
         g = self.measure(self.envs, self.own)
         obs = self.observation(g)
         reward, terminated, components = self.reward(g)

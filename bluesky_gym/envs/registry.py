@@ -297,6 +297,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.static_obstacle.env:StaticObstacleEnv",
         vector_env="bluesky_gym.environments.static_obstacle.env:StaticObstacleVectorEnv",
         scene="bluesky_gym.environments.static_obstacle.scene:static_obstacle_scene",
+        device_step="bluesky_gym.environments.static_obstacle.device_step:StaticObstacleDeviceStep",
         classical="bluesky_gym.environments.static_obstacle.controller:StaticObstacleController",
         kpis=(
             ("return", "episode return"),

@@ -175,32 +175,6 @@ def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out
         out[p] = _polygon_contains(lat[p], lon[p], poly_lat[e], poly_lon[e], n_vertices[e])
 
 
-@jit
-def ownship_polygon_counts(track, poly_lat, poly_lon, n_vertices, out):  # type: ignore[no-untyped-def]
-    """How many of its polygons contain each episode's ownship at each step of a track.
-
-    ``track`` is :meth:`bluesky_gym.core.Simulator.run`'s (steps, 2, n, m) positions, ``poly_*``
-    (n, K, V), ``n_vertices`` (n, K) and ``out`` (steps, n).
-    """
-    for e in grid_range(poly_lat.shape[0]):
-        for k in range(track.shape[0]):
-            out[k, e] = 0
-        for j in range(poly_lat.shape[1]):
-            nv = n_vertices[e, j]
-            if nv == 0:
-                continue
-            # A point outside the polygon's latitude range crosses no edge: the even-odd test
-            # would say "outside" for it, so only the others are tested.
-            lo = hi = poly_lat[e, j, 0]
-            for v in range(1, nv):
-                lo = min(lo, poly_lat[e, j, v])
-                hi = max(hi, poly_lat[e, j, v])
-            for k in range(track.shape[0]):
-                y = track[k, 0, e, 0]
-                if lo <= y < hi and _polygon_contains(y, track[k, 1, e, 0], poly_lat[e, j], poly_lon[e, j], nv):
-                    out[k, e] += 1
-
-
 @jit_inline
 def _other_slots(active, e, o, slots, act):  # type: ignore[no-untyped-def]
     """The slots other than the ownship ``o`` of episode ``e`` in slot order into ``slots`` (m - 1), their activity into ``act``."""
@@ -713,15 +687,6 @@ def kwikqdrdist(lata: Array, lona: Array, latb: Array, lonb: Array, qdr_out: Arr
     for i in grid_range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
             qdr_out[i, j], dist_out[i, j] = _kwikqdrdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
-
-
-@jit
-def add_samples(total: Array, count: IntArray, value: Array, times: IntArray) -> None:
-    """Add ``value[e]`` to ``total[e]`` ``times[e]`` times, one addition after the other, and ``times[e]`` to ``count[e]``."""
-    for e in grid_range(total.shape[0]):
-        for _ in range(times[e]):
-            total[e] += value[e]
-        count[e] += times[e]
 
 
 @jit_inline

@@ -223,25 +223,6 @@ def test_ownship_in_polygons_matches_the_numpy_even_odd_test() -> None:
     np.testing.assert_array_equal(slots, out[:, 0])
 
 
-def test_polygon_counts_along_a_track_match_the_numpy_test() -> None:
-    """The latitude-range shortcut of ownship_polygon_counts gives the full even-odd test's counts."""
-    rng = np.random.default_rng(4)
-    steps, n, k, v = 7, 120, 5, 8
-    poly_lat = 52.0 + rng.uniform(-0.3, 0.3, (n, k, v))
-    poly_lon = 4.0 + rng.uniform(-0.3, 0.3, (n, k, v))
-    nv = rng.integers(0, v + 1, (n, k))
-    track = np.empty((steps, 2, n, 1))
-    track[:, 0] = 52.0 + rng.uniform(-0.4, 0.4, (steps, n, 1))
-    track[:, 1] = 4.0 + rng.uniform(-0.4, 0.4, (steps, n, 1))
-    track[0, 0, :, 0] = poly_lat[:, 0, 0]  # on a vertex's latitude: the range bounds themselves
-    counts = np.empty((steps, n), np.int64)
-    compiled.ownship_polygon_counts(track, poly_lat, poly_lon, nv, counts)
-    for s in range(steps):
-        inside = points_in_polygons(track[s, 0], track[s, 1], poly_lat, poly_lon, nv)[:, 0, :]
-        np.testing.assert_array_equal(counts[s], inside.sum(axis=1), err_msg=f"step {s}")
-    assert counts.any() and (counts == 0).any()
-
-
 def test_kwik_functions_equal_the_numpy_oracle_for_scalars_and_broadcast_arrays() -> None:
     from bluesky_gym.tasks import geometry
     from tests.oracle import geometry as oracle_geometry

@@ -11,7 +11,8 @@ import pytest
 from matplotlib.path import Path
 
 import bluesky_gym
-from bluesky_gym.environments.static_obstacle.task import StaticObstacleConfig, StaticObstacleTask, sample_waypoint
+from bluesky_gym.environments.static_obstacle.task import StaticObstacleConfig, StaticObstacleTask, obstacle_substep_end, sample_waypoint
+from tests.oracle.geometry import points_in_polygons
 from tests.oracle.static_obstacle import reference_substeps
 
 from .conftest import great_circle, kwik, seeded_task
@@ -428,3 +429,30 @@ def test_batched_substeps_equal_the_reference_loop_of_each_episode() -> None:
         done = np.flatnonzero(res.terminated | res.truncated)
         batch.reset(done)
     assert ends > 10 and len(ended_at) >= 5  # episodes ended after many different sub-step counts
+
+
+@pytest.mark.parametrize("stale_goal", [False, True])
+def test_substep_end_is_the_first_substep_inside_an_obstacle(stale_goal: bool) -> None:
+    """obstacle_substep_end against the numpy even-odd test, sub-step by sub-step; -v0 ends the stale goals at once."""
+    rng = np.random.default_rng(4)
+    steps, n, k, v = 7, 120, 5, 8
+    poly_lat = 52.0 + rng.uniform(-0.3, 0.3, (n, k, v))
+    poly_lon = 4.0 + rng.uniform(-0.3, 0.3, (n, k, v))
+    nv = rng.integers(0, v + 1, (n, k))
+    track = np.empty((steps, 2, n, 1))
+    track[:, 0] = 52.0 + rng.uniform(-0.4, 0.4, (steps, n, 1))
+    track[:, 1] = 4.0 + rng.uniform(-0.4, 0.4, (steps, n, 1))
+    track[0, 0, :, 0] = poly_lat[:, 0, 0]  # on a vertex's latitude
+    last_wpt_km = rng.uniform(0.0, 10.0, n)
+    wpt_reached = rng.uniform(size=n) < 0.1
+    ended_at = np.zeros(n, np.int64)
+    ended_at[:3] = [2, 5, 7]  # ended earlier: left as they are
+    given = ended_at.copy()
+    obstacle_substep_end(track[:, 0], track[:, 1], 1, poly_lat, poly_lon, nv, stale_goal, last_wpt_km, wpt_reached, 5.0, ended_at)
+    inside = np.stack([points_in_polygons(track[s, 0], track[s, 1], poly_lat, poly_lon, nv)[:, 0, :].any(axis=1) for s in range(steps)])
+    expected = np.where(inside.any(axis=0), inside.argmax(axis=0) + 1, 0)
+    if stale_goal:
+        expected[wpt_reached | (last_wpt_km < 5.0)] = 1
+    expected[:3] = given[:3]
+    np.testing.assert_array_equal(ended_at, expected)
+    assert (expected[3:] == 0).any() and (expected[3:] > 1).any() and (expected[3:] == 1).any()

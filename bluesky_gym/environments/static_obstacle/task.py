@@ -10,16 +10,27 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
-from bluesky_gym.core.units import FL, KTS, MPS2KT, NM2KM
+from bluesky_gym.core.jit import grid_range, jit, jit_inline
+from bluesky_gym.core.units import FL, KM, KTS, NM2KM
 from bluesky_gym.tasks import compiled
-from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
+from bluesky_gym.tasks.base import (
+    Array,
+    BoolArray,
+    BoxSpec,
+    StepGeometry,
+    Task,
+    TaskConfig,
+    check_int,
+    check_range,
+    command_heading_and_speed,
+)
+from bluesky_gym.tasks.compiled import _RAD, _kwikqdrdist, _polygon_contains, _wrap180
 from bluesky_gym.tasks.geometry import (
     nm_to_latlon,
     point_at_distance,
     polygon_area,
     random_convex_polygon,
     ref_kwikqdrdist,
-    wrap180,
 )
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
@@ -31,6 +42,7 @@ D_SPEED = 20 / 3  # "kts" in the reference, but added to CAS in m/s (kept, docs/
 REACH_REWARD = 1.0
 DRIFT_PENALTY = -0.01  # per rad of |drift|
 RESTRICTED_AREA_INTRUSION_PENALTY = -5.0  # per obstacle containing the aircraft
+AVERAGE_DRIFT_EMPTY = 0.0  # rad: the average_drift info before the first sample (the reference's mean of nothing is NaN)
 RADIUS_SCALE_NM = 50.0  # the reference divides the radius [NM] by OBSTACLE_AREA_RANGE[0] = 50
 MAX_WAYPOINT_TRIES = 1000  # waypoint rejection sampling gives up after this many tries
 BEARING_END = 360  # deg, exclusive upper bound of the integer bearing draws: [0, 359]
@@ -47,18 +59,34 @@ DISTANCE_BOUND = 3.0
 
 @dataclass(frozen=True)
 class StaticObstacleMeasurement(StepGeometry):
-    """One step's quantities of the static-obstacle task, for the rows (episodes) ``envs``.
+    """One step's quantities of the static-obstacle task, for the rows (episodes) ``envs`` (:func:`obstacle_measure`).
 
     No traffic; ``drift_deg``: drift wrap180(hdg - qdr) to the waypoint now [deg];
-    ``goal_reached``: the waypoint has been reached, this step included.
+    ``goal_reached``: the waypoint has been reached, this step included. The arrays are numpy
+    arrays on the CPU, torch tensors in the device step
+    (:mod:`~bluesky_gym.environments.static_obstacle.device_step`).
     """
 
     wpt_km: Array  # (rows,) kwik distance to the waypoint now
-    centre_km: Array  # (rows, num_obstacles) kwik distance to each obstacle centre
-    centre_bearing: Array  # (rows, num_obstacles) deg, wrap180(hdg - qdr) to each centre
     obstacle_count: NDArray[np.int64]  # (rows,) obstacles containing the aircraft now
     newly_reached: BoolArray  # (rows,) reached in this step, by the last observation's distance (-v1: the distance now)
     stale_drift_rad: Array  # (rows,) |drift| [rad] the reward charges: the last observation's (-v1: now)
+    waypoint_obs: Array  # (rows, 3) the waypoint's observation entries: distance / scale, cos(drift), sin(drift)
+    obstacle_obs: Array  # (4, rows, num_obstacles) the obstacles' entries: radius / 50 NM, centre distance / scale, cos and sin of the bearing
+
+
+def observation(g: StaticObstacleMeasurement) -> dict[str, Array]:
+    """The observation entries of the rows ``g.envs``: views of the measured arrays (numpy arrays or torch tensors alike)."""
+    w, o = g.waypoint_obs, g.obstacle_obs
+    return {
+        "destination_waypoint_distance": w[:, 0:1],
+        "destination_waypoint_cos_drift": w[:, 1:2],
+        "destination_waypoint_sin_drift": w[:, 2:3],
+        "restricted_area_radius": o[0],
+        "restricted_area_distance": o[1],
+        "cos_difference_restricted_area_pos": o[2],
+        "sin_difference_restricted_area_pos": o[3],
+    }
 
 
 @dataclass(frozen=True)
@@ -297,13 +325,12 @@ class StaticObstacleTask(Task):
 
     # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """Heading wrap180(hdg + 45 a0) and speed (CAS + 20/3 a1) * 1.94384 kts."""
-        hdg = wrap180(self.sim.hdg[:, 0] + action[:, 0] * D_HEADING)
-        d_speed = D_SPEED * KTS if self.config.speed_step_in_knots else D_SPEED  # m/s per unit action
-        spd_kts = (self.sim.cas[:, 0] + action[:, 1] * d_speed) * MPS2KT
-        # "HDG KL001 <hdg>" then "SPD KL001 <kts>": BlueSky converts the speed with kts.
-        self.sim.cmd_heading(self.all_envs, 0, hdg)
-        self.sim.cmd_speed(self.all_envs, 0, spd_kts * KTS)
+        """Heading wrap180(hdg + 45 a0) and speed (CAS + 20/3 a1) * 1.94384 kts.
+
+        "HDG KL001 <hdg>" then "SPD KL001 <kts>": BlueSky converts the speed with kts
+        (:func:`~bluesky_gym.tasks.base.command_heading_and_speed`).
+        """
+        command_heading_and_speed(self.sim, self.all_envs, self.ownship, action, D_HEADING, speed_change(self.config))
 
     # --- sub-steps ------------------------------------------------------------------------------
     def advance(self) -> None:
@@ -313,25 +340,21 @@ class StaticObstacleTask(Task):
         episode ends, with the state of that sub-step. Its waypoint terms use the stale values of
         the last observation, so a waypoint is reached (and the episode ends) at the first sub-step
         or not at all; only the obstacle test needs the positions after each sub-step, which
-        :class:`SubstepEnd` gets from the physics' traced run. Every evaluated sub-step adds one
-        |drift| sample to ``average_drift``.
+        :class:`SubstepEnd` gets from the physics' traced run (the kernel
+        :func:`obstacle_substep_end`). Every evaluated sub-step adds one |drift| sample to
+        ``average_drift`` (:func:`obstacle_drift_samples`).
         """
-        if self.config.step_reward:  # -v1: only an obstacle entered stops the sub-steps; the reward samples the state after them
-            self.sim.run(self.action_frequency, stop=SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, np.zeros(self.n_envs, bool)))
-            return
-        reached = self.reached_by_last_observation()
-        end = SubstepEnd(self.obstacle_lat, self.obstacle_lon, self.obstacle_nv, self.wpt_reached | reached)
+        end = SubstepEnd(self)
         self.sim.run(self.action_frequency, stop=end)
-        evaluated = np.where(end.ended_at > 0, end.ended_at, self.action_frequency)  # sub-steps per episode
-        compiled.add_samples(self.drift_sum_rad, self.drift_count, np.abs(np.deg2rad(self.last_drift)), evaluated)
+        if not self.config.step_reward:  # -v1 samples the drift once per decision step (reward)
+            obstacle_drift_samples(self.last_drift, end.ended_at, self.action_frequency, self.drift_sum_rad, self.drift_count)
 
     # --- measure --------------------------------------------------------------------------------
-    def waypoint_geometry(self, envs: NDArray[np.int64] | slice | None = None) -> tuple[Array, Array]:
+    def waypoint_geometry(self, envs: NDArray[np.int64] | None = None) -> tuple[Array, Array]:
         """Live kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg] of episodes ``envs`` (all when None)."""
-        rows = slice(None) if envs is None else envs
-        s = self.sim
-        qdr, dist = ref_kwikqdrdist(s.lat[rows, 0], s.lon[rows, 0], self.wpt_lat[rows], self.wpt_lon[rows])
-        return dist * NM2KM, wrap180(s.hdg[rows, 0] - qdr)
+        g = self.measure(envs)
+        assert g.drift_deg is not None
+        return g.wpt_km, g.drift_deg
 
     def inside_obstacles(self, envs: NDArray[np.int64] | slice | None = None) -> NDArray[np.bool_]:
         """(rows, num_obstacles) whether each obstacle polygon of episodes ``envs`` (all when None) contains the aircraft now."""
@@ -342,37 +365,58 @@ class StaticObstacleTask(Task):
         compiled.ownship_in_polygons(s.lat[rows], s.lon[rows], self.obstacle_lat[rows], self.obstacle_lon[rows], nv, out)
         return out
 
-    def reached_by_last_observation(self, envs: NDArray[np.int64] | slice | None = None) -> BoolArray:
-        """Waypoints not reached before but within the capture radius in the last observation, of episodes ``envs``."""
-        rows = slice(None) if envs is None else envs
-        return (self.last_wpt_km[rows] < self.config.distance_margin_km) & ~self.wpt_reached[rows]
-
     def measure(self, envs: NDArray[np.int64] | None = None) -> StaticObstacleMeasurement:
-        """Waypoint and obstacle-centre geometry now, the obstacles around the aircraft, the stale waypoint terms, of episodes ``envs``."""
+        """Waypoint and obstacle geometry now, the obstacles around the aircraft, the stale waypoint terms, of episodes ``envs``.
+
+        The kernel :func:`obstacle_measure`; all episodes when ``envs`` is None.
+        """
         ids = self.all_envs if envs is None else np.asarray(envs, dtype=np.int64)
-        rows: NDArray[np.int64] | slice = slice(None) if envs is None else ids  # a slice: views, no copies
-        s = self.sim
-        dist_km, drift = self.waypoint_geometry(rows)
-        qdr_c, dist_c = ref_kwikqdrdist(s.lat[rows, :1], s.lon[rows, :1], self.obstacle_centre_lat[rows], self.obstacle_centre_lon[rows])
-        if self.config.step_reward:  # -v1: the distance and drift now
-            reached = (dist_km < self.config.distance_margin_km) & ~self.wpt_reached[rows]
-            stale_drift_rad = np.abs(np.deg2rad(drift))
-        else:
-            reached = self.reached_by_last_observation(rows)
-            stale_drift_rad = np.abs(np.deg2rad(self.last_drift[rows]))
-        shape = (ids.size, s.max_aircraft)
+        s, c = self.sim, self.config
+        rows, k = ids.size, c.num_obstacles
+        wpt_km, drift, stale = np.empty(rows), np.empty(rows), np.empty(rows)
+        count, reached, goal = np.empty(rows, np.int64), np.empty(rows, bool), np.empty(rows, bool)
+        waypoint_obs, obstacle_obs = np.empty((rows, 3)), np.empty((4, rows, k))
+        obstacle_measure(
+            ids,
+            s.lat,
+            s.lon,
+            s.hdg,
+            self.wpt_lat,
+            self.wpt_lon,
+            self.obstacle_centre_lat,
+            self.obstacle_centre_lon,
+            self.obstacle_radius,
+            self.obstacle_lat,
+            self.obstacle_lon,
+            self.obstacle_nv,
+            self.last_wpt_km,
+            self.last_drift,
+            self.wpt_reached,
+            float(c.distance_margin_km),
+            bool(c.step_reward),
+            float(c.waypoint_distance_max),
+            wpt_km,
+            drift,
+            count,
+            reached,
+            stale,
+            goal,
+            waypoint_obs,
+            obstacle_obs,
+        )
+        shape = (rows, s.max_aircraft)
         return StaticObstacleMeasurement(
             envs=ids,
             separation_nm=np.full(shape, np.inf),
             los=np.zeros(shape, bool),
             drift_deg=drift,
-            goal_reached=self.wpt_reached[rows] | reached,
-            wpt_km=dist_km,
-            centre_km=dist_c * NM2KM,
-            centre_bearing=wrap180(s.hdg[rows, :1] - qdr_c),
-            obstacle_count=self.inside_obstacles(rows).sum(axis=1),
+            goal_reached=goal,
+            wpt_km=wpt_km,
+            obstacle_count=count,
             newly_reached=reached,
-            stale_drift_rad=stale_drift_rad,
+            stale_drift_rad=stale,
+            waypoint_obs=waypoint_obs,
+            obstacle_obs=obstacle_obs,
         )
 
     # --- observation ----------------------------------------------------------------------------
@@ -380,19 +424,7 @@ class StaticObstacleTask(Task):
         """Waypoint distance and drift, then the obstacle radii and the distances and bearings of their centres, of the rows ``g.envs``."""
         g = self.measure() if g is None else g
         assert isinstance(g, StaticObstacleMeasurement)
-        scale = self.config.waypoint_distance_max
-        assert g.drift_deg is not None
-        rad = np.deg2rad(g.drift_deg)
-        bearing = np.deg2rad(g.centre_bearing)
-        return {
-            "destination_waypoint_distance": (g.wpt_km / scale)[:, None],
-            "destination_waypoint_cos_drift": np.cos(rad)[:, None],
-            "destination_waypoint_sin_drift": np.sin(rad)[:, None],
-            "restricted_area_radius": self.obstacle_radius[g.envs] / RADIUS_SCALE_NM,
-            "restricted_area_distance": g.centre_km / scale,
-            "cos_difference_restricted_area_pos": np.cos(bearing),
-            "sin_difference_restricted_area_pos": np.sin(bearing),
-        }
+        return observation(g)
 
     # --- reward and termination -----------------------------------------------------------------
     def reward(self, g: StepGeometry) -> tuple[Array, BoolArray, dict[str, Array]]:
@@ -400,21 +432,34 @@ class StaticObstacleTask(Task):
 
         +1 for reaching the waypoint and -0.01 per rad of |drift| (both from the stale values of the
         last observation), -5 per obstacle containing the aircraft. Records the flags and
-        counters, and this step's observation values for the next step.
+        counters, and this step's observation values for the next step (:func:`obstacle_reward`).
         """
         assert isinstance(g, StaticObstacleMeasurement)
-        self.wpt_reached |= g.newly_reached
-        self.crashed |= g.obstacle_count > 0
-        self.intrusions += g.obstacle_count
-        self.remember(g)
-        if self.config.step_reward:  # -v1: one |drift| sample per decision step
-            self.drift_sum_rad += g.stale_drift_rad
-            self.drift_count += 1
-        reach = np.where(g.newly_reached, REACH_REWARD, 0.0)
-        drift = g.stale_drift_rad * DRIFT_PENALTY
-        intrusion = g.obstacle_count * RESTRICTED_AREA_INTRUSION_PENALTY
-        reward = reach + drift + intrusion
-        return reward, g.goal_reached | (g.obstacle_count > 0), {"reach": reach, "drift": drift, "intrusion": intrusion}
+        n = self.n_envs
+        reward, reach, drift, intrusion, terminated = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, bool)
+        obstacle_reward(
+            g.envs,
+            g.newly_reached,
+            g.obstacle_count,
+            g.stale_drift_rad,
+            g.goal_reached,
+            g.wpt_km,
+            g.drift_deg,
+            bool(self.config.step_reward),
+            self.wpt_reached,
+            self.crashed,
+            self.intrusions,
+            self.last_wpt_km,
+            self.last_drift,
+            self.drift_sum_rad,
+            self.drift_count,
+            reward,
+            reach,
+            drift,
+            intrusion,
+            terminated,
+        )
+        return reward, terminated, {"reach": reach, "drift": drift, "intrusion": intrusion}
 
     def remember(self, g: StaticObstacleMeasurement) -> None:
         """Keep the waypoint distance and drift of the observation of ``g`` (rows ``g.envs``) for the next step's reward."""
@@ -424,11 +469,13 @@ class StaticObstacleTask(Task):
 
     # --- info and KPIs --------------------------------------------------------------------------
     def average_drift(self) -> Array:
-        """(n_envs,) mean of the per-sub-step |drift| samples [rad].
+        """(n_envs,) mean of the per-sub-step |drift| samples [rad] (:func:`~bluesky_gym.tasks.compiled.sample_means`).
 
         0.0 before the first sample, where the reference's mean of an empty array is NaN.
         """
-        return np.where(self.drift_count > 0, self.drift_sum_rad / np.maximum(self.drift_count, 1), 0.0)
+        out = np.empty(self.n_envs)
+        compiled.sample_means(self.drift_sum_rad, self.drift_count, AVERAGE_DRIFT_EMPTY, out)
+        return out
 
     def episode_info(self) -> dict[str, Array]:
         """Return the reference's info: reward, reached and crashed flags (0/1), mean drift."""
@@ -440,14 +487,21 @@ class StaticObstacleTask(Task):
         }
 
     def extra_track_km(self) -> Array:
-        """Distance flown minus the start-to-waypoint kwik-distance [km]."""
-        return self.sim.distflown[:, 0] / 1000.0 - self.start_wpt_km
+        """Distance flown minus the start-to-waypoint kwik-distance [km] (:func:`obstacle_extra_track`)."""
+        out = np.empty(self.n_envs)
+        obstacle_extra_track(self.sim.distflown, self.start_wpt_km, out)
+        return out
 
     def kpis(self) -> dict[str, Array]:
         """Return the common KPIs plus ``kpi_obstacle_intrusions``."""
         out = super().kpis()
         out["kpi_obstacle_intrusions"] = self.intrusions.astype(np.float64)
         return out
+
+
+def speed_change(config: StaticObstacleConfig) -> float:
+    """CAS change per unit of the speed action [m/s]: 20/3 "kts" added as m/s (``-v0``), 20/3 kt (``-v1``, ``speed_step_in_knots``)."""
+    return D_SPEED * KTS if config.speed_step_in_knots else D_SPEED
 
 
 def sample_waypoint(
@@ -501,27 +555,256 @@ def sample_waypoint(
 
 
 class SubstepEnd:
-    """The ``stop`` rule of a decision step's sub-steps (see :meth:`Physics.run`).
+    """The ``stop`` rule of a decision step's sub-steps (see :meth:`Physics.run`): the kernel :func:`obstacle_substep_end`.
 
-    An episode ends at the first sub-step after which its aircraft is inside an obstacle, or at
-    the first sub-step when it ends anyway (its waypoint was reached).
+    An episode ends at the first sub-step after which its aircraft is inside an obstacle, or
+    (``-v0``) at the first sub-step when it ends anyway: its waypoint was reached, or the last
+    observation was within the capture radius.
 
     Args:
-        poly_lat: (n_envs, K, V) obstacle vertex latitudes [deg].
-        poly_lon: (n_envs, K, V) obstacle vertex longitudes [deg].
-        n_vertices: (n_envs, K) vertex counts.
-        done_anyway: (n_envs,) episodes that end at the first sub-step whatever happens.
+        task: The task whose episodes run (its obstacles, waypoint flags and last observation).
     """
 
-    def __init__(self, poly_lat: Array, poly_lon: Array, n_vertices: NDArray[np.int64], done_anyway: BoolArray) -> None:
-        self.poly_lat, self.poly_lon, self.n_vertices, self.done_anyway = poly_lat, poly_lon, n_vertices, done_anyway
+    def __init__(self, task: StaticObstacleTask) -> None:
+        self.task = task
         #: (n_envs,) sub-steps after which each episode ended (1..k) in the last track seen, 0 if it did not.
-        self.ended_at = np.zeros(len(done_anyway), np.int64)
+        self.ended_at = np.zeros(task.n_envs, np.int64)
 
     def __call__(self, track: Array) -> NDArray[np.int64]:
         """``ended_at`` of the positions ``track`` (k, 2, n_envs, max_aircraft) after k sub-steps."""
-        counts = np.empty((track.shape[0], len(self.done_anyway)), np.int64)
-        compiled.ownship_polygon_counts(track, self.poly_lat, self.poly_lon, self.n_vertices, counts)
-        hit = self.done_anyway | (counts > 0)  # (k, n_envs): the episode ends at this sub-step
-        self.ended_at = np.where(hit.any(axis=0), hit.argmax(axis=0) + 1, 0)
+        t = self.task
+        self.ended_at = np.zeros(t.n_envs, np.int64)
+        obstacle_substep_end(
+            track[:, 0],
+            track[:, 1],
+            1,
+            t.obstacle_lat,
+            t.obstacle_lon,
+            t.obstacle_nv,
+            not t.config.step_reward,
+            t.last_wpt_km,
+            t.wpt_reached,
+            float(t.config.distance_margin_km),
+            self.ended_at,
+        )
         return self.ended_at
+
+
+# --- kernels: the task's rules, compiled for the CPU and for CUDA (the device step launches them) ---
+@jit_inline
+def _newly_within(distance_km, reached, margin_km):
+    """A waypoint not reached before and within the capture radius at ``distance_km`` [km]."""
+    return distance_km < margin_km and not reached
+
+
+@jit_inline
+def _abs_rad(deg):
+    """|angle| [rad] of an angle [deg] (numpy's ``abs(deg2rad(deg))``): the drift the reward charges."""
+    return abs(deg * _RAD)
+
+
+@jit_inline
+def _first_inside(lat_track, lon_track, e, poly_lat, poly_lon, nv, limit):
+    """The first of the track's first ``limit`` positions of episode ``e``'s ownship inside a polygon (1-based), or 0.
+
+    A point outside the polygon's latitude range crosses no edge, so the even-odd test says
+    "outside" for it: only the others are tested.
+    """
+    if nv == 0:
+        return 0
+    lo = hi = poly_lat[0]
+    for v in range(1, nv):
+        lo = min(lo, poly_lat[v])
+        hi = max(hi, poly_lat[v])
+    for k in range(limit):
+        y = lat_track[k, e, 0]
+        if lo <= y < hi and _polygon_contains(y, lon_track[k, e, 0], poly_lat, poly_lon, nv):
+            return k + 1
+    return 0
+
+
+@jit
+def obstacle_measure(
+    envs,
+    lat,
+    lon,
+    hdg,
+    wpt_lat,
+    wpt_lon,
+    centre_lat,
+    centre_lon,
+    radius,
+    poly_lat,
+    poly_lon,
+    n_vertices,
+    last_wpt_km,
+    last_drift,
+    wpt_reached,
+    margin_km,
+    step_reward,
+    distance_scale,
+    wpt_km_out,
+    drift_out,
+    count_out,
+    reached_out,
+    stale_out,
+    goal_out,
+    waypoint_out,
+    obstacle_out,
+):
+    """:meth:`StaticObstacleTask.measure` of rows ``r`` (episode ``envs[r]``, the ownship in slot 0).
+
+    Outputs per row: the kwik distance to the waypoint [km] and the drift wrap180(hdg - qdr) to
+    it [deg]; the obstacles containing the aircraft (even-odd test); whether the waypoint is
+    reached now for the first time and the |drift| [rad] the reward charges (``step_reward``:
+    the distance and drift now; else the last observation's, ``last_*``); whether the goal is
+    reached; the observation entries: ``waypoint_out`` (rows, 3) the distance / ``distance_scale``,
+    cos and sin of the drift, ``obstacle_out`` (4, rows, K) per obstacle its radius /
+    :data:`RADIUS_SCALE_NM`, the kwik distance to its centre [km] / ``distance_scale`` and cos and
+    sin of wrap180(hdg - bearing to the centre).
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        lat0, lon0, hdg0 = lat[e, 0], lon[e, 0], hdg[e, 0]
+        qdr, dist = _kwikqdrdist(lat0, lon0, wpt_lat[e], wpt_lon[e])
+        wpt_km = dist * NM2KM
+        drift = _wrap180(hdg0 - qdr)
+        if step_reward:
+            reached = _newly_within(wpt_km, wpt_reached[e], margin_km)
+            stale = _abs_rad(drift)
+        else:
+            reached = _newly_within(last_wpt_km[e], wpt_reached[e], margin_km)
+            stale = _abs_rad(last_drift[e])
+        count = 0
+        for k in range(n_vertices.shape[1]):
+            if _polygon_contains(lat0, lon0, poly_lat[e, k], poly_lon[e, k], n_vertices[e, k]):
+                count += 1
+            qdr_c, dist_c = _kwikqdrdist(lat0, lon0, centre_lat[e, k], centre_lon[e, k])
+            bearing = _wrap180(hdg0 - qdr_c) * _RAD
+            obstacle_out[0, r, k] = radius[e, k] / RADIUS_SCALE_NM
+            obstacle_out[1, r, k] = dist_c * NM2KM / distance_scale
+            obstacle_out[2, r, k] = math.cos(bearing)
+            obstacle_out[3, r, k] = math.sin(bearing)
+        wpt_km_out[r] = wpt_km
+        drift_out[r] = drift
+        count_out[r] = count
+        reached_out[r] = reached
+        stale_out[r] = stale
+        goal_out[r] = wpt_reached[e] or reached
+        rad = drift * _RAD
+        waypoint_out[r, 0] = wpt_km / distance_scale
+        waypoint_out[r, 1] = math.cos(rad)
+        waypoint_out[r, 2] = math.sin(rad)
+
+
+@jit
+def obstacle_reward(
+    envs,
+    newly_reached,
+    count,
+    stale_drift_rad,
+    goal_reached,
+    wpt_km,
+    drift,
+    step_reward,
+    wpt_reached,
+    crashed,
+    intrusions,
+    last_wpt_km,
+    last_drift,
+    drift_sum_rad,
+    drift_count,
+    reward_out,
+    reach_out,
+    drift_out,
+    intrusion_out,
+    terminated_out,
+):
+    """:meth:`StaticObstacleTask.reward` of rows ``r`` (episode ``envs[r]``) from :func:`obstacle_measure`'s outputs.
+
+    +1 for the waypoint reached now, -0.01 per rad of the charged |drift|, -5 per obstacle
+    containing the aircraft; terminated at the goal or inside an obstacle. Updates the episode's
+    reached and crashed flags, its intrusion count, the last observation's waypoint distance and
+    drift (the next step's stale terms) and (``step_reward``) its |drift| samples.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        c = count[r]
+        wpt_reached[e] = wpt_reached[e] or newly_reached[r]
+        crashed[e] = crashed[e] or c > 0
+        intrusions[e] += c
+        last_wpt_km[e] = wpt_km[r]
+        last_drift[e] = drift[r]
+        if step_reward:  # -v1: one |drift| sample per decision step
+            drift_sum_rad[e] += stale_drift_rad[r]
+            drift_count[e] += 1
+        reach = REACH_REWARD if newly_reached[r] else 0.0
+        drift_r = stale_drift_rad[r] * DRIFT_PENALTY
+        intrusion = c * RESTRICTED_AREA_INTRUSION_PENALTY
+        reach_out[r] = reach
+        drift_out[r] = drift_r
+        intrusion_out[r] = intrusion
+        reward_out[r] = reach + drift_r + intrusion
+        terminated_out[r] = goal_reached[r] or c > 0
+
+
+@jit
+def obstacle_substep_end(lat_track, lon_track, first, poly_lat, poly_lon, n_vertices, stale_goal, last_wpt_km, wpt_reached, margin_km, ended_at):
+    """The sub-step at which each episode ends, for the episodes that have not (``ended_at[e] == 0``).
+
+    ``lat_track``/``lon_track`` (k, n_envs, m): the positions after sub-steps ``first`` ..
+    ``first + k - 1``. An episode ends at the first of them after which its ownship is inside
+    one of its obstacles, or at once where it ends anyway (``stale_goal``, ``-v0``: its waypoint
+    was reached before, or is reached by the last observation's distance ``last_wpt_km``).
+    """
+    for e in grid_range(ended_at.shape[0]):
+        if ended_at[e] > 0:
+            continue
+        if stale_goal and (wpt_reached[e] or _newly_within(last_wpt_km[e], wpt_reached[e], margin_km)):
+            ended_at[e] = first
+            continue
+        best = lat_track.shape[0] + 1  # the earliest position inside an obstacle so far (1-based; beyond the track: none)
+        for j in range(n_vertices.shape[1]):
+            hit = _first_inside(lat_track, lon_track, e, poly_lat[e, j], poly_lon[e, j], n_vertices[e, j], best - 1)
+            if hit > 0:
+                best = hit
+        if best <= lat_track.shape[0]:
+            ended_at[e] = first + best - 1
+
+
+@jit
+def obstacle_drift_samples(last_drift, ended_at, substeps, drift_sum_rad, drift_count):
+    """``-v0``: one sample of the last observation's |drift| [rad] per evaluated sub-step (``ended_at[e]``, or all ``substeps``)."""
+    for e in grid_range(drift_sum_rad.shape[0]):
+        times = ended_at[e] if ended_at[e] > 0 else substeps
+        value = _abs_rad(last_drift[e])
+        for _ in range(times):
+            drift_sum_rad[e] += value
+        drift_count[e] += times
+
+
+@jit
+def obstacle_extra_track(distflown, start_wpt_km, out):
+    """The ownship's (slot 0) distance flown [m] in km minus the start-to-waypoint kwik distance [km], per episode."""
+    for e in grid_range(out.shape[0]):
+        out[e] = distflown[e, 0] / KM - start_wpt_km[e]
+
+
+@jit
+def hold_ended(ended_at, substep, state, held):
+    """The device step's sub-steps: keep the state (fields, n_envs, m) of the episodes that ended at ``substep`` in ``held``."""
+    for e in grid_range(ended_at.shape[0]):
+        if ended_at[e] == substep:
+            for f in range(state.shape[0]):
+                for j in range(state.shape[2]):
+                    held[f, e, j] = state[f, e, j]
+
+
+@jit
+def restore_ended(ended_at, substeps, state, held):
+    """The device step's sub-steps: give the episodes that ended before the last of ``substeps`` their state :func:`hold_ended` kept."""
+    for e in grid_range(ended_at.shape[0]):
+        if 0 < ended_at[e] < substeps:
+            for f in range(state.shape[0]):
+                for j in range(state.shape[2]):
+                    state[f, e, j] = held[f, e, j]
