@@ -262,8 +262,26 @@ class DeviceStep:
         self.task.advance()
 
     def extra_track_km(self) -> Any:
-        """(n_envs,) a task with a goal: the distance flown beyond the nominal route [km] (:meth:`~bluesky_gym.tasks.base.Task.extra_track_km`)."""
-        return self.empty(self.n).fill_(np.nan)
+        """(n_envs,) a task with a goal: the distance flown beyond the nominal route [km] (:meth:`~bluesky_gym.tasks.base.Task.extra_track_km`).
+
+        The kernel :func:`~bluesky_gym.tasks.compiled.extra_track` with the task's route array
+        (:attr:`~bluesky_gym.tasks.base.Task.route_km_array`, kept on the device); NaN without one.
+        """
+        name = self.task.route_km_array
+        if name is None:
+            return self.empty(self.n).fill_(np.nan)
+        (distflown,) = self.sim.device_arrays("distflown")
+        out = self.empty(self.n)
+        self.launch(compiled.extra_track, self.n, distflown, self.arrays[name], out)
+        return out
+
+    def _host_arrays(self) -> dict[str, np.ndarray]:
+        """:meth:`host_arrays` and the task's nominal routes (:attr:`~bluesky_gym.tasks.base.Task.route_km_array`)."""
+        arrays = self.host_arrays()
+        name = self.task.route_km_array
+        if name is not None:
+            arrays[name] = getattr(self.task, name)
+        return arrays
 
     # --- tensors and kernels --------------------------------------------------------------------
     def long(self, host: np.ndarray) -> Any:
@@ -287,7 +305,7 @@ class DeviceStep:
     def _upload_arrays(self, rows: np.ndarray | None) -> None:
         """The task's per-episode arrays of episodes ``rows`` (all when None) to the device."""
         dev = self.io.device
-        for name, host in self.host_arrays().items():
+        for name, host in self._host_arrays().items():
             held = self.arrays.get(name)
             if rows is None or held is None or tuple(held.shape) != host.shape:
                 self.arrays[name] = self.torch.as_tensor(np.ascontiguousarray(host), device=dev)
@@ -314,7 +332,7 @@ class DeviceStep:
             if key == "in_los" and t.stats.in_los.shape != tuple(value.shape):
                 t.stats.in_los = np.zeros(tuple(value.shape), bool)
             getattr(t.stats, name)[...] = value.cpu().numpy()
-        for name, host in self.host_arrays().items():
+        for name, host in self._host_arrays().items():
             host[...] = self.arrays[name].cpu().numpy()
 
     def record(self, g: StepGeometry, reward: Any | None) -> None:

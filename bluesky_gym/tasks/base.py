@@ -433,6 +433,9 @@ class Task(abc.ABC):
     info_keys: ClassVar[tuple[str, ...]]
     #: Whether the task has a goal (for the success / time-to-goal KPIs).
     has_goal: ClassVar[bool] = True
+    #: The name of the task's (n_envs,) array holding each episode's nominal route [km] (set when the
+    #: episode is generated), from which :meth:`extra_track_km` measures the extra track; None: no route.
+    route_km_array: ClassVar[str | None] = None
     #: Reset the episodes that ended at the end of :meth:`step` (the step's result keeps their
     #: final observation; :meth:`observation` then gives the first of the new episodes). The
     #: Gymnasium shells reset themselves; the shared-policy SB3 adapter sets it.
@@ -806,8 +809,16 @@ class Task(abc.ABC):
         return out
 
     def extra_track_km(self) -> Array:
-        """(n_envs,) distance flown minus the direct distance from the start to the goal [km]."""
-        return np.full(self.n_envs, np.nan)
+        """(n_envs,) the ownship's distance flown beyond its episode's nominal route [km]; NaN for a task without one.
+
+        The kernel :func:`~bluesky_gym.tasks.compiled.extra_track` with the task's array named by
+        :attr:`route_km_array`.
+        """
+        if self.route_km_array is None:
+            return np.full(self.n_envs, np.nan)
+        out = np.empty(self.n_envs)
+        compiled.extra_track(self.sim.distflown, getattr(self, self.route_km_array), out)
+        return out
 
     # --- helpers for subclasses -----------------------------------------------------------------
     def kwik_from_ownship(self, lat: Array, lon: Array) -> tuple[Array, Array]:

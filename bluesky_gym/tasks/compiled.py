@@ -634,18 +634,6 @@ def merge_episode_sums(envs, own, reach_faf, near_runway, count, wpt_reach, faf_
         total_intrusions[e] += count[r]
 
 
-@jit
-def merge_extra_track(distflown, start_lat, start_lon, faf_lat, faf_lon, faf_to_runway_nm, goal_margin_nm, out):  # type: ignore[no-untyped-def]
-    """Merge's extra track of each episode [km]: the ownship's distance flown (``distflown[e, 0]`` [m]) minus the nominal route.
-
-    The nominal route: kwik distance from the start to the FAF, plus ``faf_to_runway_nm``, less
-    ``goal_margin_nm`` (the episode ends that far from the runway) [NM].
-    """
-    for e in grid_range(out.shape[0]):
-        nominal_km = (_kwikdist(start_lat[e], start_lon[e], faf_lat, faf_lon) + faf_to_runway_nm - goal_margin_nm) * NM2KM
-        out[e] = distflown[e, 0] / _M_PER_KM - nominal_km
-
-
 # --- array forms of the scenario and kwik geometry (tasks/geometry.py wraps these) -------------
 @jit_inline
 def _point_at_distance(lat: float, lon: float, d_km: float, bearing: float, radius_km: float) -> tuple[float, float]:
@@ -816,6 +804,16 @@ def episode_kpis(  # type: ignore[no-untyped-def]
         track_out[e] = distflown[e, 0] / _M_PER_KM
         fuel_out[e] = fuelburn[e, 0]
         time_out[e] = _episode_time(steps[e], dt, action_frequency)
+
+
+@jit
+def extra_track(distflown, route_km, out):  # type: ignore[no-untyped-def]
+    """The extra track of each episode [km]: the ownship's (slot 0) distance flown minus the episode's nominal route.
+
+    ``distflown`` (n, m) [m]; ``route_km`` (n,) [km] (:attr:`bluesky_gym.tasks.base.Task.route_km_array`).
+    """
+    for e in grid_range(out.shape[0]):
+        out[e] = distflown[e, 0] / _M_PER_KM - route_km[e]
 
 
 @jit

@@ -10,7 +10,7 @@ autoreset) with Descent's stages (:class:`DescentDeviceStep`):
 * measure: :func:`~bluesky_gym.environments.descent.task.descent_measure` (one launch);
 * the observation: scalings of the measured tensors (:func:`~bluesky_gym.environments.descent.task.observation`);
 * reward, termination and the final altitude: :func:`~bluesky_gym.environments.descent.task.descent_reward` (one launch);
-* the extra track of the KPIs: :func:`~bluesky_gym.environments.descent.task.extra_track` (one launch).
+* the extra track of the KPIs: the shared one (the runway leg as the nominal route).
 
 These are the kernels the CPU task runs (their CUDA forms): no rule of the task is written here a
 second time. Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the outputs equal the CPU
@@ -85,10 +85,3 @@ class DescentDeviceStep(DeviceStep):
     def episode_info(self) -> dict[str, Any]:
         """:meth:`~bluesky_gym.environments.descent.task.DescentTask.episode_info` on the device."""
         return {"total_reward": self.stats["total_reward"].clone(), "final_altitude": self.arrays["final_altitude"].clone()}
-
-    def extra_track_km(self) -> Any:
-        """:meth:`~bluesky_gym.environments.descent.task.DescentTask.extra_track_km` on the device (one launch)."""
-        (distflown,) = self.sim.device_arrays("distflown")
-        out = self.empty(self.n)
-        self.launch(dt.extra_track, self.n, distflown, float(self.task.config.runway_distance_km), out)
-        return out

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.jit import grid_range, jit, jit_inline
-from bluesky_gym.core.units import KM, NM2KM, VS_SELECT_EPS
+from bluesky_gym.core.units import NM2KM, VS_SELECT_EPS
 from bluesky_gym.tasks.base import DEFAULT_TYPES, Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range, typed
 from bluesky_gym.tasks.compiled import IntArray, _kwikdist
 
@@ -84,6 +84,7 @@ class DescentTask(Task):
     max_episode_steps: ClassVar[int] = 300
     config_class: ClassVar[type[TaskConfig]] = DescentConfig
     info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "final_altitude")
+    route_km_array: ClassVar[str | None] = "route_km"
     config: DescentConfig
 
     def max_aircraft(self) -> int:
@@ -111,6 +112,7 @@ class DescentTask(Task):
         """Target and final altitude per episode."""
         self.target_alt = np.zeros(self.n_envs)  # (n_envs,) m
         self.final_altitude = np.zeros(self.n_envs)  # (n_envs,) m, 0 until the episode ends
+        self.route_km = np.full(self.n_envs, float(self.config.runway_distance_km))  # (n_envs,) km: the runway leg (extra-track KPI)
 
     def generate(self, envs: NDArray[np.int64]) -> None:
         """Initial and target altitude (integer draws), then the ownship."""
@@ -181,12 +183,6 @@ class DescentTask(Task):
     def episode_info(self) -> dict[str, Array]:
         """``total_reward`` and ``final_altitude``."""
         return {"total_reward": self.stats.total_reward.copy(), "final_altitude": self.final_altitude.copy()}
-
-    def extra_track_km(self) -> Array:
-        """Distance flown beyond the runway leg [km] (:func:`extra_track`)."""
-        out = np.empty(self.n_envs)
-        extra_track(self.sim.distflown, self.config.runway_distance_km, out)
-        return out
 
 
 def observation(g: DescentMeasurement, target_alt: Array) -> dict[str, Array]:
@@ -334,10 +330,3 @@ def descent_reward(
         reward_out[r], terminated_out[r], altitude_out[r], crash_out[r], runway_out[r], final_altitude[e] = _descent_reward(
             alt[r], runway_km[r], target_alt[e], final_altitude[e]
         )
-
-
-@jit
-def extra_track(distflown: Array, route_km: float, out: Array) -> None:
-    """Distance flown by each episode's ownship (slot 0; ``distflown`` [m]) beyond a route of ``route_km`` [km]."""
-    for e in grid_range(out.shape[0]):
-        out[e] = distflown[e, 0] / KM - route_km

@@ -14,8 +14,8 @@ physics, statistics, truncation, KPIs, autoreset) with Merge's stages (:class:`M
   applied to the measured tensors (views and arithmetic);
 * reward and the episode sums: :func:`~bluesky_gym.tasks.compiled.merge_reward` and
   :func:`~bluesky_gym.tasks.compiled.merge_episode_sums`;
-* the info's ``average_drift`` (:func:`~bluesky_gym.tasks.compiled.sample_means`) and the extra
-  track of the KPIs (:func:`~bluesky_gym.tasks.compiled.merge_extra_track`).
+* the info's ``average_drift`` (:func:`~bluesky_gym.tasks.compiled.sample_means`); the extra
+  track of the KPIs is the shared one (the episodes' nominal routes, drawn with their scenarios).
 
 These are the kernels the CPU task runs (their CUDA forms): no rule of the task is written here a
 second time. Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the outputs equal the CPU
@@ -51,12 +51,11 @@ class MergeDeviceStep(DeviceStep):
         super().__init__(task, io)
         self.heading_step, self.speed_step = mg.D_HEADING, mg.D_SPEED
         self.no_rows = self.torch.zeros(0, dtype=self.torch.bool, device=io.device)
-        self.faf_to_runway_nm = mg.faf_to_runway_nm(task.airspace)
 
     def host_arrays(self) -> dict[str, np.ndarray]:
-        """The FAF flags, the info's sums and the ownship's start (the extra track's nominal route)."""
+        """The FAF flags and the info's sums."""
         t = self.task
-        names = ("wpt_reach", "faf_reached", "total_intrusions", "drift_rad_sum", "drift_rad_n", "start_lat", "start_lon")
+        names = ("wpt_reach", "faf_reached", "total_intrusions", "drift_rad_sum", "drift_rad_n")
         return {k: getattr(t, k) for k in names}
 
     def _targets(self, after: Any) -> tuple[Any, Any]:
@@ -138,13 +137,3 @@ class MergeDeviceStep(DeviceStep):
             "average_drift": average_drift,
             "total_intrusions": a["total_intrusions"].clone(),
         }
-
-    def extra_track_km(self) -> Any:
-        """:meth:`bluesky_gym.environments.merge.task.MergeTask.extra_track_km` on the device (one launch)."""
-        a, space = self.arrays, self.task.airspace
-        (distflown,) = self.sim.device_arrays("distflown")
-        out = self.empty(self.n)
-        start = (a["start_lat"], a["start_lon"])
-        leg, margin = self.faf_to_runway_nm, space.goal_margin_nm
-        self.launch(compiled.merge_extra_track, self.n, distflown, *start, space.faf_lat, space.faf_lon, leg, margin, out)
-        return out

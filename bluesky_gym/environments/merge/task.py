@@ -201,9 +201,14 @@ def airspace(config: MergeConfig) -> Airspace:
     return Airspace(faf[0], faf[1], margin, 2 * margin)
 
 
-def faf_to_runway_nm(space: Airspace) -> float:
-    """Kwik distance from the FAF to the runway [NM] (the nominal route's second leg)."""
-    return float(ref_kwikdist(space.faf_lat, space.faf_lon, RWY_LAT, RWY_LON))
+def nominal_route_km(start_lat: Array, start_lon: Array, space: Airspace = AIRSPACE_V0) -> Array:
+    """The nominal route of ownships starting at (``start_lat``, ``start_lon``) [deg]: start -> FAF -> the goal margin before the runway [km].
+
+    Kwik distances [NM] from the start to the FAF and from the FAF to the runway, less the goal margin.
+    """
+    to_faf = ref_kwikdist(start_lat, start_lon, space.faf_lat, space.faf_lon)
+    faf_to_rwy = ref_kwikdist(space.faf_lat, space.faf_lon, RWY_LAT, RWY_LON)
+    return np.asarray((to_faf + faf_to_rwy - space.goal_margin_nm) * NM2KM)
 
 
 def target(after_faf: BoolArray, space: Airspace = AIRSPACE_V0) -> tuple[Array, Array]:
@@ -325,6 +330,7 @@ class MergeTask(Task):
     max_episode_steps: ClassVar[int] = 50
     config_class: ClassVar[type[TaskConfig]] = MergeConfig
     info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "faf_reach", "average_drift", "total_intrusions")
+    route_km_array: ClassVar[str | None] = "route_km"
     config: MergeConfig
 
     def max_aircraft(self) -> int:
@@ -364,8 +370,10 @@ class MergeTask(Task):
         self.total_intrusions = np.zeros(n, np.int64)
         self.drift_rad_sum = np.zeros(n)  # sum of |drift| [rad] (average_drift)
         self.drift_rad_n = np.zeros(n, np.int64)
-        self.start_lat = np.zeros(n)  # deg, ownship start (extra-track KPI)
+        self.start_lat = np.zeros(n)  # deg, ownship start
         self.start_lon = np.zeros(n)
+        #: (n_envs,) the nominal route start -> FAF -> goal margin before the runway [km] (extra-track KPI).
+        self.route_km = np.zeros(n)
         #: The fixes and margins of the configuration.
         self.airspace = airspace(self.config)
 
@@ -393,6 +401,7 @@ class MergeTask(Task):
         self.sim.create(envs, 0, lat, lon, own[:, 0] - 180, c.altitude, c.ac_speed, **typed(own_types))
         self.start_lat[envs] = lat
         self.start_lon[envs] = lon
+        self.route_km[envs] = nominal_route_km(lat, lon, self.airspace)
         env = np.repeat(envs, n_int)
         slot = np.tile(np.arange(1, n_int + 1), envs.size)
         ilat, ilon = point_at_distance(faf_lat, faf_lon, intr[..., 1].ravel(), intr[..., 0].ravel())
@@ -457,12 +466,3 @@ class MergeTask(Task):
             "average_drift": average_drift,
             "total_intrusions": self.total_intrusions.copy(),  # type: ignore[dict-item]
         }
-
-    # --- KPIs -----------------------------------------------------------------------------------
-    def extra_track_km(self) -> Array:
-        """(n_envs,) distance flown minus the nominal route start -> FAF -> 20 NM before the runway [km]."""
-        a = self.airspace
-        out = np.empty(self.n_envs)
-        leg_nm = faf_to_runway_nm(a)
-        compiled.merge_extra_track(self.sim.distflown, self.start_lat, self.start_lon, a.faf_lat, a.faf_lon, leg_nm, a.goal_margin_nm, out)
-        return out

@@ -13,7 +13,7 @@ kernel of :mod:`bluesky_gym.environments.plan_waypoint.task`:
 * the observation: :func:`~bluesky_gym.environments.plan_waypoint.task.waypoint_observation`;
 * reward and the reach flags: :func:`~bluesky_gym.environments.plan_waypoint.task.waypoint_reward`;
 * the info's ``waypoints_completed``: :func:`~bluesky_gym.environments.plan_waypoint.task.count_reached`;
-* the ``kpi_extra_track_km`` of ended episodes: :func:`~bluesky_gym.environments.plan_waypoint.task.extra_track`.
+* the ``kpi_extra_track_km`` of ended episodes: the shared one (the episodes' shortest tours).
 
 Every option of the task runs there (any number of waypoints, distances, capture radius,
 ``airborne_start``, ``reach_same_step``, the ``-v1`` bounds); a ``wind`` option, effects or added
@@ -60,7 +60,7 @@ class PlanWaypointDeviceStep(DeviceStep):
     def host_arrays(self) -> dict[str, np.ndarray]:
         """The waypoints, their reach flags and each episode's shortest tour (for the extra-track KPI)."""
         t = self.task
-        return {"wpt_lat": t.wpt_lat, "wpt_lon": t.wpt_lon, "wpt_reached": t.wpt_reached, "tour_km": t.tour_km}
+        return {"wpt_lat": t.wpt_lat, "wpt_lon": t.wpt_lon, "wpt_reached": t.wpt_reached}
 
     def command(self, action: Any) -> None:
         """The heading action as the HDG command of each episode's aircraft (:func:`~bluesky_gym.environments.plan_waypoint.task.command_heading`)."""
@@ -122,10 +122,3 @@ class PlanWaypointDeviceStep(DeviceStep):
         completed = self.empty(self.n, dtype=self.torch.int64)
         self.launch(pw.count_reached, self.n, self.arrays["wpt_reached"], completed)
         return {"total_reward": self.stats["total_reward"].clone(), "waypoints_completed": completed}
-
-    def extra_track_km(self) -> Any:
-        """:meth:`~bluesky_gym.environments.plan_waypoint.task.PlanWaypointTask.extra_track_km` on the device (one launch)."""
-        (distflown,) = self.sim.device_arrays("distflown")
-        out = self.empty(self.n)
-        self.launch(pw.extra_track, self.n, distflown, self.arrays["tour_km"], out)
-        return out

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.jit import grid_range, jit, jit_inline
-from bluesky_gym.core.units import KM, NM2KM
+from bluesky_gym.core.units import NM2KM
 from bluesky_gym.environments.horizontal_cr.task import AIRBORNE_ALT
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.compiled import _RAD, _kwikqdrdist, _wrap180
@@ -95,6 +95,9 @@ class PlanWaypointTask(Task):
     max_episode_steps: ClassVar[int] = 300
     config_class: ClassVar[type[TaskConfig]] = PlanWaypointConfig
     info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "waypoints_completed")
+    #: The extra track is measured from the shortest tour through every waypoint centre (it can be
+    #: negative: a waypoint counts as reached anywhere within its capture radius).
+    route_km_array: ClassVar[str | None] = "tour_km"
     config: PlanWaypointConfig
 
     def max_aircraft(self) -> int:
@@ -243,16 +246,6 @@ class PlanWaypointTask(Task):
         count_reached(self.wpt_reached, completed)
         return {"total_reward": self.stats.total_reward.copy(), "waypoints_completed": completed}
 
-    def extra_track_km(self) -> Array:
-        """Distance flown minus the shortest polyline from the start through all waypoint centres.
-
-        It can be negative: a waypoint counts as reached anywhere within the capture radius. The
-        kernel :func:`extra_track`.
-        """
-        out = np.empty(self.n_envs)
-        extra_track(self.sim.distflown, self.tour_km, out)
-        return out
-
 
 # --- kernels: the step's rules, for the CPU and the device step ------------------------------------
 @jit_inline
@@ -361,10 +354,3 @@ def count_reached(wpt_reached, out):
             if wpt_reached[e, i]:
                 count += 1
         out[e] = count
-
-
-@jit
-def extra_track(distflown, tour_km, out):
-    """(n,) the aircraft's (slot 0) distance flown (``distflown`` [m]) minus the episode's shortest tour ``tour_km`` [km], in km."""
-    for e in grid_range(out.shape[0]):
-        out[e] = distflown[e, 0] / KM - tour_km[e]

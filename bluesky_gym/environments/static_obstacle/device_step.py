@@ -21,9 +21,8 @@ with StaticObstacle's stages (:class:`StaticObstacleDeviceStep`):
 * the observation: views of the measured tensors (:func:`~bluesky_gym.environments.static_obstacle.task.observation`);
 * reward, termination and the episode's flags and sums:
   :func:`~bluesky_gym.environments.static_obstacle.task.obstacle_reward`, one launch;
-* the info's ``average_drift`` (:func:`~bluesky_gym.tasks.compiled.sample_means`) and the KPIs'
-  extra track (:func:`~bluesky_gym.environments.static_obstacle.task.obstacle_extra_track`), one
-  launch each.
+* the info's ``average_drift`` (:func:`~bluesky_gym.tasks.compiled.sample_means`), one launch;
+  the KPIs' extra track is the shared one (the start-to-waypoint distance as the nominal route).
 
 These are the kernels the CPU task runs (their CUDA forms): no rule of the task is written here a
 second time. Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the outputs equal the CPU
@@ -54,7 +53,6 @@ HOST_ARRAYS = (
     "obstacle_lat",
     "obstacle_lon",
     "obstacle_nv",
-    "start_wpt_km",
     "last_wpt_km",
     "last_drift",
     "wpt_reached",
@@ -206,13 +204,6 @@ class StaticObstacleDeviceStep(DeviceStep):
             "crashed": a["crashed"].to(int64),
             "average_drift": average_drift,
         }
-
-    def extra_track_km(self) -> Any:
-        """:func:`~bluesky_gym.environments.static_obstacle.task.obstacle_extra_track` on the device (one launch)."""
-        (distflown,) = self.sim.device_arrays("distflown")
-        out = self.empty(self.n)
-        self.launch(so.obstacle_extra_track, self.n, distflown, self.arrays["start_wpt_km"], out)
-        return out
 
     def kpis(self) -> dict[str, Any]:
         """The common KPIs plus ``kpi_obstacle_intrusions`` (the restricted areas the aircraft was inside at the end)."""

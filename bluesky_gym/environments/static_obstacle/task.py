@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
 from bluesky_gym.core.jit import grid_range, jit, jit_inline
-from bluesky_gym.core.units import FL, KM, KTS, NM2KM
+from bluesky_gym.core.units import FL, KTS, NM2KM
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import (
     Array,
@@ -157,6 +157,7 @@ class StaticObstacleTask(Task):
     max_episode_steps: ClassVar[int] = 100
     config_class: ClassVar[type[TaskConfig]] = StaticObstacleConfig
     info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "waypoint_reached", "crashed", "average_drift")
+    route_km_array: ClassVar[str | None] = "start_wpt_km"
     config: StaticObstacleConfig
 
     def max_aircraft(self) -> int:
@@ -486,12 +487,6 @@ class StaticObstacleTask(Task):
             "average_drift": self.average_drift(),
         }
 
-    def extra_track_km(self) -> Array:
-        """Distance flown minus the start-to-waypoint kwik-distance [km] (:func:`obstacle_extra_track`)."""
-        out = np.empty(self.n_envs)
-        obstacle_extra_track(self.sim.distflown, self.start_wpt_km, out)
-        return out
-
     def kpis(self) -> dict[str, Array]:
         """Return the common KPIs plus ``kpi_obstacle_intrusions``."""
         out = super().kpis()
@@ -781,13 +776,6 @@ def obstacle_drift_samples(last_drift, ended_at, substeps, drift_sum_rad, drift_
         for _ in range(times):
             drift_sum_rad[e] += value
         drift_count[e] += times
-
-
-@jit
-def obstacle_extra_track(distflown, start_wpt_km, out):
-    """The ownship's (slot 0) distance flown [m] in km minus the start-to-waypoint kwik distance [km], per episode."""
-    for e in grid_range(out.shape[0]):
-        out[e] = distflown[e, 0] / KM - start_wpt_km[e]
 
 
 @jit
