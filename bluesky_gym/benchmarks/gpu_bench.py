@@ -172,11 +172,13 @@ def _exercise_core() -> None:
 def _exercise_device_only() -> None:
     """The kernels only the device runs, on host arrays of the layouts the device gives them.
 
-    The device step's commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`) and
+    The device steps' commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`,
+    :func:`bluesky_gym.environments.horizontal_cr.task.command_heading`) and
     :meth:`bluesky_gym.core.DeviceSimulator.reset_on_host`'s scatters of each state dtype.
     """
     from bluesky_gym.core import Simulator
     from bluesky_gym.core.state import scatter_columns, scatter_rows
+    from bluesky_gym.environments.horizontal_cr import task as horizontal_cr
     from bluesky_gym.tasks import compiled
 
     sim = Simulator(2, 3, dt=1.0)
@@ -187,6 +189,7 @@ def _exercise_device_only() -> None:
     compiled.command_heading_speed(
         envs, own, np.zeros((2, 2)), field["hdg"], field["cas"], 22.5, 6.0, *(field[k] for k in ("ap_trk", "swlnav", "selspd", "swvnavspd"))
     )
+    horizontal_cr.command_heading(envs, own, np.zeros(2), np.zeros((2, 1)), horizontal_cr.D_HEADING, field["ap_trk"], field["swlnav"])
     rows = np.arange(sim.max_aircraft)
     for flat_array in (np.ascontiguousarray(sim._float_flat), sim.phase.reshape(1, flat), sim.active.reshape(1, flat), sim.iactwp.reshape(1, flat)):
         scatter_columns(rows, np.ascontiguousarray(flat_array[:, rows]), flat_array.copy())
