@@ -28,10 +28,9 @@ from bluesky_gym.tasks.base import (
     draw_types,
     kwik_separation,
     typed,
-    wrap180,
 )
 from bluesky_gym.tasks.compiled import _RAD, _kwikqdrdist, _wrap180
-from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist, ref_kwikqdrdist
+from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist
 
 DISTANCE_MARGIN = 5.0  # km: waypoint capture radius
 REACH_REWARD = 1.0
@@ -440,10 +439,10 @@ class HorizontalCRTask(Task):
         self.sim.cmd_heading(self.all_envs, 0, target)
 
     def waypoint_geometry(self) -> tuple[Array, Array]:
-        """(n_envs,) kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg]."""
-        s = self.sim
-        qdr, dist = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], self.wpt_lat, self.wpt_lon)
-        return dist * NM2KM, wrap180(s.hdg[:, 0] - qdr)
+        """(n_envs,) kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg] now (:meth:`measure`'s)."""
+        g = self.measure()
+        assert g.drift_deg is not None
+        return g.waypoint_km, g.drift_deg
 
     # --- the step -----------------------------------------------------------------------------
     def measure(self, envs: NDArray[np.int64] | None = None) -> HorizontalCRGeometry:
