@@ -9,6 +9,7 @@ autoreset) with HorizontalCR's stages (:class:`HorizontalCRDeviceStep`):
 * the action: :func:`~bluesky_gym.environments.horizontal_cr.task.command_heading` (the heading
   at the last observation + 45 a), one launch;
 * measure: :func:`~bluesky_gym.tasks.compiled.intruder_relative_state`,
+  :func:`~bluesky_gym.tasks.compiled.goal_geometry`,
   :func:`~bluesky_gym.environments.horizontal_cr.task.waypoint_progress` and
   :func:`~bluesky_gym.tasks.compiled.kwik_separation`, one launch each;
 * the observation: the measured tensors scaled
@@ -74,7 +75,7 @@ class HorizontalCRDeviceStep(DeviceStep):
         self.launch(hc.command_heading, self.n, self.envs, self.own, self.arrays["ac_hdg"], action, float(self.heading_step), ap_trk, swlnav)
 
     def measure(self, envs: Any, own: Any) -> hc.HorizontalCRGeometry:
-        """:func:`bluesky_gym.environments.horizontal_cr.task.measure` of rows ``envs`` on the device (three launches)."""
+        """:func:`bluesky_gym.environments.horizontal_cr.task.measure` of rows ``envs`` on the device (four launches)."""
         p, m = int(envs.shape[0]), self.m
         torch = self.torch
         lat, lon, hdg, gs, alt, active = self.sim.device_arrays("lat", "lon", "hdg", "gs", "alt", "active")
@@ -82,28 +83,11 @@ class HorizontalCRDeviceStep(DeviceStep):
         rows: Callable[[Any], Any] = (lambda x: x) if envs is self.envs else (lambda x: x[envs].contiguous())
         intruders, n_others = self.empty(5, p, m - 1), self.empty(p, dtype=torch.int64)
         self.launch(compiled.intruder_relative_state, p, envs, own, lat, lon, hdg, gs, active, False, intruders, n_others)
-        drift, waypoint_km, heading, cos_drift, sin_drift = (self.empty(p) for _ in range(5))
+        drift, dist_nm, waypoint_km, heading, cos_drift, sin_drift = (self.empty(p) for _ in range(6))
         newly, goal = self.empty(p, dtype=torch.bool), self.empty(p, dtype=torch.bool)
-        self.launch(
-            hc.waypoint_progress,
-            p,
-            envs,
-            own,
-            lat,
-            lon,
-            hdg,
-            rows(a["wpt_lat"]),
-            rows(a["wpt_lon"]),
-            rows(a["wpt_reach"]),
-            hc.DISTANCE_MARGIN,
-            drift,
-            waypoint_km,
-            heading,
-            cos_drift,
-            sin_drift,
-            newly,
-            goal,
-        )
+        self.launch(compiled.goal_geometry, p, envs, own, lat, lon, hdg, rows(a["wpt_lat"]), rows(a["wpt_lon"]), drift, dist_nm)
+        progress = (waypoint_km, heading, cos_drift, sin_drift, newly, goal)
+        self.launch(hc.waypoint_progress, p, envs, own, hdg, drift, dist_nm, rows(a["wpt_reach"]), hc.DISTANCE_MARGIN, *progress)
         separation, los = self.empty(p, m), self.empty(p, m, dtype=torch.bool)
         self.launch(compiled.kwik_separation, p, envs, own, lat, lon, alt, active, hc.INTRUSION_DISTANCE, np.nan, separation, los)
         waypoint = (heading, waypoint_km, cos_drift, sin_drift, newly)

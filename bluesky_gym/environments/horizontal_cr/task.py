@@ -29,7 +29,7 @@ from bluesky_gym.tasks.base import (
     kwik_separation,
     typed,
 )
-from bluesky_gym.tasks.compiled import _RAD, _kwikqdrdist, _wrap180
+from bluesky_gym.tasks.compiled import _RAD
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist
 
 DISTANCE_MARGIN = 5.0  # km: waypoint capture radius
@@ -148,27 +148,20 @@ def command_heading(envs, own, reference, action, d_heading, ap_trk, swlnav):  #
 
 
 @jit
-def waypoint_progress(  # type: ignore[no-untyped-def]
-    envs, own, lat, lon, hdg, wpt_lat, wpt_lon, reached, margin_km, drift_out, km_out, heading_out, cos_out, sin_out, newly_out, goal_out
-):
-    """The waypoint side of :func:`measure`, per row (slot ``own[r]`` of episode ``envs[r]``, waypoint ``wpt_lat[r]``, ``wpt_lon[r]``).
+def waypoint_progress(envs, own, hdg, drift, dist_nm, reached, margin_km, km_out, heading_out, cos_out, sin_out, newly_out, goal_out):  # type: ignore[no-untyped-def]
+    """The rest of the waypoint side of :func:`measure`, per row (slot ``own[r]`` of episode ``envs[r]``).
 
-    Out: drift wrap180(heading - kwik bearing to the waypoint) [deg], kwik distance to it [km],
-    the heading [deg], cos and sin of the drift, whether the waypoint is reached now for the first
-    time (within ``margin_km``, not ``reached[r]`` before) and whether it is reached at all.
+    From the row's drift [deg] and kwik distance to its waypoint [NM]
+    (:func:`~bluesky_gym.tasks.compiled.goal_geometry`): the distance [km], the heading [deg],
+    cos and sin of the drift, whether the waypoint is reached now for the first time (within
+    ``margin_km``, not ``reached[r]`` before) and whether it is reached at all.
     """
     for r in grid_range(envs.shape[0]):
-        e = envs[r]
-        o = own[r]
-        heading = hdg[e, o]
-        qdr, dist = _kwikqdrdist(lat[e, o], lon[e, o], wpt_lat[r], wpt_lon[r])
-        drift = _wrap180(heading - qdr)
-        km = dist * NM2KM
-        rad = drift * _RAD
+        km = dist_nm[r] * NM2KM
+        rad = drift[r] * _RAD
         newly = km < margin_km and not reached[r]
-        drift_out[r] = drift
         km_out[r] = km
-        heading_out[r] = heading
+        heading_out[r] = hdg[envs[r], own[r]]
         cos_out[r] = math.cos(rad)
         sin_out[r] = math.sin(rad)
         newly_out[r] = newly
@@ -271,7 +264,8 @@ def measure(
     """Intruder geometry, waypoint distance and drift, separation and the reach test of each row.
 
     The kernels :func:`~bluesky_gym.tasks.compiled.intruder_relative_state`,
-    :func:`waypoint_progress` and :func:`~bluesky_gym.tasks.compiled.kwik_separation`.
+    :func:`~bluesky_gym.tasks.compiled.goal_geometry`, :func:`waypoint_progress` and
+    :func:`~bluesky_gym.tasks.compiled.kwik_separation`.
 
     Args:
         sim: The physics.
@@ -289,10 +283,10 @@ def measure(
     intruders = np.empty((5, n, k))
     n_others = np.empty(n, np.int64)
     compiled.intruder_relative_state(envs, own, sim.lat, sim.lon, sim.hdg, sim.gs, sim.active, nearest, intruders, n_others)
-    drift, waypoint_km, heading, cos_drift, sin_drift = (np.empty(n) for _ in range(5))
+    drift, dist_nm, waypoint_km, heading, cos_drift, sin_drift = (np.empty(n) for _ in range(6))
     newly, goal = np.empty(n, bool), np.empty(n, bool)
-    outputs = (drift, waypoint_km, heading, cos_drift, sin_drift, newly, goal)
-    waypoint_progress(envs, own, sim.lat, sim.lon, sim.hdg, wpt_lat, wpt_lon, reached, DISTANCE_MARGIN, *outputs)
+    compiled.goal_geometry(envs, own, sim.lat, sim.lon, sim.hdg, wpt_lat, wpt_lon, drift, dist_nm)
+    waypoint_progress(envs, own, sim.hdg, drift, dist_nm, reached, DISTANCE_MARGIN, waypoint_km, heading, cos_drift, sin_drift, newly, goal)
     separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
     return HorizontalCRGeometry(envs, separation, los, drift, goal, own, intruders, n_others, heading, waypoint_km, cos_drift, sin_drift, newly)
 
