@@ -21,6 +21,16 @@ def test_cached_kernels_are_stamped_with_every_kernel_module(tmp_path: Path) -> 
     stamped = {Path(name).name for name, _mtime, _size in locator.get_source_stamp()}
     assert {"atmosphere.py", "geo.py", "performance.py", "step.py", "units.py", "compiled.py"} <= stamped
 
+    # An environment folder's kernels (its task module) are stamped the same way, and stamp it.
+    from bluesky_gym.environments.horizontal_cr import task as horizontal_cr
+
+    env_kernel = horizontal_cr.row_reward.py_func
+    env_locator = locator_class.from_function(env_kernel, inspect.getsourcefile(env_kernel))
+    assert env_locator is not None
+    stamped_paths = {Path(name) for name, _mtime, _size in env_locator.get_source_stamp()}
+    assert Path(horizontal_cr.__file__).resolve() in {p.resolve() for p in stamped_paths}
+    assert "compiled.py" in {p.name for p in stamped_paths}
+
     # A function outside the package keeps numba's own locator.
     outside = tmp_path / "mod.py"
     outside.write_text("def f():\n    return 1\n")
