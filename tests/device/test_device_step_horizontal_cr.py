@@ -45,13 +45,15 @@ TWO_TYPES = {"num_intruders": 2, "intruder_types": ("A320", "B744")}
 )
 def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(env_id: str, options: dict[str, Any], monkeypatch: pytest.MonkeyPatch) -> None:
     """Same seeds, same actions: the same outputs, every info entry included, through terminations, truncations and autoresets."""
-    ended, terminated, cpu, dev = compare_device_step(env_id, options, HorizontalCRDeviceStep, monkeypatch)
+    infos: list[dict[str, Any]] = []
+    ended, terminated, cpu, dev = compare_device_step(env_id, options, HorizontalCRDeviceStep, monkeypatch, cpu_infos=infos)
     if options["max_episode_steps"] == 3:
         assert ended >= 6 and terminated == 0, "episodes must be truncated at the time limit 3, twice each, and be reset"
     else:
-        assert terminated >= 2 and ended - terminated >= 2, (
-            "some waypoints must be reached (terminated), others not (truncated), and the episodes reset"
-        )
+        reason = "some waypoints must be reached (terminated), others not (truncated), and the episodes reset"
+        assert terminated >= 2 and ended - terminated >= 2, reason
+        assert sum(int((i["reward_intrusion"] < 0).sum()) for i in infos) >= 2, "intruders must come within 5 NM (the intrusion penalty)"
+        assert sum(int((i["reward_reach"] > 0).sum()) for i in infos) == terminated, "each waypoint reached pays the reach reward once"
     # The episodes' scenarios on the host are those of the CPU environment (drawn from the same generators).
     np.testing.assert_array_equal(dev.unwrapped.task.wpt_lat, cpu.unwrapped.task.wpt_lat)
     np.testing.assert_array_equal(dev.unwrapped.task.conflict_tlosh, cpu.unwrapped.task.conflict_tlosh)
