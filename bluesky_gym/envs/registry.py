@@ -243,6 +243,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.horizontal_cr.env:HorizontalCREnv",
         vector_env="bluesky_gym.environments.horizontal_cr.env:HorizontalCRVectorEnv",
         scene="bluesky_gym.environments.horizontal_cr.scene:horizontal_cr_scene",
+        device_step="bluesky_gym.environments.horizontal_cr.device_step:HorizontalCRDeviceStep",
         multiagent=MultiAgentEntry(
             name="horizontal_cr_v0",
             task="bluesky_gym.environments.horizontal_cr.multiagent:HorizontalCRMultiAgentTask",

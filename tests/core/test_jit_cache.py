@@ -21,13 +21,15 @@ def test_cached_kernels_are_stamped_with_every_kernel_module(tmp_path: Path) -> 
     stamped = {Path(name).name for name, _mtime, _size in locator.get_source_stamp()}
     assert {"atmosphere.py", "geo.py", "performance.py", "step.py", "units.py", "compiled.py"} <= stamped
 
-    # A kernel of an environment folder's task is stamped with the same modules.
-    from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
+    # An environment folder's kernels (its task module) are stamped the same way, and stamp it.
+    from bluesky_gym.environments.horizontal_cr import task as horizontal_cr
 
-    measure = plan_waypoint.waypoint_measure.py_func
-    env_locator = locator_class.from_function(measure, inspect.getsourcefile(measure))
+    env_kernel = horizontal_cr.row_reward.py_func
+    env_locator = locator_class.from_function(env_kernel, inspect.getsourcefile(env_kernel))
     assert env_locator is not None
-    assert {"compiled.py", "task.py"} <= {Path(name).name for name, _mtime, _size in env_locator.get_source_stamp()}
+    stamped_paths = {Path(name) for name, _mtime, _size in env_locator.get_source_stamp()}
+    assert Path(horizontal_cr.__file__).resolve() in {p.resolve() for p in stamped_paths}
+    assert "compiled.py" in {p.name for p in stamped_paths}
 
     # A function outside the package keeps numba's own locator.
     outside = tmp_path / "mod.py"

@@ -82,6 +82,13 @@ def test_the_device_step_ids_are_checked_first() -> None:
     ids = gpu_bench.env_check_ids()
     on_device = [entry(i).device_step is not None for i in ids]
     assert on_device == sorted(on_device, reverse=True), "the ids whose step runs on the device come first"
-    assert {"SectorCREnv-v0", "SectorCREnv-v1", "MergeEnv-v0", "MergeEnv-v1", "PlanWaypointEnv-v0", "PlanWaypointEnv-v1"} <= set(
-        ids[: sum(on_device)]
-    )
+    assert {
+        "SectorCREnv-v0",
+        "SectorCREnv-v1",
+        "MergeEnv-v0",
+        "MergeEnv-v1",
+        "PlanWaypointEnv-v0",
+        "PlanWaypointEnv-v1",
+        "HorizontalCREnv-v0",
+        "HorizontalCREnv-v1",
+    } <= set(ids[: sum(on_device)])

@@ -135,6 +135,32 @@ def horizontal_cr_observation(sim, wpt_lat: Array, wpt_lon: Array) -> dict[str, 
     }
 
 
+def horizontal_cr_reward(sim, wpt_lat: Array, wpt_lon: Array, reached: Array) -> tuple[Array, Array, dict[str, Array], Array]:
+    """HorizontalCREnv-v0's reward of every episode, with the intruder count, the components and |drift| [rad].
+
+    ``reached``: whether each waypoint was reached before this step (the reach term is paid once).
+    """
+    from bluesky_gym.environments.horizontal_cr import task as hc
+
+    s = sim
+    qdr, dist = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], wpt_lat, wpt_lon)
+    drift = wrap180(s.hdg[:, 0] - qdr)
+    newly = (dist * NM2KM < hc.DISTANCE_MARGIN) & ~reached
+    _, los = kwik_separation(s.lat, s.lon, s.alt, s.active, hc.INTRUSION_DISTANCE)
+    reach = np.where(newly, hc.REACH_REWARD, 0.0)
+    drift_reward = np.abs(np.deg2rad(drift)) * hc.DRIFT_PENALTY
+    count = los.sum(axis=1)
+    intrusion = count * hc.INTRUSION_PENALTY
+    return reach + drift_reward + intrusion, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}, np.abs(np.deg2rad(drift))
+
+
+def horizontal_cr_extra_track(distflown: Array, start_wpt_dist_km: Array) -> Array:
+    """HorizontalCR's extra track [km]: the ownship's distance flown less the start's distance to the capture circle."""
+    from bluesky_gym.environments.horizontal_cr import task as hc
+
+    return distflown[:, 0] / 1000.0 - (start_wpt_dist_km - hc.DISTANCE_MARGIN)  # type: ignore[no-any-return]
+
+
 # --- the step's end (bluesky_gym.tasks.compiled: truncation, sample_means, episode_kpis, clip_to_bounds) ---
 def truncation(steps: Array, time_limit: int, terminated: Array, cut: Array) -> Array:
     """Truncated episodes: at the time limit or cut by the task, never a terminated one."""

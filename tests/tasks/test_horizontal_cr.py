@@ -11,6 +11,7 @@ import pytest
 
 import bluesky_gym
 from bluesky_gym.environments.horizontal_cr.task import HorizontalCRConfig, HorizontalCRTask
+from tests.oracle import tasks as oracle
 
 from .conftest import NM, R_EARTH, east_of, north_of, seeded_task
 
@@ -26,6 +27,41 @@ def _hand_built(task: HorizontalCRTask, wpt_north_m: float, hdg: float = 0.0) ->
 
 
 # --- reward ----------------------------------------------------------------------------------------
+def test_command_reward_info_and_extra_track_equal_the_numpy_oracle_through_episodes() -> None:
+    """The task's kernels (heading command, reward, episode sums, extra track) give the readable numpy forms' bits."""
+    task = _task(6, waypoint_distance_min=12, waypoint_distance_max=30, tlosh_min=10, tlosh_max=200)
+    rng = np.random.default_rng(5)
+    sums, counts, intrusions = np.zeros(6), np.zeros(6, np.int64), np.zeros(6, np.int64)
+    reached_any = ended = intruded = 0
+    for step in range(40):
+        heading_before, reached = task.ac_hdg.copy(), task.wpt_reach.copy()
+        a = rng.uniform(-1, 1, (6, 1))
+        res = task.step(a)
+        np.testing.assert_array_equal(task.sim.ap_trk[:, 0], heading_before + a[:, 0] * 45.0, err_msg=f"step {step}: HDG")
+        reward, count, components, abs_drift = oracle.horizontal_cr_reward(task.sim, task.wpt_lat, task.wpt_lon, reached)
+        np.testing.assert_array_equal(res.reward, reward, err_msg=f"step {step}: reward", strict=True)
+        for key, value in components.items():
+            np.testing.assert_array_equal(res.info[f"reward_{key}"], value, err_msg=f"step {step}: {key}", strict=True)
+        goal = reached | (components["reach"] > 0)
+        np.testing.assert_array_equal(res.terminated, goal, err_msg=f"step {step}: terminated")
+        np.testing.assert_array_equal(task.wpt_reach, goal, err_msg=f"step {step}: the reach flag")
+        sums += abs_drift
+        counts += 1
+        intrusions += count
+        np.testing.assert_array_equal(res.info["total_intrusions"], intrusions, err_msg=f"step {step}: total_intrusions", strict=True)
+        np.testing.assert_array_equal(res.info["average_drift"], oracle.sample_means(sums, counts, 0.0), err_msg=f"step {step}")
+        done = np.flatnonzero(res.terminated | res.truncated)
+        reached_any += int(res.terminated.sum())
+        intruded += int((count > 0).sum())
+        if done.size:
+            ended += done.size
+            want = oracle.horizontal_cr_extra_track(task.sim.distflown, task.start_wpt_dist_km)
+            np.testing.assert_array_equal(res.info["kpi_extra_track_km"], want, err_msg=f"step {step}: extra track", strict=True)
+            task.reset(done)
+            sums[done], counts[done], intrusions[done] = 0.0, 0, 0
+    assert reached_any >= 2 and intruded >= 2 and ended >= 2  # the comparison covered waypoints reached, intrusions, ends and resets
+
+
 def test_reward_drift_intrusion_and_reach() -> None:
     task = _task(3)
     _hand_built(task, wpt_north_m=50_000.0, hdg=30.0)

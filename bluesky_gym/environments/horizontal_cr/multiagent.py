@@ -159,7 +159,9 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
     def apply_action(self, action: Array) -> None:
         """HDG = heading at the last observation + 45 a, for every acting agent."""
         e, k = np.nonzero(self.acting)
-        self.sim.cmd_heading(e, k, self.ac_hdg[e, k] + action[e, k, 0] * hc.D_HEADING)
+        target = np.empty(e.size)
+        hc.heading_targets(self.ac_hdg[e, k], action[e, k], hc.D_HEADING, target)
+        self.sim.cmd_heading(e, k, target)
 
     def targets(self) -> tuple[Array, Array]:
         """Each aircraft's waypoint."""

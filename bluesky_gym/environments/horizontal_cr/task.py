@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.aircraft import aircraft_performance, is_rotorcraft
+from bluesky_gym.core.jit import grid_range, jit, jit_inline
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FL, NM2KM
 from bluesky_gym.tasks import compiled
@@ -26,15 +28,17 @@ from bluesky_gym.tasks.base import (
     draw_types,
     kwik_separation,
     typed,
-    wrap180,
 )
-from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist, ref_kwikqdrdist
+from bluesky_gym.tasks.compiled import _RAD
+from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist
 
 DISTANCE_MARGIN = 5.0  # km: waypoint capture radius
 REACH_REWARD = 1.0
+NOT_REACHED_REWARD = 0.0  # the reach term of a step that does not first reach the waypoint
 DRIFT_PENALTY = -0.1  # per rad of |drift|, per step
 INTRUSION_PENALTY = -1.0  # per intruder within INTRUSION_DISTANCE, per step
 INTRUSION_DISTANCE = 5.0  # NM, horizontal only
+AVERAGE_DRIFT_EMPTY = 0.0  # rad: the average_drift info before the first step (the reference's mean of nothing is NaN)
 D_HEADING = 45.0  # deg of heading change per unit action
 AC_SPD = 150.0  # m/s CAS at creation (the ground phase then limits it to 89 m/s)
 DISTANCE_SCALE = 150.0  # km: intruder and waypoint distances are divided by 150 (WAYPOINT_DISTANCE_MAX)
@@ -113,6 +117,96 @@ class HorizontalCRConfig(TaskConfig):
                     )
 
 
+# --- kernels: the task's rules, one source for the CPU and the device (bluesky_gym.core.jit) ---------
+@jit_inline
+def _heading_target(reference, a, d_heading):
+    """HDG [deg] = ``reference`` (the heading at the last observation) + ``d_heading`` a, not wrapped."""
+    return reference + a * d_heading
+
+
+@jit
+def heading_targets(reference, action, d_heading, out):
+    """The heading [deg] the clipped ``action`` (rows, 1) commands in each row: :func:`_heading_target` of ``reference[r]``."""
+    for r in grid_range(out.shape[0]):
+        out[r] = _heading_target(reference[r], action[r, 0], d_heading)
+
+
+@jit
+def command_heading(envs, own, reference, action, d_heading, ap_trk, swlnav):
+    """:func:`heading_targets` given as the native core's HDG command, written into its autopilot state.
+
+    What :meth:`~bluesky_gym.core.Simulator.cmd_heading` does in an airspace without wind: the
+    track selected is the heading, LNAV is switched off. Row ``r``: slot ``own[r]`` of episode
+    ``envs[r]``. The device step (:mod:`bluesky_gym.environments.horizontal_cr.device_step`)
+    launches it on the simulator's device state.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        ap_trk[e, o] = _heading_target(reference[r], action[r, 0], d_heading)
+        swlnav[e, o] = False
+
+
+@jit
+def waypoint_progress(envs, own, hdg, drift, dist_nm, reached, margin_km, km_out, heading_out, cos_out, sin_out, newly_out, goal_out):
+    """The rest of the waypoint side of :func:`measure`, per row (slot ``own[r]`` of episode ``envs[r]``).
+
+    From the row's drift [deg] and kwik distance to its waypoint [NM]
+    (:func:`~bluesky_gym.tasks.compiled.goal_geometry`): the distance [km], the heading [deg],
+    cos and sin of the drift, whether the waypoint is reached now for the first time (within
+    ``margin_km``, not ``reached[r]`` before) and whether it is reached at all.
+    """
+    for r in grid_range(envs.shape[0]):
+        km = dist_nm[r] * NM2KM
+        rad = drift[r] * _RAD
+        newly = km < margin_km and not reached[r]
+        km_out[r] = km
+        heading_out[r] = hdg[envs[r], own[r]]
+        cos_out[r] = math.cos(rad)
+        sin_out[r] = math.sin(rad)
+        newly_out[r] = newly
+        goal_out[r] = reached[r] or newly
+
+
+@jit
+def row_reward(newly, drift, los, reach_reward, drift_penalty, intrusion_penalty, reward_out, reach_out, drift_out, intrusion_out, count_out):
+    """The reward of each row: ``reach_reward`` on first reaching the waypoint, ``drift_penalty`` |drift| [rad], ``intrusion_penalty`` per intruder.
+
+    ``newly`` (p,), ``drift`` (p,) [deg] and ``los`` (p, m) are the row's :func:`waypoint_progress`
+    and :func:`~bluesky_gym.tasks.compiled.kwik_separation` results; out: the reward, its three
+    components and the intruder count.
+    """
+    for r in grid_range(drift.shape[0]):
+        count = 0
+        for j in range(los.shape[1]):
+            if los[r, j]:
+                count += 1
+        reach = reach_reward if newly[r] else NOT_REACHED_REWARD
+        d = abs(drift[r] * _RAD) * drift_penalty
+        intrusion = count * intrusion_penalty
+        reach_out[r] = reach
+        drift_out[r] = d
+        intrusion_out[r] = intrusion
+        count_out[r] = count
+        reward_out[r] = reach + d + intrusion
+
+
+@jit
+def episode_reward(envs, drift, count, goal, wpt_reach, drift_rad_sum, drift_rad_n, total_intrusions, terminated_out):
+    """The episode side of the reward of rows ``envs`` (the ownship, slot 0): the reach flag, the info sums, the termination.
+
+    The waypoint reached (``goal``) is remembered (it shows from the next observation on) and
+    terminates; |drift| [rad] and the intruder count are added to the episode sums.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        wpt_reach[e] = goal[r]
+        drift_rad_sum[e] += abs(drift[r] * _RAD)
+        drift_rad_n[e] += 1
+        total_intrusions[e] += count[r]
+        terminated_out[r] = goal[r]
+
+
 # --- the step's geometry, observation and reward, for a set of ownship slots ----------------------
 INTRUDER_KEYS = ("intruder_distance", "cos_difference_pos", "sin_difference_pos", "x_difference_speed", "y_difference_speed")
 
@@ -121,6 +215,8 @@ INTRUDER_KEYS = ("intruder_distance", "cos_difference_pos", "sin_difference_pos"
 class HorizontalCRGeometry(StepGeometry):
     """HorizontalCR's geometry of (episode, ownship slot) rows (see :func:`measure`).
 
+    Its arrays are numpy arrays on the CPU, torch tensors in the device step.
+
     Attributes:
         own: (rows,) ownship slot of each row.
         intruders: (5, rows, k) dist_km, cos_bearing, sin_bearing, x_dif, y_dif of the observed
@@ -128,6 +224,8 @@ class HorizontalCRGeometry(StepGeometry):
         n_others: (rows,) other active aircraft.
         heading: (rows,) the ownship's heading [deg].
         waypoint_km: (rows,) kwik distance to the own waypoint [km].
+        cos_drift: (rows,) cosine of the drift.
+        sin_drift: (rows,) sine of the drift.
         newly_reached: (rows,) the waypoint is reached now for the first time.
     """
 
@@ -136,6 +234,8 @@ class HorizontalCRGeometry(StepGeometry):
     n_others: NDArray[np.int64]
     heading: Array
     waypoint_km: Array
+    cos_drift: Array
+    sin_drift: Array
     newly_reached: BoolArray
 
 
@@ -150,6 +250,10 @@ def measure(
     k: int | None = None,
 ) -> HorizontalCRGeometry:
     """Intruder geometry, waypoint distance and drift, separation and the reach test of each row.
+
+    The kernels :func:`~bluesky_gym.tasks.compiled.intruder_relative_state`,
+    :func:`~bluesky_gym.tasks.compiled.goal_geometry`, :func:`waypoint_progress` and
+    :func:`~bluesky_gym.tasks.compiled.kwik_separation`.
 
     Args:
         sim: The physics.
@@ -167,41 +271,47 @@ def measure(
     intruders = np.empty((5, n, k))
     n_others = np.empty(n, np.int64)
     compiled.intruder_relative_state(envs, own, sim.lat, sim.lon, sim.hdg, sim.gs, sim.active, nearest, intruders, n_others)
-    drift = np.empty(n)
-    dist = np.empty(n)
-    compiled.goal_geometry(envs, own, sim.lat, sim.lon, sim.hdg, wpt_lat, wpt_lon, drift, dist)
-    waypoint_km = dist * NM2KM
-    heading = sim.hdg[envs, own]
+    drift, dist_nm, waypoint_km, heading, cos_drift, sin_drift = (np.empty(n) for _ in range(6))
+    newly, goal = np.empty(n, bool), np.empty(n, bool)
+    compiled.goal_geometry(envs, own, sim.lat, sim.lon, sim.hdg, wpt_lat, wpt_lon, drift, dist_nm)
+    waypoint_progress(envs, own, sim.hdg, drift, dist_nm, reached, DISTANCE_MARGIN, waypoint_km, heading, cos_drift, sin_drift, newly, goal)
     separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
-    newly = (waypoint_km < DISTANCE_MARGIN) & ~reached
-    return HorizontalCRGeometry(envs, separation, los, drift, reached | newly, own, intruders, n_others, heading, waypoint_km, newly)
+    return HorizontalCRGeometry(envs, separation, los, drift, goal, own, intruders, n_others, heading, waypoint_km, cos_drift, sin_drift, newly)
 
 
-def observation(g: HorizontalCRGeometry) -> dict[str, Array]:
-    """HorizontalCREnv-v0's observation of every row."""
-    assert g.drift_deg is not None
+def observation(g: HorizontalCRGeometry, distance_scale: Any = DISTANCE_SCALE, speed_scale: Any = SPEED_SCALE) -> dict[str, Array]:
+    """HorizontalCREnv-v0's observation of every row: the geometry's entries scaled (numpy arrays or torch tensors alike).
+
+    Args:
+        g: The rows' geometry.
+        distance_scale: :data:`DISTANCE_SCALE` [km], as a number or a 0-d array (the device step
+            gives a tensor on the device: torch divides by a number as a product with its
+            reciprocal there, by a tensor exactly as numpy does).
+        speed_scale: :data:`SPEED_SCALE` [m/s], in the same form.
+    """
     dist_km, cos_b, sin_b, x_dif, y_dif = g.intruders
-    rad = np.deg2rad(g.drift_deg)
     return {
-        "intruder_distance": dist_km / DISTANCE_SCALE,
+        "intruder_distance": dist_km / distance_scale,
         "cos_difference_pos": cos_b,
         "sin_difference_pos": sin_b,
-        "x_difference_speed": x_dif / SPEED_SCALE,
-        "y_difference_speed": y_dif / SPEED_SCALE,
-        "waypoint_distance": (g.waypoint_km / DISTANCE_SCALE)[:, None],
-        "cos_drift": np.cos(rad)[:, None],
-        "sin_drift": np.sin(rad)[:, None],
+        "x_difference_speed": x_dif / speed_scale,
+        "y_difference_speed": y_dif / speed_scale,
+        "waypoint_distance": (g.waypoint_km / distance_scale)[:, None],
+        "cos_drift": g.cos_drift[:, None],
+        "sin_drift": g.sin_drift[:, None],
     }
 
 
 def reward(g: HorizontalCRGeometry) -> tuple[Array, NDArray[np.int64], dict[str, Array]]:
-    """Per row: +1 on first reaching the waypoint, -0.1 |drift| [rad], -1 per other aircraft within 5 NM; and the intrusion count."""
+    """Per row: +1 on first reaching the waypoint, -0.1 |drift| [rad], -1 per other aircraft within 5 NM; and the intrusion count.
+
+    The kernel :func:`row_reward`.
+    """
     assert g.drift_deg is not None
-    reach = np.where(g.newly_reached, REACH_REWARD, 0.0)
-    drift_reward = np.abs(np.deg2rad(g.drift_deg)) * DRIFT_PENALTY
-    count = g.los.sum(axis=1)
-    intrusion = count * INTRUSION_PENALTY
-    return reach + drift_reward + intrusion, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
+    n = len(g.drift_deg)
+    r, reach, drift_reward, intrusion, count = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64)
+    row_reward(g.newly_reached, g.drift_deg, g.los, REACH_REWARD, DRIFT_PENALTY, INTRUSION_PENALTY, r, reach, drift_reward, intrusion, count)
+    return r, count, {"reach": reach, "drift": drift_reward, "intrusion": intrusion}
 
 
 def bounds_v1(key: str) -> tuple[float, float]:
@@ -222,6 +332,8 @@ class HorizontalCRTask(Task):
     max_episode_steps: ClassVar[int] = 300
     config_class: ClassVar[type[TaskConfig]] = HorizontalCRConfig
     info_keys: ClassVar[tuple[str, ...]] = ("total_reward", "total_intrusions", "average_drift")
+    #: The extra track is measured from the shortest path to the capture circle.
+    route_km_array: ClassVar[str | None] = "route_km"
     config: HorizontalCRConfig
 
     def max_aircraft(self) -> int:
@@ -253,6 +365,7 @@ class HorizontalCRTask(Task):
         self.wpt_reach = np.zeros(n, bool)  # set by reward(), after the observation (one-step lag)
         self.ac_hdg = np.zeros(n)  # deg: ownship heading at the last observation (the action's reference)
         self.start_wpt_dist_km = np.zeros(n)  # kwik distance start -> waypoint [km]
+        self.route_km = np.zeros(n)  # the shortest path to the capture circle: that distance less the capture radius [km]
         self.total_intrusions = np.zeros(n, np.int64)
         self.drift_rad_sum = np.zeros(n)  # sum of |drift| [rad] over the steps (average_drift)
         self.drift_rad_n = np.zeros(n, np.int64)
@@ -298,22 +411,24 @@ class HorizontalCRTask(Task):
         self.wpt_reach[envs] = False
         self.ac_hdg[envs] = self.sim.hdg[envs, 0]
         self.start_wpt_dist_km[envs] = ref_kwikdist(self.sim.lat[envs, 0], self.sim.lon[envs, 0], lat, lon) * NM2KM
+        self.route_km[envs] = self.start_wpt_dist_km[envs] - DISTANCE_MARGIN
         self.total_intrusions[envs] = 0
         self.drift_rad_sum[envs] = 0.0
         self.drift_rad_n[envs] = 0
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """Command the heading: HDG = heading at the last observation + 45 a."""
-        # HDG target = heading stored at the last observation + a * 45 deg; values outside
-        # [0, 360) are passed on unchanged, as the reference's stack command does.
-        self.sim.cmd_heading(self.all_envs, 0, self.ac_hdg + action[:, 0] * D_HEADING)
+        """Command the heading: HDG = heading at the last observation + 45 a (the kernel :func:`heading_targets`)."""
+        # Values outside [0, 360) are passed on unchanged, as the reference's stack command does.
+        target = np.empty(self.n_envs)
+        heading_targets(self.ac_hdg, action, D_HEADING, target)
+        self.sim.cmd_heading(self.all_envs, 0, target)
 
     def waypoint_geometry(self) -> tuple[Array, Array]:
-        """(n_envs,) kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg]."""
-        s = self.sim
-        qdr, dist = ref_kwikqdrdist(s.lat[:, 0], s.lon[:, 0], self.wpt_lat, self.wpt_lon)
-        return dist * NM2KM, wrap180(s.hdg[:, 0] - qdr)
+        """(n_envs,) kwik distance to the waypoint [km] and drift wrap180(hdg - qdr) [deg] now (:meth:`measure`'s)."""
+        g = self.measure()
+        assert g.drift_deg is not None
+        return g.waypoint_km, g.drift_deg
 
     # --- the step -----------------------------------------------------------------------------
     def measure(self, envs: NDArray[np.int64] | None = None) -> HorizontalCRGeometry:
@@ -337,26 +452,21 @@ class HorizontalCRTask(Task):
         shows from the next observation on (docs/environments-v0.md §3-4, one-step lag).
         """
         r, count, components = reward(g)  # type: ignore[arg-type]
-        self.wpt_reach = g.goal_reached.copy()
-        assert g.drift_deg is not None
-        self.drift_rad_sum += np.abs(np.deg2rad(g.drift_deg))
-        self.drift_rad_n += 1
-        self.total_intrusions += count
-        return r, g.goal_reached.copy(), components
+        assert isinstance(g, HorizontalCRGeometry) and g.drift_deg is not None
+        terminated = np.empty(self.n_envs, bool)
+        sums = (self.drift_rad_sum, self.drift_rad_n, self.total_intrusions)
+        episode_reward(g.envs, g.drift_deg, count, g.goal_reached, self.wpt_reach, *sums, terminated)
+        return r, terminated, components
 
     def episode_info(self) -> dict[str, Array]:
         """Info keys of the reference, (n_envs,) each."""
         # The reference's mean of an empty array is NaN at reset; v0 reports 0.0 until a sample exists.
-        n = self.drift_rad_n
-        average_drift = np.where(n > 0, self.drift_rad_sum / np.maximum(n, 1), 0.0)
+        average_drift = np.empty(self.n_envs)  # mean |drift| [rad] of the episode's steps
+        compiled.sample_means(self.drift_rad_sum, self.drift_rad_n, AVERAGE_DRIFT_EMPTY, average_drift)
         return {
             "total_reward": self.stats.total_reward.copy(),
-            "total_intrusions": self.total_intrusions.copy(),
+            "total_intrusions": self.total_intrusions.copy(),  # type: ignore[dict-item]  # a count among the float entries
             "average_drift": average_drift,
         }
 
     # --- KPIs -----------------------------------------------------------------------------------
-    def extra_track_km(self) -> Array:
-        """(n_envs,) distance flown minus the shortest path to the capture circle [km]."""
-        # Shortest path to the goal: the start's distance to the waypoint minus the capture radius.
-        return self.sim.distflown[:, 0] / 1000.0 - (self.start_wpt_dist_km - DISTANCE_MARGIN)
