@@ -31,7 +31,7 @@ Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
-_RAD = np.pi / 180.0  # numpy's deg2rad factor
+DEG2RAD = np.pi / 180.0  # numpy's deg2rad factor
 _DEG = 180.0 / np.pi  # numpy's rad2deg factor
 _KWIK_R = R_EARTH  # m: Earth radius of BlueSky's Python kwik forms
 _KWIK_NM = NM  # m per NM in those forms
@@ -41,9 +41,9 @@ _M_PER_KM = 1000.0
 # --- BlueSky's Python kwik forms (tasks/geometry.ref_kwik*), per pair of points -----------------
 @jit_inline
 def _kwik_parts(lata, lona, latb, lonb):  # type: ignore[no-untyped-def]
-    dlat = (latb - lata) * _RAD
-    dlon = (_mod((lonb - lona) + 180.0, 360.0) - 180.0) * _RAD
-    cavelat = math.cos((lata + latb) * _RAD * 0.5)
+    dlat = (latb - lata) * DEG2RAD
+    dlon = (_mod((lonb - lona) + 180.0, 360.0) - 180.0) * DEG2RAD
+    cavelat = math.cos((lata + latb) * DEG2RAD * 0.5)
     return dlat, dlon, cavelat
 
 
@@ -63,21 +63,21 @@ def _matrix_dist_of_parts(dlat, dlon, cavelat):  # type: ignore[no-untyped-def]
 
 
 @jit_inline
-def _kwikdist(lata, lona, latb, lonb):  # type: ignore[no-untyped-def]
+def kwikdist_scalar(lata, lona, latb, lonb):  # type: ignore[no-untyped-def]
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikdist` [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
     return _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
-def _kwikqdrdist(lata, lona, latb, lonb):  # type: ignore[no-untyped-def]
+def kwikqdrdist_scalar(lata, lona, latb, lonb):  # type: ignore[no-untyped-def]
     """:func:`~bluesky_gym.tasks.geometry.ref_kwikqdrdist`: bearing [deg, 0..360) and distance [NM]."""
     dlat, dlon, cavelat = _kwik_parts(lata, lona, latb, lonb)
     return _qdr_of_parts(dlat, dlon, cavelat), _dist_of_parts(dlat, dlon, cavelat)
 
 
 @jit_inline
-def _wrap180(x):  # type: ignore[no-untyped-def]
+def wrap180_scalar(x):  # type: ignore[no-untyped-def]
     """The reference's single wrap (:func:`bluesky_gym.tasks.base.wrap180`)."""
     if x > 180.0:
         return x - 360.0
@@ -114,7 +114,7 @@ def _closest(key, active, out, best):  # type: ignore[no-untyped-def]
 
 
 @jit_inline
-def _polygon_contains(y, x, py, px, nv):  # type: ignore[no-untyped-def]
+def polygon_contains(y, x, py, px, nv):  # type: ignore[no-untyped-def]
     """Even-odd test of point (lat y, lon x) against the first ``nv`` vertices of (py, px).
 
     BlueSky's 2-D ``checkInside`` for one point and one polygon.
@@ -142,7 +142,7 @@ def kwik_separation(envs, own, lat, lon, alt, active, intrusion_nm, vertical_m, 
         lat0, lon0, alt0 = lat[e, o], lon[e, o], alt[e, o]
         for j in range(lat.shape[1]):
             if active[e, j] and j != o:
-                d = _kwikdist(lat0, lon0, lat[e, j], lon[e, j])
+                d = kwikdist_scalar(lat0, lon0, lat[e, j], lon[e, j])
                 dist_out[r, j] = d
                 los = d < intrusion_nm
                 if los and not math.isnan(vertical_m):
@@ -161,7 +161,7 @@ def ownship_in_polygons(lat, lon, poly_lat, poly_lon, n_vertices, out):  # type:
     """
     for e in grid_range(poly_lat.shape[0]):
         for k in range(poly_lat.shape[1]):
-            out[e, k] = _polygon_contains(lat[e, 0], lon[e, 0], poly_lat[e, k], poly_lon[e, k], n_vertices[e, k])
+            out[e, k] = polygon_contains(lat[e, 0], lon[e, 0], poly_lat[e, k], poly_lon[e, k], n_vertices[e, k])
 
 
 @jit
@@ -172,7 +172,7 @@ def points_in_owner_polygon(lat, lon, owner, poly_lat, poly_lon, n_vertices, out
     """
     for p in grid_range(lat.shape[0]):
         e = owner[p]
-        out[p] = _polygon_contains(lat[p], lon[p], poly_lat[e], poly_lon[e], n_vertices[e])
+        out[p] = polygon_contains(lat[p], lon[p], poly_lat[e], poly_lon[e], n_vertices[e])
 
 
 @jit_inline
@@ -222,16 +222,16 @@ def intruder_relative_state(envs, own, lat, lon, hdg, gs, active, nearest, out, 
         if nearest:
             for i in range(m - 1):
                 if act[i]:  # (_closest reads the keys of active slots only)
-                    key[i] = _kwikdist(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
+                    key[i] = kwikdist_scalar(lat0, lon0, lat[e, slots[i]], lon[e, slots[i]])
             _closest(key, act, order, best)
         else:
             for i in range(k):
                 order[i] = i
         for i in range(k):
             j = slots[order[i]]
-            qdr, dist = _kwikqdrdist(lat0, lon0, lat[e, j], lon[e, j])
-            bearing = _wrap180(hdg0 - qdr) * _RAD
-            difference = (hdg0 - hdg[e, j]) * _RAD
+            qdr, dist = kwikqdrdist_scalar(lat0, lon0, lat[e, j], lon[e, j])
+            bearing = wrap180_scalar(hdg0 - qdr) * DEG2RAD
+            difference = (hdg0 - hdg[e, j]) * DEG2RAD
             out[0, r, i] = dist * NM2KM
             out[1, r, i] = math.cos(bearing)
             out[2, r, i] = math.sin(bearing)
@@ -248,22 +248,22 @@ def goal_geometry(envs, own, lat, lon, hdg, goal_lat, goal_lon, drift_out, dist_
     for r in grid_range(envs.shape[0]):
         e = envs[r]
         o = own[r]
-        qdr, dist = _kwikqdrdist(lat[e, o], lon[e, o], goal_lat[r], goal_lon[r])
-        drift_out[r] = _wrap180(hdg[e, o] - qdr)
+        qdr, dist = kwikqdrdist_scalar(lat[e, o], lon[e, o], goal_lat[r], goal_lon[r])
+        drift_out[r] = wrap180_scalar(hdg[e, o] - qdr)
         dist_out[r] = dist
 
 
 @jit_inline
 def _velocity(hdg, tas, e, j):  # type: ignore[no-untyped-def]
     """TAS vector (north, east) [m/s] of slot ``j`` of episode ``e`` (heading and TAS, not track and GS, as the reference)."""
-    return math.cos(hdg[e, j] * _RAD) * tas[e, j], math.sin(hdg[e, j] * _RAD) * tas[e, j]
+    return math.cos(hdg[e, j] * DEG2RAD) * tas[e, j], math.sin(hdg[e, j] * DEG2RAD) * tas[e, j]
 
 
 # --- actions: heading and speed changes (SectorCR, Merge) ----------------------------------------
 @jit_inline
 def _heading_speed(hdg, cas, a_heading, a_speed, d_heading, d_speed):  # type: ignore[no-untyped-def]
     """HDG wrap180(hdg + d_heading a0) [deg]; SPD (CAS + d_speed a1) * 1.94384 kt, in m/s (* 0.514444)."""
-    return _wrap180(hdg + a_heading * d_heading), (cas + a_speed * d_speed) * MPS2KT * KTS
+    return wrap180_scalar(hdg + a_heading * d_heading), (cas + a_speed * d_speed) * MPS2KT * KTS
 
 
 @jit
@@ -336,11 +336,11 @@ def sector_observe(envs, own, lat, lon, hdg, tas, active, wpt_lat, wpt_lon, cent
     for r in grid_range(envs.shape[0]):
         e = envs[r]
         o = own[r]
-        qdr, _ = _kwikqdrdist(lat[e, o], lon[e, o], wpt_lat[r], wpt_lon[r])
-        drift = _wrap180(hdg[e, o] - qdr)
+        qdr, _ = kwikqdrdist_scalar(lat[e, o], lon[e, o], wpt_lat[r], wpt_lon[r])
+        drift = wrap180_scalar(hdg[e, o] - qdr)
         drift_out[r] = drift
-        own_out[r, 0] = math.cos(drift * _RAD)
-        own_out[r, 1] = math.sin(drift * _RAD)
+        own_out[r, 0] = math.cos(drift * DEG2RAD)
+        own_out[r, 1] = math.sin(drift * DEG2RAD)
         own_out[r, 2] = (tas[e, o] - spd_mean) / spd_std
         # Flat positions [m] around the sector centre (geometry.latlon_to_nm * 1852).
         x0 = (lat[e, o] - clat) * 60.0 * NM2KM * _M_PER_KM
@@ -380,7 +380,7 @@ def slots_in_polygons(envs, own, lat, lon, poly_lat, poly_lon, n_vertices, out):
     """
     for r in grid_range(envs.shape[0]):
         e = envs[r]
-        out[r] = _polygon_contains(lat[e, own[r]], lon[e, own[r]], poly_lat[e], poly_lon[e], n_vertices[e])
+        out[r] = polygon_contains(lat[e, own[r]], lon[e, own[r]], poly_lat[e], poly_lon[e], n_vertices[e])
 
 
 @jit
@@ -395,7 +395,7 @@ def sector_reward(drift, los, drift_penalty, intrusion_penalty, reward_out, drif
         for j in range(los.shape[1]):
             if los[r, j]:
                 count += 1
-        d = abs(drift[r] * _RAD) * drift_penalty
+        d = abs(drift[r] * DEG2RAD) * drift_penalty
         intrusion = count * intrusion_penalty + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
         drift_out[r] = d
         intrusion_out[r] = intrusion
@@ -435,14 +435,14 @@ def sector_episode_reward(  # type: ignore[no-untyped-def]
     """
     for r in grid_range(envs.shape[0]):
         e = envs[r]
-        drift_rad_sum[e] += abs(drift[r] * _RAD)
+        drift_rad_sum[e] += abs(drift[r] * DEG2RAD)
         drift_rad_n[e] += 1
         total_intrusions[e] += count[r]
         if not exit_ends:
             terminated_out[r] = False
             continue
         left = not inside[r]
-        at_exit = _kwikdist(lat[e, 0], lon[e, 0], wpt_lat[e, 0], wpt_lon[e, 0]) < exit_margin
+        at_exit = kwikdist_scalar(lat[e, 0], lon[e, 0], wpt_lat[e, 0], wpt_lon[e, 0]) < exit_margin
         steps_left = max(time_limit - (steps[e] + 1), 0)
         penalty = exit_penalty * steps_left if (left and not at_exit) else 0.0
         exit_out[r] = penalty
@@ -487,12 +487,12 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
         e = envs[r]
         o = own[r]
         lat0, lon0 = lat[e, o], lon[e, o]
-        qdr, dist = _kwikqdrdist(lat0, lon0, target_lat[r], target_lon[r])
-        drift = _wrap180(hdg[e, o] - qdr)
+        qdr, dist = kwikqdrdist_scalar(lat0, lon0, target_lat[r], target_lon[r])
+        drift = wrap180_scalar(hdg[e, o] - qdr)
         own_out[r, 0] = drift
         own_out[r, 1] = dist
-        own_out[r, 2] = math.cos(drift * _RAD)
-        own_out[r, 3] = math.sin(drift * _RAD)
+        own_out[r, 2] = math.cos(drift * DEG2RAD)
+        own_out[r, 3] = math.sin(drift * DEG2RAD)
         _other_slots(active, e, o, slots, act)
         count_out[r] = _count_active(act)
         for i in range(m - 1):
@@ -518,8 +518,8 @@ def merge_observe(envs, own, lat, lon, hdg, tas, active, target_lat, target_lon,
             vxj, vyj = _velocity(hdg, tas, e, j)
             vx, vy = vxj - vxo, vyj - vyo  # relative TAS vector
             trk = math.atan2(vy, vx)
-            intruder_out[r, 0, i] = d_m * math.cos(brg * _RAD) / pos_scale
-            intruder_out[r, 1, i] = d_m * math.sin(brg * _RAD) / pos_scale
+            intruder_out[r, 0, i] = d_m * math.cos(brg * DEG2RAD) / pos_scale
+            intruder_out[r, 1, i] = d_m * math.sin(brg * DEG2RAD) / pos_scale
             intruder_out[r, 2, i] = vx / spd_scale
             intruder_out[r, 3, i] = vy / spd_scale
             intruder_out[r, 4, i] = math.cos(trk)
@@ -603,7 +603,7 @@ def merge_reward(  # type: ignore[no-untyped-def]
             if los[r, j]:
                 count += 1
         reach = reach_reward if reach_faf else 0.0
-        d = abs(own[r, 0] * _RAD) * drift_penalty
+        d = abs(own[r, 0] * DEG2RAD) * drift_penalty
         intrusion = count * intrusion_penalty + 0.0  # + 0.0: no intrusion gives +0.0, as the reference's integer 0
         reach_out[r] = reach
         drift_out[r] = d
@@ -629,7 +629,7 @@ def merge_episode_sums(envs, own, reach_faf, near_runway, count, wpt_reach, faf_
             faf_reached[e] = 1
         elif near_runway[r]:
             faf_reached[e] = 2
-        drift_rad_sum[e] += abs(own[r, 0] * _RAD)
+        drift_rad_sum[e] += abs(own[r, 0] * DEG2RAD)
         drift_rad_n[e] += 1
         total_intrusions[e] += count[r]
 
@@ -638,9 +638,9 @@ def merge_episode_sums(envs, own, reach_faf, near_runway, count, wpt_reach, faf_
 @jit_inline
 def _point_at_distance(lat: float, lon: float, d_km: float, bearing: float, radius_km: float) -> tuple[float, float]:
     """Great-circle destination (lat, lon) [deg] at ``d_km`` along ``bearing`` [deg] (spherical)."""
-    lat1 = lat * _RAD
-    lon1 = lon * _RAD
-    a = bearing * _RAD
+    lat1 = lat * DEG2RAD
+    lon1 = lon * DEG2RAD
+    a = bearing * DEG2RAD
     dr = d_km / radius_km
     lat2 = math.asin(math.sin(lat1) * math.cos(dr) + math.cos(lat1) * math.sin(dr) * math.cos(a))
     lon2 = lon1 + math.atan2(math.sin(a) * math.sin(dr) * math.cos(lat1), math.cos(dr) - math.sin(lat1) * math.sin(lat2))
@@ -666,7 +666,7 @@ def kwikdist(lata: Array, lona: Array, latb: Array, lonb: Array, dist_out: Array
     """:func:`bluesky_gym.tasks.geometry.ref_kwikdist` of 2-D inputs broadcast to the output's shape."""
     for i in grid_range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
-            dist_out[i, j] = _kwikdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
+            dist_out[i, j] = kwikdist_scalar(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
 
 
 @jit
@@ -674,7 +674,7 @@ def kwikqdrdist(lata: Array, lona: Array, latb: Array, lonb: Array, qdr_out: Arr
     """:func:`bluesky_gym.tasks.geometry.ref_kwikqdrdist` of 2-D inputs broadcast to the outputs' shape."""
     for i in grid_range(dist_out.shape[0]):
         for j in range(dist_out.shape[1]):
-            qdr_out[i, j], dist_out[i, j] = _kwikqdrdist(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
+            qdr_out[i, j], dist_out[i, j] = kwikqdrdist_scalar(_at(lata, i, j), _at(lona, i, j), _at(latb, i, j), _at(lonb, i, j))
 
 
 @jit_inline

@@ -108,12 +108,12 @@ def test_closest_intruders_keep_the_stable_order_of_ties_and_skip_empty_slots() 
     out = np.empty((200, 7, 5))
     count = np.empty(200, np.int64)
     compiled.merge_observe(
-        np.arange(200), np.zeros(200, np.int64), lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7), mg._OBS_SCALES, own, out, count
+        np.arange(200), np.zeros(200, np.int64), lat, lon, hdg, tas, active, np.full(200, 54.0), np.full(200, 4.7), mg.OBS_SCALES, own, out, count
     )
     # distances column: the numpy order (stable argsort, empty slots last) of kwikdist_matrix.
     d = ref_kwikdist_matrix(lat[:, :1], lon[:, :1], lat[:, 1:], lon[:, 1:])
     order = np.argsort(np.where(active[:, 1:], d, np.inf), axis=1, kind="stable")[:, :5]
-    expected = np.take_along_axis(d, order, axis=1) / mg._OBS_SCALES[2]
+    expected = np.take_along_axis(d, order, axis=1) / mg.OBS_SCALES[2]
     np.testing.assert_array_equal(out[:, 6], expected)
     np.testing.assert_array_equal(count, active[:, 1:].sum(axis=1))
     # The cases were exercised: equal distances, and fewer active intruders than observed ones.
@@ -143,7 +143,7 @@ def test_functions_of_an_ownship_slot_equal_the_oracle_with_that_slot_moved_to_s
     wlat, wlon = 52.0 + rng.normal(0, 0.3, n), 4.0 + rng.normal(0, 0.3, n)
     # SectorCR
     drift, feat, intr, cnt = np.empty(n), np.empty((n, 3)), np.empty((n, 7, sc.NUM_AC_STATE)), np.empty(n, np.int64)
-    compiled.sector_observe(envs, own, lat, lon, hdg, tas, active, wlat, wlon, sc._FLAT_CENTER, sc._OBS_SCALES, drift, feat, intr, cnt)
+    compiled.sector_observe(envs, own, lat, lon, hdg, tas, active, wlat, wlon, sc.FLAT_CENTER, sc.OBS_SCALES, drift, feat, intr, cnt)
     want = oracle.sector_observation(moved, wlat, wlon)
     got = sc.observation(SimpleNamespace(features=feat, intruders=intr))
     _assert_same(got, want, "sector")
@@ -151,7 +151,7 @@ def test_functions_of_an_ownship_slot_equal_the_oracle_with_that_slot_moved_to_s
     after = rng.uniform(size=n) < 0.5
     tlat, tlon = mg.target(after)
     feat, intr = np.empty((n, 4)), np.empty((n, 7, mg.NUM_AC_STATE))
-    compiled.merge_observe(envs, own, lat, lon, hdg, tas, active, tlat, tlon, mg._OBS_SCALES, feat, intr, cnt)
+    compiled.merge_observe(envs, own, lat, lon, hdg, tas, active, tlat, tlon, mg.OBS_SCALES, feat, intr, cnt)
     want = oracle.merge_observation(moved, after.astype(np.int64))
     got = mg.observation(SimpleNamespace(features=feat, intruders=intr, airspeed=tas[envs, own], after_faf=after))
     _assert_same(got, want, "merge")

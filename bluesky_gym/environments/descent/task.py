@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core.jit import grid_range, jit, jit_inline
 from bluesky_gym.core.units import NM2KM, VS_SELECT_EPS
 from bluesky_gym.tasks.base import DEFAULT_TYPES, Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range, typed
-from bluesky_gym.tasks.compiled import IntArray, _kwikdist
+from bluesky_gym.tasks.compiled import IntArray, kwikdist_scalar
 
 ALT_MEAN = 1500.0  # m
 ALT_STD = 3000.0  # m
@@ -243,7 +243,7 @@ def command_vertical_speed(envs: IntArray, own: IntArray, action: Array, alt: Ar
 @jit_inline
 def _runway_km(lat: float, lon: float, runway_distance_km: float) -> float:
     """Km left to the runway: ``runway_distance_km`` minus the kwik distance from the start point (RWY_LAT, RWY_LON)."""
-    return runway_distance_km - _kwikdist(RWY_LAT, RWY_LON, lat, lon) * NM2KM
+    return runway_distance_km - kwikdist_scalar(RWY_LAT, RWY_LON, lat, lon) * NM2KM
 
 
 @jit_inline

@@ -29,7 +29,7 @@ from bluesky_gym.tasks.base import (
     kwik_separation,
     typed,
 )
-from bluesky_gym.tasks.compiled import _RAD
+from bluesky_gym.tasks.compiled import DEG2RAD
 from bluesky_gym.tasks.geometry import point_at_distance, ref_kwikdist
 
 DISTANCE_MARGIN = 5.0  # km: waypoint capture radius
@@ -158,7 +158,7 @@ def waypoint_progress(envs, own, hdg, drift, dist_nm, reached, margin_km, km_out
     """
     for r in grid_range(envs.shape[0]):
         km = dist_nm[r] * NM2KM
-        rad = drift[r] * _RAD
+        rad = drift[r] * DEG2RAD
         newly = km < margin_km and not reached[r]
         km_out[r] = km
         heading_out[r] = hdg[envs[r], own[r]]
@@ -182,7 +182,7 @@ def row_reward(newly, drift, los, reach_reward, drift_penalty, intrusion_penalty
             if los[r, j]:
                 count += 1
         reach = reach_reward if newly[r] else NOT_REACHED_REWARD
-        d = abs(drift[r] * _RAD) * drift_penalty
+        d = abs(drift[r] * DEG2RAD) * drift_penalty
         intrusion = count * intrusion_penalty
         reach_out[r] = reach
         drift_out[r] = d
@@ -201,7 +201,7 @@ def episode_reward(envs, drift, count, goal, wpt_reach, drift_rad_sum, drift_rad
     for r in grid_range(envs.shape[0]):
         e = envs[r]
         wpt_reach[e] = goal[r]
-        drift_rad_sum[e] += abs(drift[r] * _RAD)
+        drift_rad_sum[e] += abs(drift[r] * DEG2RAD)
         drift_rad_n[e] += 1
         total_intrusions[e] += count[r]
         terminated_out[r] = goal[r]

@@ -73,7 +73,7 @@ class MergeDeviceStep(DeviceStep):
 
         def observe(after: Any) -> None:
             tlat, tlon = self._targets(after)
-            self.launch(compiled.merge_observe, p, envs, own, lat, lon, hdg, tas, active, tlat, tlon, mg._OBS_SCALES, features, intruders, n_others)
+            self.launch(compiled.merge_observe, p, envs, own, lat, lon, hdg, tas, active, tlat, tlon, mg.OBS_SCALES, features, intruders, n_others)
 
         observe(after)
         faf_now = None

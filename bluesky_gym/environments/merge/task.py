@@ -65,7 +65,7 @@ POSITION_SCALE = 1e6  # m: x_r, y_r
 SPEED_SCALE = 150.0  # m/s: vx_r, vy_r
 M_PER_KM = 1000.0
 
-_OBS_SCALES = (POSITION_SCALE, SPEED_SCALE, WAYPOINT_DIST_SCALE)  # for the compiled observation
+OBS_SCALES = (POSITION_SCALE, SPEED_SCALE, WAYPOINT_DIST_SCALE)  # for the compiled observation
 _NO_ROWS = np.zeros(0, bool)  # an empty per-row flag array: -v0 has no faf_now
 INTRUDER_KEYS = ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")
 MAX_NUM_AC = 200  # largest supported traffic count
@@ -236,7 +236,7 @@ def measure(
     features = np.empty((n, 4))
     intruders = np.empty((n, 7, NUM_AC_STATE))
     n_others = np.empty(n, np.int64)
-    compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, _OBS_SCALES, features, intruders, n_others)
+    compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, OBS_SCALES, features, intruders, n_others)
     faf_now = None
     if faf_same_step:
         faf_now, after_now = np.empty(n, bool), np.empty(n, bool)
@@ -244,7 +244,7 @@ def measure(
         after_faf = after_now
         if faf_now.any():
             tlat, tlon = target(after_faf, space)
-            compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, _OBS_SCALES, features, intruders, n_others)
+            compiled.merge_observe(envs, own, sim.lat, sim.lon, sim.hdg, sim.tas, sim.active, tlat, tlon, OBS_SCALES, features, intruders, n_others)
     separation, los = kwik_separation(sim, envs, own, INTRUSION_DISTANCE)
     reached = np.empty(n, bool)
     compiled.merge_goal(after_faf, features, _NO_ROWS if faf_now is None else faf_now, space.goal_margin_nm, reached)

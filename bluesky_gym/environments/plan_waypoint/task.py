@@ -21,7 +21,7 @@ from bluesky_gym.core.jit import grid_range, jit, jit_inline
 from bluesky_gym.core.units import NM2KM
 from bluesky_gym.environments.horizontal_cr.task import AIRBORNE_ALT
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
-from bluesky_gym.tasks.compiled import _RAD, _kwikqdrdist, _wrap180
+from bluesky_gym.tasks.compiled import DEG2RAD, kwikqdrdist_scalar, wrap180_scalar
 from bluesky_gym.tasks.geometry import point_at_distance
 
 AC_LAT, AC_LON = 52.0, 4.0  # deg: BlueSky's default creation position
@@ -288,7 +288,7 @@ def waypoint_measure(envs, lat, lon, hdg, wpt_lat, wpt_lon, wpt_reached, margin_
         wpt_reached: (n, w) the waypoints reached in earlier steps.
         margin_km: Capture radius [km].
         dist_out: (p, w) kwik distance to each waypoint [km].
-        drift_out: (p, w) wrap180(hdg - kwik bearing) [deg].
+        drift_out: (p, w) wrap180_scalar(hdg - kwik bearing) [deg].
         before_out: (p, w) reached in an earlier step.
         new_out: (p, w) within the capture radius for the first time.
         goal_out: (p,) every waypoint reached, this step's included.
@@ -297,12 +297,12 @@ def waypoint_measure(envs, lat, lon, hdg, wpt_lat, wpt_lon, wpt_reached, margin_
         e = envs[r]
         goal = True
         for i in range(wpt_lat.shape[1]):
-            qdr, dist = _kwikqdrdist(lat[e, 0], lon[e, 0], wpt_lat[e, i], wpt_lon[e, i])
+            qdr, dist = kwikqdrdist_scalar(lat[e, 0], lon[e, 0], wpt_lat[e, i], wpt_lon[e, i])
             d = dist * NM2KM
             before = wpt_reached[e, i]
             new = d < margin_km and not before
             dist_out[r, i] = d
-            drift_out[r, i] = _wrap180(hdg[e, 0] - qdr)
+            drift_out[r, i] = wrap180_scalar(hdg[e, 0] - qdr)
             before_out[r, i] = before
             new_out[r, i] = new
             if not (before or new):
@@ -323,7 +323,7 @@ def waypoint_observation(dist_km, drift, before, new, same_step, distance_scale,
         for i in range(dist_km.shape[1]):
             reached = before[r, i] or (same_step and new[r, i])
             m = 0.0 if reached else 1.0
-            rad = drift[r, i] * _RAD
+            rad = drift[r, i] * DEG2RAD
             distance_out[r, i] = m * dist_km[r, i] / distance_scale
             cos_out[r, i] = m * math.cos(rad)
             sin_out[r, i] = m * math.sin(rad)

@@ -80,7 +80,7 @@ class SectorCRDeviceStep(DeviceStep):
             active,
             wpt_lat,
             wpt_lon,
-            sc._FLAT_CENTER,
+            sc.FLAT_CENTER,
             scales,
             drift,
             features,

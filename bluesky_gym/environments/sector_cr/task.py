@@ -162,8 +162,8 @@ class SectorCRConfig(TaskConfig):
 
 # The flat projection of the observation, as geometry.latlon_to_nm evaluates it, and the
 # observation scales, for the compiled observation.
-_FLAT_CENTER = (CENTER[0], CENTER[1], float(np.cos(np.radians(np.asarray(CENTER, dtype=np.float64))[0])))
-_OBS_SCALES = (AIRSPEED_MEAN, AIRSPEED_STD, POSITION_SCALE, VX_SCALE, VY_SCALE, DISTANCE_MEAN, DISTANCE_STD)
+FLAT_CENTER = (CENTER[0], CENTER[1], float(np.cos(np.radians(np.asarray(CENTER, dtype=np.float64))[0])))
+OBS_SCALES = (AIRSPEED_MEAN, AIRSPEED_STD, POSITION_SCALE, VX_SCALE, VY_SCALE, DISTANCE_MEAN, DISTANCE_STD)
 
 
 def worst_case_aircraft(config: SectorCRConfig) -> int:
@@ -178,12 +178,12 @@ def worst_case_aircraft(config: SectorCRConfig) -> int:
 #: The observation entries of the agent's own features (:attr:`SectorGeometry.features`' columns) and of its intruders.
 OWN_KEYS = ("cos(drift)", "sin(drift)", "airspeed")
 INTRUDER_KEYS = ("x_r", "y_r", "vx_r", "vy_r", "cos(track)", "sin(track)", "distances")
-_OBS_SCALES_V1 = (AIRSPEED_MEAN_V1, AIRSPEED_STD_V1, *_OBS_SCALES[2:])
+OBS_SCALES_V1 = (AIRSPEED_MEAN_V1, AIRSPEED_STD_V1, *OBS_SCALES[2:])
 
 
 def observation_scales(config: SectorCRConfig) -> tuple[float, ...]:
     """The normalisation constants of the compiled observation for ``config`` (airspeed's differ at FL350)."""
-    return _OBS_SCALES_V1 if config.flight_level_altitude else _OBS_SCALES
+    return OBS_SCALES_V1 if config.flight_level_altitude else OBS_SCALES
 
 
 def speed_change(config: SectorCRConfig) -> float:
@@ -245,7 +245,7 @@ def measure(sim: Physics, sector: SectorCRTask, envs: NDArray[np.int64], own: ND
         sim.active,
         sector.wpt_lat[envs, own],
         sector.wpt_lon[envs, own],
-        _FLAT_CENTER,
+        FLAT_CENTER,
         observation_scales(sector.config),
         drift,
         features,

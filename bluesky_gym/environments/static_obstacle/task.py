@@ -24,7 +24,7 @@ from bluesky_gym.tasks.base import (
     check_range,
     command_heading_and_speed,
 )
-from bluesky_gym.tasks.compiled import _RAD, _kwikqdrdist, _polygon_contains, _wrap180
+from bluesky_gym.tasks.compiled import DEG2RAD, kwikqdrdist_scalar, polygon_contains, wrap180_scalar
 from bluesky_gym.tasks.geometry import (
     nm_to_latlon,
     point_at_distance,
@@ -61,7 +61,7 @@ DISTANCE_BOUND = 3.0
 class StaticObstacleMeasurement(StepGeometry):
     """One step's quantities of the static-obstacle task, for the rows (episodes) ``envs`` (:func:`obstacle_measure`).
 
-    No traffic; ``drift_deg``: drift wrap180(hdg - qdr) to the waypoint now [deg];
+    No traffic; ``drift_deg``: drift wrap180_scalar(hdg - qdr) to the waypoint now [deg];
     ``goal_reached``: the waypoint has been reached, this step included. The arrays are numpy
     arrays on the CPU, torch tensors in the device step
     (:mod:`~bluesky_gym.environments.static_obstacle.device_step`).
@@ -595,7 +595,7 @@ def _newly_within(distance_km, reached, margin_km):
 @jit_inline
 def _abs_rad(deg):
     """|angle| [rad] of an angle [deg] (numpy's ``abs(deg2rad(deg))``): the drift the reward charges."""
-    return abs(deg * _RAD)
+    return abs(deg * DEG2RAD)
 
 
 @jit_inline
@@ -613,7 +613,7 @@ def _first_inside(lat_track, lon_track, e, poly_lat, poly_lon, nv, limit):
         hi = max(hi, poly_lat[v])
     for k in range(limit):
         y = lat_track[k, e, 0]
-        if lo <= y < hi and _polygon_contains(y, lon_track[k, e, 0], poly_lat, poly_lon, nv):
+        if lo <= y < hi and polygon_contains(y, lon_track[k, e, 0], poly_lat, poly_lon, nv):
             return k + 1
     return 0
 
@@ -649,21 +649,21 @@ def obstacle_measure(
 ):
     """:meth:`StaticObstacleTask.measure` of rows ``r`` (episode ``envs[r]``, the ownship in slot 0).
 
-    Outputs per row: the kwik distance to the waypoint [km] and the drift wrap180(hdg - qdr) to
+    Outputs per row: the kwik distance to the waypoint [km] and the drift wrap180_scalar(hdg - qdr) to
     it [deg]; the obstacles containing the aircraft (even-odd test); whether the waypoint is
     reached now for the first time and the |drift| [rad] the reward charges (``step_reward``:
     the distance and drift now; else the last observation's, ``last_*``); whether the goal is
     reached; the observation entries: ``waypoint_out`` (rows, 3) the distance / ``distance_scale``,
     cos and sin of the drift, ``obstacle_out`` (4, rows, K) per obstacle its radius /
     :data:`RADIUS_SCALE_NM`, the kwik distance to its centre [km] / ``distance_scale`` and cos and
-    sin of wrap180(hdg - bearing to the centre).
+    sin of wrap180_scalar(hdg - bearing to the centre).
     """
     for r in grid_range(envs.shape[0]):
         e = envs[r]
         lat0, lon0, hdg0 = lat[e, 0], lon[e, 0], hdg[e, 0]
-        qdr, dist = _kwikqdrdist(lat0, lon0, wpt_lat[e], wpt_lon[e])
+        qdr, dist = kwikqdrdist_scalar(lat0, lon0, wpt_lat[e], wpt_lon[e])
         wpt_km = dist * NM2KM
-        drift = _wrap180(hdg0 - qdr)
+        drift = wrap180_scalar(hdg0 - qdr)
         if step_reward:
             reached = _newly_within(wpt_km, wpt_reached[e], margin_km)
             stale = _abs_rad(drift)
@@ -672,10 +672,10 @@ def obstacle_measure(
             stale = _abs_rad(last_drift[e])
         count = 0
         for k in range(n_vertices.shape[1]):
-            if _polygon_contains(lat0, lon0, poly_lat[e, k], poly_lon[e, k], n_vertices[e, k]):
+            if polygon_contains(lat0, lon0, poly_lat[e, k], poly_lon[e, k], n_vertices[e, k]):
                 count += 1
-            qdr_c, dist_c = _kwikqdrdist(lat0, lon0, centre_lat[e, k], centre_lon[e, k])
-            bearing = _wrap180(hdg0 - qdr_c) * _RAD
+            qdr_c, dist_c = kwikqdrdist_scalar(lat0, lon0, centre_lat[e, k], centre_lon[e, k])
+            bearing = wrap180_scalar(hdg0 - qdr_c) * DEG2RAD
             obstacle_out[0, r, k] = radius[e, k] / RADIUS_SCALE_NM
             obstacle_out[1, r, k] = dist_c * NM2KM / distance_scale
             obstacle_out[2, r, k] = math.cos(bearing)
@@ -686,7 +686,7 @@ def obstacle_measure(
         reached_out[r] = reached
         stale_out[r] = stale
         goal_out[r] = wpt_reached[e] or reached
-        rad = drift * _RAD
+        rad = drift * DEG2RAD
         waypoint_out[r, 0] = wpt_km / distance_scale
         waypoint_out[r, 1] = math.cos(rad)
         waypoint_out[r, 2] = math.sin(rad)
