@@ -18,8 +18,9 @@ How the batches travel (:class:`TensorIO`):
   commands, which the task gives on the host.
 
 Where the task's whole step runs on the device (:class:`DeviceStep`, a subclass per task in its
-folder's ``device_step.py``: SectorCR, Merge, StaticObstacle), neither copy happens: the actions stay on the device, the kernels write into tensors
-(:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
+folder's ``device_step.py``, named by its registry row: every paper task but DenseSectorCR and
+RealTrafficCR), neither copy happens: the actions stay on the device, the kernels write into
+tensors (:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
 
 Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the device arrays are numpy arrays in
 disguise and torch has no GPU to put tensors on: the tensors are then CPU tensors, made by the

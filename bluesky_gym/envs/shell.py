@@ -410,8 +410,8 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     draws, observation, reward) runs on the host as with ``device="cpu"``, so episode ``i`` draws
     the same scenarios as a single environment with seed ``s + i``; its physics agrees with the
     CPU's within the GPU's rounding (docs/backends.md). For a task whose
-    registry row names a ``device_step`` (a :class:`~bluesky_gym.envs.device.DeviceStep`: SectorCR,
-    Merge and StaticObstacle, without wind) the whole step runs on the device
+    registry row names a ``device_step`` (a :class:`~bluesky_gym.envs.device.DeviceStep`: every
+    paper task but DenseSectorCR and RealTrafficCR, without wind) the whole step runs on the device
     instead, every info entry is a tensor there, and only the resets' draws run on the host.
 
     Args:
