@@ -203,6 +203,7 @@ class DeviceStep:
         }
         #: The task's per-episode arrays on the device (:meth:`host_arrays`), uploaded at each reset.
         self.arrays: dict[str, Any] = {}
+        self._no_traffic: tuple[Any, Any] | None = None
 
     # --- what a task supplies ------------------------------------------------------------------
     def host_arrays(self) -> dict[str, np.ndarray]:
@@ -285,6 +286,21 @@ class DeviceStep:
         return arrays
 
     # --- tensors and kernels --------------------------------------------------------------------
+    def no_traffic(self, rows: int) -> tuple[Any, Any]:
+        """Separations [NM] (inf) and loss-of-separation flags (False) of ``rows`` rows, for a task without traffic.
+
+        What its CPU measure gives the statistics: no separation to anyone, never a loss of it.
+        Made once, (n_envs, max_aircraft), and sliced.
+        """
+        if self._no_traffic is None:
+            torch, shape = self.torch, (self.n, self.m)
+            self._no_traffic = (
+                torch.full(shape, np.inf, dtype=torch.float64, device=self.io.device),
+                torch.zeros(shape, dtype=torch.bool, device=self.io.device),
+            )
+        separation, los = self._no_traffic
+        return separation[:rows], los[:rows]
+
     def long(self, host: np.ndarray) -> Any:
         """A host array of indices as an int64 tensor on the device."""
         return self.torch.as_tensor(np.ascontiguousarray(host, dtype=np.int64), device=self.io.device)

@@ -43,10 +43,6 @@ class DescentDeviceStep(DeviceStep):
 
     def __init__(self, task: dt.DescentTask, io: TensorIO) -> None:
         super().__init__(task, io)
-        torch = self.torch
-        # No traffic: no separation to anyone (as the CPU measure's), rows taken from these.
-        self.no_separation = torch.full((self.n, self.m), np.inf, dtype=torch.float64, device=io.device)
-        self.no_los = torch.zeros((self.n, self.m), dtype=torch.bool, device=io.device)
 
     def host_arrays(self) -> dict[str, np.ndarray]:
         """The target and final altitudes."""
@@ -64,7 +60,7 @@ class DescentDeviceStep(DeviceStep):
         lat, lon, alt, vs = self.sim.device_arrays("lat", "lon", "alt", "vs")
         alt_r, vs_r, runway_km, goal = self.empty(p), self.empty(p), self.empty(p), self.empty(p, dtype=self.torch.bool)
         self.launch(dt.descent_measure, p, envs, own, lat, lon, alt, vs, float(self.task.config.runway_distance_km), alt_r, vs_r, runway_km, goal)
-        return dt.DescentMeasurement(envs, self.no_separation[:p], self.no_los[:p], None, goal, alt_r, vs_r, runway_km)
+        return dt.DescentMeasurement(envs, *self.no_traffic(p), None, goal, alt_r, vs_r, runway_km)
 
     def observe(self, g: StepGeometry) -> dict[str, Any]:
         """:func:`~bluesky_gym.environments.descent.task.observation`: scalings of the measured tensors."""

@@ -52,13 +52,9 @@ class PlanWaypointDeviceStep(DeviceStep):
 
     def __init__(self, task: pw.PlanWaypointTask, io: TensorIO) -> None:
         super().__init__(task, io)
-        torch = self.torch
-        # No traffic: every row's separations are inf and none is lost (the CPU measure's arrays).
-        self.no_separation = torch.full((self.n, self.m), np.inf, dtype=torch.float64, device=io.device)
-        self.no_los = torch.zeros((self.n, self.m), dtype=torch.bool, device=io.device)
 
     def host_arrays(self) -> dict[str, np.ndarray]:
-        """The waypoints, their reach flags and each episode's shortest tour (for the extra-track KPI)."""
+        """The waypoints and their reach flags."""
         t = self.task
         return {"wpt_lat": t.wpt_lat, "wpt_lon": t.wpt_lon, "wpt_reached": t.wpt_reached}
 
@@ -79,10 +75,11 @@ class PlanWaypointDeviceStep(DeviceStep):
         self.launch(
             pw.waypoint_measure, p, envs, lat, lon, hdg, a["wpt_lat"], a["wpt_lon"], a["wpt_reached"], margin, dist_km, drift, before, new, goal
         )
+        separation, los = self.no_traffic(p)
         return pw.PlanWaypointMeasurement(
             envs=envs,
-            separation_nm=self.no_separation[:p],
-            los=self.no_los[:p],
+            separation_nm=separation,
+            los=los,
             drift_deg=None,
             goal_reached=goal,
             dist_km=dist_km,

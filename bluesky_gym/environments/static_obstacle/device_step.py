@@ -78,9 +78,6 @@ class StaticObstacleDeviceStep(DeviceStep):
         super().__init__(task, io)
         self.heading_step, self.speed_step = so.D_HEADING, so.speed_change(task.config)
         torch, n, m = self.torch, self.n, self.m
-        # No traffic: the separations the statistics record are inf, never a loss of separation.
-        self.separation = torch.full((n, m), np.inf, dtype=torch.float64, device=io.device)
-        self.no_los = torch.zeros((n, m), dtype=torch.bool, device=io.device)
         #: (n_envs,) the sub-step at which each episode ended in this decision step (0: it ran them all).
         self.ended_at = self.empty(n, dtype=torch.int64)
         #: The state of the episodes that ended before the last sub-step, as they ended.
@@ -149,10 +146,11 @@ class StaticObstacleDeviceStep(DeviceStep):
             waypoint_obs,
             obstacle_obs,
         )
+        separation, los = self.no_traffic(p)
         return so.StaticObstacleMeasurement(
             envs=envs,
-            separation_nm=self.separation[:p],
-            los=self.no_los[:p],
+            separation_nm=separation,
+            los=los,
             drift_deg=drift,
             goal_reached=goal,
             wpt_km=wpt_km,
