@@ -124,3 +124,17 @@ def compare_device_step(
     assert not pulls, "the aircraft state came back to the host whole during a step"
     monkeypatch.setattr(DeviceSimulator, "_to_host", original)
     return ended, terminated, cpu, dev
+
+
+def launches_of_step(env_id: str, num_envs: int, ends: bool, **options: Any) -> int:
+    """The kernel launches of one device step of ``env_id`` (zero actions), in which every episode ends (``ends``: a time limit of 1) or none does."""
+    import torch
+
+    env = gym.make_vec(env_id, num_envs=num_envs, max_episode_steps=1 if ends else 50, device="cuda", **options)
+    assert env.unwrapped._device_step is not None, f"{env_id} has no device step"
+    env.reset(seed=0)
+    before = cuda_target.launches()
+    _, _, terminated, truncated, _ = env.step(torch.zeros(env.action_space.shape, device=ON))
+    assert bool((terminated | truncated).all()) == ends
+    env.close()
+    return cuda_target.launches() - before

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 import bluesky_gym
-from bluesky_gym.core import cuda_target
 from bluesky_gym.environments.descent.device_step import DescentDeviceStep
 
 from .conftest import ON, compare_device_step, needs_device, same_tensor
@@ -72,23 +71,6 @@ def test_v1_zero_action_holds_the_altitude_on_the_device_as_on_the_cpu() -> None
     np.testing.assert_array_equal(dev.unwrapped.task.sim.selalt[:, 0], cpu.unwrapped.task.sim.selalt[:, 0])
     cpu.close()
     dev.close()
-
-
-def _launches_of_step(env_id: str, n: int, ends: bool) -> int:
-    env = gym.make_vec(env_id, num_envs=n, max_episode_steps=1 if ends else 50, device="cuda")
-    assert env.unwrapped._device_step is not None
-    env.reset(seed=0)
-    before = cuda_target.launches()
-    _, _, terminated, truncated, _ = env.step(torch.zeros((n, 1), device=ON))
-    assert bool((terminated | truncated).all()) == ends
-    env.close()
-    return cuda_target.launches() - before
-
-
-@pytest.mark.parametrize("env_id", ["DescentEnv-v0", "DescentEnv-v1"])
-def test_a_step_is_a_fixed_number_of_launches_whatever_the_number_of_episodes(env_id: str) -> None:
-    assert _launches_of_step(env_id, 2, False) == _launches_of_step(env_id, 5, False)
-    assert _launches_of_step(env_id, 2, True) == _launches_of_step(env_id, 5, True) > _launches_of_step(env_id, 2, False)
 
 
 def test_wind_keeps_the_task_step_on_the_host() -> None:

@@ -18,10 +18,9 @@ import numpy as np
 import pytest
 
 import bluesky_gym
-from bluesky_gym.core import cuda_target
 from bluesky_gym.environments.horizontal_cr.device_step import HorizontalCRDeviceStep
 
-from .conftest import ON, compare_device_step, needs_device
+from .conftest import compare_device_step, needs_device
 
 torch = pytest.importorskip("torch")
 pytestmark = needs_device
@@ -59,23 +58,6 @@ def test_device_step_episodes_equal_the_cpu_vector_env_bit_for_bit(env_id: str, 
     np.testing.assert_array_equal(dev.unwrapped.task.conflict_tlosh, cpu.unwrapped.task.conflict_tlosh)
     cpu.close()
     dev.close()
-
-
-def _launches_of_step(env_id: str, n: int, ends: bool) -> int:
-    env = gym.make_vec(env_id, num_envs=n, max_episode_steps=1 if ends else 50, device="cuda")
-    assert isinstance(env.unwrapped._device_step, HorizontalCRDeviceStep)
-    env.reset(seed=0)
-    before = cuda_target.launches()
-    _, _, terminated, truncated, _ = env.step(torch.zeros((n, 1), device=ON))
-    assert bool((terminated | truncated).all()) == ends
-    env.close()
-    return cuda_target.launches() - before
-
-
-@pytest.mark.parametrize("env_id", ["HorizontalCREnv-v0", "HorizontalCREnv-v1"])
-def test_a_step_is_a_fixed_number_of_launches_whatever_the_number_of_episodes(env_id: str) -> None:
-    assert _launches_of_step(env_id, 2, False) == _launches_of_step(env_id, 5, False)
-    assert _launches_of_step(env_id, 2, True) == _launches_of_step(env_id, 5, True) > _launches_of_step(env_id, 2, False)
 
 
 def test_wind_keeps_the_task_step_on_the_host() -> None:

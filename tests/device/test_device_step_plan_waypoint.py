@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 
 import bluesky_gym
-from bluesky_gym.core import cuda_target
 from bluesky_gym.environments.plan_waypoint.device_step import PlanWaypointDeviceStep
 
 from .conftest import ON, compare_device_step, needs_device
@@ -76,23 +75,6 @@ def test_goals_reached_give_the_goal_kpis() -> None:
     assert obs["waypoint_reached"].tolist() == [[0.0]] * 3  # the new episodes' first observation
     assert env.unwrapped._device_step.arrays["wpt_reached"].tolist() == [[False]] * 3
     env.close()
-
-
-def _launches_of_step(env_id: str, n: int, ends: bool) -> int:
-    env = gym.make_vec(env_id, num_envs=n, max_episode_steps=1 if ends else 50, device="cuda")
-    env.reset(seed=0)
-    before = cuda_target.launches()
-    _, _, terminated, truncated, _ = env.step(torch.zeros((n, 1), device=ON))
-    assert bool((terminated | truncated).all()) == ends
-    env.close()
-    return cuda_target.launches() - before
-
-
-@pytest.mark.parametrize(("env_id", "observation_clips"), [("PlanWaypointEnv-v0", 0), ("PlanWaypointEnv-v1", 4)])
-def test_a_step_is_a_fixed_number_of_launches_whatever_the_number_of_episodes(env_id: str, observation_clips: int) -> None:
-    # actions, command, physics, measure, observation, reward, statistics, truncation, info: 9 (-v1: each of 4 entries clipped)
-    assert _launches_of_step(env_id, 2, False) == _launches_of_step(env_id, 5, False) == 9 + observation_clips
-    assert _launches_of_step(env_id, 2, True) == _launches_of_step(env_id, 5, True) > _launches_of_step(env_id, 2, False)
 
 
 def test_wind_keeps_the_task_step_on_the_host() -> None:
