@@ -43,12 +43,7 @@ __all__ = ["HorizontalCRDeviceStep"]
 
 
 class HorizontalCRDeviceStep(DeviceStep):
-    """HorizontalCR's vector-environment step with the task on the device (see the module docstring).
-
-    Args:
-        task: The vector environment's task (its physics a :class:`~bluesky_gym.core.DeviceSimulator`).
-        io: The environment's :class:`~bluesky_gym.envs.device.TensorIO`.
-    """
+    """HorizontalCR's step on the device (the module docstring; the arguments: :class:`~bluesky_gym.envs.device.DeviceStep`'s)."""
 
     task_class: ClassVar[type[Task]] = hc.HorizontalCRTask
     task: hc.HorizontalCRTask

@@ -36,12 +36,7 @@ __all__ = ["SectorCRDeviceStep"]
 
 
 class SectorCRDeviceStep(DeviceStep):
-    """SectorCR's vector-environment step with the task on the device (see the module docstring).
-
-    Args:
-        task: The vector environment's task (its physics a :class:`~bluesky_gym.core.DeviceSimulator`).
-        io: The environment's :class:`~bluesky_gym.envs.device.TensorIO`.
-    """
+    """SectorCR's step on the device (the module docstring; the arguments: :class:`~bluesky_gym.envs.device.DeviceStep`'s)."""
 
     task_class: ClassVar[type[Task]] = sc.SectorCRTask
     task: sc.SectorCRTask

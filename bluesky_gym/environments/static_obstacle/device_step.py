@@ -64,12 +64,7 @@ HOST_ARRAYS = (
 
 
 class StaticObstacleDeviceStep(DeviceStep):
-    """StaticObstacle's vector-environment step with the task on the device (see the module docstring).
-
-    Args:
-        task: The vector environment's task (its physics a :class:`~bluesky_gym.core.DeviceSimulator`).
-        io: The environment's :class:`~bluesky_gym.envs.device.TensorIO`.
-    """
+    """StaticObstacle's step on the device (the module docstring; the arguments: :class:`~bluesky_gym.envs.device.DeviceStep`'s)."""
 
     task_class: ClassVar[type[Task]] = so.StaticObstacleTask
     task: so.StaticObstacleTask

@@ -34,12 +34,7 @@ __all__ = ["VerticalCRDeviceStep"]
 
 
 class VerticalCRDeviceStep(DescentDeviceStep):
-    """VerticalCR's vector-environment step with the task on the device (see the module docstring).
-
-    Args:
-        task: The vector environment's task (its physics a :class:`~bluesky_gym.core.DeviceSimulator`).
-        io: The environment's :class:`~bluesky_gym.envs.device.TensorIO`.
-    """
+    """VerticalCR's step on the device (the module docstring; the arguments: :class:`~bluesky_gym.envs.device.DeviceStep`'s)."""
 
     task_class: ClassVar[type[Task]] = vt.VerticalCRTask
     task: vt.VerticalCRTask
