@@ -27,7 +27,8 @@ trap 'rm -rf "$BLUESKY_GYM_CACHE"' EXIT
 # The documentation site (mkdocs.yml), warnings as errors, into the ignored site/ folder;
 # tests/docs/test_site.py then opens every page of this build in a headless browser.
 export BLUESKY_GYM_SITE_DIR="$PWD/site"
-NO_MKDOCS_2_WARNING=1 .venv/bin/python -m mkdocs build --strict --quiet --site-dir "$BLUESKY_GYM_SITE_DIR"
+# (Not --quiet: it hides the warnings from --strict, which then passes a build that warns.)
+NO_MKDOCS_2_WARNING=1 .venv/bin/python -m mkdocs build --strict --site-dir "$BLUESKY_GYM_SITE_DIR"
 
 export SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy MPLBACKEND=Agg
 # On CPUs with AVX-512, numpy >= 2 computes sin, cos, exp, pow... with its own SIMD loops, which

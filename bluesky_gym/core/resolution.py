@@ -441,9 +441,9 @@ def mvp_listed(  # type: ignore[no-untyped-def]
 ):  # fmt: skip
     """MVP of aircraft ``i`` (flat index) from its listed conflicts ``row[i]:row[i + 1]`` (by rising intruder), summed in :func:`mvp_loop`'s order.
 
-    Returns:
-        Resolution track, ground speed, vertical speed, altitude (:func:`mvp_aircraft`), then the
-        summed change east, north, up and the shortest vertical solving time.
+    It returns the resolution track, ground speed, vertical speed and altitude
+    (:func:`mvp_aircraft`), then the summed change east, north and up, and the shortest vertical
+    solving time.
     """
     dve = 0.0
     dvn = 0.0
