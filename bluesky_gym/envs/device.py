@@ -301,6 +301,15 @@ class DeviceStep:
         separation, los = self._no_traffic
         return separation[:rows], los[:rows]
 
+    def sample_mean(self, total: str, count: str, empty: float) -> Any:
+        """(n_envs,) the mean of the samples summed in the task's arrays ``total`` and ``count``; ``empty`` without one.
+
+        The kernel :func:`~bluesky_gym.tasks.compiled.sample_means`, one launch.
+        """
+        out = self.empty(self.n)
+        self.launch(compiled.sample_means, self.n, self.arrays[total], self.arrays[count], empty, out)
+        return out
+
     def long(self, host: np.ndarray) -> Any:
         """A host array of indices as an int64 tensor on the device."""
         return self.torch.as_tensor(np.ascontiguousarray(host, dtype=np.int64), device=self.io.device)
@@ -319,15 +328,15 @@ class DeviceStep:
         cuda_target.launch(kernel, rows, *(self.kernel_array(a) if isinstance(a, torch.Tensor) else a for a in args))
 
     # --- the shared stages ---------------------------------------------------------------------
-    def _upload_arrays(self, rows: np.ndarray | None) -> None:
-        """The task's per-episode arrays of episodes ``rows`` (all when None) to the device."""
+    def _upload_arrays(self, rows: np.ndarray | None, idx: Any) -> None:
+        """The task's per-episode arrays of episodes ``rows`` (all when None; ``idx``: the same on the device) to the device."""
         dev = self.io.device
         for name, host in self._host_arrays().items():
             held = self.arrays.get(name)
             if rows is None or held is None or tuple(held.shape) != host.shape:
                 self.arrays[name] = self.torch.as_tensor(np.ascontiguousarray(host), device=dev)
             else:
-                held[self.long(rows)] = self.torch.as_tensor(np.ascontiguousarray(host[rows]), device=dev)
+                held[idx] = self.torch.as_tensor(np.ascontiguousarray(host[rows]), device=dev)
 
     def _clear_stats(self, idx: Any) -> None:
         """:meth:`~bluesky_gym.tasks.base.EpisodeStats.clear` of episodes ``idx`` on the device."""
@@ -446,8 +455,8 @@ class DeviceStep:
             t.generate(host_rows)
 
         self.sim.reset_on_host(host_rows, reset)
-        self._upload_arrays(rows)
         idx = self.envs if rows is None else self.long(rows)
+        self._upload_arrays(rows, idx)
         self._clear_stats(idx)
         g = self.measure(idx, self.own[: int(idx.shape[0])])
         self.record(g, None)

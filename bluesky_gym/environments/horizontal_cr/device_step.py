@@ -35,7 +35,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from bluesky_gym.environments.horizontal_cr import task as hc
-from bluesky_gym.envs.device import DeviceStep, TensorIO
+from bluesky_gym.envs.device import DeviceStep
 from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import StepGeometry, Task
 
@@ -48,12 +48,6 @@ class HorizontalCRDeviceStep(DeviceStep):
     task_class: ClassVar[type[Task]] = hc.HorizontalCRTask
     task: hc.HorizontalCRTask
     heading_step: float = hc.D_HEADING
-
-    def __init__(self, task: hc.HorizontalCRTask, io: TensorIO) -> None:
-        super().__init__(task, io)
-        # The observation's scales as tensors on the device: divisions by them are numpy's (see observation).
-        scales = (hc.DISTANCE_SCALE, hc.SPEED_SCALE)
-        self.distance_scale, self.speed_scale = (self.torch.tensor(v, dtype=self.torch.float64, device=io.device) for v in scales)
 
     def host_arrays(self) -> dict[str, np.ndarray]:
         """The waypoints, the reach flags, the action's reference heading, the start's distance to the waypoint and the info's sums."""
@@ -92,7 +86,7 @@ class HorizontalCRDeviceStep(DeviceStep):
         """:meth:`~bluesky_gym.environments.horizontal_cr.task.HorizontalCRTask.observe`: the observed heading kept, the observation scaled."""
         assert isinstance(g, hc.HorizontalCRGeometry)
         self.arrays["ac_hdg"][g.envs] = g.heading
-        return hc.observation(g, self.distance_scale, self.speed_scale)
+        return hc.observation(g)
 
     def reward(self, g: StepGeometry) -> tuple[Any, Any, dict[str, Any]]:
         """Reach, drift and intrusion terms; the reach flag, the termination and the episode sums (two launches)."""
@@ -109,6 +103,5 @@ class HorizontalCRDeviceStep(DeviceStep):
     def episode_info(self) -> dict[str, Any]:
         """:meth:`bluesky_gym.environments.horizontal_cr.task.HorizontalCRTask.episode_info` on the device (one launch)."""
         a = self.arrays
-        average_drift = self.empty(self.n)
-        self.launch(compiled.sample_means, self.n, a["drift_rad_sum"], a["drift_rad_n"], hc.AVERAGE_DRIFT_EMPTY, average_drift)
+        average_drift = self.sample_mean("drift_rad_sum", "drift_rad_n", hc.AVERAGE_DRIFT_EMPTY)
         return {"total_reward": self.stats["total_reward"].clone(), "total_intrusions": a["total_intrusions"].clone(), "average_drift": average_drift}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -279,24 +279,16 @@ def measure(
     return HorizontalCRGeometry(envs, separation, los, drift, goal, own, intruders, n_others, heading, waypoint_km, cos_drift, sin_drift, newly)
 
 
-def observation(g: HorizontalCRGeometry, distance_scale: Any = DISTANCE_SCALE, speed_scale: Any = SPEED_SCALE) -> dict[str, Array]:
-    """HorizontalCREnv-v0's observation of every row: the geometry's entries scaled (numpy arrays or torch tensors alike).
-
-    Args:
-        g: The rows' geometry.
-        distance_scale: :data:`DISTANCE_SCALE` [km], as a number or a 0-d array (the device step
-            gives a tensor on the device: torch divides by a number as a product with its
-            reciprocal there, by a tensor exactly as numpy does).
-        speed_scale: :data:`SPEED_SCALE` [m/s], in the same form.
-    """
+def observation(g: HorizontalCRGeometry) -> dict[str, Array]:
+    """HorizontalCREnv-v0's observation of every row: the geometry's entries scaled (numpy arrays or torch tensors alike)."""
     dist_km, cos_b, sin_b, x_dif, y_dif = g.intruders
     return {
-        "intruder_distance": dist_km / distance_scale,
+        "intruder_distance": dist_km / DISTANCE_SCALE,
         "cos_difference_pos": cos_b,
         "sin_difference_pos": sin_b,
-        "x_difference_speed": x_dif / speed_scale,
-        "y_difference_speed": y_dif / speed_scale,
-        "waypoint_distance": (g.waypoint_km / distance_scale)[:, None],
+        "x_difference_speed": x_dif / SPEED_SCALE,
+        "y_difference_speed": y_dif / SPEED_SCALE,
+        "waypoint_distance": (g.waypoint_km / DISTANCE_SCALE)[:, None],
         "cos_drift": g.cos_drift[:, None],
         "sin_drift": g.sin_drift[:, None],
     }

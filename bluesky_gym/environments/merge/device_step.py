@@ -124,8 +124,7 @@ class MergeDeviceStep(DeviceStep):
     def episode_info(self) -> dict[str, Any]:
         """:meth:`bluesky_gym.environments.merge.task.MergeTask.episode_info` on the device (one launch)."""
         a = self.arrays
-        average_drift = self.empty(self.n)
-        self.launch(compiled.sample_means, self.n, a["drift_rad_sum"], a["drift_rad_n"], mg.AVERAGE_DRIFT_EMPTY, average_drift)
+        average_drift = self.sample_mean("drift_rad_sum", "drift_rad_n", mg.AVERAGE_DRIFT_EMPTY)
         return {
             "total_reward": self.stats["total_reward"].clone(),
             "faf_reach": a["faf_reached"].clone(),

@@ -135,6 +135,5 @@ class SectorCRDeviceStep(DeviceStep):
     def episode_info(self) -> dict[str, Any]:
         """:meth:`bluesky_gym.environments.sector_cr.task.SectorCRTask.episode_info` on the device (one launch)."""
         a = self.arrays
-        average_drift = self.empty(self.n)
-        self.launch(compiled.sample_means, self.n, a["drift_rad_sum"], a["drift_rad_n"], sc.AVERAGE_DRIFT_EMPTY, average_drift)
+        average_drift = self.sample_mean("drift_rad_sum", "drift_rad_n", sc.AVERAGE_DRIFT_EMPTY)
         return {"total_reward": self.stats["total_reward"].clone(), "total_intrusions": a["total_intrusions"].clone(), "average_drift": average_drift}

@@ -38,7 +38,6 @@ import numpy as np
 from bluesky_gym.core.state import FLOAT_FIELDS
 from bluesky_gym.environments.static_obstacle import task as so
 from bluesky_gym.envs.device import DeviceStep, TensorIO
-from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import StepGeometry, Task
 
 __all__ = ["StaticObstacleDeviceStep"]
@@ -189,8 +188,7 @@ class StaticObstacleDeviceStep(DeviceStep):
     def episode_info(self) -> dict[str, Any]:
         """:meth:`~bluesky_gym.environments.static_obstacle.task.StaticObstacleTask.episode_info` on the device (one launch)."""
         a, int64 = self.arrays, self.torch.int64
-        average_drift = self.empty(self.n)
-        self.launch(compiled.sample_means, self.n, a["drift_sum_rad"], a["drift_count"], so.AVERAGE_DRIFT_EMPTY, average_drift)
+        average_drift = self.sample_mean("drift_sum_rad", "drift_count", so.AVERAGE_DRIFT_EMPTY)
         return {
             "total_reward": self.stats["total_reward"].clone(),
             "waypoint_reached": a["wpt_reached"].to(int64),
