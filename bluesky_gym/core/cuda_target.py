@@ -290,6 +290,12 @@ def to_device(array: np.ndarray) -> Any:
     return cuda.to_device(np.ascontiguousarray(array))
 
 
+def device_empty(shape: tuple[int, ...], dtype: Any) -> Any:
+    """An uninitialised device array."""
+    require()
+    return cuda.device_array(shape, dtype)
+
+
 def synchronize() -> None:
     """Wait for every launch to finish."""
     require()

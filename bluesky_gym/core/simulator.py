@@ -45,6 +45,8 @@ from bluesky_gym.core.state import (
     AircraftState,
     aircraft_index,
     checked_index,
+    gather_columns,
+    gather_rows,
     scatter_columns,
     scatter_rows,
 )
@@ -1078,44 +1080,83 @@ class DeviceSimulator(Simulator):
         the state is on the host already, the whole state is on the host for ``reset``, as
         with any command.
         """
+        envs = np.asarray(envs, dtype=np.int64)
+        m = self.max_aircraft
+        self._on_host((envs[:, None] * m + np.arange(m)).reshape(-1), reset, gather=False)
+
+    def edit_on_host(self, env: ArrayLike, slot: ArrayLike, edit: Callable[[], None]) -> None:
+        """Run ``edit`` (a change of aircraft ``(env, slot)``) on the host, moving only those aircraft.
+
+        While the state is on the device, those aircraft come to the host (one launch and one
+        copy per state array), ``edit`` runs, and they go back (one upload and one launch per
+        state array): the rest of the state never leaves the device. ``edit`` must read and
+        write those aircraft only; the host arrays of the others are stale meanwhile.
+        :meth:`create`, :meth:`delete` and :meth:`add_waypoint` use it, so that a task's traffic
+        can enter and leave mid-episode without the whole state crossing. Where conflict
+        resolution runs, or where the state is on the host already, ``edit`` simply runs on the
+        host, as any command does.
+        """
+        env_a, slot_a = self._index(env, slot)
+        self._on_host(np.unique(env_a * self.max_aircraft + slot_a), edit, gather=True)
+
+    def create(self, env: ArrayLike, slot: ArrayLike, *args: Any, **kwargs: Any) -> None:
+        """:meth:`Simulator.create`; on the device, only the new aircraft's rows cross (:meth:`edit_on_host`)."""
+        self.edit_on_host(env, slot, lambda: Simulator.create(self, env, slot, *args, **kwargs))
+
+    def delete(self, env: ArrayLike, slot: ArrayLike) -> None:
+        """:meth:`Simulator.delete`; on the device, only those aircraft's rows cross (:meth:`edit_on_host`)."""
+        self.edit_on_host(env, slot, lambda: Simulator.delete(self, env, slot))
+
+    def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
+        """:meth:`Simulator.add_waypoint`; on the device, only those aircraft's rows cross (:meth:`edit_on_host`)."""
+        self.edit_on_host(env, slot, lambda: Simulator.add_waypoint(self, env, slot, lat, lon))
+
+    def _on_host(self, rows: NDArray[np.int64], change: Callable[[], None], gather: bool) -> None:
+        """Run ``change`` on the host with aircraft ``rows`` (flat indices) moved: brought back first where ``gather``, sent back after."""
         d = object.__getattribute__(self, "_device")
         if d is None or any(c.resolving for c in self._asas.values()):
-            reset()
+            change()
             return
+        cuda = self._cuda
+        up, launch = cuda.to_device, cuda.launch
         object.__setattr__(self, "_device", None)  # host reads no longer bring the state back
+        flat = self.n_envs * self.max_aircraft
+        rows_d = up(rows)
+        host_columns = {"F": self._float_flat, "phase": self._phase_flat.reshape(1, flat), "active": self._active_flat.reshape(1, flat)}
+        host_columns.update({name: getattr(self, name).reshape(1, flat) for name in (*DEVICE_SWITCHES, "iactwp", "nwp")})
+        host_rows = {"memo": self._memo, "route_lat": self.route_lat.reshape(flat, -1), "route_lon": self.route_lon.reshape(flat, -1)}
+
+        def device_columns(name: str) -> Any:
+            return d[name] if name == "F" else d[name].reshape(1, flat)
+
+        if gather:
+            for name, host in host_columns.items():
+                out = cuda.device_empty((host.shape[0], rows.size), host.dtype)
+                launch(gather_columns, rows.size, rows_d, device_columns(name), out)
+                host[:, rows] = out.copy_to_host()
+            for name, host in host_rows.items():
+                out = cuda.device_empty((rows.size, host.shape[1]), host.dtype)
+                launch(gather_rows, rows.size, rows_d, d[name], out)
+                host[rows] = out.copy_to_host()
         try:
-            reset()
+            change()
         except BaseException:
             object.__setattr__(self, "_device", d)  # the device state is whole; the host rows are not
             raise
-        envs = np.asarray(envs, dtype=np.int64)
-        m = self.max_aircraft
-        rows = (envs[:, None] * m + np.arange(m)).reshape(-1)
-        up, launch = self._cuda.to_device, self._cuda.launch
-        rows_d = up(rows)
-        flat = self.n_envs * m
-
-        def columns(dev: Any, host: Any) -> None:
-            launch(scatter_columns, rows.size, rows_d, up(np.ascontiguousarray(host[:, rows])), dev)
-
-        columns(d["F"], self._float_flat)
-        for name, host in (("phase", self._phase_flat), ("active", self._active_flat)):
-            columns(d[name].reshape(1, flat), host.reshape(1, flat))
-        for name in (*DEVICE_SWITCHES, "iactwp", "nwp"):
-            columns(d[name].reshape(1, flat), getattr(self, name).reshape(1, flat))
-        per_aircraft_rows = {"memo": self._memo, "route_lat": self.route_lat.reshape(flat, -1), "route_lon": self.route_lon.reshape(flat, -1)}
-        for name, per_aircraft in per_aircraft_rows.items():
-            launch(scatter_rows, rows.size, rows_d, up(np.ascontiguousarray(per_aircraft[rows])), d[name])
+        for name, host in host_columns.items():
+            launch(scatter_columns, rows.size, rows_d, up(np.ascontiguousarray(host[:, rows])), device_columns(name))
+        for name, host in host_rows.items():
+            launch(scatter_rows, rows.size, rows_d, up(np.ascontiguousarray(host[rows])), d[name])
         types = self._type_args()
         if types.size != d["types"].size:  # a second aircraft type appeared: every row (the device never changes types)
             d["types"] = up(types)
         elif types.size:
-            columns(d["types"].reshape(1, flat), types.reshape(1, flat))
+            launch(scatter_columns, rows.size, rows_d, up(np.ascontiguousarray(types[rows]).reshape(1, -1)), d["types"].reshape(1, flat))
         if d["table"].shape != self._table.shape:
             d["table"] = up(self._table)
-        d["any_lnav"] = d["any_lnav"] or bool(self.swlnav[envs].any())
+        d["any_lnav"] = d["any_lnav"] or bool(self.swlnav.reshape(-1)[rows].any())
         object.__setattr__(self, "_device", d)
-        if any(c.resolving for c in self._asas.values()):  # resolution switched on by the reset: its arrays start on the host
+        if any(c.resolving for c in self._asas.values()):  # resolution switched on by the change: its arrays start on the host
             self._to_host()
 
     def _to_host(self) -> None:

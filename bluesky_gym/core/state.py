@@ -203,3 +203,25 @@ def scatter_rows(rows, src, dst):  # type: ignore[no-untyped-def]
         r = rows[i]
         for k in range(dst.shape[1]):
             dst[r, k] = src[i, k]
+
+
+@jit
+def gather_columns(cols, src, dst):  # type: ignore[no-untyped-def]
+    """``dst[:, i] = src[:, cols[i]]``: the inverse of :func:`scatter_columns` (some aircraft's columns into a (k, len(cols)) array).
+
+    :class:`~bluesky_gym.core.DeviceSimulator` brings named aircraft back to the host with it
+    (:meth:`~bluesky_gym.core.DeviceSimulator.edit_on_host`; one launch per array).
+    """
+    for i in grid_range(cols.shape[0]):
+        c = cols[i]
+        for f in range(src.shape[0]):
+            dst[f, i] = src[f, c]
+
+
+@jit
+def gather_rows(rows, src, dst):  # type: ignore[no-untyped-def]
+    """``dst[i, :] = src[rows[i], :]``: the inverse of :func:`scatter_rows`."""
+    for i in grid_range(rows.shape[0]):
+        r = rows[i]
+        for k in range(src.shape[1]):
+            dst[i, k] = src[r, k]

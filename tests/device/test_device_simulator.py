@@ -216,3 +216,34 @@ def test_reset_on_host_refused_midway_keeps_the_device_state() -> None:
         dev.reset_on_host(np.array([0]), fail)
     assert dev.on_device
     _assert_same_state(dev, cpu)
+
+
+def test_create_delete_and_waypoints_on_the_device_move_only_those_aircraft(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Traffic entering and leaving mid-run while the state is on the device: the same results as the CPU, the rest never comes back."""
+    dev, cpu = _traffic(DeviceSimulator, m=5, n_aircraft=2), _traffic(Simulator, m=5, n_aircraft=2)
+    for sim in (dev, cpu):
+        sim.run(4)
+    dev.device_arrays("lat")
+    whole_state_reads: list[int] = []
+    to_host = dev._to_host
+    monkeypatch.setattr(dev, "_to_host", lambda: (whole_state_reads.append(1), to_host())[1])
+
+    def change(sim: Simulator) -> None:
+        sim.delete([0], [1])
+        sim.create([1, 2, 2], [3, 2, 4], [52.1, 52.2, 51.9], [4.1, 3.9, 4.2], [10.0, 200.0, 300.0], 4000.0, 140.0, actype=["A320", "B744", "E190"])
+        # slot 0 of airspace 0 flew on the device: its position comes back for the new leg
+        sim.add_waypoint([1, 2, 0], [3, 4, 0], [52.4, 52.0, 52.3], [4.3, 4.5, 3.8])
+
+    change(dev)
+    assert dev.on_device and not whole_state_reads, "only the changed aircraft crossed"
+    change(cpu)
+    with pytest.raises(ValueError, match="already exists"):
+        dev.create([1], [3])
+    assert dev.on_device and not whole_state_reads
+    for sim in (dev, cpu):
+        sim.run(6)
+    assert dev.on_device and not whole_state_reads
+    _assert_same_state(dev, cpu)
+    assert whole_state_reads  # the comparison read it
+    np.testing.assert_array_equal(dev.route_lat, cpu.route_lat)
+    assert dev.aircraft_type([2], [2]) == ["B744"]
