@@ -30,7 +30,7 @@ import numpy as np
 from bluesky_gym.benchmarks.core_bench import core_scenario, make_simulator, populate
 
 #: Packages whose kernels the compile-only check covers (an environment folder's task may hold kernels too).
-KERNEL_PACKAGES = ("bluesky_gym.core.", "bluesky_gym.tasks.", "bluesky_gym.environments.")
+KERNEL_PACKAGES = ("bluesky_gym.core.", "bluesky_gym.tasks.", "bluesky_gym.realtraffic.", "bluesky_gym.environments.")
 #: Wall-clock budget of the device check [s] (the issue's limit: 8 minutes).
 DEVICE_CHECK_BUDGET = 480.0
 #: Aircraft per airspace of the physics measurement (the benchmark traffic of ``bench core``).
