@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from bluesky_gym.core.jit import grid_range, jit, jit_inline
 
-#: |selected vertical speed| [m/s] above which an ALT command without a speed cancels one pointing away from the new altitude (BlueSky's ``selaltcmd``).
+#: |selected vertical speed| [m/s] above which an ALT command without a speed cancels one pointing away from the new altitude
+#: (BlueSky's ``selaltcmd``).
 OPPOSITE_VS_MIN = 0.01
 
 

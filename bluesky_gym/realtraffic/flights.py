@@ -143,7 +143,7 @@ class RecordedFlights:
         return out if shape else {k: v[()] for k, v in out.items()}
 
     def kernel_arrays(self) -> tuple[Array, IntArray, float, Array, Array, Array, Array, Array, Array]:
-        """The arrays the kernels read the recordings from: ``t0``, ``offset``, ``period`` and the samples' ``lat``, ``lon``, ``alt``, ``gs``, ``trk``, ``vs``."""
+        """The recordings as the kernels read them: ``t0``, ``offset``, ``period``, the samples' ``lat``, ``lon``, ``alt``, ``gs``, ``trk``, ``vs``."""
         return (self.t0, self.offset, float(self.period), self.lat, self.lon, self.alt, self.gs, self.trk, self.vs)
 
     def samples(self, f: int) -> slice:
@@ -244,7 +244,7 @@ _STATE = ("lat", "lon", "alt", "gs", "trk", "vs")
 
 # --- the interpolation, one scalar form for the CPU and the device ---------------------------------
 @jit_inline
-def sample_weight(t0, offset, period, f, t):  # type: ignore[no-untyped-def]
+def sample_weight(t0, offset, period, f, t):
     """Sample ``i0`` (in the concatenated arrays) and weight ``w`` of flight ``f`` at time ``t`` [s]: the state is ``(1 - w) a[i0] + w a[i0 + 1]``.
 
     The time is clamped to the flight's span (``np.clip``'s semantics, NaN kept); the last
@@ -264,21 +264,21 @@ def sample_weight(t0, offset, period, f, t):  # type: ignore[no-untyped-def]
 
 
 @jit_inline
-def lerp(a, i0, w):  # type: ignore[no-untyped-def]
+def lerp(a, i0, w):
     """``a`` between samples ``i0`` and ``i0 + 1`` at weight ``w`` (:func:`sample_weight`)."""
     return (1.0 - w) * a[i0] + w * a[i0 + 1]
 
 
 @jit_inline
-def track_at(trk, i0, w):  # type: ignore[no-untyped-def]
+def track_at(trk, i0, w):
     """The track [deg, 0..360) between samples ``i0`` and ``i0 + 1`` at weight ``w``, along the shorter arc."""
     d = mod(trk[i0 + 1] - trk[i0] + 180.0, 360.0) - 180.0
     return mod(trk[i0] + w * d, 360.0)
 
 
 @jit
-def recorded_states(t0, offset, period, lat, lon, alt, gs, trk, vs, flight, t, lat_out, lon_out, alt_out, gs_out, trk_out, vs_out):  # type: ignore[no-untyped-def]
-    """:meth:`RecordedFlights.at` of points ``(flight[i], t[i])``: the recorded state interpolated (the arrays of :meth:`RecordedFlights.kernel_arrays`)."""
+def recorded_states(t0, offset, period, lat, lon, alt, gs, trk, vs, flight, t, lat_out, lon_out, alt_out, gs_out, trk_out, vs_out):
+    """:meth:`RecordedFlights.at` of points ``(flight[i], t[i])`` (the recordings as :meth:`RecordedFlights.kernel_arrays` gives them)."""
     for i in grid_range(flight.shape[0]):
         i0, w = sample_weight(t0, offset, period, flight[i], t[i])
         lat_out[i] = lerp(lat, i0, w)

@@ -159,7 +159,7 @@ def simulator_type(typecode: str) -> str:
 
 # --- the recorded profile as commands: one scalar form for the CPU and the device ------------------
 @jit_inline
-def profile_targets(t0, offset, period, rec_alt, rec_gs, f, t):  # type: ignore[no-untyped-def]
+def profile_targets(t0, offset, period, rec_alt, rec_gs, f, t):
     """Recorded altitude target [m] (:data:`ALT_LOOKAHEAD` ahead) and CAS target [m/s] (:data:`SPEED_LOOKAHEAD` ahead) of flight ``f`` at ``t``.
 
     The CAS is the recorded ground speed taken as TAS at the recorded altitude (layered ISA, as
@@ -174,7 +174,7 @@ def profile_targets(t0, offset, period, rec_alt, rec_gs, f, t):  # type: ignore[
 
 
 @jit_inline
-def _clip(x, low, high):  # type: ignore[no-untyped-def]
+def _clip(x, low, high):
     """``np.clip`` of a float: NaN stays NaN, a value at a bound gives the bound."""
     if not (x > low or x != x):
         x = low
@@ -184,7 +184,7 @@ def _clip(x, low, high):  # type: ignore[no-untyped-def]
 
 
 @jit_inline
-def profile_commands(t0, offset, period, rec_alt, rec_gs, f, t, alt, vsmax, alt_offset, cas_offset):  # type: ignore[no-untyped-def]
+def profile_commands(t0, offset, period, rec_alt, rec_gs, f, t, alt, vsmax, alt_offset, cas_offset):
     """The commands that make an aircraft at altitude ``alt`` [m] fly flight ``f``'s recorded profile at ``t`` (plus offsets [m], [m/s]).
 
     See :meth:`WindowPlayer.guide`. Returns the ALT command's altitude [m] and vertical speed
@@ -208,8 +208,11 @@ def profile_commands(t0, offset, period, rec_alt, rec_gs, f, t, alt, vsmax, alt_
 
 
 @jit
-def profile_command_rows(t0, offset, period, rec_alt, rec_gs, flight, envs, slots, t, alt, vsmax, alt_offset, cas_offset, alt_out, vs_out, spd_out):  # type: ignore[no-untyped-def]
-    """:func:`profile_commands` of aircraft ``(envs[r], slots[r])`` at ``t[r]``, offsets ``alt_offset[r]``, ``cas_offset[r]`` (the host's form: the physics' commands are given with them)."""
+def profile_command_rows(t0, offset, period, rec_alt, rec_gs, flight, envs, slots, t, alt, vsmax, alt_offset, cas_offset, alt_out, vs_out, spd_out):
+    """:func:`profile_commands` of aircraft ``(envs[r], slots[r])`` at ``t[r]``, offsets ``alt_offset[r]``, ``cas_offset[r]``.
+
+    The host's form: the physics' commands are then given with them (:meth:`WindowPlayer.guide`).
+    """
     for r in grid_range(envs.shape[0]):
         e = envs[r]
         s = slots[r]
@@ -219,7 +222,7 @@ def profile_command_rows(t0, offset, period, rec_alt, rec_gs, flight, envs, slot
 
 
 @jit
-def guide_airspaces(t0, offset, period, rec_alt, rec_gs, flight, guided, start, elapsed, alt, vsmax, selalt, swvnav, selvs, selspd, swvnavspd):  # type: ignore[no-untyped-def]
+def guide_airspaces(t0, offset, period, rec_alt, rec_gs, flight, guided, start, elapsed, alt, vsmax, selalt, swvnav, selvs, selspd, swvnavspd):
     """:meth:`WindowPlayer.update`'s guidance on the device: :func:`profile_commands` of every ``guided`` aircraft, written into the autopilot state.
 
     Airspace ``e``'s recorded-time clock is ``start[e] + elapsed[e]``; the commands are the core's
@@ -314,7 +317,9 @@ class WindowPlayer:
         now = self.now()[:, None]
         ended = rows[:, None] & self.created & ~self.done & (now > self.t_leave + 1e-6)
         due = rows[:, None] & (self.flight >= 0) & ~self.created & (now >= self.t_appear - 1e-6) & (now <= self.t_leave + 1e-6)
-        return np.nonzero(ended), np.nonzero(due)
+        ended_e, ended_s = np.nonzero(ended)
+        due_e, due_s = np.nonzero(due)
+        return (ended_e, ended_s), (due_e, due_s)
 
     def schedule(self, envs: IntArray | None = None) -> None:
         """Delete the aircraft of airspaces ``envs`` (all when None) past their recording, then create those due (:meth:`due`)."""
@@ -364,9 +369,11 @@ class WindowPlayer:
         s = np.asarray(s, dtype=np.int64)
         rows = e.shape[0]
         t = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=np.float64), (rows,)))
-        offsets = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), (rows,))) for x in (alt_offset, cas_offset))
+        alt_off, cas_off = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), (rows,))) for x in (alt_offset, cas_offset))
         alt, vs, spd = np.empty(rows), np.empty(rows), np.empty(rows)
         f = self.flights
-        profile_command_rows(f.t0, f.offset, float(f.period), f.alt, f.gs, self.flight, e, s, t, self.sim.alt, self.vsmax, *offsets, alt, vs, spd)
+        profile_command_rows(
+            f.t0, f.offset, float(f.period), f.alt, f.gs, self.flight, e, s, t, self.sim.alt, self.vsmax, alt_off, cas_off, alt, vs, spd
+        )
         self.sim.cmd_altitude(e, s, alt, vs)
         self.sim.cmd_speed(e, s, spd)

@@ -93,7 +93,7 @@ def test_a_step_is_a_fixed_number_of_launches_whatever_the_number_of_episodes(jo
     """Without an episode ending: one count for steps without traffic entering or leaving, one (larger) with, for 2 and 4 episodes."""
     counts: dict[bool, set[int]] = {False: set(), True: set()}
     for n in (2, 4):
-        for launches, event in _launches_per_step(joining, n, 6):
+        for launches, event in _launches_per_step(joining, n, 15):
             counts[event].add(launches)
     assert len(counts[False]) == 1 and len(counts[True]) == 1, counts
     assert min(counts[True]) > min(counts[False])

@@ -1,4 +1,4 @@
-"""RealTrafficCR's step on the device: the recorded traffic's guidance, the steering, measure, observation and reward kernels in the shared device pipeline.
+"""RealTrafficCR's step on the device: the traffic's guidance, steering, measure, observation and reward kernels in the shared pipeline.
 
 With ``gym.make_vec("RealTrafficCREnv-v0" or "RealTrafficCREnv-v1", device="cuda")`` (without
 wind) the whole step runs on the device: the pipeline of :class:`~bluesky_gym.envs.device.DeviceStep`
@@ -64,7 +64,7 @@ class RealTrafficDeviceStep(DeviceStep):
         self._recorded: tuple[Any, ...] | None = None
 
     def recorded(self) -> tuple[Any, ...]:
-        """The recorded flights as the kernels read them (``t0``, ``offset``, ``period``, ``lat``, ``lon``, ``alt``, ``gs``), on the device: uploaded once."""
+        """The recorded flights as the kernels read them (``t0``, ``offset``, ``period``, ``lat``, ``lon``, ``alt``, ``gs``): uploaded once."""
         if self._recorded is None:
             f = self.task.flights
             t0, offset, period, lat, lon, alt, gs, _trk, _vs = f.kernel_arrays()
@@ -99,7 +99,7 @@ class RealTrafficDeviceStep(DeviceStep):
         )
 
     def advance(self) -> None:
-        """The physics sub-steps, the clock, the aircraft leaving and entering (only they cross to the host) and the recorded profiles (one launch)."""
+        """The physics sub-steps, the clock, the aircraft leaving and entering (only they cross to the host), the recorded profiles (one launch)."""
         t = self.task
         player = t.player
         Task.advance(t)

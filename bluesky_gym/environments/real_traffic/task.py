@@ -259,13 +259,13 @@ class RealTrafficGeometry(StepGeometry):
 
 # --- the step's rules as kernels: the CPU task and the device step run the same ---------------------
 @jit_inline
-def _less(a, b):  # type: ignore[no-untyped-def]
-    """numpy's sort order of floats: NaN after everything."""
+def _less(a, b):
+    """The sort order of numpy of floats: NaN after everything."""
     return a < b or (b != b and a == a)
 
 
 @jit_inline
-def _clip(x, low, high):  # type: ignore[no-untyped-def]
+def _clip(x, low, high):
     """``np.clip`` of a float: NaN stays NaN, a value at a bound gives the bound."""
     if not (x > low or x != x):
         x = low
@@ -275,7 +275,7 @@ def _clip(x, low, high):  # type: ignore[no-untyped-def]
 
 
 @jit_inline
-def _route_deviation(t0, offset, period, rec_lat, rec_lon, f, now, offsets, lat0, lon0, coslat):  # type: ignore[no-untyped-def]
+def _route_deviation(t0, offset, period, rec_lat, rec_lon, f, now, offsets, lat0, lon0, coslat):
     """Signed distance [NM] of the point (lat0, lon0) from flight ``f``'s recorded route at ``now + offsets`` (positive: right of it).
 
     The recorded positions in a flat frame around the point [NM]; the closest of their segments
@@ -303,7 +303,7 @@ def _route_deviation(t0, offset, period, rec_lat, rec_lon, f, now, offsets, lat0
 
 
 @jit
-def measure_rows(  # type: ignore[no-untyped-def]
+def measure_rows(
     envs,
     own,
     start,
@@ -333,7 +333,9 @@ def measure_rows(  # type: ignore[no-untyped-def]
     ownship_out,
     intruder_out,
 ):
-    """:func:`measure` of rows (episode ``envs[r]``, ownship slot ``own[r]``) from their separations [NM] (:func:`~bluesky_gym.tasks.compiled.kwik_separation`).
+    """:func:`measure` of rows (episode ``envs[r]``, ownship slot ``own[r]``) from their separations [NM].
+
+    The separations are :func:`~bluesky_gym.tasks.compiled.kwik_separation`'s.
 
     The route deviation [NM] (recorded route from ``now + offsets[0]`` to ``now + offsets[-1]``),
     the drift from the bearing to the recorded position :data:`CARROT_S` ahead [deg], the CAS and
@@ -402,7 +404,7 @@ def measure_rows(  # type: ignore[no-untyped-def]
 
 
 @jit
-def reward_rows(route_nm, los, reward_out, route_out, intrusion_out):  # type: ignore[no-untyped-def]
+def reward_rows(route_nm, los, reward_out, route_out, intrusion_out):
     """:func:`reward` of each row: route penalty (capped), intrusion penalty per aircraft in a loss of separation, and their sum."""
     for r in grid_range(route_nm.shape[0]):
         count = 0
@@ -417,7 +419,7 @@ def reward_rows(route_nm, los, reward_out, route_out, intrusion_out):  # type: i
 
 
 @jit
-def episode_sums(envs, route_nm, los, route_sum, intrusions):  # type: ignore[no-untyped-def]
+def episode_sums(envs, route_nm, los, route_sum, intrusions):
     """The info's sums of episode ``envs[r]`` (:meth:`RealTrafficTask.reward`): |route deviation| [NM] and aircraft in a loss of separation."""
     for r in grid_range(envs.shape[0]):
         e = envs[r]
@@ -430,7 +432,7 @@ def episode_sums(envs, route_nm, los, route_sum, intrusions):  # type: ignore[no
 
 
 @jit_inline
-def _steering(t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, f, now, lat, lon, alt, vsmax, a_heading, a_speed, a_altitude):  # type: ignore[no-untyped-def]
+def _steering(t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, f, now, lat, lon, alt, vsmax, a_heading, a_speed, a_altitude):
     """:func:`steer`'s commands of one aircraft: HDG [deg], ALT [m] with its vertical speed [m/s] (0: none), SPD (CAS [m/s])."""
     i0, w = sample_weight(t0, offset, period, f, now + CARROT_S)
     bearing = initial_bearing_scalar(lat, lon, lerp(rec_lat, i0, w), lerp(rec_lon, i0, w))
@@ -440,14 +442,34 @@ def _steering(t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, f, now, lat
 
 
 @jit_inline
-def _altitude_offset(action, r):  # type: ignore[no-untyped-def]
+def _altitude_offset(action, r):
     """The altitude offset [m] of row ``r``'s action (0 without an altitude action)."""
     return D_ALTITUDE * action[r, 2] if action.shape[1] > 2 else 0.0
 
 
 @jit
-def steering_rows(  # type: ignore[no-untyped-def]
-    envs, own, action, start, elapsed, flight, vsmax, t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, lat, lon, alt, hdg_out, alt_out, vs_out, spd_out
+def steering_rows(
+    envs,
+    own,
+    action,
+    start,
+    elapsed,
+    flight,
+    vsmax,
+    t0,
+    offset,
+    period,
+    rec_lat,
+    rec_lon,
+    rec_alt,
+    rec_gs,
+    lat,
+    lon,
+    alt,
+    hdg_out,
+    alt_out,
+    vs_out,
+    spd_out,
 ):
     """:func:`steer`'s commands of rows (episode ``envs[r]``, slot ``own[r]``, clipped ``action[r]``), given to the physics by the host."""
     for r in grid_range(envs.shape[0]):
@@ -460,7 +482,7 @@ def steering_rows(  # type: ignore[no-untyped-def]
 
 
 @jit
-def steer_commands(  # type: ignore[no-untyped-def]
+def steer_commands(
     envs, own, action, start, elapsed, flight, vsmax, t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, lat, lon, alt,
     ap_trk, swlnav, selalt, swvnav, selvs, selspd, swvnavspd,
 ):  # fmt: skip
@@ -483,7 +505,10 @@ def route_offsets(period: float) -> Array:
 
 
 def measure(task: RealTrafficTask, envs: NDArray[np.int64], own: NDArray[np.int64]) -> RealTrafficGeometry:
-    """Geometry of rows (episode ``envs[r]``, ownship slot ``own[r]``): the kernels :func:`~bluesky_gym.tasks.compiled.kwik_separation` and :func:`measure_rows`."""
+    """Geometry of rows (episode ``envs[r]``, ownship slot ``own[r]``).
+
+    The kernels :func:`~bluesky_gym.tasks.compiled.kwik_separation` and :func:`measure_rows`.
+    """
     sim = task.sim
     player = task.player
     sep, los = kwik_separation(sim, envs, own, INTRUSION_NM, INTRUSION_VERTICAL)
@@ -722,7 +747,10 @@ class RealTrafficTask(Task):
         }
 
     def mean_route_deviation(self, empty: float) -> Array:
-        """(n_envs,) the mean |route deviation| [NM] over the episode's decision steps, ``empty`` before the first (:func:`~bluesky_gym.tasks.compiled.sample_means`)."""
+        """(n_envs,) the mean |route deviation| [NM] over the decision steps, ``empty`` before the first.
+
+        The kernel :func:`~bluesky_gym.tasks.compiled.sample_means`.
+        """
         out = np.empty(self.n_envs)
         sample_means(self.route_sum, self.stats.steps, empty, out)
         return out
