@@ -143,7 +143,7 @@ class RecordedFlights:
         return out if shape else {k: v[()] for k, v in out.items()}
 
     def kernel_arrays(self) -> tuple[Array, IntArray, float, Array, Array, Array, Array, Array, Array]:
-        """The recordings as the kernels read them: ``t0``, ``offset``, ``period``, the samples' ``lat``, ``lon``, ``alt``, ``gs``, ``trk``, ``vs``."""
+        """The recordings as kernels read them: ``t0``, ``offset``, ``period``, the samples' ``lat``, ``lon``, ``alt``, ``gs``, ``trk``, ``vs``."""
         return (self.t0, self.offset, float(self.period), self.lat, self.lon, self.alt, self.gs, self.trk, self.vs)
 
     def samples(self, f: int) -> slice:
