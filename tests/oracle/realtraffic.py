@@ -1,4 +1,4 @@
-"""Readable numpy form of the recorded flights' interpolation (oracle of :meth:`bluesky_gym.realtraffic.flights.RecordedFlights.at` and its kernel)."""
+"""Readable numpy form of the recorded flights' interpolation (oracle of :meth:`bluesky_gym.realtraffic.flights.RecordedFlights.at`)."""
 
 from __future__ import annotations
 
