@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from bluesky_gym.core.atmosphere import tas2cas
 from bluesky_gym.core.jit import grid_range, jit, jit_inline
-from bluesky_gym.core.scalar import mod
+from bluesky_gym.core.scalar import clip, mod
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -251,11 +251,7 @@ def sample_weight(t0, offset, period, f, t):
     segment is used at and after the last sample.
     """
     last = offset[f + 1] - offset[f] - 1
-    x = (t - t0[f]) / period
-    if not (x > 0.0 or x != x):  # np.clip: max(x, 0) with NaN kept, then min(x, last)
-        x = 0.0
-    if not (x < last or x != x):
-        x = float(last)
+    x = clip((t - t0[f]) / period, 0.0, float(last))
     k0 = int(math.floor(x))
     cap = last - 1 if last - 1 > 0 else 0
     if k0 > cap:

@@ -32,7 +32,7 @@ from bluesky_gym.core.atmosphere import isa_layered, tas2cas, tas2cas_at
 from bluesky_gym.core.commands import select_altitude, select_speed
 from bluesky_gym.core.jit import grid_range, jit, jit_inline
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.scalar import maximum, sign
+from bluesky_gym.core.scalar import clip, maximum, sign
 from bluesky_gym.core.units import FT, NM
 from bluesky_gym.realtraffic.flights import RecordedFlights, lerp, sample_weight
 
@@ -174,16 +174,6 @@ def profile_targets(t0, offset, period, rec_alt, rec_gs, f, t):
 
 
 @jit_inline
-def _clip(x, low, high):
-    """``np.clip`` of a float: NaN stays NaN, a value at a bound gives the bound."""
-    if not (x > low or x != x):
-        x = low
-    if not (x < high or x != x):
-        x = high
-    return x
-
-
-@jit_inline
 def profile_commands(t0, offset, period, rec_alt, rec_gs, f, t, alt, vsmax, alt_offset, cas_offset):
     """The commands that make an aircraft at altitude ``alt`` [m] fly flight ``f``'s recorded profile at ``t`` (plus offsets [m], [m/s]).
 
@@ -204,7 +194,7 @@ def profile_commands(t0, offset, period, rec_alt, rec_gs, f, t, alt, vsmax, alt_
         return alt_now, 0.0, spd
     if vs * dz <= 0.0:  # ahead of the recorded profile: wait for it
         return alt, 0.0, spd
-    return alt_target, sign(dz) * _clip(abs(vs), MIN_VS, vsmax), spd
+    return alt_target, sign(dz) * clip(abs(vs), MIN_VS, vsmax), spd
 
 
 @jit

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from bluesky_gym.core.commands import select_altitude, select_speed, select_track
 from bluesky_gym.core.jit import grid_range, jit, jit_inline, scratch
 from bluesky_gym.core.physics import Physics
-from bluesky_gym.core.scalar import maximum, minimum, mod, sign
+from bluesky_gym.core.scalar import clip, maximum, minimum, mod, sign
 from bluesky_gym.core.units import FT, KTS, NM
 from bluesky_gym.realtraffic.cache import collection_path, combine, load_collection, unprepared
 from bluesky_gym.realtraffic.flights import RecordedFlights, lerp, sample_weight
@@ -265,16 +265,6 @@ def _less(a, b):
 
 
 @jit_inline
-def _clip(x, low, high):
-    """``np.clip`` of a float: NaN stays NaN, a value at a bound gives the bound."""
-    if not (x > low or x != x):
-        x = low
-    if not (x < high or x != x):
-        x = high
-    return x
-
-
-@jit_inline
 def _route_deviation(t0, offset, period, rec_lat, rec_lon, f, now, offsets, lat0, lon0, coslat):
     """Signed distance [NM] of the point (lat0, lon0) from flight ``f``'s recorded route at ``now + offsets`` (positive: right of it).
 
@@ -292,7 +282,7 @@ def _route_deviation(t0, offset, period, rec_lat, rec_lon, f, now, offsets, lat0
             dx = x - xp
             dy = y - yp
             seg2 = maximum(dx * dx + dy * dy, MIN_SEGMENT2)
-            u = _clip(-(xp * dx + yp * dy) / seg2, 0.0, 1.0)
+            u = clip(-(xp * dx + yp * dy) / seg2, 0.0, 1.0)
             d = math.hypot(xp + u * dx, yp + u * dy)
             if k == 1 or (best == best and (d != d or d < best)):  # np.argmin: the first smallest, or the first NaN
                 best, best_dx, best_dy, best_x0, best_y0 = d, dx, dy, xp, yp
@@ -364,7 +354,7 @@ def measure_rows(
         cas_error_out[r] = cas_error
         alt_error_out[r] = alt_error
         rad = drift * DEG2RAD
-        ownship_out[r, 0] = _clip(route / ROUTE_SCALE, -ROUTE_BOUND, ROUTE_BOUND)
+        ownship_out[r, 0] = clip(route / ROUTE_SCALE, -ROUTE_BOUND, ROUTE_BOUND)
         ownship_out[r, 1] = math.cos(rad)
         ownship_out[r, 2] = math.sin(rad)
         ownship_out[r, 3] = cas_error / SPEED_SCALE
