@@ -29,8 +29,15 @@ import numpy as np
 
 from bluesky_gym.benchmarks.core_bench import core_scenario, make_simulator, populate
 
-#: Packages whose kernels the compile-only check covers (an environment folder's task may hold kernels too).
-KERNEL_PACKAGES = ("bluesky_gym.core.", "bluesky_gym.tasks.", "bluesky_gym.realtraffic.", "bluesky_gym.environments.")
+#: Packages whose kernels the compile-only check covers (an environment folder's task may hold kernels too; of the
+#: recorded traffic, the replay's: the cleaning of recordings runs on the host only).
+KERNEL_PACKAGES = (
+    "bluesky_gym.core.",
+    "bluesky_gym.tasks.",
+    "bluesky_gym.realtraffic.flights.",
+    "bluesky_gym.realtraffic.scenario.",
+    "bluesky_gym.environments.",
+)
 #: Wall-clock budget of the device check [s] (the issue's limit: 8 minutes).
 DEVICE_CHECK_BUDGET = 480.0
 #: Aircraft per airspace of the physics measurement (the benchmark traffic of ``bench core``).
@@ -297,7 +304,7 @@ class CompileResult:
 
 
 def kernels_in_scope() -> list[Any]:
-    """The kernels (:class:`bluesky_gym.core.jit.Kernel`) of the core, the tasks and the environment folders' tasks, in definition order."""
+    """The kernels (:class:`bluesky_gym.core.jit.Kernel`) of :data:`KERNEL_PACKAGES`, in definition order."""
     import importlib
     import importlib.util
     import pkgutil
