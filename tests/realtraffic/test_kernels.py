@@ -33,3 +33,20 @@ def test_initial_bearing_equals_the_numpy_formula() -> None:
     lat2, lon2 = rng.uniform(-80, 80, (1, 6)), rng.uniform(-180, 180, (1, 6))
     for args in ((lat1, lon1, lat2, lon2), (47.0, 8.0, 47.5, 8.4), (lat1[:, 0], lon1[:, 0], 47.0, 8.0), (lat1, lon1, lat1 + 1e-3, lon1)):
         np.testing.assert_array_equal(initial_bearing(*args), oracle_bearing(*args), strict=True)
+
+
+def test_fewer_slots_than_intruder_rows_leave_the_last_rows_empty() -> None:
+    """With ``max_traffic`` below the observed intruders the observation keeps its declared shape, the rows without an aircraft all zeros."""
+    import gymnasium as gym
+
+    import bluesky_gym
+
+    bluesky_gym.register_envs()
+    env = gym.make_vec("RealTrafficCREnv-v0", num_envs=2, max_traffic=2, min_traffic=1)
+    obs, _ = env.reset(seed=0)
+    for _ in range(2):
+        assert obs["intruders"].shape == (2, *env.single_observation_space["intruders"].shape)
+        assert env.single_observation_space.contains({k: v[0] for k, v in obs.items()})
+        np.testing.assert_array_equal(obs["intruders"][:, 3:], 0.0)  # 3 slots: at most 2 other aircraft, the ownship's own slot never present
+        obs, *_ = env.step(np.zeros(env.action_space.shape))
+    env.close()
