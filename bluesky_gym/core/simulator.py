@@ -1179,6 +1179,7 @@ class DeviceSimulator(Simulator):
         object.__setattr__(self, "_device", None)
         np.copyto(self._float_flat, d["F"].copy_to_host())
         self._phase_flat[...] = d["phase"].copy_to_host()
+        self._active_flat[...] = d["active"].copy_to_host()  # (delete_flagged deletes on the device)
         self._memo[...] = d["memo"].copy_to_host()
         for name in ("swlnav", "swvnav", "swvnavspd", "swlastwp", "iactwp"):
             getattr(self, name).reshape(-1)[...] = d[name].copy_to_host()

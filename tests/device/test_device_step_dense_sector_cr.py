@@ -66,6 +66,8 @@ def test_device_step_equals_the_cpu_through_entries_exits_and_autoresets(env_id:
     assert ended >= 3, "several autoresets"
     events = _flow_events(infos)
     assert all(events.values()), events
+    # The state brought back (as for a picture): the aircraft deleted on the device are gone on the host too.
+    np.testing.assert_array_equal(dev.unwrapped.task.sim.active, cpu.unwrapped.task.sim.active)
     cpu.close()
     dev.close()
 
