@@ -186,12 +186,12 @@ def _exercise_device_only() -> None:
     :func:`bluesky_gym.environments.plan_waypoint.task.command_heading`,
     :func:`bluesky_gym.environments.horizontal_cr.task.command_heading`),
     :meth:`bluesky_gym.core.DeviceSimulator.reset_on_host`'s scatters and
-    :meth:`~bluesky_gym.core.DeviceSimulator.edit_on_host`'s gathers of each state dtype, and
+    :meth:`~bluesky_gym.core.DeviceSimulator.edit_on_host`'s gathers of each state dtype, ``delete_flagged``, and
     StaticObstacle's device step holding the state of the episodes stopped within a decision step
     (:func:`~bluesky_gym.environments.static_obstacle.task.hold_ended`, :func:`~bluesky_gym.environments.static_obstacle.task.restore_ended`).
     """
     from bluesky_gym.core import Simulator
-    from bluesky_gym.core.state import gather_columns, gather_rows, scatter_columns, scatter_rows
+    from bluesky_gym.core.state import clear_flagged, gather_columns, gather_rows, scatter_columns, scatter_rows
     from bluesky_gym.environments.descent import task as descent
     from bluesky_gym.environments.horizontal_cr import task as horizontal_cr
     from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
@@ -215,6 +215,7 @@ def _exercise_device_only() -> None:
         gather_columns(rows, flat_array, np.empty((flat_array.shape[0], rows.size), flat_array.dtype))
     scatter_rows(rows, np.ascontiguousarray(sim._memo[rows]), sim._memo.copy())
     gather_rows(rows, sim._memo, np.empty((rows.size, sim._memo.shape[1])))
+    clear_flagged(np.zeros(flat, np.bool_), sim.active.reshape(flat).copy())
     for routes in (sim.route_lat, sim.route_lon):
         flat_routes = routes.reshape(flat, -1)
         gather_rows(rows, flat_routes, np.empty((rows.size, flat_routes.shape[1])))

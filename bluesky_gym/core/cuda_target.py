@@ -53,7 +53,9 @@ SIMULATOR = bool(AVAILABLE and importlib.import_module("numba.cuda.core.config")
 if AVAILABLE and not SIMULATOR:
     libdevice = importlib.import_module("numba.cuda.libdevice")
 #: Elements of one :func:`~bluesky_gym.core.jit.scratch` array on CUDA (thread-local memory; aircraft per airspace - 1 at most).
-SCRATCH_CAPACITY = 64
+#: 160 holds DenseSectorCR's default traffic (157 aircraft beside the ownship); the task kernels that
+#: use the most keep eight such arrays, about 10 KB of local memory per thread.
+SCRATCH_CAPACITY = 160
 #: Compute capability the offline compilation targets by default: Hopper (H100, H200).
 DEFAULT_CC = (9, 0)
 #: Threads per block of a launch.

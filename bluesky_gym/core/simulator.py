@@ -46,6 +46,7 @@ from bluesky_gym.core.state import (
     AircraftState,
     aircraft_index,
     checked_index,
+    clear_flagged,
     gather_columns,
     gather_rows,
     scatter_columns,
@@ -1101,6 +1102,19 @@ class DeviceSimulator(Simulator):
         """:meth:`Simulator.delete`; on the device, only those aircraft's rows cross (:meth:`edit_on_host`)."""
         self.edit_on_host(env, slot, lambda: Simulator.delete(self, env, slot))
 
+    def delete_flagged(self, flags: Any) -> None:
+        """Delete the aircraft flagged in ``flags``, a device array (n_envs, max_aircraft) of booleans, on the device (one launch).
+
+        For a task's device step that finds the aircraft to remove with a kernel (traffic that
+        left an airspace): as :meth:`delete` of those aircraft, without the flags or the state
+        crossing to the host.
+        """
+        if tuple(flags.shape) != (self.n_envs, self.max_aircraft):
+            raise ValueError(f"delete_flagged: flags must have shape {(self.n_envs, self.max_aircraft)}, got {tuple(flags.shape)}")
+        d = self._to_device()
+        n = self.n_envs * self.max_aircraft
+        self._cuda.launch(clear_flagged, n, flags.reshape(n), d["active"])
+
     def add_waypoint(self, env: ArrayLike, slot: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> None:
         """:meth:`Simulator.add_waypoint`; on the device, only those aircraft's rows cross (:meth:`edit_on_host`)."""
         self.edit_on_host(env, slot, lambda: Simulator.add_waypoint(self, env, slot, lat, lon))
@@ -1159,6 +1173,7 @@ class DeviceSimulator(Simulator):
         object.__setattr__(self, "_device", None)
         np.copyto(self._float_flat, d["F"].copy_to_host())
         self._phase_flat[...] = d["phase"].copy_to_host()
+        self._active_flat[...] = d["active"].copy_to_host()  # (delete_flagged deletes on the device)
         self._memo[...] = d["memo"].copy_to_host()
         for name in ("swlnav", "swvnav", "swvnavspd", "swlastwp", "iactwp"):
             getattr(self, name).reshape(-1)[...] = d[name].copy_to_host()

@@ -225,3 +225,11 @@ def gather_rows(rows, src, dst):  # type: ignore[no-untyped-def]
         r = rows[i]
         for k in range(src.shape[1]):
             dst[i, k] = src[r, k]
+
+
+@jit
+def clear_flagged(flags, active):  # type: ignore[no-untyped-def]
+    """``active[i] = False`` where ``flags[i]`` (flat arrays): the flagged aircraft deleted (``DeviceSimulator.delete_flagged``)."""
+    for i in grid_range(flags.shape[0]):
+        if flags[i]:
+            active[i] = False

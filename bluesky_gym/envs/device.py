@@ -18,8 +18,8 @@ How the batches travel (:class:`TensorIO`):
   commands, which the task gives on the host.
 
 Where the task's whole step runs on the device (:class:`DeviceStep`, a subclass per task in its
-folder's ``device_step.py``, named by its registry row: every paper task but DenseSectorCR and
-RealTrafficCR), neither copy happens: the actions stay on the device, the kernels write into
+folder's ``device_step.py``, named by its registry row: every paper task and DenseSectorCR),
+neither copy happens: the actions stay on the device, the kernels write into
 tensors (:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
 
 Under numba-cuda's simulator (``NUMBA_ENABLE_CUDASIM=1``) the device arrays are numpy arrays in
@@ -311,8 +311,8 @@ class DeviceStep:
         return out
 
     def long(self, host: np.ndarray) -> Any:
-        """A host array of indices as an int64 tensor on the device."""
-        return self.torch.as_tensor(np.ascontiguousarray(host, dtype=np.int64), device=self.io.device)
+        """A host array of integers as an int64 tensor on the device (a copy: later changes of ``host`` do not show)."""
+        return self.torch.tensor(np.ascontiguousarray(host, dtype=np.int64), device=self.io.device)
 
     def kernel_array(self, tensor: Any) -> Any:
         """A tensor as a kernel argument (no copy)."""

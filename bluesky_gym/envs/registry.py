@@ -353,6 +353,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         env="bluesky_gym.environments.dense_sector_cr.env:DenseSectorCREnv",
         vector_env="bluesky_gym.environments.dense_sector_cr.env:DenseSectorCRVectorEnv",
         scene="bluesky_gym.environments.dense_sector_cr.scene:dense_sector_cr_scene",
+        device_step="bluesky_gym.environments.dense_sector_cr.device_step:DenseSectorCRDeviceStep",
         multiagent=MultiAgentEntry(
             name="dense_sector_cr_v0",
             task="bluesky_gym.environments.dense_sector_cr.multiagent:DenseSectorCRMultiAgentTask",

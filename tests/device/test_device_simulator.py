@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bluesky_gym.core import DeviceSimulator, Simulator
+from bluesky_gym.core import DeviceSimulator, Simulator, cuda_target
 from bluesky_gym.core.resolution import AsasConfig
 
 from .conftest import TOLERANCE, assert_agree, needs_device
@@ -247,3 +247,20 @@ def test_create_delete_and_waypoints_on_the_device_move_only_those_aircraft(monk
     assert whole_state_reads  # the comparison read it
     np.testing.assert_array_equal(dev.route_lat, cpu.route_lat)
     assert dev.aircraft_type([2], [2]) == ["B744"]
+
+
+def test_aircraft_deleted_on_the_device_stay_deleted() -> None:
+    """``delete_flagged`` on the device: the host sees the deletions, and they survive the state's next trip to the device."""
+    dev, cpu = _traffic(DeviceSimulator), _traffic(Simulator)
+    flags = np.zeros((dev.n_envs, dev.max_aircraft), bool)
+    flags[0, 1] = flags[2, 0] = True
+    for sim in (dev, cpu):
+        sim.run(3)
+    dev.delete_flagged(cuda_target.to_device(flags))
+    cpu.delete(*np.nonzero(flags))
+    np.testing.assert_array_equal(dev.active, cpu.active)  # brought back: the deletions show
+    for sim in (dev, cpu):
+        sim.run(3)  # to the device again
+    _assert_same_state(dev, cpu)
+    with pytest.raises(ValueError, match=r"flags must have shape \(3, 4\)"):
+        dev.delete_flagged(cuda_target.to_device(np.zeros(3, bool)))

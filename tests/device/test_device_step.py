@@ -67,9 +67,18 @@ STEP_LAUNCHES = {
     "PlanWaypointEnv-v1": 13,
     "StaticObstacleEnv-v0": 38,
     "StaticObstacleEnv-v1": 44,
+    "DenseSectorCREnv-v0": 14,
+    "DenseSectorCREnv-v1": 24,
 }
 #: Smaller scenarios where the default is slow under the simulator.
-_LAUNCH_OPTIONS: dict[str, dict[str, Any]] = {"MergeEnv-v0": {"num_aircraft": 6}, "MergeEnv-v1": {"num_aircraft": 6}}
+#: DenseSectorCR without entries (a step in which aircraft enter adds its fixed gather and scatter:
+#: tests/device/test_device_step_dense_sector_cr.py).
+_LAUNCH_OPTIONS: dict[str, dict[str, Any]] = {
+    "MergeEnv-v0": {"num_aircraft": 6},
+    "MergeEnv-v1": {"num_aircraft": 6},
+    "DenseSectorCREnv-v0": {"spawn_rate_start": 0.0, "spawn_rate_end": 0.0},
+    "DenseSectorCREnv-v1": {"spawn_rate_start": 0.0, "spawn_rate_end": 0.0},
+}
 
 
 def test_every_id_with_a_device_step_is_counted() -> None:
@@ -88,11 +97,11 @@ def test_tasks_without_a_device_step_keep_theirs_on_the_host() -> None:
     """Wind, and the other tasks, run the task's step on the host (the physics on the device)."""
     windy = gym.make_vec("SectorCREnv-v0", num_envs=2, device="cuda", wind={"lat": [52.0], "lon": [4.4], "vnorth": [5.0], "veast": [0.0]})
     assert windy.unwrapped._device_step is None
-    # DenseSectorCR's traffic enters during the episode, drawn on the host (its slots sized for the device's capacity).
-    dense = gym.make_vec("DenseSectorCREnv-v0", num_envs=2, device="cuda", max_spawned=20)
-    assert dense.unwrapped._device_step is None
+    # RealTrafficCR replays recorded traffic, guided on the host.
+    real = gym.make_vec("RealTrafficCREnv-v0", num_envs=2, device="cuda")
+    assert real.unwrapped._device_step is None
     windy.close()
-    dense.close()
+    real.close()
 
 
 @pytest.mark.parametrize(

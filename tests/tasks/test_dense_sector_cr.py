@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from bluesky_gym.environments.dense_sector_cr import task as dsc
 from bluesky_gym.environments.dense_sector_cr.task import DenseSectorCRConfig, DenseSectorCRTask, expected_entries, spawn_rate
 from bluesky_gym.environments.sector_cr.task import CENTER, SectorCRTask, worst_case_aircraft
+from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.geometry import initial_bearing, latlon_to_nm
 
 from .conftest import seeded_task
@@ -84,7 +84,7 @@ def test_entering_aircraft_cross_the_sector_from_their_entry_point() -> None:
     start_nm = latlon_to_nm(CENTER, np.stack([task.sim.lat[0, new], task.sim.lon[0, new]], axis=-1))
     inside = np.empty(new.size, bool)
     envs = np.zeros(new.size, np.int64)
-    dsc.compiled.slots_in_polygons(envs, new, task.sim.lat, task.sim.lon, task.poly_lat, task.poly_lon, task.n_vertices, inside)
+    compiled.slots_in_polygons(envs, new, task.sim.lat, task.sim.lon, task.poly_lat, task.poly_lon, task.n_vertices, inside)
     assert inside.all()
     # Exit points on the perimeter: on one of the edges (zero cross product with it).
     exits = task.wpt_nm[0, new]

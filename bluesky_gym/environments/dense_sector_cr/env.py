@@ -100,9 +100,10 @@ class DenseSectorCREnv(BlueSkyEnv):
     `ownship_types`): rates in aircraft/h (at most 3600, `spawn_rate_end` at least
     `spawn_rate_start`), `rise_time_s` > 0, and `max_spawned` such that the slots (worst-case
     initial traffic plus `max_spawned`) stay at most 500. A bad value is refused with a one-line
-    error naming the option. The device simulator (`device="cuda"`) holds at most 65 aircraft
-    per airspace, so there `max_spawned` is at most 27 (the default slots, 158, are refused with
-    an error saying so).
+    error naming the option. On a GPU (`gym.make_vec(..., device="cuda")`) the whole step runs on
+    the device, the entering aircraft drawn on the host (docs/backends.md); an airspace there holds
+    at most 161 aircraft, so `max_spawned` is at most 123 with the default sector (the default
+    slots, 158, fit; more are refused with an error saying so).
 
     **Train denser than you test.** Train under a rate that rises beyond the test traffic and
     test at a constant rate, e.g.

@@ -75,8 +75,8 @@ class DenseSectorCRMultiAgentTask(SectorCRMultiAgentTask):
         """The common statistics, and the time of the first loss of separation that starts during the episode."""
         super().record(g, reward)
         st = self.stats
-        first = np.isnan(self.first_los_s) & (st.los_count > self.los_at_start) & ~self.finished
-        self.first_los_s[first] = st.steps[first] * self.dt * self.action_frequency
+        running = np.flatnonzero(~self.finished)
+        dsc.first_loss(running, True, st.los_count, st.steps, self.dt, self.action_frequency, self.los_at_start, self.first_los_s)
 
     def remove(self, done: BoolArray) -> BoolArray:
         """Delete the aircraft of the agents that left; the running episodes end at the time limit or when no aircraft is left."""
@@ -109,9 +109,8 @@ class DenseSectorCRMultiAgentTask(SectorCRMultiAgentTask):
     def kpis(self) -> dict[str, Array]:
         """The common KPIs, the time to the first loss of separation, losses per flight-hour and the aircraft that entered."""
         out = super().kpis()
-        hours = self.agent_steps.sum(axis=1) * self.dt * self.action_frequency / dsc.S_PER_H
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out["kpi_los_per_flight_hour"] = np.where(hours > 0, self.stats.los_count / np.where(hours > 0, hours, 1.0), np.nan)
+        out["kpi_los_per_flight_hour"] = np.empty(self.n_envs)
+        dsc.per_flight_hour(self.stats.los_count, self.agent_steps.sum(axis=1), self.dt, self.action_frequency, out["kpi_los_per_flight_hour"])
         out["kpi_time_to_first_los_s"] = self.first_los_s.copy()
         out["kpi_aircraft_spawned"] = self.scenario.spawned.astype(np.float64)
         return out

@@ -18,15 +18,17 @@ beyond that is dropped (counted in ``spawns_dropped``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.environments.sector_cr import task as sc
-from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import StepGeometry, TaskConfig, check_int, check_range, check_type_mix, draw_types, typed
+from bluesky_gym.tasks.compiled import polygon_contains
 from bluesky_gym.tasks.geometry import initial_bearing
 
 SPAWN_RATE_START = 90.0  # aircraft / h entering the sector at the start of an episode
@@ -36,7 +38,45 @@ MAX_SPAWNED = 120  # new aircraft (slots) per episode
 MAX_SPAWN_RATE = 3600.0  # aircraft / h: at most one entry per simulated second on average
 ENTRY_INSET_NM = 0.5  # NM: an entry point lies this far inside the perimeter, towards the sector centre
 EXIT_ARC = (0.25, 0.75)  # fraction of the perimeter from the entry to the exit point (uniform)
-S_PER_H = 3600.0
+S_PER_H = 3600.0  # s / h
+
+
+# --- kernels (the CPU task and the device step run these) ------------------------------------------
+@jit
+def outside_sector(lat, lon, active, poly_lat, poly_lon, n_vertices, out):
+    """``out[e, k]``: aircraft ``k`` (not the ownship, slot 0) of episode ``e`` is active and outside the episode's sector.
+
+    The even-odd test of :func:`~bluesky_gym.tasks.compiled.polygon_contains` against the
+    episode's polygon (``poly_*`` (n, V), ``n_vertices`` (n,)); ``out`` (n, m).
+    """
+    for e in grid_range(out.shape[0]):
+        out[e, 0] = False
+        for k in range(1, out.shape[1]):
+            out[e, k] = active[e, k] and not polygon_contains(lat[e, k], lon[e, k], poly_lat[e], poly_lon[e], n_vertices[e])
+
+
+@jit
+def first_loss(envs, stepped, los_count, steps, dt, action_frequency, los_at_start, first_los_s):
+    """The first-loss clock of episodes ``envs``: the episode time [s] of the first loss of separation that starts in the episode.
+
+    At a reset (not ``stepped``) the losses of separation present (``los_count``) are noted in
+    ``los_at_start``; after a step, the first time ``los_count`` exceeds them is kept in
+    ``first_los_s`` (NaN until then): ``steps`` decision steps of ``dt`` x ``action_frequency`` s.
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        if not stepped:
+            los_at_start[e] = los_count[e]
+        elif math.isnan(first_los_s[e]) and los_count[e] > los_at_start[e]:
+            first_los_s[e] = steps[e] * dt * action_frequency
+
+
+@jit
+def per_flight_hour(count, steps, dt, action_frequency, out):
+    """``count`` per flight-hour of ``steps`` decision steps (``dt`` x ``action_frequency`` s each); NaN without a step."""
+    for e in grid_range(out.shape[0]):
+        hours = steps[e] * dt * action_frequency / S_PER_H
+        out[e] = count[e] / hours if hours > 0 else math.nan
 
 
 @dataclass(frozen=True)
@@ -121,21 +161,16 @@ class DenseSectorCRTask(sc.SectorCRTask):
     def advance(self) -> None:
         """The physics sub-steps, then the traffic flow of every episode (exited traffic removed, new traffic entered)."""
         super().advance()
-        self.remove_exited(self.all_envs)
+        self.remove_exited()
         self.spawn(self.all_envs)
 
-    def remove_exited(self, envs: NDArray[np.int64]) -> None:
-        """Delete the other aircraft (not the ownship, slot 0) of episodes ``envs`` that are outside their sector."""
-        active = self.sim.active[envs]
-        active[:, 0] = False
-        rows, slots = np.nonzero(active)
-        if rows.size == 0:
-            return
-        e = envs[rows]
-        inside = np.empty(rows.size, bool)
-        compiled.slots_in_polygons(e, slots, self.sim.lat, self.sim.lon, self.poly_lat, self.poly_lon, self.n_vertices, inside)
-        if not inside.all():
-            self.sim.delete(e[~inside], slots[~inside])
+    def remove_exited(self) -> None:
+        """Delete the other aircraft (not the ownship, slot 0) that are outside their sector (:func:`outside_sector`)."""
+        outside = np.empty((self.n_envs, self.sim.max_aircraft), bool)
+        outside_sector(self.sim.lat, self.sim.lon, self.sim.active, self.poly_lat, self.poly_lon, self.n_vertices, outside)
+        e, k = np.nonzero(outside)
+        if e.size:
+            self.sim.delete(e, k)
 
     def spawn(self, envs: NDArray[np.int64]) -> NDArray[np.int64]:
         """Advance the flow clock of episodes ``envs`` by one decision step and create the aircraft entering in it.
@@ -211,11 +246,7 @@ class DenseSectorCRTask(sc.SectorCRTask):
         """
         super().record(g, reward)
         st = self.stats
-        if reward is None:
-            self.los_at_start[g.envs] = st.los_count[g.envs]
-            return
-        first = g.envs[np.isnan(self.first_los_s[g.envs]) & (st.los_count[g.envs] > self.los_at_start[g.envs])]
-        self.first_los_s[first] = st.steps[first] * self.dt * self.action_frequency
+        first_loss(g.envs, reward is not None, st.los_count, st.steps, self.dt, self.action_frequency, self.los_at_start, self.first_los_s)
 
     def episode_info(self) -> dict[str, NDArray[np.float64]]:
         """SectorCR's info keys, the other aircraft in the sector now, and the flow's counts."""
@@ -229,9 +260,8 @@ class DenseSectorCRTask(sc.SectorCRTask):
     def kpis(self) -> dict[str, NDArray[np.float64]]:
         """The common KPIs, the time to the first loss of separation, losses per flight-hour and the aircraft that entered."""
         out = super().kpis()
-        hours = self.stats.steps * self.dt * self.action_frequency / S_PER_H
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out["kpi_los_per_flight_hour"] = np.where(hours > 0, self.stats.los_count / np.where(hours > 0, hours, 1.0), np.nan)
+        out["kpi_los_per_flight_hour"] = np.empty(self.n_envs)
+        per_flight_hour(self.stats.los_count, self.stats.steps, self.dt, self.action_frequency, out["kpi_los_per_flight_hour"])
         out["kpi_time_to_first_los_s"] = self.first_los_s.copy()
         out["kpi_aircraft_spawned"] = self.spawned.astype(np.float64)
         return out
