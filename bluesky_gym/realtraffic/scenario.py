@@ -300,16 +300,35 @@ class WindowPlayer:
     def due(self, envs: IntArray | None = None) -> tuple[tuple[IntArray, IntArray], tuple[IntArray, IntArray]]:
         """The aircraft of airspaces ``envs`` (all when None) past their recording, and those due to appear: ``((env, slot), (env, slot))``.
 
-        Known on the host from the recorded times and the clock alone (no aircraft state is read).
+        Known on the host from the recorded times and the clock alone (no aircraft state is read);
+        in the order of the airspaces, then of their slots.
         """
-        n = self.sim.n_envs
-        rows = np.ones(n, bool) if envs is None else np.isin(np.arange(n), envs)
-        now = self.now()[:, None]
-        ended = rows[:, None] & self.created & ~self.done & (now > self.t_leave + 1e-6)
-        due = rows[:, None] & (self.flight >= 0) & ~self.created & (now >= self.t_appear - 1e-6) & (now <= self.t_leave + 1e-6)
-        ended_e, ended_s = np.nonzero(ended)
-        due_e, due_s = np.nonzero(due)
-        return (ended_e, ended_s), (due_e, due_s)
+        if envs is None:
+            rows: IntArray | slice = slice(None)
+            index = np.arange(self.sim.n_envs)
+        else:
+            index = np.unique(np.asarray(envs, dtype=np.int64))
+            rows = index
+        now = self.now(index)[:, None]
+        created, t_leave = self.created[rows], self.t_leave[rows]
+        ended = created & ~self.done[rows] & (now > t_leave + 1e-6)
+        due = (self.flight[rows] >= 0) & ~created & (now >= self.t_appear[rows] - 1e-6) & (now <= t_leave + 1e-6)
+        ended_r, ended_s = np.nonzero(ended)
+        due_r, due_s = np.nonzero(due)
+        return (index[ended_r], ended_s), (index[due_r], due_s)
+
+    def next_event(self, envs: IntArray | None = None) -> Array:
+        """The earliest recorded time [s since epoch] at which an aircraft of each airspace ``envs`` (all when None) may leave or appear.
+
+        Inf where none will. Before it (by more than the schedule's 1e-6 s tolerance) :meth:`due`
+        finds nothing in that airspace, so a step need not look at its slots.
+        """
+        rows = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)
+        created = self.created[rows]
+        leave = np.where(created & ~self.done[rows], self.t_leave[rows], np.inf)
+        appear = np.where((self.flight[rows] >= 0) & ~created, self.t_appear[rows], np.inf)
+        out: Array = np.minimum(leave, appear).min(axis=1)
+        return out
 
     def schedule(self, envs: IntArray | None = None) -> None:
         """Delete the aircraft of airspaces ``envs`` (all when None) past their recording, then create those due (:meth:`due`)."""

@@ -11,11 +11,12 @@ kept there.
   to the recorded path ahead, the recorded profile with the offsets), one launch;
 * the physics sub-steps, then the recorded traffic's departures and appearances: their times are
   known on the host from the recordings and the clock alone
-  (:meth:`~bluesky_gym.realtraffic.scenario.WindowPlayer.due`), so in a step where some aircraft
-  leave or enter, only those aircraft cross to the host and back
+  (:meth:`~bluesky_gym.realtraffic.scenario.WindowPlayer.due`, looked at only in the episodes
+  whose next such time has come: :meth:`~bluesky_gym.realtraffic.scenario.WindowPlayer.next_event`),
+  so in a step where some aircraft leave or enter, only those aircraft cross to the host and back
   (:meth:`~bluesky_gym.core.DeviceSimulator.edit_on_host`) with their episodes' flags; then the
-  recorded profile of every guided aircraft
-  (:func:`~bluesky_gym.realtraffic.scenario.guide_airspaces`), one launch;
+  recorded profile of every guided aircraft (:func:`~bluesky_gym.realtraffic.scenario.guide_airspaces`),
+  one launch;
 * measure: :func:`~bluesky_gym.tasks.compiled.kwik_separation` and
   :func:`~bluesky_gym.environments.real_traffic.task.measure_rows` (route deviation, drift,
   profile errors, the ``ownship`` entry, the closest aircraft), one launch each;
@@ -62,6 +63,8 @@ class RealTrafficDeviceStep(DeviceStep):
     def __init__(self, task: rt.RealTrafficTask, io: TensorIO) -> None:
         super().__init__(task, io)
         self._recorded: tuple[Any, ...] | None = None
+        #: (n_envs,) each episode's next time an aircraft may leave or appear (WindowPlayer.next_event), on the host.
+        self._next_event = np.full(self.n, -np.inf)
 
     def recorded(self) -> tuple[Any, ...]:
         """The recorded flights as the kernels read them (``t0``, ``offset``, ``period``, ``lat``, ``lon``, ``alt``, ``gs``): uploaded once."""
@@ -105,19 +108,28 @@ class RealTrafficDeviceStep(DeviceStep):
         Task.advance(t)
         player.advance_clock(rt.DECISION_STEP)
         self.arrays["elapsed"] += rt.DECISION_STEP  # the host clock's addition (WindowPlayer.advance_clock), on the device's copy
-        (ended_e, ended_s), (due_e, due_s) = player.due()
-        if ended_e.size or due_e.size:
-            envs, slots = np.concatenate([ended_e, due_e]), np.concatenate([ended_s, due_s])
-            self.sim.edit_on_host(envs, slots, player.schedule)
-            rows = np.unique(envs)
-            idx = self.long(rows)
-            for name in _EVENT_ARRAYS:
-                self.arrays[name][idx] = self.torch.as_tensor(np.ascontiguousarray(getattr(player, name)[rows]), device=self.io.device)
+        near = np.flatnonzero(player.now() >= self._next_event - 1e-6)  # the only episodes where an aircraft may leave or appear now
+        if near.size:
+            (ended_e, ended_s), (due_e, due_s) = player.due(near)
+            if ended_e.size or due_e.size:
+                envs, slots = np.concatenate([ended_e, due_e]), np.concatenate([ended_s, due_s])
+                self.sim.edit_on_host(envs, slots, lambda: player.schedule(near))
+                rows = np.unique(envs)
+                idx = self.long(rows)
+                for name in _EVENT_ARRAYS:
+                    self.arrays[name][idx] = self.torch.as_tensor(np.ascontiguousarray(getattr(player, name)[rows]), device=self.io.device)
+            self._next_event[near] = player.next_event(near)
         a = self.arrays
         alt, *commands = self.sim.device_arrays("alt", "selalt", "swvnav", "selvs", "selspd", "swvnavspd")
         t0, offset, period, _lat, _lon, rec_alt, rec_gs = self.recorded()
         flight, guided, start, elapsed, vsmax = (a[k] for k in ("flight", "guided", "start", "elapsed", "vsmax"))
         self.launch(guide_airspaces, self.n, t0, offset, period, rec_alt, rec_gs, flight, guided, start, elapsed, alt, vsmax, *commands)
+
+    def start(self, rows: np.ndarray | None) -> tuple[Any, dict[str, Any]]:
+        """:meth:`~bluesky_gym.envs.device.DeviceStep.start`, and the new episodes' next time an aircraft may leave or appear."""
+        out = super().start(rows)
+        self._next_event[slice(None) if rows is None else rows] = self.task.player.next_event(rows)
+        return out
 
     def measure(self, envs: Any, own: Any) -> rt.RealTrafficGeometry:
         """:func:`bluesky_gym.environments.real_traffic.task.measure` of rows ``envs`` on the device (two launches)."""
