@@ -29,8 +29,15 @@ import numpy as np
 
 from bluesky_gym.benchmarks.core_bench import core_scenario, make_simulator, populate
 
-#: Packages whose kernels the compile-only check covers (an environment folder's task may hold kernels too).
-KERNEL_PACKAGES = ("bluesky_gym.core.", "bluesky_gym.tasks.", "bluesky_gym.environments.")
+#: Packages whose kernels the compile-only check covers (an environment folder's task may hold kernels too; of the
+#: recorded traffic, the replay's: the cleaning of recordings runs on the host only).
+KERNEL_PACKAGES = (
+    "bluesky_gym.core.",
+    "bluesky_gym.tasks.",
+    "bluesky_gym.realtraffic.flights.",
+    "bluesky_gym.realtraffic.scenario.",
+    "bluesky_gym.environments.",
+)
 #: Wall-clock budget of the device check [s] (the issue's limit: 8 minutes).
 DEVICE_CHECK_BUDGET = 480.0
 #: Aircraft per airspace of the physics measurement (the benchmark traffic of ``bench core``).
@@ -166,7 +173,9 @@ def _exercise_core() -> None:
     atmosphere.tas2cas(150.0 * ones, 3000.0)
     atmosphere.casormach2tas(150.0 * ones, 3000.0)
     lnav.turn_distances(150.0 * ones, 10.0, 80.0)
+    sim.cmd_altitude([0, 1], 0, [3000.0, 4000.0], [0.0, 5.0])
     _exercise_device_only()
+    _exercise_real_traffic()
 
 
 def _exercise_device_only() -> None:
@@ -216,6 +225,62 @@ def _exercise_device_only() -> None:
     restore_ended(ended_at, 10, state, held)
 
 
+def _exercise_real_traffic() -> None:
+    """RealTrafficCR's kernels on a two-flight recording (its collections may not be prepared where the check runs).
+
+    The recorded-flight interpolation, the profile guidance and the task's steering, measure and
+    reward, each in the form the CPU task calls and, for the commands, the device step's.
+    """
+    from bluesky_gym.core import Simulator
+    from bluesky_gym.environments.real_traffic import task as rt
+    from bluesky_gym.realtraffic.flights import RecordedFlights
+    from bluesky_gym.realtraffic.scenario import guide_airspaces, profile_command_rows
+    from bluesky_gym.tasks import compiled
+
+    k = np.arange(6, dtype=np.float64)
+    text = np.array(["", ""])
+    lat, lon, alt, gs, trk, vs = (
+        np.tile(x, 2) for x in (47.0 + 0.01 * k, 8.0 + 0.01 * k, 3000.0 + 10.0 * k, np.full(6, 150.0), np.full(6, 45.0), np.ones(6))
+    )
+    flights = RecordedFlights(
+        "exercise", "2024-01-01T00:00:00+00:00", 10.0, np.array([0.0, 5.0]), np.array([0, 6, 12]), lat, lon, alt, gs, trk, vs,
+        np.array([0, 2, 4]), np.array([0, 5, 0, 5]), text, text, text, text,
+    )  # fmt: skip
+    sim = Simulator(2, 3, dt=1.0)
+    sim.create([0, 0, 1], [0, 1, 0], 47.0, 8.0, 45.0, 3000.0, 150.0)
+    t0, offset, period, lat, lon, alt, gs, _trk, _vs = flights.kernel_arrays()
+    flights.at(np.array([0, 1]), np.array([12.0, 30.0]))
+    flight, guided, vsmax = np.zeros((2, 3), np.int64), np.ones((2, 3), np.bool_), np.full((2, 3), 10.0)
+    start, elapsed, envs, own, two = np.zeros(2), np.full(2, 10.0), np.arange(2), np.zeros(2, np.int64), np.zeros(2)
+    field = {
+        k: np.ascontiguousarray(getattr(sim, k))
+        for k in ("lat", "lon", "alt", "hdg", "cas", "vs", "gseast", "gsnorth", "selalt", "selvs", "selspd", "ap_trk")
+    }
+    switches = {k: np.ascontiguousarray(getattr(sim, k)) for k in ("swlnav", "swvnav", "swvnavspd")}
+    profile_command_rows(t0, offset, period, alt, gs, flight, envs, own, two, field["alt"], vsmax, two, two, np.empty(2), np.empty(2), np.empty(2))
+    commands = (field["selalt"], switches["swvnav"], field["selvs"], field["selspd"], switches["swvnavspd"])
+    guide_airspaces(t0, offset, period, alt, gs, flight, guided, start, elapsed, field["alt"], vsmax, *commands)
+    recorded = (t0, offset, period, lat, lon, alt, gs)
+    action = np.zeros((2, 3))
+    rt.steering_rows(
+        envs, own, action, start, elapsed, flight, vsmax, *recorded, field["lat"], field["lon"], field["alt"], *(np.empty(2) for _ in range(4))
+    )
+    position = (field["lat"], field["lon"], field["alt"])
+    rt.steer_commands(envs, own, action, start, elapsed, flight, vsmax, *recorded, *position, field["ap_trk"], switches["swlnav"], *commands)
+    sep, los = np.empty((2, 3)), np.empty((2, 3), np.bool_)
+    compiled.kwik_separation(
+        envs, own, field["lat"], field["lon"], field["alt"], np.ascontiguousarray(sim.active), rt.INTRUSION_NM, rt.INTRUSION_VERTICAL, sep, los
+    )
+    route, drift, cas_error, alt_error = (np.empty(2) for _ in range(4))
+    state = (field["lat"], field["lon"], field["alt"], field["hdg"], field["cas"], field["vs"], field["gseast"], field["gsnorth"])
+    rt.measure_rows(
+        envs, own, start, elapsed, flight, *recorded, rt.route_offsets(10.0), *state,
+        sep, route, drift, cas_error, alt_error, np.empty((2, rt.OWNSHIP_FEATURES)), np.empty((2, rt.NUM_INTRUDERS, rt.INTRUDER_FEATURES)),
+    )  # fmt: skip
+    rt.reward_rows(route, los, np.empty(2), np.empty(2), np.empty(2))
+    rt.episode_sums(envs, route, los, np.zeros(2), np.zeros(2))
+
+
 @dataclass(frozen=True)
 class CompileResult:
     """One kernel compiled for one signature (or a kernel that could not be).
@@ -240,7 +305,7 @@ class CompileResult:
 
 
 def kernels_in_scope() -> list[Any]:
-    """The kernels (:class:`bluesky_gym.core.jit.Kernel`) of the core, the tasks and the environment folders' tasks, in definition order."""
+    """The kernels (:class:`bluesky_gym.core.jit.Kernel`) of :data:`KERNEL_PACKAGES`, in definition order."""
     import importlib
     import importlib.util
     import pkgutil

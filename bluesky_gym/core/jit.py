@@ -45,7 +45,7 @@ _warned = False
 _PACKAGE_DIR = Path(__file__).resolve().parent.parent
 #: The folders whose modules define kernels (the environment folders' tasks too); a change to any
 #: of their modules invalidates every cached kernel.
-_KERNEL_DIRS = (_PACKAGE_DIR / "core", _PACKAGE_DIR / "tasks", _PACKAGE_DIR / "environments")
+_KERNEL_DIRS = (_PACKAGE_DIR / "core", _PACKAGE_DIR / "tasks", _PACKAGE_DIR / "realtraffic", _PACKAGE_DIR / "environments")
 
 
 def _kernel_sources_stamp() -> tuple[tuple[str, float, int], ...]:

@@ -70,6 +70,16 @@ def minimum(a: float, b: float) -> float:
 
 
 @jit
+def clip(x: float, low: float, high: float) -> float:
+    """``np.clip`` of a float: ``x`` within ``[low, high]``, NaN kept; a value equal to a bound gives the bound (its sign of zero)."""
+    if not (x > low or x != x):
+        x = low
+    if not (x < high or x != x):
+        x = high
+    return x
+
+
+@jit
 def divide(a: float, b: float) -> float:
     """``a / b`` with numpy's IEEE semantics: a zero divisor gives +-inf (NaN for 0/0) instead of an error."""
     if b != 0.0:

@@ -23,6 +23,7 @@ from bluesky_gym.core import geo as _geo
 from bluesky_gym.core import performance as pf
 from bluesky_gym.core.aircraft import DEFAULT_TYPE, aircraft_performance
 from bluesky_gym.core.atmosphere import vcasormach
+from bluesky_gym.core.commands import altitude_commands
 from bluesky_gym.core.conflicts import create_conflicts, detect_loop, resolve_pair_search
 from bluesky_gym.core.lnav import BANK_LNAV, lnav_kernel, turn_distances
 from bluesky_gym.core.resolution import (
@@ -400,21 +401,14 @@ class Simulator(AircraftState):
         self.swvnavspd[env, slot] = False
 
     def cmd_altitude(self, env: ArrayLike, slot: ArrayLike, alt: ArrayLike, vs: ArrayLike | None = None) -> None:
-        """``ALT acid alt [vs]`` in SI (BlueSky's ``ap.selaltcmd``)."""
+        """``ALT acid alt [vs]`` in SI (BlueSky's ``ap.selaltcmd``): the kernel :func:`~bluesky_gym.core.commands.altitude_commands`.
+
+        A vertical speed of 0 is none given (as in BlueSky). Each aircraft at most once per call.
+        """
         env, slot = self._index(env, slot)
-        alt = np.broadcast_to(np.asarray(alt, dtype=np.float64), env.shape)
-        self.selalt[env, slot] = alt
-        self.swvnav[env, slot] = False
-        vs_arr = None if vs is None else np.broadcast_to(np.asarray(vs, dtype=np.float64), env.shape)
-        given = np.zeros(env.shape, bool) if vs_arr is None else vs_arr != 0
-        if vs_arr is not None and np.any(given):
-            self.selvs[env[given], slot[given]] = vs_arr[given]
-        keep = ~given
-        if np.any(keep):
-            e, s = env[keep], slot[keep]
-            delalt = alt[keep] - self.alt[e, s]
-            opposite = (self.selvs[e, s] * delalt < 0.0) & (np.abs(self.selvs[e, s]) > 0.01)
-            self.selvs[e[opposite], s[opposite]] = 0.0
+        target = np.ascontiguousarray(np.broadcast_to(np.asarray(alt, dtype=np.float64), env.shape))
+        vs_arr = np.zeros(env.shape) if vs is None else np.ascontiguousarray(np.broadcast_to(np.asarray(vs, dtype=np.float64), env.shape))
+        altitude_commands(env, slot, target, vs_arr, self.alt, self.selalt, self.swvnav, self.selvs)
 
     def cmd_vertical_speed(self, env: ArrayLike, slot: ArrayLike, vs: ArrayLike) -> None:
         """``VS acid vs`` in m/s: a rate only; nothing moves without a different ``selalt``."""

@@ -344,6 +344,7 @@ PAPER_ENVIRONMENTS: tuple[EnvEntry, ...] = (
         data="bluesky_gym.realtraffic.cache:default_data_ready",
         data_note="bluesky_gym.realtraffic.cache:default_data_note",
         classical="bluesky_gym.environments.real_traffic.controller:RealTrafficController",
+        device_step="bluesky_gym.environments.real_traffic.device_step:RealTrafficDeviceStep",
         v1=(),
     ),
     EnvEntry(

@@ -9,6 +9,7 @@ and the result is saved as one ``.npz`` file.
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 import zipfile
@@ -20,6 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.atmosphere import tas2cas
+from bluesky_gym.core.jit import grid_range, jit, jit_inline
+from bluesky_gym.core.scalar import clip, mod
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -120,6 +123,9 @@ class RecordedFlights:
     def at(self, flight: IntArray, t: Array) -> dict[str, Array]:
         """Linearly interpolated state of flights ``flight`` at times ``t`` (clamped to each flight's span).
 
+        The kernel :func:`recorded_states` (its scalar :func:`sample_weight`, :func:`lerp` and
+        :func:`track_at`, which the tasks' kernels call too).
+
         Args:
             flight: Flight indices, any shape.
             t: Times [s since epoch], same shape.
@@ -128,18 +134,17 @@ class RecordedFlights:
             ``lat``, ``lon``, ``alt``, ``gs``, ``trk``, ``vs`` arrays of that shape (the track is
             interpolated along the shorter arc).
         """
-        flight = np.asarray(flight, dtype=np.int64)
-        t = np.asarray(t, dtype=np.float64)
-        last = self.n_samples[flight] - 1
-        x = np.clip((t - self.t0[flight]) / self.period, 0.0, last)
-        k0 = np.minimum(np.floor(x).astype(np.int64), np.maximum(last - 1, 0))
-        w = x - k0
-        i0 = self.offset[flight] + k0
-        i1 = i0 + 1
-        out = {name: (1.0 - w) * getattr(self, name)[i0] + w * getattr(self, name)[i1] for name in ("lat", "lon", "alt", "gs", "vs")}
-        d = (self.trk[i1] - self.trk[i0] + 180.0) % 360.0 - 180.0
-        out["trk"] = (self.trk[i0] + w * d) % 360.0
-        return out
+        ff, tt = np.broadcast_arrays(np.asarray(flight, dtype=np.int64), np.asarray(t, dtype=np.float64))
+        shape = ff.shape
+        out = {name: np.empty(shape) for name in _STATE}
+        recorded_states(
+            *self.kernel_arrays(), np.ascontiguousarray(ff).reshape(-1), np.ascontiguousarray(tt).reshape(-1), *(out[k].reshape(-1) for k in _STATE)
+        )
+        return out if shape else {k: v[()] for k, v in out.items()}
+
+    def kernel_arrays(self) -> tuple[Array, IntArray, float, Array, Array, Array, Array, Array, Array]:
+        """The recordings as kernels read them: ``t0``, ``offset``, ``period``, the samples' ``lat``, ``lon``, ``alt``, ``gs``, ``trk``, ``vs``."""
+        return (self.t0, self.offset, float(self.period), self.lat, self.lon, self.alt, self.gs, self.trk, self.vs)
 
     def samples(self, f: int) -> slice:
         """Sample range of flight ``f`` in the concatenated arrays."""
@@ -231,6 +236,53 @@ class RecordedFlights:
             raise ValueError(f"{path}: not a recorded-flights file ({exc})") from exc
         except OSError as exc:
             raise ValueError(f"{path}: cannot read the recorded-flights file ({exc.strerror or exc})") from exc
+
+
+#: The interpolated fields of :meth:`RecordedFlights.at`, in :func:`recorded_states`' order.
+_STATE = ("lat", "lon", "alt", "gs", "trk", "vs")
+
+
+# --- the interpolation, one scalar form for the CPU and the device ---------------------------------
+@jit_inline
+def sample_weight(t0, offset, period, f, t):
+    """Sample ``i0`` (in the concatenated arrays) and weight ``w`` of flight ``f`` at time ``t`` [s]: the state is ``(1 - w) a[i0] + w a[i0 + 1]``.
+
+    The time is clamped to the flight's span (``np.clip``'s semantics, NaN kept); the last
+    segment is used at and after the last sample.
+    """
+    last = offset[f + 1] - offset[f] - 1
+    x = clip((t - t0[f]) / period, 0.0, float(last))
+    k0 = int(math.floor(x))
+    cap = last - 1 if last - 1 > 0 else 0
+    if k0 > cap:
+        k0 = cap
+    return offset[f] + k0, x - k0
+
+
+@jit_inline
+def lerp(a, i0, w):
+    """``a`` between samples ``i0`` and ``i0 + 1`` at weight ``w`` (:func:`sample_weight`)."""
+    return (1.0 - w) * a[i0] + w * a[i0 + 1]
+
+
+@jit_inline
+def track_at(trk, i0, w):
+    """The track [deg, 0..360) between samples ``i0`` and ``i0 + 1`` at weight ``w``, along the shorter arc."""
+    d = mod(trk[i0 + 1] - trk[i0] + 180.0, 360.0) - 180.0
+    return mod(trk[i0] + w * d, 360.0)
+
+
+@jit
+def recorded_states(t0, offset, period, lat, lon, alt, gs, trk, vs, flight, t, lat_out, lon_out, alt_out, gs_out, trk_out, vs_out):
+    """:meth:`RecordedFlights.at` of points ``(flight[i], t[i])`` (the recordings as :meth:`RecordedFlights.kernel_arrays` gives them)."""
+    for i in grid_range(flight.shape[0]):
+        i0, w = sample_weight(t0, offset, period, flight[i], t[i])
+        lat_out[i] = lerp(lat, i0, w)
+        lon_out[i] = lerp(lon, i0, w)
+        alt_out[i] = lerp(alt, i0, w)
+        gs_out[i] = lerp(gs, i0, w)
+        vs_out[i] = lerp(vs, i0, w)
+        trk_out[i] = track_at(trk, i0, w)
 
 
 class DamagedFile(ValueError):

@@ -28,10 +28,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.aircraft import FALLBACK_TYPE, ROTORCRAFT_TYPES, aircraft_performance
-from bluesky_gym.core.atmosphere import tas2cas
+from bluesky_gym.core.atmosphere import isa_layered, tas2cas, tas2cas_at
+from bluesky_gym.core.commands import select_altitude, select_speed
+from bluesky_gym.core.jit import grid_range, jit, jit_inline
 from bluesky_gym.core.physics import Physics
+from bluesky_gym.core.scalar import clip, maximum, sign
 from bluesky_gym.core.units import FT, NM
-from bluesky_gym.realtraffic.flights import RecordedFlights
+from bluesky_gym.realtraffic.flights import RecordedFlights, lerp, sample_weight
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -154,6 +157,76 @@ def simulator_type(typecode: str) -> str:
     return FALLBACK_TYPE if (not code or code in ROTORCRAFT_TYPES) else code
 
 
+# --- the recorded profile as commands: one scalar form for the CPU and the device ------------------
+@jit_inline
+def profile_targets(t0, offset, period, rec_alt, rec_gs, f, t):
+    """Recorded altitude target [m] (:data:`ALT_LOOKAHEAD` ahead) and CAS target [m/s] (:data:`SPEED_LOOKAHEAD` ahead) of flight ``f`` at ``t``.
+
+    The CAS is the recorded ground speed taken as TAS at the recorded altitude (layered ISA, as
+    :func:`~bluesky_gym.core.atmosphere.tas2cas`). The recordings are those of
+    :meth:`~bluesky_gym.realtraffic.flights.RecordedFlights.kernel_arrays`.
+    """
+    i0, w = sample_weight(t0, offset, period, f, t + ALT_LOOKAHEAD)
+    alt = lerp(rec_alt, i0, w)
+    i0, w = sample_weight(t0, offset, period, f, t + SPEED_LOOKAHEAD)
+    p, rho, _ = isa_layered(lerp(rec_alt, i0, w))
+    return alt, tas2cas_at(lerp(rec_gs, i0, w), p, rho)
+
+
+@jit_inline
+def profile_commands(t0, offset, period, rec_alt, rec_gs, f, t, alt, vsmax, alt_offset, cas_offset):
+    """The commands that make an aircraft at altitude ``alt`` [m] fly flight ``f``'s recorded profile at ``t`` (plus offsets [m], [m/s]).
+
+    See :meth:`WindowPlayer.guide`. Returns the ALT command's altitude [m] and vertical speed
+    [m/s] (0: none given, BlueSky's default rate) and the SPD command's CAS [m/s]; ``vsmax`` is the
+    aircraft type's largest vertical speed [m/s].
+    """
+    alt_target, cas_target = profile_targets(t0, offset, period, rec_alt, rec_gs, f, t)
+    alt_target = alt_target + alt_offset
+    i0, w = sample_weight(t0, offset, period, f, t)
+    alt_now = lerp(rec_alt, i0, w) + alt_offset
+    i0, w = sample_weight(t0, offset, period, f, t + PROFILE_STEP)
+    rate = (lerp(rec_alt, i0, w) + alt_offset - alt_now) / PROFILE_STEP
+    vs = rate + (alt_now - alt) / ALT_CORRECTION_TIME
+    dz = alt_target - alt
+    spd = maximum(cas_target + cas_offset, MIN_CAS)
+    if abs(rate) < MIN_VS:  # the recording is level now: hold its current altitude
+        return alt_now, 0.0, spd
+    if vs * dz <= 0.0:  # ahead of the recorded profile: wait for it
+        return alt, 0.0, spd
+    return alt_target, sign(dz) * clip(abs(vs), MIN_VS, vsmax), spd
+
+
+@jit
+def profile_command_rows(t0, offset, period, rec_alt, rec_gs, flight, envs, slots, t, alt, vsmax, alt_offset, cas_offset, alt_out, vs_out, spd_out):
+    """:func:`profile_commands` of aircraft ``(envs[r], slots[r])`` at ``t[r]``, offsets ``alt_offset[r]``, ``cas_offset[r]``.
+
+    The host's form: the physics' commands are then given with them (:meth:`WindowPlayer.guide`).
+    """
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        s = slots[r]
+        alt_out[r], vs_out[r], spd_out[r] = profile_commands(
+            t0, offset, period, rec_alt, rec_gs, flight[e, s], t[r], alt[e, s], vsmax[e, s], alt_offset[r], cas_offset[r]
+        )
+
+
+@jit
+def guide_airspaces(t0, offset, period, rec_alt, rec_gs, flight, guided, start, elapsed, alt, vsmax, selalt, swvnav, selvs, selspd, swvnavspd):
+    """:meth:`WindowPlayer.update`'s guidance on the device: :func:`profile_commands` of every ``guided`` aircraft, written into the autopilot state.
+
+    Airspace ``e``'s recorded-time clock is ``start[e] + elapsed[e]``; the commands are the core's
+    (:func:`~bluesky_gym.core.commands.select_altitude`, :func:`~bluesky_gym.core.commands.select_speed`).
+    """
+    for e in grid_range(guided.shape[0]):
+        now = start[e] + elapsed[e]
+        for s in range(guided.shape[1]):
+            if guided[e, s]:
+                target, vs, spd = profile_commands(t0, offset, period, rec_alt, rec_gs, flight[e, s], now, alt[e, s], vsmax[e, s], 0.0, 0.0)
+                select_altitude(e, s, target, vs, alt, selalt, swvnav, selvs)
+                select_speed(e, s, spd, selspd, swvnavspd)
+
+
 class WindowPlayer:
     """Plays recorded windows on a batched physics, one window per airspace.
 
@@ -178,9 +251,10 @@ class WindowPlayer:
         self.created = np.zeros(shape, bool)
         self.t_created = np.full(shape, np.nan)  # s since epoch: when the aircraft was created
         self.done = np.zeros(shape, bool)  # created and deleted again
+        self.guided = np.zeros(shape, bool)  # flying now and given the recorded profile (guided_ownship / guided_traffic)
+        self.vsmax = np.zeros(shape)  # m/s: the largest vertical speed of each aircraft's type (set at its creation)
         self.start = np.zeros(sim.n_envs)  # s since epoch: window start
         self.elapsed = np.zeros(sim.n_envs)  # s since the window start
-        self._cas = flights.cas()
 
     def now(self, envs: IntArray | None = None) -> Array:
         """Recorded-time clock of airspaces ``envs`` [s since epoch]."""
@@ -205,6 +279,7 @@ class WindowPlayer:
         self.created[envs] = False
         self.t_created[envs] = np.nan
         self.done[envs] = False
+        self.guided[envs] = False
         self.update(envs)
 
     def advance_clock(self, seconds: float) -> None:
@@ -212,37 +287,69 @@ class WindowPlayer:
         self.elapsed += seconds
 
     def update(self, envs: IntArray | None = None) -> None:
-        """Create the aircraft due, delete those past their recording, and give every traffic aircraft its targets."""
-        sim = self.sim
-        envs = np.arange(sim.n_envs) if envs is None else np.asarray(envs, dtype=np.int64)
-        now = self.now()[:, None]
-        rows = np.zeros(sim.n_envs, bool)
+        """Create the aircraft due, delete those past their recording, and give every guided aircraft its targets."""
+        envs = np.arange(self.sim.n_envs) if envs is None else np.asarray(envs, dtype=np.int64)
+        self.schedule(envs)
+        rows = np.zeros(self.sim.n_envs, bool)
         rows[envs] = True
-        ended = rows[:, None] & self.created & ~self.done & (now > self.t_leave + 1e-6)
-        if ended.any():
-            e, s = np.nonzero(ended)
-            sim.delete(e, s)
-            self.done[e, s] = True
-        due = rows[:, None] & (self.flight >= 0) & ~self.created & (now >= self.t_appear - 1e-6) & (now <= self.t_leave + 1e-6)
-        if due.any():
-            e, s = np.nonzero(due)
-            self._create(e, s, now[e, 0])
-        guided = rows[:, None] & self.created & ~self.done
-        if not self.guided_ownship:
-            guided[:, 0] = False
-        if not self.guided_traffic:
-            guided[:, 1:] = False
+        guided = rows[:, None] & self.guided
         if guided.any():
             e, s = np.nonzero(guided)
-            self.guide(e, s, now[e, 0])
+            self.guide(e, s, self.now()[e])
+
+    def due(self, envs: IntArray | None = None) -> tuple[tuple[IntArray, IntArray], tuple[IntArray, IntArray]]:
+        """The aircraft of airspaces ``envs`` (all when None) past their recording, and those due to appear: ``((env, slot), (env, slot))``.
+
+        Known on the host from the recorded times and the clock alone (no aircraft state is read);
+        in the order of the airspaces, then of their slots.
+        """
+        if envs is None:
+            rows: IntArray | slice = slice(None)
+            index = np.arange(self.sim.n_envs)
+        else:
+            index = np.unique(np.asarray(envs, dtype=np.int64))
+            rows = index
+        now = self.now(index)[:, None]
+        created, t_leave = self.created[rows], self.t_leave[rows]
+        ended = created & ~self.done[rows] & (now > t_leave + 1e-6)
+        due = (self.flight[rows] >= 0) & ~created & (now >= self.t_appear[rows] - 1e-6) & (now <= t_leave + 1e-6)
+        ended_r, ended_s = np.nonzero(ended)
+        due_r, due_s = np.nonzero(due)
+        return (index[ended_r], ended_s), (index[due_r], due_s)
+
+    def next_event(self, envs: IntArray | None = None) -> Array:
+        """The earliest recorded time [s since epoch] at which an aircraft of each airspace ``envs`` (all when None) may leave or appear.
+
+        Inf where none will. Before it (by more than the schedule's 1e-6 s tolerance) :meth:`due`
+        finds nothing in that airspace, so a step need not look at its slots.
+        """
+        rows = slice(None) if envs is None else np.asarray(envs, dtype=np.int64)
+        created = self.created[rows]
+        leave = np.where(created & ~self.done[rows], self.t_leave[rows], np.inf)
+        appear = np.where((self.flight[rows] >= 0) & ~created, self.t_appear[rows], np.inf)
+        out: Array = np.minimum(leave, appear).min(axis=1)
+        return out
+
+    def schedule(self, envs: IntArray | None = None) -> None:
+        """Delete the aircraft of airspaces ``envs`` (all when None) past their recording, then create those due (:meth:`due`)."""
+        (ended_e, ended_s), (due_e, due_s) = self.due(envs)
+        if ended_e.size:
+            self.sim.delete(ended_e, ended_s)
+            self.done[ended_e, ended_s] = True
+            self.guided[ended_e, ended_s] = False
+        if due_e.size:
+            self._create(due_e, due_s, self.now()[due_e])
 
     def _create(self, e: IntArray, s: IntArray, t: Array) -> None:
         fl = self.flight[e, s]
         st = self.flights.at(fl, t)
         cas = tas2cas(st["gs"], st["alt"])
-        create_recorded(self.sim, e, s, st["lat"], st["lon"], st["trk"], st["alt"], cas, self.flights.typecode[fl])
+        codes = self.flights.typecode[fl]
+        create_recorded(self.sim, e, s, st["lat"], st["lon"], st["trk"], st["alt"], cas, codes)
         self.created[e, s] = True
         self.t_created[e, s] = t
+        self.vsmax[e, s] = [aircraft_performance(simulator_type(str(c))).vsmax for c in codes]
+        self.guided[e, s] = np.where(s == 0, self.guided_ownship, self.guided_traffic)
         cap = self.sim.max_waypoints
         for ei, si, fi, ti in zip(e, s, fl, t):
             k = (ti - self.flights.t0[fi]) / self.flights.period
@@ -254,13 +361,6 @@ class WindowPlayer:
             for la, lo in zip(self.flights.lat[idx], self.flights.lon[idx]):
                 self.sim.add_waypoint(int(ei), int(si), float(la), float(lo))
 
-    def targets(self, e: IntArray, s: IntArray, t: Array) -> tuple[Array, Array]:
-        """Recorded altitude target [m] (ALT_LOOKAHEAD ahead) and CAS target [m/s] (SPEED_LOOKAHEAD ahead) of slots ``(e, s)`` at ``t``."""
-        fl = self.flight[e, s]
-        alt = self.flights.at(fl, t + ALT_LOOKAHEAD)["alt"]
-        sp = self.flights.at(fl, t + SPEED_LOOKAHEAD)
-        return alt, tas2cas(sp["gs"], sp["alt"])
-
     def guide(self, e: IntArray, s: IntArray, t: Array, alt_offset: Array | float = 0.0, cas_offset: Array | float = 0.0) -> None:
         """Command the recorded altitude and speed profile (plus offsets [m], [m/s]) to slots ``(e, s)``.
 
@@ -269,25 +369,20 @@ class WindowPlayer:
         altitude error over :data:`ALT_CORRECTION_TIME`, at most the aircraft type's ``vsmax``: a
         larger request makes BlueSky's performance limit trade climb for acceleration
         (``(1 - ax/axmax) vsmax``, docs/dynamics.md §1.5), so an aircraft accelerating at its limit
-        would stop climbing.
+        would stop climbing. Where the recording is level, the recorded altitude is held; where the
+        aircraft is ahead of the recorded profile, its own altitude. The kernel
+        :func:`profile_command_rows` (:func:`profile_commands`, which the device's
+        :func:`guide_airspaces` gives as well), then the physics' ALT and SPD commands.
         """
-        alt_target, cas_target = self.targets(e, s, t)
-        alt_target = alt_target + alt_offset
-        sim = self.sim
-        fl = self.flight[e, s]
-        alt_now = self.flights.at(fl, t)["alt"] + alt_offset
-        rate = (self.flights.at(fl, t + PROFILE_STEP)["alt"] + alt_offset - alt_now) / PROFILE_STEP
-        vs = rate + (alt_now - sim.alt[e, s]) / ALT_CORRECTION_TIME
-        dz = alt_target - sim.alt[e, s]
-        level = np.abs(rate) < MIN_VS  # the recording is level now: hold its current altitude
-        hold = ~level & (vs * dz <= 0.0)  # ahead of the recorded profile: wait for it
-        move = ~level & ~hold
-        if level.any():
-            sim.cmd_altitude(e[level], s[level], alt_now[level])
-        if hold.any():
-            sim.cmd_altitude(e[hold], s[hold], sim.alt[e[hold], s[hold]])
-        if move.any():
-            em, sm = e[move], s[move]
-            vsmax = np.array([aircraft_performance(name).vsmax for name in sim.aircraft_type(em, sm)])
-            sim.cmd_altitude(em, sm, alt_target[move], np.sign(dz[move]) * np.clip(np.abs(vs[move]), MIN_VS, vsmax))
-        sim.cmd_speed(e, s, np.maximum(cas_target + cas_offset, MIN_CAS))
+        e = np.asarray(e, dtype=np.int64)
+        s = np.asarray(s, dtype=np.int64)
+        rows = e.shape[0]
+        t = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=np.float64), (rows,)))
+        alt_off, cas_off = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), (rows,))) for x in (alt_offset, cas_offset))
+        alt, vs, spd = np.empty(rows), np.empty(rows), np.empty(rows)
+        f = self.flights
+        profile_command_rows(
+            f.t0, f.offset, float(f.period), f.alt, f.gs, self.flight, e, s, t, self.sim.alt, self.vsmax, alt_off, cas_off, alt, vs, spd
+        )
+        self.sim.cmd_altitude(e, s, alt, vs)
+        self.sim.cmd_speed(e, s, spd)

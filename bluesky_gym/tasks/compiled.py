@@ -648,6 +648,23 @@ def _point_at_distance(lat: float, lon: float, d_km: float, bearing: float, radi
 
 
 @jit_inline
+def initial_bearing_scalar(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    """Great-circle initial bearing [deg, 0..360) from point 1 to point 2 (:func:`bluesky_gym.tasks.geometry.initial_bearing`).
+
+    The coordinates are converted to radians before the longitude difference is taken, in the
+    reference's operation order.
+    """
+    p1 = lat1 * DEG2RAD
+    l1 = lon1 * DEG2RAD
+    p2 = lat2 * DEG2RAD
+    l2 = lon2 * DEG2RAD
+    delta_lon = l2 - l1
+    x = math.sin(delta_lon) * math.cos(p2)
+    y = math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) * math.cos(delta_lon)
+    return _mod(math.atan2(x, y) * _DEG + 360.0, 360.0)
+
+
+@jit_inline
 def _at(a: Array, i: int, j: int) -> float:
     """``a[i, j]`` of a 2-D array broadcast against (i, j): a dimension of length 1 repeats."""
     return float(a[i if a.shape[0] > 1 else 0, j if a.shape[1] > 1 else 0])
@@ -659,6 +676,14 @@ def point_at_distance(lat: Array, lon: Array, d_km: Array, bearing: Array, radiu
     for i in grid_range(lat_out.shape[0]):
         for j in range(lat_out.shape[1]):
             lat_out[i, j], lon_out[i, j] = _point_at_distance(_at(lat, i, j), _at(lon, i, j), _at(d_km, i, j), _at(bearing, i, j), radius_km)
+
+
+@jit
+def initial_bearing(lat1: Array, lon1: Array, lat2: Array, lon2: Array, out: Array) -> None:
+    """:func:`bluesky_gym.tasks.geometry.initial_bearing` of 2-D inputs broadcast to the output's shape."""
+    for i in grid_range(out.shape[0]):
+        for j in range(out.shape[1]):
+            out[i, j] = initial_bearing_scalar(_at(lat1, i, j), _at(lon1, i, j), _at(lat2, i, j), _at(lon2, i, j))
 
 
 @jit

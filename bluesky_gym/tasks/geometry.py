@@ -37,15 +37,13 @@ def point_at_distance(lat: ArrayLike, lon: ArrayLike, d_km: ArrayLike, bearing: 
 def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: ArrayLike) -> Array:
     """Great-circle initial bearing [deg, 0..360) from point 1 to point 2 (the reference ``get_hdg``).
 
-    The coordinates are converted to radians before the longitude difference is taken, in the
-    reference's operation order.
+    The kernel :func:`bluesky_gym.tasks.compiled.initial_bearing` (its scalar form
+    :func:`~bluesky_gym.tasks.compiled.initial_bearing_scalar`).
     """
-    p1, l1 = np.radians(lat1), np.radians(lon1)
-    p2, l2 = np.radians(lat2), np.radians(lon2)
-    delta_lon = l2 - l1
-    x = np.sin(delta_lon) * np.cos(p2)
-    y = np.cos(p1) * np.sin(p2) - np.sin(p1) * np.cos(p2) * np.cos(delta_lon)
-    bearing: Array = (np.degrees(np.arctan2(x, y)) + 360) % 360
+    shape, (a, b, c, d) = _grid(lat1, lon1, lat2, lon2)
+    out = np.empty(shape[1])
+    compiled.initial_bearing(a, b, c, d, out)
+    bearing: Array = out.reshape(shape[0])[()]
     return bearing
 
 

@@ -121,3 +121,14 @@ def sort_points_clockwise(vertices: ArrayLike) -> Array:
     """Sort (north, east) points by atan2(east, north) ascending: clockwise by compass bearing."""
     v = np.asarray(vertices, dtype=np.float64)
     return v[np.argsort(np.arctan2(v[:, 1], v[:, 0]), kind="stable")]
+
+
+def initial_bearing(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: ArrayLike) -> Array:
+    """Great-circle initial bearing [deg, 0..360) from point 1 to point 2 (the reference ``get_hdg``), in numpy."""
+    p1, l1 = np.radians(lat1), np.radians(lon1)
+    p2, l2 = np.radians(lat2), np.radians(lon2)
+    delta_lon = l2 - l1
+    x = np.sin(delta_lon) * np.cos(p2)
+    y = np.cos(p1) * np.sin(p2) - np.sin(p1) * np.cos(p2) * np.cos(delta_lon)
+    bearing: Array = (np.degrees(np.arctan2(x, y)) + 360) % 360
+    return bearing

@@ -15,20 +15,34 @@ range, see :meth:`RealTrafficTask.set_test_split`).
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.core.commands import select_altitude, select_speed, select_track
+from bluesky_gym.core.jit import grid_range, jit, jit_inline, scratch
 from bluesky_gym.core.physics import Physics
+from bluesky_gym.core.scalar import clip, maximum, minimum, mod, sign
 from bluesky_gym.core.units import FT, KTS, NM
 from bluesky_gym.realtraffic.cache import collection_path, combine, load_collection, unprepared
-from bluesky_gym.realtraffic.flights import RecordedFlights
-from bluesky_gym.realtraffic.scenario import MAX_ROUTE_POINTS, SEPARATION_NM, SEPARATION_VERTICAL, Window, WindowPlayer, split_windows, windows
+from bluesky_gym.realtraffic.flights import RecordedFlights, lerp, sample_weight
+from bluesky_gym.realtraffic.scenario import (
+    MAX_ROUTE_POINTS,
+    SEPARATION_NM,
+    SEPARATION_VERTICAL,
+    Window,
+    WindowPlayer,
+    profile_commands,
+    profile_targets,
+    split_windows,
+    windows,
+)
 from bluesky_gym.realtraffic.sources import SAMPLE_COLLECTIONS
 from bluesky_gym.tasks.base import (
     Array,
@@ -40,9 +54,8 @@ from bluesky_gym.tasks.base import (
     check_int,
     check_range,
     kwik_separation,
-    wrap180,
 )
-from bluesky_gym.tasks.geometry import initial_bearing
+from bluesky_gym.tasks.compiled import DEG2RAD, initial_bearing_scalar, sample_means, wrap180_scalar
 
 SPLITS = ("auto", "train", "test")
 LABELS = ("near", "all", "none")
@@ -70,6 +83,9 @@ SPEED_SCALE = 20.0  # m/s
 ROUTE_SCALE = 5.0  # NM
 VS_SCALE = 10.0  # m/s
 EARTH_RADIUS_NM = 6371000.0 / NM
+OWNSHIP_FEATURES = 6  # route deviation, cos and sin of the drift, CAS error, altitude error, vertical speed
+AVERAGE_ROUTE_EMPTY = 0.0  # the info's average route deviation before the first decision step
+MIN_SEGMENT2 = 1e-12  # NM^2: floor of a recorded route segment's squared length (a repeated sample)
 # -v1 declared bounds (float32_spaces), chosen to hold for every reachable state:
 MAX_SPEED = 700.0 * KTS  # m/s: recorded ground speeds stay below 700 kt (the cleaning drops faster samples); so do the simulated TAS
 ROUTE_BOUND = 10.0  # the route deviation is clipped to +-10 (50 NM) in every version
@@ -230,6 +246,7 @@ class RealTrafficGeometry(StepGeometry):
         cas_error: (rows,) CAS minus the recorded speed [m/s].
         alt_error: (rows,) altitude minus the recorded altitude [m].
         intruders: (rows, NUM_INTRUDERS, 7) closest aircraft (see the environment's observation).
+        ownship: (rows, 6) the observation's ``ownship`` entry (see the environment's observation).
     """
 
     own: NDArray[np.int64]
@@ -237,104 +254,310 @@ class RealTrafficGeometry(StepGeometry):
     cas_error: Array
     alt_error: Array
     intruders: Array
+    ownship: Array
+
+
+# --- the step's rules as kernels: the CPU task and the device step run the same ---------------------
+@jit_inline
+def _less(a, b):
+    """The sort order of numpy of floats: NaN after everything."""
+    return a < b or (b != b and a == a)
+
+
+@jit_inline
+def _route_deviation(t0, offset, period, rec_lat, rec_lon, f, now, offsets, lat0, lon0, coslat):
+    """Signed distance [NM] of the point (lat0, lon0) from flight ``f``'s recorded route at ``now + offsets`` (positive: right of it).
+
+    The recorded positions in a flat frame around the point [NM]; the closest of their segments
+    (the first, on a tie); the side from the cross product with it.
+    """
+    best = np.inf
+    best_dx = best_dy = best_x0 = best_y0 = 0.0
+    xp = yp = 0.0
+    for k in range(offsets.shape[0]):
+        i0, w = sample_weight(t0, offset, period, f, now + offsets[k])
+        x = wrap180_scalar(lerp(rec_lon, i0, w) - lon0) * 60.0 * coslat
+        y = (lerp(rec_lat, i0, w) - lat0) * 60.0
+        if k > 0:
+            dx = x - xp
+            dy = y - yp
+            seg2 = maximum(dx * dx + dy * dy, MIN_SEGMENT2)
+            u = clip(-(xp * dx + yp * dy) / seg2, 0.0, 1.0)
+            d = math.hypot(xp + u * dx, yp + u * dy)
+            if k == 1 or (best == best and (d != d or d < best)):  # np.argmin: the first smallest, or the first NaN
+                best, best_dx, best_dy, best_x0, best_y0 = d, dx, dy, xp, yp
+        xp = x
+        yp = y
+    side = sign(best_dx * (0.0 - best_y0) - best_dy * (0.0 - best_x0))  # > 0: left of the route
+    return -side * best
+
+
+@jit
+def measure_rows(
+    envs,
+    own,
+    start,
+    elapsed,
+    flight,
+    t0,
+    offset,
+    period,
+    rec_lat,
+    rec_lon,
+    rec_alt,
+    rec_gs,
+    offsets,
+    lat,
+    lon,
+    alt,
+    hdg,
+    cas,
+    vs,
+    gseast,
+    gsnorth,
+    separation,
+    route_out,
+    drift_out,
+    cas_error_out,
+    alt_error_out,
+    ownship_out,
+    intruder_out,
+):
+    """:func:`measure` of rows (episode ``envs[r]``, ownship slot ``own[r]``) from their separations [NM].
+
+    The separations are :func:`~bluesky_gym.tasks.compiled.kwik_separation`'s.
+
+    The route deviation [NM] (recorded route from ``now + offsets[0]`` to ``now + offsets[-1]``),
+    the drift from the bearing to the recorded position :data:`CARROT_S` ahead [deg], the CAS and
+    altitude errors from the recorded profile's targets, the observation's ``ownship`` entry
+    and the :data:`NUM_INTRUDERS` closest aircraft (a stable sort of the separations; an empty
+    row is zeros). Episode ``e``'s recorded-time clock is ``start[e] + elapsed[e]``.
+    """
+    best = scratch(NUM_INTRUDERS, np.float64)
+    order = scratch(NUM_INTRUDERS, np.int64)
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        now = start[e] + elapsed[e]
+        f = flight[e, o]
+        lat0 = lat[e, o]
+        lon0 = lon[e, o]
+        coslat = math.cos(lat0 * DEG2RAD)
+        route = _route_deviation(t0, offset, period, rec_lat, rec_lon, f, now, offsets, lat0, lon0, coslat)
+        sched_alt, sched_cas = profile_targets(t0, offset, period, rec_alt, rec_gs, f, now)
+        i0, w = sample_weight(t0, offset, period, f, now + CARROT_S)
+        drift = wrap180_scalar(hdg[e, o] - initial_bearing_scalar(lat0, lon0, lerp(rec_lat, i0, w), lerp(rec_lon, i0, w)))
+        cas_error = cas[e, o] - sched_cas
+        alt_error = alt[e, o] - sched_alt
+        route_out[r] = route
+        drift_out[r] = drift
+        cas_error_out[r] = cas_error
+        alt_error_out[r] = alt_error
+        rad = drift * DEG2RAD
+        ownship_out[r, 0] = clip(route / ROUTE_SCALE, -ROUTE_BOUND, ROUTE_BOUND)
+        ownship_out[r, 1] = math.cos(rad)
+        ownship_out[r, 2] = math.sin(rad)
+        ownship_out[r, 3] = cas_error / SPEED_SCALE
+        ownship_out[r, 4] = alt_error / ALTITUDE_SCALE
+        ownship_out[r, 5] = vs[e, o] / VS_SCALE
+        # the closest aircraft: the first NUM_INTRUDERS of a stable sort of the row's separations
+        filled = 0
+        for j in range(separation.shape[1]):
+            d = separation[r, j]
+            if filled < NUM_INTRUDERS:
+                pos = filled
+                filled += 1
+            elif _less(d, best[NUM_INTRUDERS - 1]):
+                pos = NUM_INTRUDERS - 1
+            else:
+                continue
+            while pos > 0 and _less(d, best[pos - 1]):
+                best[pos] = best[pos - 1]
+                order[pos] = order[pos - 1]
+                pos -= 1
+            best[pos] = d
+            order[pos] = j
+        for q in range(NUM_INTRUDERS):
+            present = q < filled and not math.isinf(best[q]) and not math.isnan(best[q])
+            if present:
+                j = order[q]
+                intruder_out[r, q, 0] = wrap180_scalar(lon[e, j] - lon0) * 60.0 * coslat / POSITION_SCALE
+                intruder_out[r, q, 1] = (lat[e, j] - lat0) * 60.0 / POSITION_SCALE
+                intruder_out[r, q, 2] = (gseast[e, j] - gseast[e, o]) / VELOCITY_SCALE
+                intruder_out[r, q, 3] = (gsnorth[e, j] - gsnorth[e, o]) / VELOCITY_SCALE
+                intruder_out[r, q, 4] = (alt[e, j] - alt[e, o]) / ALTITUDE_SCALE
+                intruder_out[r, q, 5] = best[q] / POSITION_SCALE
+                intruder_out[r, q, 6] = 1.0
+            else:
+                for c in range(INTRUDER_FEATURES):
+                    intruder_out[r, q, c] = 0.0
+
+
+@jit
+def reward_rows(route_nm, los, reward_out, route_out, intrusion_out):
+    """:func:`reward` of each row: route penalty (capped), intrusion penalty per aircraft in a loss of separation, and their sum."""
+    for r in grid_range(route_nm.shape[0]):
+        count = 0
+        for j in range(los.shape[1]):
+            if los[r, j]:
+                count += 1
+        route = ROUTE_PENALTY * minimum(abs(route_nm[r]), ROUTE_PENALTY_CAP)
+        intrusion = INTRUSION_PENALTY * count
+        route_out[r] = route
+        intrusion_out[r] = intrusion
+        reward_out[r] = route + intrusion
+
+
+@jit
+def episode_sums(envs, route_nm, los, route_sum, intrusions):
+    """The info's sums of episode ``envs[r]`` (:meth:`RealTrafficTask.reward`): |route deviation| [NM] and aircraft in a loss of separation."""
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        count = 0
+        for j in range(los.shape[1]):
+            if los[r, j]:
+                count += 1
+        route_sum[e] += abs(route_nm[r])
+        intrusions[e] += count
+
+
+@jit_inline
+def _steering(t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, f, now, lat, lon, alt, vsmax, a_heading, a_speed, a_altitude):
+    """:func:`steer`'s commands of one aircraft: HDG [deg], ALT [m] with its vertical speed [m/s] (0: none), SPD (CAS [m/s])."""
+    i0, w = sample_weight(t0, offset, period, f, now + CARROT_S)
+    bearing = initial_bearing_scalar(lat, lon, lerp(rec_lat, i0, w), lerp(rec_lon, i0, w))
+    hdg = mod(bearing + D_HEADING * a_heading, 360.0)
+    target, vs, spd = profile_commands(t0, offset, period, rec_alt, rec_gs, f, now, alt, vsmax, a_altitude, D_SPEED * a_speed)
+    return hdg, target, vs, spd
+
+
+@jit_inline
+def _altitude_offset(action, r):
+    """The altitude offset [m] of row ``r``'s action (0 without an altitude action)."""
+    return D_ALTITUDE * action[r, 2] if action.shape[1] > 2 else 0.0
+
+
+@jit
+def steering_rows(
+    envs,
+    own,
+    action,
+    start,
+    elapsed,
+    flight,
+    vsmax,
+    t0,
+    offset,
+    period,
+    rec_lat,
+    rec_lon,
+    rec_alt,
+    rec_gs,
+    lat,
+    lon,
+    alt,
+    hdg_out,
+    alt_out,
+    vs_out,
+    spd_out,
+):
+    """:func:`steer`'s commands of rows (episode ``envs[r]``, slot ``own[r]``, clipped ``action[r]``), given to the physics by the host."""
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        hdg_out[r], alt_out[r], vs_out[r], spd_out[r] = _steering(
+            t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, flight[e, o], start[e] + elapsed[e], lat[e, o], lon[e, o], alt[e, o],
+            vsmax[e, o], action[r, 0], action[r, 1], _altitude_offset(action, r),
+        )  # fmt: skip
+
+
+@jit
+def steer_commands(
+    envs, own, action, start, elapsed, flight, vsmax, t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, lat, lon, alt,
+    ap_trk, swlnav, selalt, swvnav, selvs, selspd, swvnavspd,
+):  # fmt: skip
+    """:func:`steering_rows` written into the autopilot state as the core's HDG (no wind), ALT and SPD commands (the device step's form)."""
+    for r in grid_range(envs.shape[0]):
+        e = envs[r]
+        o = own[r]
+        hdg, target, vs, spd = _steering(
+            t0, offset, period, rec_lat, rec_lon, rec_alt, rec_gs, flight[e, o], start[e] + elapsed[e], lat[e, o], lon[e, o], alt[e, o],
+            vsmax[e, o], action[r, 0], action[r, 1], _altitude_offset(action, r),
+        )  # fmt: skip
+        select_track(e, o, hdg, ap_trk, swlnav)
+        select_altitude(e, o, target, vs, alt, selalt, swvnav, selvs)
+        select_speed(e, o, spd, selspd, swvnavspd)
+
+
+def route_offsets(period: float) -> Array:
+    """Times [s] relative to now of the recorded positions that make the route near the ownship (every ``period`` within :data:`ROUTE_SPAN_S`)."""
+    return np.arange(-ROUTE_SPAN_S, ROUTE_SPAN_S + 1e-9, period)
 
 
 def measure(task: RealTrafficTask, envs: NDArray[np.int64], own: NDArray[np.int64]) -> RealTrafficGeometry:
-    """Geometry of rows (episode ``envs[r]``, ownship slot ``own[r]``)."""
+    """Geometry of rows (episode ``envs[r]``, ownship slot ``own[r]``).
+
+    The kernels :func:`~bluesky_gym.tasks.compiled.kwik_separation` and :func:`measure_rows`.
+    """
     sim = task.sim
     player = task.player
     sep, los = kwik_separation(sim, envs, own, INTRUSION_NM, INTRUSION_VERTICAL)
-    now = player.now(envs)
-    flight = player.flight[envs, own]
-    lat0, lon0 = sim.lat[envs, own], sim.lon[envs, own]
-    # the recorded route near now, as segments in a local flat frame around the ownship [NM]
-    offsets = np.arange(-ROUTE_SPAN_S, ROUTE_SPAN_S + 1e-9, task.flights.period)
-    rec = task.flights.at(np.repeat(flight[:, None], len(offsets), 1), now[:, None] + offsets[None, :])
-    coslat = np.cos(np.radians(lat0))[:, None]
-    x = (wrap180(rec["lon"] - lon0[:, None])) * 60.0 * coslat
-    y = (rec["lat"] - lat0[:, None]) * 60.0
-    x0, y0, x1, y1 = x[:, :-1], y[:, :-1], x[:, 1:], y[:, 1:]
-    dx, dy = x1 - x0, y1 - y0
-    seg2 = np.maximum(dx * dx + dy * dy, 1e-12)
-    u = np.clip(-(x0 * dx + y0 * dy) / seg2, 0.0, 1.0)
-    px, py = x0 + u * dx, y0 + u * dy
-    d = np.hypot(px, py)
-    k = np.argmin(d, axis=1)
-    r = np.arange(len(envs))
-    side = np.sign(dx[r, k] * (0.0 - y0[r, k]) - dy[r, k] * (0.0 - x0[r, k]))  # > 0: ownship left of the route
-    route_nm = -side * d[r, k]
-    sched_alt, sched_cas = player.targets(envs, own, now)
-    carrot = task.flights.at(flight, now + CARROT_S)
-    bearing = initial_bearing(lat0, lon0, carrot["lat"], carrot["lon"])
-    drift = wrap180(sim.hdg[envs, own] - bearing)
-    # closest aircraft, in the ownship's flat frame
-    order = np.argsort(sep, axis=1, kind="stable")[:, :NUM_INTRUDERS]
-    dist = np.take_along_axis(sep, order, 1)
-    present = np.isfinite(dist)
-    ee = envs[:, None]
-    lat_i, lon_i = sim.lat[ee, order], sim.lon[ee, order]
-    ix = wrap180(lon_i - lon0[:, None]) * 60.0 * coslat
-    iy = (lat_i - lat0[:, None]) * 60.0
-    vx = sim.gseast[ee, order] - sim.gseast[envs, own][:, None]
-    vy = sim.gsnorth[ee, order] - sim.gsnorth[envs, own][:, None]
-    dz = sim.alt[ee, order] - sim.alt[envs, own][:, None]
-    feats = np.stack(
-        [ix / POSITION_SCALE, iy / POSITION_SCALE, vx / VELOCITY_SCALE, vy / VELOCITY_SCALE, dz / ALTITUDE_SCALE, dist / POSITION_SCALE, present],
-        axis=-1,
-    )
-    feats = np.where(present[..., None], feats, 0.0)
+    p = len(envs)
+    route, drift, cas_error, alt_error = np.empty(p), np.empty(p), np.empty(p), np.empty(p)
+    ownship, intruders = np.empty((p, OWNSHIP_FEATURES)), np.empty((p, NUM_INTRUDERS, INTRUDER_FEATURES))
+    f = task.flights
+    measure_rows(
+        envs, own, player.start, player.elapsed, player.flight, f.t0, f.offset, float(f.period), f.lat, f.lon, f.alt, f.gs, task.route_offsets,
+        sim.lat, sim.lon, sim.alt, sim.hdg, sim.cas, sim.vs, sim.gseast, sim.gsnorth, sep, route, drift, cas_error, alt_error, ownship, intruders,
+    )  # fmt: skip
     return RealTrafficGeometry(
         envs=envs,
         separation_nm=sep,
         los=los,
         drift_deg=drift,
-        goal_reached=np.zeros(len(envs), bool),
+        goal_reached=np.zeros(p, bool),
         own=own,
-        route_nm=route_nm,
-        cas_error=sim.cas[envs, own] - sched_cas,
-        alt_error=sim.alt[envs, own] - sched_alt,
-        intruders=feats,
+        route_nm=route,
+        cas_error=cas_error,
+        alt_error=alt_error,
+        intruders=intruders,
+        ownship=ownship,
     )
 
 
-def observation(task: RealTrafficTask, g: RealTrafficGeometry) -> dict[str, Array]:
-    """Observation of the rows of ``g``."""
-    sim = task.sim
-    rad = np.radians(g.drift_deg if g.drift_deg is not None else np.zeros(len(g.envs)))
-    ownship = np.stack(
-        [
-            np.clip(g.route_nm / ROUTE_SCALE, -ROUTE_BOUND, ROUTE_BOUND),
-            np.cos(rad),
-            np.sin(rad),
-            g.cas_error / SPEED_SCALE,
-            g.alt_error / ALTITUDE_SCALE,
-            sim.vs[g.envs, g.own] / VS_SCALE,
-        ],
-        axis=1,
-    )
-    intruders = g.intruders.copy()
+def observation(task: RealTrafficTask, g: RealTrafficGeometry) -> dict[str, Any]:
+    """Observation of the rows of ``g`` (numpy arrays or tensors): the measured entries; ``-v1``: the intruder rows as one vector."""
+    intruders = g.intruders
     if task.config.float32_spaces:  # -v1: one vector of the rows, intruder by intruder
-        intruders = intruders.reshape(len(g.envs), NUM_INTRUDERS * INTRUDER_FEATURES)
-    return {"ownship": ownship, "intruders": intruders}
+        intruders = intruders.reshape(int(g.envs.shape[0]), NUM_INTRUDERS * INTRUDER_FEATURES)
+    return {"ownship": g.ownship, "intruders": intruders}
 
 
 def reward(g: RealTrafficGeometry) -> tuple[Array, dict[str, Array]]:
-    """Reward of the rows of ``g`` and its components (route, intrusion)."""
-    route = ROUTE_PENALTY * np.minimum(np.abs(g.route_nm), ROUTE_PENALTY_CAP)
-    intrusion = INTRUSION_PENALTY * g.los.sum(axis=1)
-    return route + intrusion, {"route": route, "intrusion": intrusion}
+    """Reward of the rows of ``g`` and its components (route, intrusion): the kernel :func:`reward_rows`."""
+    p = len(g.envs)
+    r, route, intrusion = np.empty(p), np.empty(p), np.empty(p)
+    reward_rows(g.route_nm, g.los, r, route, intrusion)
+    return r, {"route": route, "intrusion": intrusion}
 
 
 def steer(task: RealTrafficTask, envs: NDArray[np.int64], own: NDArray[np.int64], action: Array) -> None:
-    """Apply actions (rows, 2 or 3) to ownship slots: heading offset from the recorded path, speed and altitude offsets."""
+    """Apply actions (rows, 2 or 3) to ownship slots: heading offset from the recorded path, speed and altitude offsets.
+
+    The kernel :func:`steering_rows` (the commands), then the physics' HDG, ALT and SPD commands.
+    """
     sim = task.sim
     player = task.player
-    now = player.now(envs)
-    carrot = task.flights.at(player.flight[envs, own], now + CARROT_S)
-    bearing = initial_bearing(sim.lat[envs, own], sim.lon[envs, own], carrot["lat"], carrot["lon"])
-    sim.cmd_heading(envs, own, (bearing + D_HEADING * action[:, 0]) % 360.0)
-    alt_offset = D_ALTITUDE * action[:, 2] if action.shape[1] > 2 else 0.0
-    player.guide(envs, own, now, alt_offset=alt_offset, cas_offset=D_SPEED * action[:, 1])
+    f = task.flights
+    p = len(envs)
+    hdg, alt, vs, spd = np.empty(p), np.empty(p), np.empty(p), np.empty(p)
+    steering_rows(
+        envs, own, np.ascontiguousarray(action, dtype=np.float64), player.start, player.elapsed, player.flight, player.vsmax,
+        f.t0, f.offset, float(f.period), f.lat, f.lon, f.alt, f.gs, sim.lat, sim.lon, sim.alt, hdg, alt, vs, spd,
+    )  # fmt: skip
+    sim.cmd_heading(envs, own, hdg)
+    sim.cmd_altitude(envs, own, alt, vs)
+    sim.cmd_speed(envs, own, spd)
 
 
 def position_bound(config: RealTrafficConfig) -> float:
@@ -404,6 +627,7 @@ class RealTrafficTask(Task):
         """
         self._data: EpisodeData | None = None
         self._player: WindowPlayer | None = None
+        self._route_offsets: Array | None = None
         if not unprepared(self.config.collections, self.config.cache_dir):
             self._data = episode_data(self.config)
         self.test_split = np.full(self.n_envs, self.config.split == "test")
@@ -422,6 +646,13 @@ class RealTrafficTask(Task):
     def flights(self) -> RecordedFlights:
         """The recorded flights the windows refer to."""
         return self.data.flights
+
+    @property
+    def route_offsets(self) -> Array:
+        """Times [s] relative to now of the recorded positions that make the route near the ownship (:func:`route_offsets`)."""
+        if self._route_offsets is None:
+            self._route_offsets = route_offsets(self.flights.period)
+        return self._route_offsets
 
     @property
     def player(self) -> WindowPlayer:
@@ -494,23 +725,30 @@ class RealTrafficTask(Task):
         """Route and intrusion penalties; never terminates."""
         assert isinstance(g, RealTrafficGeometry)
         r, parts = reward(g)
-        self.route_sum += np.abs(g.route_nm)
-        self.intrusions += g.los.sum(axis=1)
+        episode_sums(g.envs, g.route_nm, g.los, self.route_sum, self.intrusions)
         return r, np.zeros(self.n_envs, bool), parts
 
     def episode_info(self) -> dict[str, Array]:
         """``total_reward``, ``total_intrusions`` and the mean |route deviation| so far [NM]."""
-        steps = np.maximum(self.stats.steps, 1)
         return {
             "total_reward": self.stats.total_reward.copy(),
             "total_intrusions": self.intrusions.copy(),
-            "average_route_deviation_nm": np.where(self.stats.steps > 0, self.route_sum / steps, 0.0),
+            "average_route_deviation_nm": self.mean_route_deviation(AVERAGE_ROUTE_EMPTY),
         }
+
+    def mean_route_deviation(self, empty: float) -> Array:
+        """(n_envs,) the mean |route deviation| [NM] over the decision steps, ``empty`` before the first.
+
+        The kernel :func:`~bluesky_gym.tasks.compiled.sample_means`.
+        """
+        out = np.empty(self.n_envs)
+        sample_means(self.route_sum, self.stats.steps, empty, out)
+        return out
 
     def kpis(self) -> dict[str, Array]:
         """The common KPIs and the mean |route deviation| [NM]."""
         out = super().kpis()
-        out["kpi_mean_route_deviation_nm"] = np.where(self.stats.steps > 0, self.route_sum / np.maximum(self.stats.steps, 1), np.nan)
+        out["kpi_mean_route_deviation_nm"] = self.mean_route_deviation(np.nan)
         return out
 
 
