@@ -18,7 +18,7 @@ How the batches travel (:class:`TensorIO`):
   commands, which the task gives on the host.
 
 Where the task's whole step runs on the device (:class:`DeviceStep`, a subclass per task in its
-folder's ``device_step.py``, named by its registry row: every paper task and DenseSectorCR),
+folder's ``device_step.py``, named by its registry row: every single-agent task),
 neither copy happens: the actions stay on the device, the kernels write into
 tensors (:meth:`TensorIO.kernel_array`), and only which episodes ended comes to the host.
 

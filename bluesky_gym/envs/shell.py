@@ -411,8 +411,9 @@ class BlueSkyVectorEnv(MadeIdMixin, VectorEnv):
     the same scenarios as a single environment with seed ``s + i``; its physics agrees with the
     CPU's within the GPU's rounding (docs/backends.md). For a task whose
     registry row names a ``device_step`` (a :class:`~bluesky_gym.envs.device.DeviceStep`: every
-    paper task but DenseSectorCR and RealTrafficCR, without wind) the whole step runs on the device
-    instead, every info entry is a tensor there, and only the resets' draws run on the host.
+    single-agent task, without wind) the whole step runs on the device instead, every info entry
+    is a tensor there, and only the random draws (resets, DenseSectorCR's entering aircraft) and
+    RealTrafficCR's recorded aircraft entering and leaving run on the host.
 
     Args:
         num_envs: Number of episodes simulated together.
