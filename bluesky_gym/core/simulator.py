@@ -1094,9 +1094,19 @@ class DeviceSimulator(Simulator):
         env_a, slot_a = self._index(env, slot)
         self._on_host(np.unique(env_a * self.max_aircraft + slot_a), edit, gather=True)
 
-    def create(self, env: ArrayLike, slot: ArrayLike, *args: Any, **kwargs: Any) -> None:
+    def create(
+        self,
+        env: ArrayLike,
+        slot: ArrayLike,
+        lat: ArrayLike = 52.0,
+        lon: ArrayLike = 4.0,
+        hdg: ArrayLike = 0.0,
+        alt: ArrayLike = 0.0,
+        spd: ArrayLike = 0.0,
+        actype: str | Sequence[str] | NDArray[np.str_] | None = None,
+    ) -> None:
         """:meth:`Simulator.create`; on the device, only the new aircraft's rows cross (:meth:`edit_on_host`)."""
-        self.edit_on_host(env, slot, lambda: Simulator.create(self, env, slot, *args, **kwargs))
+        self.edit_on_host(env, slot, lambda: Simulator.create(self, env, slot, lat, lon, hdg, alt, spd, actype))
 
     def delete(self, env: ArrayLike, slot: ArrayLike) -> None:
         """:meth:`Simulator.delete`; on the device, only those aircraft's rows cross (:meth:`edit_on_host`)."""
