@@ -183,8 +183,7 @@ def _exercise_device_only() -> None:
 
     The device steps' commands (:func:`bluesky_gym.tasks.compiled.command_heading_speed`,
     :func:`bluesky_gym.environments.descent.task.command_vertical_speed`,
-    :func:`bluesky_gym.environments.plan_waypoint.task.command_heading`,
-    :func:`bluesky_gym.environments.horizontal_cr.task.command_heading`),
+    :func:`bluesky_gym.tasks.compiled.command_heading`),
     :meth:`bluesky_gym.core.DeviceSimulator.reset_on_host`'s scatters and
     :meth:`~bluesky_gym.core.DeviceSimulator.edit_on_host`'s gathers of each state dtype, ``delete_flagged``, and
     StaticObstacle's device step holding the state of the episodes stopped within a decision step
@@ -193,8 +192,6 @@ def _exercise_device_only() -> None:
     from bluesky_gym.core import Simulator
     from bluesky_gym.core.state import clear_flagged, gather_columns, gather_rows, scatter_columns, scatter_rows
     from bluesky_gym.environments.descent import task as descent
-    from bluesky_gym.environments.horizontal_cr import task as horizontal_cr
-    from bluesky_gym.environments.plan_waypoint import task as plan_waypoint
     from bluesky_gym.environments.static_obstacle.task import hold_ended, restore_ended
     from bluesky_gym.tasks import compiled
 
@@ -207,8 +204,8 @@ def _exercise_device_only() -> None:
         envs, own, np.zeros((2, 2)), field["hdg"], field["cas"], 22.5, 6.0, *(field[k] for k in ("ap_trk", "swlnav", "selspd", "swvnavspd"))
     )
     descent.command_vertical_speed(envs, own, np.zeros((2, 1)), field["alt"], True, field["selalt"], field["selvs"])
-    plan_waypoint.command_heading(field["hdg"], np.zeros((2, 1)), 45.0, field["ap_trk"], field["swlnav"])
-    horizontal_cr.command_heading(envs, own, np.zeros(2), np.zeros((2, 1)), horizontal_cr.D_HEADING, field["ap_trk"], field["swlnav"])
+    for reference in (np.zeros(2), field["hdg"][:, 0]):  # HorizontalCR's headings at the last observation; PlanWaypoint's now (a column)
+        compiled.command_heading(envs, own, reference, np.zeros((2, 1)), 45.0, field["ap_trk"], field["swlnav"])
     rows = np.arange(sim.max_aircraft)
     for flat_array in (np.ascontiguousarray(sim._float_flat), sim.phase.reshape(1, flat), sim.active.reshape(1, flat), sim.iactwp.reshape(1, flat)):
         scatter_columns(rows, np.ascontiguousarray(flat_array[:, rows]), flat_array.copy())

@@ -21,6 +21,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from bluesky_gym.core.commands import select_speed, select_track
 from bluesky_gym.core.jit import AVAILABLE, grid_range, jit, jit_inline, scratch
 from bluesky_gym.core.scalar import mod as _mod
 from bluesky_gym.core.units import KTS, MPS2KT, NM, NM2KM, R_EARTH
@@ -292,10 +293,33 @@ def command_heading_speed(envs, own, action, hdg, cas, d_heading, d_speed, ap_tr
         e = envs[r]
         o = own[r]
         trk, spd = _heading_speed(hdg[e, o], cas[e, o], action[r, 0], action[r, 1], d_heading, d_speed)
-        ap_trk[e, o] = trk
-        swlnav[e, o] = False
-        selspd[e, o] = spd
-        swvnavspd[e, o] = False
+        select_track(e, o, trk, ap_trk, swlnav)
+        select_speed(e, o, spd, selspd, swvnavspd)
+
+
+# --- actions: a heading change from a reference heading (HorizontalCR, PlanWaypoint) -------------
+@jit_inline
+def _heading_target(reference, a, d_heading):  # type: ignore[no-untyped-def]
+    """HDG [deg] = ``reference`` + ``d_heading`` a, not wrapped (the reference's stack command passes it on unchanged)."""
+    return reference + a * d_heading
+
+
+@jit
+def heading_targets(reference, action, d_heading, out):  # type: ignore[no-untyped-def]
+    """The heading [deg] the clipped ``action`` (rows, 1) commands in each row: :func:`_heading_target` of ``reference[r]``."""
+    for r in grid_range(out.shape[0]):
+        out[r] = _heading_target(reference[r], action[r, 0], d_heading)
+
+
+@jit
+def command_heading(envs, own, reference, action, d_heading, ap_trk, swlnav):  # type: ignore[no-untyped-def]
+    """:func:`heading_targets` given as the native core's HDG command (:func:`~bluesky_gym.core.commands.select_track`).
+
+    Row ``r``: slot ``own[r]`` of episode ``envs[r]``, its reference heading ``reference[r]``.
+    The device steps of HorizontalCR and PlanWaypoint launch it on the simulator's device state.
+    """
+    for r in grid_range(envs.shape[0]):
+        select_track(envs[r], own[r], _heading_target(reference[r], action[r, 0], d_heading), ap_trk, swlnav)
 
 
 # --- SectorCR ----------------------------------------------------------------------------------

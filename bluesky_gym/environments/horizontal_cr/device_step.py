@@ -6,7 +6,7 @@ its registry row's ``device_step``) the rest of the step runs there too: the pip
 :class:`~bluesky_gym.envs.device.DeviceStep` (actions, physics, statistics, truncation, KPIs,
 autoreset) with HorizontalCR's stages (:class:`HorizontalCRDeviceStep`):
 
-* the action: :func:`~bluesky_gym.environments.horizontal_cr.task.command_heading` (the heading
+* the action: :func:`~bluesky_gym.tasks.compiled.command_heading` (the heading
   at the last observation + 45 a), one launch;
 * measure: :func:`~bluesky_gym.tasks.compiled.intruder_relative_state`,
   :func:`~bluesky_gym.tasks.compiled.goal_geometry`,
@@ -58,10 +58,10 @@ class HorizontalCRDeviceStep(DeviceStep):
     def command(self, action: Any) -> None:
         """:meth:`~bluesky_gym.environments.horizontal_cr.task.HorizontalCRTask.apply_action` on the device (one launch).
 
-        The kernel :func:`~bluesky_gym.environments.horizontal_cr.task.command_heading`.
+        The kernel :func:`~bluesky_gym.tasks.compiled.command_heading`.
         """
         ap_trk, swlnav = self.sim.device_arrays("ap_trk", "swlnav")
-        self.launch(hc.command_heading, self.n, self.envs, self.own, self.arrays["ac_hdg"], action, float(self.heading_step), ap_trk, swlnav)
+        self.launch(compiled.command_heading, self.n, self.envs, self.own, self.arrays["ac_hdg"], action, float(self.heading_step), ap_trk, swlnav)
 
     def measure(self, envs: Any, own: Any) -> hc.HorizontalCRGeometry:
         """:func:`bluesky_gym.environments.horizontal_cr.task.measure` of rows ``envs`` on the device (four launches)."""

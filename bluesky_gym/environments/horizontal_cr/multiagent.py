@@ -34,6 +34,7 @@ from bluesky_gym.multiagent.centralised import CentralisedEnv
 from bluesky_gym.multiagent.render import LEGEND, agent_aircraft, callsign, goal_lines, panel_rows
 from bluesky_gym.render.scene import Fix, MapScene
 from bluesky_gym.render.scenes.common import fit_extent
+from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import BoxSpec, StepGeometry
 
 
@@ -160,7 +161,7 @@ class HorizontalCRMultiAgentTask(MultiAgentTask):
         """HDG = heading at the last observation + 45 a, for every acting agent."""
         e, k = np.nonzero(self.acting)
         target = np.empty(e.size)
-        hc.heading_targets(self.ac_hdg[e, k], action[e, k], hc.D_HEADING, target)
+        compiled.heading_targets(self.ac_hdg[e, k], action[e, k], hc.D_HEADING, target)
         self.sim.cmd_heading(e, k, target)
 
     def targets(self) -> tuple[Array, Array]:

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core.aircraft import aircraft_performance, is_rotorcraft
-from bluesky_gym.core.jit import grid_range, jit, jit_inline
+from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.physics import Physics
 from bluesky_gym.core.units import FL, NM2KM
 from bluesky_gym.tasks import compiled
@@ -118,35 +118,6 @@ class HorizontalCRConfig(TaskConfig):
 
 
 # --- kernels: the task's rules, one source for the CPU and the device (bluesky_gym.core.jit) ---------
-@jit_inline
-def _heading_target(reference, a, d_heading):
-    """HDG [deg] = ``reference`` (the heading at the last observation) + ``d_heading`` a, not wrapped."""
-    return reference + a * d_heading
-
-
-@jit
-def heading_targets(reference, action, d_heading, out):
-    """The heading [deg] the clipped ``action`` (rows, 1) commands in each row: :func:`_heading_target` of ``reference[r]``."""
-    for r in grid_range(out.shape[0]):
-        out[r] = _heading_target(reference[r], action[r, 0], d_heading)
-
-
-@jit
-def command_heading(envs, own, reference, action, d_heading, ap_trk, swlnav):
-    """:func:`heading_targets` given as the native core's HDG command, written into its autopilot state.
-
-    What :meth:`~bluesky_gym.core.Simulator.cmd_heading` does in an airspace without wind: the
-    track selected is the heading, LNAV is switched off. Row ``r``: slot ``own[r]`` of episode
-    ``envs[r]``. The device step (:mod:`bluesky_gym.environments.horizontal_cr.device_step`)
-    launches it on the simulator's device state.
-    """
-    for r in grid_range(envs.shape[0]):
-        e = envs[r]
-        o = own[r]
-        ap_trk[e, o] = _heading_target(reference[r], action[r, 0], d_heading)
-        swlnav[e, o] = False
-
-
 @jit
 def waypoint_progress(envs, own, hdg, drift, dist_nm, reached, margin_km, km_out, heading_out, cos_out, sin_out, newly_out, goal_out):
     """The rest of the waypoint side of :func:`measure`, per row (slot ``own[r]`` of episode ``envs[r]``).
@@ -410,10 +381,10 @@ class HorizontalCRTask(Task):
 
     # --- dynamics interface ---------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """Command the heading: HDG = heading at the last observation + 45 a (the kernel :func:`heading_targets`)."""
+        """Command the heading: HDG = heading at the last observation + 45 a (the kernel :func:`~bluesky_gym.tasks.compiled.heading_targets`)."""
         # Values outside [0, 360) are passed on unchanged, as the reference's stack command does.
         target = np.empty(self.n_envs)
-        heading_targets(self.ac_hdg, action, D_HEADING, target)
+        compiled.heading_targets(self.ac_hdg, action, D_HEADING, target)
         self.sim.cmd_heading(self.all_envs, 0, target)
 
     def waypoint_geometry(self) -> tuple[Array, Array]:

@@ -7,7 +7,7 @@ its registry row's ``device_step``) the rest of the step runs there too: the pip
 autoreset) with PlanWaypoint's stages (:class:`PlanWaypointDeviceStep`), each one launch of a
 kernel of :mod:`bluesky_gym.environments.plan_waypoint.task`:
 
-* the heading command: :func:`~bluesky_gym.environments.plan_waypoint.task.command_heading`;
+* the heading command: :func:`~bluesky_gym.tasks.compiled.command_heading`;
 * measure: :func:`~bluesky_gym.environments.plan_waypoint.task.waypoint_measure` (no traffic: the
   separations are inf and there is no loss of separation, as on the CPU);
 * the observation: :func:`~bluesky_gym.environments.plan_waypoint.task.waypoint_observation`;
@@ -34,6 +34,7 @@ import numpy as np
 
 from bluesky_gym.environments.plan_waypoint import task as pw
 from bluesky_gym.envs.device import DeviceStep, TensorIO
+from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import StepGeometry, Task
 
 __all__ = ["PlanWaypointDeviceStep"]
@@ -54,9 +55,9 @@ class PlanWaypointDeviceStep(DeviceStep):
         return {"wpt_lat": t.wpt_lat, "wpt_lon": t.wpt_lon, "wpt_reached": t.wpt_reached}
 
     def command(self, action: Any) -> None:
-        """The heading action as the HDG command of each episode's aircraft (:func:`~bluesky_gym.environments.plan_waypoint.task.command_heading`)."""
+        """The heading action as the HDG command from each aircraft's heading now (:func:`~bluesky_gym.tasks.compiled.command_heading`)."""
         hdg, ap_trk, swlnav = self.sim.device_arrays("hdg", "ap_trk", "swlnav")
-        self.launch(pw.command_heading, self.n, hdg, action, pw.D_HEADING, ap_trk, swlnav)
+        self.launch(compiled.command_heading, self.n, self.envs, self.own, hdg[:, 0], action, pw.D_HEADING, ap_trk, swlnav)
 
     def measure(self, envs: Any, own: Any) -> pw.PlanWaypointMeasurement:
         """:meth:`~bluesky_gym.environments.plan_waypoint.task.PlanWaypointTask.measure` of rows ``envs`` on the device (one launch)."""

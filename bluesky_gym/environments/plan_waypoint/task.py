@@ -17,9 +17,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bluesky_gym.core import geo
-from bluesky_gym.core.jit import grid_range, jit, jit_inline
+from bluesky_gym.core.jit import grid_range, jit
 from bluesky_gym.core.units import NM2KM
 from bluesky_gym.environments.horizontal_cr.task import AIRBORNE_ALT
+from bluesky_gym.tasks import compiled
 from bluesky_gym.tasks.base import Array, BoolArray, BoxSpec, StepGeometry, Task, TaskConfig, check_int, check_range
 from bluesky_gym.tasks.compiled import DEG2RAD, kwikqdrdist_scalar, wrap180_scalar
 from bluesky_gym.tasks.geometry import point_at_distance
@@ -166,9 +167,9 @@ class PlanWaypointTask(Task):
 
     # --- action -------------------------------------------------------------------------------
     def apply_action(self, action: Array) -> None:
-        """Heading target hdg + 45 a (the reference's "HDG" command, not wrapped): :func:`heading_targets`."""
+        """Heading target hdg + 45 a (the reference's "HDG" command, not wrapped): :func:`~bluesky_gym.tasks.compiled.heading_targets`."""
         target = np.empty(self.n_envs)
-        heading_targets(self.sim.hdg, np.ascontiguousarray(action), D_HEADING, target)
+        compiled.heading_targets(self.sim.hdg[:, 0], np.ascontiguousarray(action), D_HEADING, target)
         self.sim.cmd_heading(self.all_envs, 0, target)
 
     # --- measure --------------------------------------------------------------------------------
@@ -248,32 +249,6 @@ class PlanWaypointTask(Task):
 
 
 # --- kernels: the step's rules, for the CPU and the device step ------------------------------------
-@jit_inline
-def _heading_target(hdg, action, d_heading):
-    """The HDG commanded by a heading action: hdg + d_heading a [deg], not wrapped."""
-    return hdg + action * d_heading
-
-
-@jit
-def heading_targets(hdg, action, d_heading, out):
-    """(n,) the heading [deg] commanded to each episode's aircraft (slot 0 of ``hdg`` (n, m)) by the clipped ``action`` (n, 1)."""
-    for e in grid_range(out.shape[0]):
-        out[e] = _heading_target(hdg[e, 0], action[e, 0], d_heading)
-
-
-@jit
-def command_heading(hdg, action, d_heading, ap_trk, swlnav):
-    """:func:`heading_targets` given as the native core's HDG command to slot 0, written into its autopilot state.
-
-    What :meth:`~bluesky_gym.core.Simulator.cmd_heading` does in an airspace without wind: the
-    track selected is the heading, LNAV is switched off. The device step launches it on the
-    simulator's device state.
-    """
-    for e in grid_range(ap_trk.shape[0]):
-        ap_trk[e, 0] = _heading_target(hdg[e, 0], action[e, 0], d_heading)
-        swlnav[e, 0] = False
-
-
 @jit
 def waypoint_measure(envs, lat, lon, hdg, wpt_lat, wpt_lon, wpt_reached, margin_km, dist_out, drift_out, before_out, new_out, goal_out):
     """The waypoint geometry of episodes ``envs`` (rows): :class:`PlanWaypointMeasurement`'s arrays.
