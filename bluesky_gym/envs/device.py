@@ -334,7 +334,7 @@ class DeviceStep:
         for name, host in self._host_arrays().items():
             held = self.arrays.get(name)
             if rows is None or held is None or tuple(held.shape) != host.shape:
-                self.arrays[name] = self.torch.as_tensor(np.ascontiguousarray(host), device=dev)
+                self.arrays[name] = self.torch.tensor(np.ascontiguousarray(host), device=dev)  # a copy (never the host's memory)
             else:
                 held[idx] = self.torch.as_tensor(np.ascontiguousarray(host[rows]), device=dev)
 

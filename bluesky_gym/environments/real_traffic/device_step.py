@@ -79,7 +79,7 @@ class RealTrafficDeviceStep(DeviceStep):
     def host_arrays(self) -> dict[str, np.ndarray]:
         """The info's sums, and the player's clock, flights, guidance flags and type limits.
 
-        The clock is given as a copy: the device advances its own (:meth:`advance`), as the host does.
+        The device advances its copy of the clock (:meth:`advance`), as the host does.
         """
         t = self.task
         p = t.player
@@ -87,7 +87,7 @@ class RealTrafficDeviceStep(DeviceStep):
             "route_sum": t.route_sum,
             "intrusions": t.intrusions,
             "start": p.start,
-            "elapsed": p.elapsed.copy(),
+            "elapsed": p.elapsed,
             "flight": p.flight,
             "guided": p.guided,
             "vsmax": p.vsmax,
